@@ -1,0 +1,95 @@
+/* core — the one place the library allocates (so tests can fail the N-th allocation). */
+#include "core.h"
+
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+
+static ffd_allocator g_allocator; /* zero: the C library; set once by ffd_set_allocator */
+
+void ffd_set_allocator(const ffd_allocator *allocator)
+{
+    if (allocator)
+        g_allocator = *allocator;
+    else
+        memset(&g_allocator, 0, sizeof g_allocator);
+}
+
+void *ffd_malloc(size_t size)
+{
+    if (size == 0)
+        size = 1;
+    if (g_allocator.malloc_fn)
+        return g_allocator.malloc_fn(size, g_allocator.user);
+    return malloc(size);
+}
+
+void *ffd_realloc(void *ptr, size_t size)
+{
+    if (size == 0)
+        size = 1;
+    if (g_allocator.realloc_fn)
+        return g_allocator.realloc_fn(ptr, size, g_allocator.user);
+    return realloc(ptr, size);
+}
+
+void ffd_free(void *ptr)
+{
+    if (!ptr)
+        return;
+    if (g_allocator.free_fn)
+        g_allocator.free_fn(ptr, g_allocator.user);
+    else
+        free(ptr);
+}
+
+void *ffd_malloc_array(size_t count, size_t size)
+{
+    if (size && count > SIZE_MAX / size)
+        return NULL;
+    return ffd_malloc(count * size);
+}
+
+void *ffd_realloc_array(void *ptr, size_t count, size_t size)
+{
+    if (size && count > SIZE_MAX / size)
+        return NULL;
+    return ffd_realloc(ptr, count * size);
+}
+
+void *ffd_calloc(size_t count, size_t size)
+{
+    void *p = ffd_malloc_array(count, size);
+    if (p)
+        memset(p, 0, count * size);
+    return p;
+}
+
+char *ffd_strdup(const char *s)
+{
+    if (!s)
+        return NULL;
+    size_t n = strlen(s) + 1;
+    char *d = ffd_malloc(n);
+    if (d)
+        memcpy(d, s, n);
+    return d;
+}
+
+bool ffd_grow(void **buf, size_t *cap, size_t need, size_t elem)
+{
+    if (need <= *cap)
+        return true;
+    size_t c = *cap ? *cap : 16;
+    while (c < need) {
+        if (c > SIZE_MAX / 2)
+            return false;
+        c *= 2;
+    }
+    void *p = ffd_realloc_array(*buf, c, elem);
+    if (!p)
+        return false;
+    *buf = p;
+    *cap = c;
+    return true;
+}

@@ -1,0 +1,50 @@
+/* core — status messages, allocation, whole-file I/O shared by every module. */
+#ifndef FFD_CORE_H
+#define FFD_CORE_H
+
+#include "ffd.h"
+
+#include <stdarg.h>
+#include <stdbool.h>
+#include <stddef.h>
+
+#if defined(__GNUC__)
+#define FFD_PRINTF(a, b) __attribute__((format(printf, a, b)))
+#else
+#define FFD_PRINTF(a, b)
+#endif
+
+/* Fills err (if not NULL) with a printf-style message and returns status. */
+ffd_status ffd_fail(ffd_error *err, ffd_status status, const char *fmt, ...) FFD_PRINTF(3, 4);
+
+/* All library allocation goes through these (see ffd_set_allocator). */
+void *ffd_malloc(size_t size);
+void *ffd_calloc(size_t count, size_t size);  /* zeroed; NULL on overflow */
+void *ffd_realloc(void *ptr, size_t size);
+/* count*size with overflow check: returns NULL on overflow or failure. */
+void *ffd_malloc_array(size_t count, size_t size);
+void *ffd_realloc_array(void *ptr, size_t count, size_t size);
+/* Copies a NUL-terminated string (NULL -> NULL). */
+char *ffd_strdup(const char *s);
+
+/* Grows *buf (element size elem) so that it holds at least need elements;
+ * *cap is updated. Returns false on overflow or allocation failure. */
+bool ffd_grow(void **buf, size_t *cap, size_t need, size_t elem);
+
+/* Reads a whole regular file. Refuses directories and missing files with a
+ * clear FFD_ERR_IO message. *data is NUL-terminated (one extra byte). */
+ffd_status ffd_read_file(const char *path, unsigned char **data, size_t *size, ffd_error *err);
+
+/* Writes bytes atomically: a temporary file beside path, fsync, rename. */
+ffd_status ffd_write_file_atomic(const char *path, const void *data, size_t size, ffd_error *err);
+
+/* Monotonic clock in seconds. */
+double ffd_now(void);
+
+/* Basename for messages ("dir/a.obj" -> "a.obj" is NOT done: we keep the path the user gave). */
+static inline const char *ffd_name_or(const char *name, const char *fallback)
+{
+    return name ? name : fallback;
+}
+
+#endif
