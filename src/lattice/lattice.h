@@ -1,0 +1,89 @@
+/* lattice — parallelepiped lattices: Bernstein (Sederberg & Parry 1986) and
+ * uniform cubic B-spline with tripled border control points (Hsu, Hughes &
+ * Kaufman 1992, §2). */
+#ifndef FFD_LATTICE_H
+#define FFD_LATTICE_H
+
+#include "core/core.h"
+
+#define FFD_LATTICE_MAX_RES 1024u
+#define FFD_BERNSTEIN_MAX_RES 64u /* degree 63: beyond this binomials lose precision */
+
+struct ffd_lattice {
+    ffd_basis basis;
+    uint32_t res[3];     /* l, m, n distinct control points */
+    ffd_box box;
+    double dual[3][3];   /* rows of the inverse of [a b c]: local = dual (x - origin) */
+    double *P;           /* l*m*n by 3, current control points */
+    double *P_rest;      /* l*m*n by 3, rest positions */
+    uint32_t ext[3];     /* B-spline: l+4, m+4, n+4 (tripled-border net); Bernstein: l, m, n */
+    double *P_ext;       /* B-spline: ext net by 3, kept equal to P through tie; Bernstein: == P */
+    uint32_t *tie;       /* ext net -> distinct index (the compressed selection matrix S, eq. 6) */
+    /* B-spline rest map per axis: segment boundary values f(sigma), sigma = 0..res+1 */
+    double *knots_value[3];
+};
+
+/* One block of bound points that share a cell, in sorted order. */
+typedef struct ffd_lattice_block {
+    uint32_t cell[3]; /* segment (B-spline) or 0 (Bernstein) */
+    uint32_t begin, end;
+} ffd_lattice_block;
+
+struct ffd_lattice_binding {
+    size_t n;
+    size_t inside_count;
+    ffd_outside outside;
+    ffd_basis basis;
+    uint32_t res[3];
+    double *params;        /* n by 3 global spline parameters (original order) */
+    unsigned char *inside; /* n flags */
+    /* evaluation order: inside points sorted by cell, in blocks */
+    uint32_t *order;       /* inside_count original indices */
+    double *local;         /* 3 * inside_count, SoA: s[...], t[...], u[...] in [0,1] within the cell */
+    ffd_lattice_block *blocks;
+    size_t block_count;
+    /* outside points */
+    uint32_t *out_index;   /* n - inside_count original indices */
+    double *out_params;    /* 3 per outside point: parameters evaluated (clamped or raw) */
+    double *out_offset;    /* 3 per outside point: added to the evaluated position */
+};
+
+/* ---- uniform cubic B-spline (bspline_basis.c) ---- */
+
+/* B_0..B_3 at local t (and derivatives when d != NULL). */
+void ffd_bspline_basis(double t, double b[4], double d[4]);
+
+/* Distinct index followed by slot e of the tripled-border net of res points. */
+static inline uint32_t ffd_bspline_tie(uint32_t e, uint32_t res)
+{
+    return e < 2 ? 0 : (e - 2 >= res - 1 ? res - 1 : e - 2);
+}
+
+/* Precomputes f(sigma) for sigma = 0..res+1 of the rest map (values in [0,1]). */
+ffd_status ffd_bspline_rest_knots(uint32_t res, double **values);
+
+/* Rest map of one axis: the normalised position f(S) in [0,1] of global parameter S. */
+double ffd_bspline_rest_map(uint32_t res, double S, double *dfdS);
+
+/* Inverts the rest map of one axis: S with f(S) = x, for x in [0,1] (paper §2,
+ * footnote 5: direct in the inner segments, cubic root solve in the outer two). */
+double ffd_bspline_invert(uint32_t res, const double *knot_values, double x);
+
+/* ---- Bernstein (bernstein_basis.c) ---- */
+
+/* B_{i,deg}(s), i = 0..deg, and derivatives when d != NULL. Valid for any real s. */
+void ffd_bernstein_basis(uint32_t deg, double s, double *b, double *d);
+
+/* ---- internal evaluation helpers (lattice_eval.c) ---- */
+
+/* Evaluates position (and the three partial derivatives d/dS, d/dT, d/dU when dq != NULL)
+ * at global parameters. */
+void ffd_lattice_eval_at(const ffd_lattice *lat, const double stu[3], double q[3], double dq[3][3]);
+
+/* Rest position at global parameters (the box map of the rest normalised coordinates). */
+void ffd_lattice_rest_at(const ffd_lattice *lat, const double stu[3], double x[3]);
+
+/* Rebuilds P_ext from P (B-spline). */
+void ffd_lattice_sync(ffd_lattice *lat);
+
+#endif

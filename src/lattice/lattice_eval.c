@@ -1,0 +1,242 @@
+/* lattice — evaluation of the trivariate map (Hsu et al. 1992, eq. 1; Sederberg &
+ * Parry 1986), its Jacobian, and its weight rows for direct manipulation.
+ *
+ * The hot path evaluates blocks of points that share one cell: the 64 control
+ * points of the cell are gathered once and the basis values are kept in small
+ * arrays, so the inner loops run across points (SIMD). Each point is computed
+ * independently in a fixed order: results do not depend on the thread count. */
+#include "lattice/lattice.h"
+
+#include <math.h>
+#include <string.h>
+
+#define BLK 256
+
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && !defined(FFD_NO_CLONES)
+#define FFD_HOT __attribute__((target_clones("arch=haswell", "default")))
+#else
+#define FFD_HOT
+#endif
+
+/* ---- scalar evaluation at global parameters ---- */
+
+static void axis_basis(const ffd_lattice *lat, int c, double S, uint32_t *first, double *b, double *d)
+{
+    if (lat->basis == FFD_BASIS_BSPLINE) {
+        uint32_t res = lat->res[c];
+        uint32_t sigma = S <= 0 ? 0 : (uint32_t)S;
+        if (sigma > res)
+            sigma = res;
+        ffd_bspline_basis(S - sigma, b, d);
+        *first = sigma;
+    } else {
+        ffd_bernstein_basis(lat->res[c] - 1, S, b, d);
+        *first = 0;
+    }
+}
+
+void ffd_lattice_eval_at(const ffd_lattice *lat, const double stu[3], double q[3], double dq[3][3])
+{
+    double bb[3][FFD_BERNSTEIN_MAX_RES], dd[3][FFD_BERNSTEIN_MAX_RES];
+    uint32_t first[3], cnt[3];
+    for (int c = 0; c < 3; c++) {
+        axis_basis(lat, c, stu[c], &first[c], bb[c], dd[c]);
+        cnt[c] = lat->basis == FFD_BASIS_BSPLINE ? 4 : lat->res[c];
+    }
+    double acc[4][3] = {{0}};
+    for (uint32_t a = 0; a < cnt[0]; a++)
+        for (uint32_t b = 0; b < cnt[1]; b++)
+            for (uint32_t k = 0; k < cnt[2]; k++) {
+                size_t e = (((size_t)(first[0] + a)) * lat->ext[1] + first[1] + b) * lat->ext[2] +
+                           first[2] + k;
+                const double *p = lat->P_ext + 3 * e;
+                double w = bb[0][a] * bb[1][b] * bb[2][k];
+                double w0 = dd[0][a] * bb[1][b] * bb[2][k];
+                double w1 = bb[0][a] * dd[1][b] * bb[2][k];
+                double w2 = bb[0][a] * bb[1][b] * dd[2][k];
+                for (int r = 0; r < 3; r++) {
+                    acc[0][r] += w * p[r];
+                    acc[1][r] += w0 * p[r];
+                    acc[2][r] += w1 * p[r];
+                    acc[3][r] += w2 * p[r];
+                }
+            }
+    memcpy(q, acc[0], 3 * sizeof(double));
+    if (dq)
+        for (int a = 0; a < 3; a++)
+            memcpy(dq[a], acc[a + 1], 3 * sizeof(double));
+}
+
+void ffd_lattice_eval_params(const ffd_lattice *lat, const double stu[3], double out[3])
+{
+    ffd_lattice_eval_at(lat, stu, out, NULL);
+}
+
+void ffd_lattice_rest_at(const ffd_lattice *lat, const double stu[3], double x[3])
+{
+    double loc[3];
+    for (int c = 0; c < 3; c++)
+        loc[c] = lat->basis == FFD_BASIS_BSPLINE ? ffd_bspline_rest_map(lat->res[c], stu[c], NULL)
+                                                 : stu[c];
+    for (int r = 0; r < 3; r++)
+        x[r] = lat->box.origin[r] + loc[0] * lat->box.axes[0][r] + loc[1] * lat->box.axes[1][r] +
+               loc[2] * lat->box.axes[2][r];
+}
+
+/* ---- block kernels ---- */
+
+FFD_HOT static void bspline_block(const double *restrict s, const double *restrict t,
+                                  const double *restrict u, size_t np, const double *restrict cp,
+                                  double *restrict x, double *restrict y, double *restrict z)
+{
+    double bs[4][BLK], bt[4][BLK], bu[4][BLK], wab[BLK];
+    for (size_t p = 0; p < np; p++) {
+        double a = s[p], a2 = a * a, a3 = a2 * a, r = 1.0 - a;
+        bs[0][p] = r * r * r * (1.0 / 6.0);
+        bs[1][p] = (3.0 * a3 - 6.0 * a2 + 4.0) * (1.0 / 6.0);
+        bs[2][p] = (-3.0 * a3 + 3.0 * a2 + 3.0 * a + 1.0) * (1.0 / 6.0);
+        bs[3][p] = a3 * (1.0 / 6.0);
+        a = t[p], a2 = a * a, a3 = a2 * a, r = 1.0 - a;
+        bt[0][p] = r * r * r * (1.0 / 6.0);
+        bt[1][p] = (3.0 * a3 - 6.0 * a2 + 4.0) * (1.0 / 6.0);
+        bt[2][p] = (-3.0 * a3 + 3.0 * a2 + 3.0 * a + 1.0) * (1.0 / 6.0);
+        bt[3][p] = a3 * (1.0 / 6.0);
+        a = u[p], a2 = a * a, a3 = a2 * a, r = 1.0 - a;
+        bu[0][p] = r * r * r * (1.0 / 6.0);
+        bu[1][p] = (3.0 * a3 - 6.0 * a2 + 4.0) * (1.0 / 6.0);
+        bu[2][p] = (-3.0 * a3 + 3.0 * a2 + 3.0 * a + 1.0) * (1.0 / 6.0);
+        bu[3][p] = a3 * (1.0 / 6.0);
+        x[p] = y[p] = z[p] = 0.0;
+    }
+    for (int a = 0; a < 4; a++)
+        for (int b = 0; b < 4; b++) {
+            for (size_t p = 0; p < np; p++)
+                wab[p] = bs[a][p] * bt[b][p];
+            for (int c = 0; c < 4; c++) {
+                const double *q = cp + 3 * ((a * 4 + b) * 4 + c);
+                const double qx = q[0], qy = q[1], qz = q[2];
+                for (size_t p = 0; p < np; p++) {
+                    double w = wab[p] * bu[c][p];
+                    x[p] += w * qx;
+                    y[p] += w * qy;
+                    z[p] += w * qz;
+                }
+            }
+        }
+}
+
+FFD_HOT static void bernstein_block(const ffd_lattice *lat, const double *restrict s,
+                                    const double *restrict t, const double *restrict u, size_t np,
+                                    double *restrict x, double *restrict y, double *restrict z,
+                                    double *restrict scratch)
+{
+    const uint32_t l = lat->res[0], m = lat->res[1], n = lat->res[2];
+    double *bs = scratch, *bt = bs + (size_t)l * BLK, *bu = bt + (size_t)m * BLK;
+    double *wab = bu + (size_t)n * BLK;
+    double tmp[FFD_BERNSTEIN_MAX_RES];
+    for (size_t p = 0; p < np; p++) {
+        ffd_bernstein_basis(l - 1, s[p], tmp, NULL);
+        for (uint32_t i = 0; i < l; i++)
+            bs[(size_t)i * BLK + p] = tmp[i];
+        ffd_bernstein_basis(m - 1, t[p], tmp, NULL);
+        for (uint32_t i = 0; i < m; i++)
+            bt[(size_t)i * BLK + p] = tmp[i];
+        ffd_bernstein_basis(n - 1, u[p], tmp, NULL);
+        for (uint32_t i = 0; i < n; i++)
+            bu[(size_t)i * BLK + p] = tmp[i];
+        x[p] = y[p] = z[p] = 0.0;
+    }
+    for (uint32_t a = 0; a < l; a++)
+        for (uint32_t b = 0; b < m; b++) {
+            const double *ba = bs + (size_t)a * BLK, *bb = bt + (size_t)b * BLK;
+            for (size_t p = 0; p < np; p++)
+                wab[p] = ba[p] * bb[p];
+            for (uint32_t c = 0; c < n; c++) {
+                const double *q = lat->P + 3 * (((size_t)a * m + b) * n + c);
+                const double qx = q[0], qy = q[1], qz = q[2];
+                const double *bc = bu + (size_t)c * BLK;
+                for (size_t p = 0; p < np; p++) {
+                    double w = wab[p] * bc[p];
+                    x[p] += w * qx;
+                    y[p] += w * qy;
+                    z[p] += w * qz;
+                }
+            }
+        }
+}
+
+static void gather_cell(const ffd_lattice *lat, const uint32_t cell[3], double *cp)
+{
+    for (int a = 0; a < 4; a++)
+        for (int b = 0; b < 4; b++)
+            for (int c = 0; c < 4; c++) {
+                size_t e = (((size_t)(cell[0] + a)) * lat->ext[1] + cell[1] + b) * lat->ext[2] +
+                           cell[2] + c;
+                memcpy(cp + 3 * ((a * 4 + b) * 4 + c), lat->P_ext + 3 * e, 3 * sizeof(double));
+            }
+}
+
+static ffd_status check_binding(const ffd_lattice *lat, const ffd_lattice_binding *b, ffd_error *err)
+{
+    if (b->basis != lat->basis || memcmp(b->res, lat->res, sizeof b->res) != 0)
+        return ffd_fail(err, FFD_ERR_INVALID,
+                        "binding was made for another lattice basis or resolution");
+    return FFD_OK;
+}
+
+ffd_status ffd_lattice_eval(const ffd_lattice *lat, const ffd_lattice_binding *bind, double *out,
+                            ffd_error *err)
+{
+    ffd_status st = check_binding(lat, bind, err);
+    if (st != FFD_OK)
+        return st;
+    const size_t nin = bind->inside_count;
+    const double *S = bind->local, *T = bind->local + nin, *U = bind->local + 2 * nin;
+    const int bspline = lat->basis == FFD_BASIS_BSPLINE;
+    size_t scratch_n = bspline ? 0 : ((size_t)lat->res[0] + lat->res[1] + lat->res[2] + 1) * BLK;
+    int failed = 0;
+    const long long nb = (long long)bind->block_count;
+#pragma omp parallel reduction(| : failed)
+    {
+        double x[BLK], y[BLK], z[BLK], cp[64 * 3];
+        double *scratch = scratch_n ? ffd_malloc_array(scratch_n, sizeof(double)) : NULL;
+        if (scratch_n && !scratch)
+            failed = 1;
+#pragma omp for schedule(dynamic, 4)
+        for (long long bi = 0; bi < nb; bi++) {
+            if (scratch_n && !scratch)
+                continue;
+            const ffd_lattice_block *blk = &bind->blocks[bi];
+            size_t p0 = blk->begin, np = blk->end - blk->begin;
+            if (bspline) {
+                gather_cell(lat, blk->cell, cp);
+                bspline_block(S + p0, T + p0, U + p0, np, cp, x, y, z);
+            } else {
+                bernstein_block(lat, S + p0, T + p0, U + p0, np, x, y, z, scratch);
+            }
+            for (size_t p = 0; p < np; p++) {
+                double *o = out + 3 * (size_t)bind->order[p0 + p];
+                o[0] = x[p];
+                o[1] = y[p];
+                o[2] = z[p];
+            }
+        }
+        ffd_free(scratch);
+    }
+    if (failed)
+        return ffd_fail(err, FFD_ERR_NOMEM, "out of memory evaluating the lattice");
+    const size_t nout = bind->n - nin;
+    for (size_t o = 0; o < nout; o++) {
+        double *dst = out + 3 * (size_t)bind->out_index[o];
+        const double *off = bind->out_offset + 3 * o;
+        if (bind->outside == FFD_OUTSIDE_FIXED) { /* offset holds the point itself */
+            memcpy(dst, off, 3 * sizeof(double));
+            continue;
+        }
+        double q[3];
+        ffd_lattice_eval_at(lat, bind->out_params + 3 * o, q, NULL);
+        for (int c = 0; c < 3; c++)
+            dst[c] = q[c] + off[c];
+    }
+    return FFD_OK;
+}

@@ -1,0 +1,102 @@
+/* lattice — the Jacobian of the deformation (for normals) and the weight rows
+ * of bound points over the control slots (for direct manipulation, Hsu et al.
+ * 1992 §3: the row matrix B of eq. 2 and the selection matrix S of eq. 6). */
+#include "lattice/lattice.h"
+
+#include <math.h>
+#include <string.h>
+
+/* Parameters pulled this far inside the domain where the rest map is flat
+ * (the tripled border, where dS/dx is unbounded) to take the limit Jacobian. */
+#define JACOBIAN_NUDGE 1e-4
+
+ffd_status ffd_lattice_jacobian(const ffd_lattice *lat, const ffd_lattice_binding *bind, double *out,
+                                ffd_error *err)
+{
+    if (bind->basis != lat->basis || memcmp(bind->res, lat->res, sizeof bind->res) != 0)
+        return ffd_fail(err, FFD_ERR_INVALID,
+                        "binding was made for another lattice basis or resolution");
+    const long long nn = (long long)bind->n;
+    const int bspline = lat->basis == FFD_BASIS_BSPLINE;
+#pragma omp parallel for schedule(static)
+    for (long long ii = 0; ii < nn; ii++) {
+        size_t i = (size_t)ii;
+        double *J = out + 9 * i;
+        if (!bind->inside[i] && bind->outside == FFD_OUTSIDE_FIXED) {
+            memset(J, 0, 9 * sizeof(double));
+            J[0] = J[4] = J[8] = 1.0;
+            continue;
+        }
+        double S[3], g[3];
+        memcpy(S, bind->params + 3 * i, sizeof S);
+        for (int c = 0; c < 3; c++) {
+            g[c] = 1.0; /* dS/d(local) */
+            if (bspline) {
+                double hi = (double)lat->res[c] + 1.0;
+                if (S[c] < JACOBIAN_NUDGE)
+                    S[c] = JACOBIAN_NUDGE;
+                if (S[c] > hi - JACOBIAN_NUDGE)
+                    S[c] = hi - JACOBIAN_NUDGE;
+                double df;
+                ffd_bspline_rest_map(lat->res[c], S[c], &df);
+                g[c] = 1.0 / df;
+            }
+        }
+        double q[3], dq[3][3];
+        ffd_lattice_eval_at(lat, S, q, dq);
+        /* J = sum_a dq/dS_a (dS_a/dlocal_a) dual_a^T */
+        for (int r = 0; r < 3; r++)
+            for (int c = 0; c < 3; c++)
+                J[3 * r + c] = dq[0][r] * g[0] * lat->dual[0][c] + dq[1][r] * g[1] * lat->dual[1][c] +
+                               dq[2][r] * g[2] * lat->dual[2][c];
+    }
+    return FFD_OK;
+}
+
+static size_t lattice_row(const void *self, size_t i, uint32_t *cols, double *w)
+{
+    const ffd_lattice_binding *b = self;
+    if (!b->inside[i] && b->outside == FFD_OUTSIDE_FIXED)
+        return 0; /* a fixed outside point does not follow the control points */
+    const double *S = b->params + 3 * i;
+    double bb[3][FFD_BERNSTEIN_MAX_RES > 4 ? FFD_BERNSTEIN_MAX_RES : 4];
+    uint32_t first[3], cnt[3], ext[3];
+    for (int c = 0; c < 3; c++) {
+        if (b->basis == FFD_BASIS_BSPLINE) {
+            uint32_t sigma = S[c] <= 0 ? 0 : (uint32_t)S[c];
+            if (sigma > b->res[c])
+                sigma = b->res[c];
+            ffd_bspline_basis(S[c] - sigma, bb[c], NULL);
+            first[c] = sigma;
+            cnt[c] = 4;
+            ext[c] = b->res[c] + 4;
+        } else {
+            ffd_bernstein_basis(b->res[c] - 1, S[c], bb[c], NULL);
+            first[c] = 0;
+            cnt[c] = ext[c] = b->res[c];
+        }
+    }
+    size_t k = 0;
+    for (uint32_t a = 0; a < cnt[0]; a++)
+        for (uint32_t bj = 0; bj < cnt[1]; bj++)
+            for (uint32_t c = 0; c < cnt[2]; c++) {
+                cols[k] = (uint32_t)((((size_t)(first[0] + a)) * ext[1] + first[1] + bj) * ext[2] +
+                                     first[2] + c);
+                w[k] = bb[0][a] * bb[1][bj] * bb[2][c];
+                k++;
+            }
+    return k;
+}
+
+void ffd_lattice_linear_map(const ffd_lattice *lat, const ffd_lattice_binding *bind,
+                            ffd_linear_map *map)
+{
+    memset(map, 0, sizeof *map);
+    map->self = bind;
+    map->point_count = bind->n;
+    map->column_count = (size_t)lat->ext[0] * lat->ext[1] * lat->ext[2];
+    map->variable_count = ffd_lattice_control_count(lat);
+    map->tie = lat->basis == FFD_BASIS_BSPLINE ? lat->tie : NULL;
+    map->max_row_nnz = lat->basis == FFD_BASIS_BSPLINE ? 64 : ffd_lattice_control_count(lat);
+    map->row = lattice_row;
+}
