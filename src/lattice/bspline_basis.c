@@ -38,18 +38,35 @@ static void segment_cubic(uint32_t res, uint32_t sigma, double c[4])
     c[3] = (-p0 + 3.0 * p1 - 3.0 * p2 + p3) / 6.0;
 }
 
+/* Samples of the inverse of each segment's cubic, to start Newton close to the root. */
+#define INVERSE_SAMPLES 32
+
+static double solve_segment_cubic_from(const double c[4], double x, double t);
+
 ffd_status ffd_bspline_rest_knots(uint32_t res, double **values)
 {
-    double *v = ffd_malloc_array((size_t)res + 2, sizeof *v);
+    /* layout: f(sigma) for sigma = 0..res+1; 4 power-basis coefficients per segment;
+     * INVERSE_SAMPLES+1 samples of t(x) per segment at evenly spaced x */
+    size_t nseg = (size_t)res + 1;
+    double *v = ffd_malloc_array(res + 2 + nseg * (4 + INVERSE_SAMPLES + 1), sizeof *v);
     if (!v)
         return FFD_ERR_NOMEM;
     for (uint32_t sigma = 0; sigma <= res; sigma++) {
-        double c[4];
+        double *c = v + res + 2 + 4 * (size_t)sigma;
         segment_cubic(res, sigma, c);
         v[sigma] = c[0];
     }
     v[res + 1] = 1.0;
     v[0] = 0.0;
+    for (uint32_t sigma = 0; sigma <= res; sigma++) {
+        const double *c = v + res + 2 + 4 * (size_t)sigma;
+        double *tab = v + res + 2 + 4 * nseg + (INVERSE_SAMPLES + 1) * (size_t)sigma;
+        double f0 = v[sigma], f1 = v[sigma + 1];
+        for (int k = 0; k <= INVERSE_SAMPLES; k++) {
+            double x = f0 + (f1 - f0) * k / INVERSE_SAMPLES;
+            tab[k] = k == 0 ? 0.0 : k == INVERSE_SAMPLES ? 1.0 : solve_segment_cubic_from(c, x, 0.5);
+        }
+    }
     *values = v;
     return FFD_OK;
 }
@@ -71,11 +88,9 @@ double ffd_bspline_rest_map(uint32_t res, double S, double *dfdS)
 
 /* Root of the monotone cubic f(t) = x on [0,1]: Newton steps kept inside a
  * shrinking bracket (bisection when a step leaves it). */
-static double solve_segment_cubic(const double c[4], double x)
+static double solve_segment_cubic_from(const double c[4], double x, double t)
 {
     double lo = 0.0, hi = 1.0;
-    double f0 = c[0], f1 = c[0] + c[1] + c[2] + c[3];
-    double t = (f1 > f0) ? (x - f0) / (f1 - f0) : 0.5;
     if (t < 0)
         t = 0;
     if (t > 1)
@@ -120,10 +135,25 @@ double ffd_bspline_invert(uint32_t res, const double *kv, double x)
         return S;
     }
     /* outer segments: find the segment, then solve its cubic */
-    uint32_t sigma = 0;
+    uint32_t sigma = x < kv[2] ? 0 : (x < kv[res - 1] ? 1 : res - 1);
     while (sigma + 1 < nseg && x >= kv[sigma + 1])
         sigma++;
-    double c[4];
-    segment_cubic(res, sigma, c);
-    return (double)sigma + solve_segment_cubic(c, x);
+    const double *c = kv + res + 2 + 4 * (size_t)sigma;
+    /* the border segments are f = c3 t^3 and f = 1 - k (1-t)^3: solved in closed form */
+    if (sigma == 0)
+        return cbrt(x / c[3]);
+    if (sigma == res) {
+        double k = c[3]; /* the t^3 coefficient of 1 - k (1-t)^3 is k */
+        return (double)sigma + 1.0 - cbrt((1.0 - x) / k);
+    }
+    /* other outer segments: Newton from the sampled inverse */
+    const double *tab = kv + res + 2 + 4 * (size_t)nseg + (INVERSE_SAMPLES + 1) * (size_t)sigma;
+    double u = (x - kv[sigma]) / (kv[sigma + 1] - kv[sigma]) * INVERSE_SAMPLES;
+    int k = (int)u;
+    if (k >= INVERSE_SAMPLES)
+        k = INVERSE_SAMPLES - 1;
+    if (k < 0)
+        k = 0;
+    double t0 = tab[k] + (u - k) * (tab[k + 1] - tab[k]);
+    return (double)sigma + solve_segment_cubic_from(c, x, t0);
 }

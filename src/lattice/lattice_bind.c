@@ -136,7 +136,12 @@ ffd_status ffd_lattice_bind(const ffd_lattice *lat, const double *points, size_t
                 o++;
                 continue;
             }
-            b->order[start[cell[i]]++] = (uint32_t)i;
+            size_t pos = start[cell[i]]++;
+            b->order[pos] = (uint32_t)i;
+            const double *S = b->params + 3 * i;
+            for (int c = 0; c < 3; c++)
+                b->local[(size_t)c * nin + pos] =
+                    bspline ? S[c] - (double)segment_of(S[c], lat->res[c]) : S[c];
         }
     }
     /* start[c] now holds the end of cell c; fill local coordinates and blocks */
@@ -170,12 +175,6 @@ ffd_status ffd_lattice_bind(const ffd_lattice *lat, const double *points, size_t
             begin = end;
         }
         b->block_count = k;
-    }
-    for (size_t p = 0; p < nin; p++) {
-        const double *S = b->params + 3 * (size_t)b->order[p];
-        for (int c = 0; c < 3; c++)
-            b->local[(size_t)c * nin + p] =
-                bspline ? S[c] - (double)segment_of(S[c], lat->res[c]) : S[c];
     }
     b->block_count = nblock;
     ffd_free(cell);

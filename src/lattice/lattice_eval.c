@@ -13,7 +13,7 @@
 #define BLK 256
 
 #if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && !defined(FFD_NO_CLONES)
-#define FFD_HOT __attribute__((target_clones("arch=haswell", "default")))
+#define FFD_HOT __attribute__((target_clones("arch=skylake-avx512", "arch=haswell", "default")))
 #else
 #define FFD_HOT
 #endif

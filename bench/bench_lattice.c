@@ -1,0 +1,152 @@
+/* Benchmark: lattice bind + evaluate throughput and direct-manipulation drag steps.
+ * Usage: bench_lattice [--quick] [--json]   (results go to docs/benchmarks.md by hand) */
+#include "ffd.h"
+
+#include <math.h>
+#include <omp.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+static double now(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+static unsigned long long rng = 0x9E3779B97F4A7C15ull;
+static double rnd(void)
+{
+    rng ^= rng >> 12;
+    rng ^= rng << 25;
+    rng ^= rng >> 27;
+    return (double)((rng * 2685821657736338717ull) >> 11) * (1.0 / 9007199254740992.0);
+}
+
+static int cmp_double(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+/* median of reps timings of fn */
+#define MEDIAN_OF(reps, out, stmt)                                                                 \
+    do {                                                                                           \
+        double ts_[64];                                                                            \
+        for (int r_ = 0; r_ < (reps); r_++) {                                                      \
+            double t0_ = now();                                                                    \
+            stmt;                                                                                  \
+            ts_[r_] = now() - t0_;                                                                 \
+        }                                                                                          \
+        qsort(ts_, (size_t)(reps), sizeof(double), cmp_double);                                    \
+        (out) = ts_[(reps) / 2];                                                                   \
+    } while (0)
+
+int main(int argc, char **argv)
+{
+    int quick = argc > 1 && strcmp(argv[1], "--quick") == 0;
+    const size_t sizes[] = {10000, 100000, 1000000};
+    const uint32_t lres[] = {3, 5, 8};
+    const int reps = quick ? 3 : 11;
+    printf("threads: %d\n", omp_get_max_threads());
+    printf("| basis | points | lattice | bind ms | evaluate ms | Mpoints/s (eval) |\n");
+    printf("|---|---:|---:|---:|---:|---:|\n");
+    ffd_box box = {{0, 0, 0}, {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}}};
+    for (int basis = 0; basis < 2; basis++)
+        for (size_t si = 0; si < 3; si++) {
+            size_t n = sizes[si];
+            double *p = malloc(3 * n * sizeof *p), *q = malloc(3 * n * sizeof *q);
+            for (size_t i = 0; i < 3 * n; i++)
+                p[i] = rnd();
+            for (size_t li = 0; li < 3; li++) {
+                uint32_t res[3] = {lres[li], lres[li], lres[li]};
+                ffd_lattice *lat = NULL;
+                if (ffd_lattice_create((ffd_basis)basis, &box, res, &lat, NULL) != FFD_OK)
+                    return 1;
+                size_t nc = ffd_lattice_control_count(lat);
+                double *d = malloc(3 * nc * sizeof *d);
+                for (size_t i = 0; i < 3 * nc; i++)
+                    d[i] = 0.05 * (rnd() - 0.5);
+                ffd_lattice_add(lat, d, NULL);
+                free(d);
+                ffd_lattice_binding *b = NULL;
+                double tb, te;
+                MEDIAN_OF(reps, tb, {
+                    ffd_lattice_binding_destroy(b);
+                    b = NULL;
+                    ffd_lattice_bind(lat, p, n, FFD_OUTSIDE_FIXED, &b, NULL);
+                });
+                MEDIAN_OF(reps, te, ffd_lattice_eval(lat, b, q, NULL));
+                printf("| %s | %zu | %u^3 | %.2f | %.2f | %.1f |\n",
+                       basis ? "bernstein" : "bspline", n, lres[li], tb * 1e3, te * 1e3,
+                       n / te * 1e-6);
+                fflush(stdout);
+                ffd_lattice_binding_destroy(b);
+                ffd_lattice_destroy(lat);
+            }
+            free(p);
+            free(q);
+        }
+
+    /* drag step: solve k constraints + re-evaluate 1M points, 5^3 B-spline */
+    printf("\n| constraints | solve ms | solve + re-evaluate 1M ms | max residual |\n");
+    printf("|---:|---:|---:|---:|\n");
+    size_t n = 1000000;
+    double *p = malloc(3 * n * sizeof *p), *q = malloc(3 * n * sizeof *q);
+    for (size_t i = 0; i < 3 * n; i++)
+        p[i] = rnd();
+    uint32_t res[3] = {5, 5, 5};
+    ffd_lattice *lat = NULL;
+    ffd_lattice_create(FFD_BASIS_BSPLINE, &box, res, &lat, NULL);
+    ffd_lattice_binding *b = NULL;
+    ffd_lattice_bind(lat, p, n, FFD_OUTSIDE_FIXED, &b, NULL);
+    const size_t ks[] = {1, 10, 100};
+    for (int ki = 0; ki < 3; ki++) {
+        size_t k = ks[ki];
+        size_t *pts = malloc(k * sizeof *pts);
+        double *cp = malloc(3 * k * sizeof *cp), *cur = malloc(3 * k * sizeof *cur),
+               *tgt = malloc(3 * k * sizeof *tgt), *dl = malloc(3 * 125 * sizeof *dl);
+        for (size_t i = 0; i < k; i++) {
+            pts[i] = (size_t)(rnd() * (double)n);
+            memcpy(cp + 3 * i, p + 3 * pts[i], 3 * sizeof(double));
+        }
+        ffd_lattice_binding *cb = NULL;
+        ffd_lattice_bind(lat, cp, k, FFD_OUTSIDE_FIXED, &cb, NULL);
+        ffd_linear_map map;
+        ffd_lattice_linear_map(lat, cb, &map);
+        size_t *idx = malloc(k * sizeof *idx);
+        for (size_t i = 0; i < k; i++)
+            idx[i] = i;
+        double ts, tt;
+        ffd_manip_result mr = {0, 0, 0};
+        MEDIAN_OF(reps, ts, {
+            ffd_lattice_eval(lat, cb, cur, NULL);
+            for (size_t i = 0; i < 3 * k; i++)
+                tgt[i] = cur[i] + 0.01 * (rnd() - 0.5);
+            ffd_manip_solve(&map, idx, k, cur, tgt, NULL, dl, NULL, &mr, NULL);
+        });
+        MEDIAN_OF(reps, tt, {
+            ffd_lattice_eval(lat, cb, cur, NULL);
+            for (size_t i = 0; i < 3 * k; i++)
+                tgt[i] = cur[i] + 0.01 * (rnd() - 0.5);
+            ffd_manip_solve(&map, idx, k, cur, tgt, NULL, dl, NULL, &mr, NULL);
+            ffd_lattice_add(lat, dl, NULL);
+            ffd_lattice_eval(lat, b, q, NULL);
+        });
+        printf("| %zu | %.3f | %.2f | %.2e |\n", k, ts * 1e3, tt * 1e3, mr.max_residual);
+        ffd_lattice_binding_destroy(cb);
+        free(pts);
+        free(cp);
+        free(cur);
+        free(tgt);
+        free(dl);
+        free(idx);
+    }
+    ffd_lattice_binding_destroy(b);
+    ffd_lattice_destroy(lat);
+    free(p);
+    free(q);
+    return 0;
+}
