@@ -1,0 +1,140 @@
+/* mesh — internal header of the mesh module: the mesh type, the source-span
+ * bookkeeping that makes writes lossless, and the per-format readers/writers.
+ *
+ * Lossless design: a mesh read from a file keeps the file's bytes (src). For
+ * every vertex coordinate and every stored normal coordinate it records where
+ * the value lives in src (a span: byte offset and length for text, byte offset
+ * and scalar type for binary). Writing to the same format copies src and
+ * rewrites only the spans whose current value differs (bitwise) from the value
+ * that span holds, so an unchanged mesh is reproduced byte for byte and a
+ * deformed one differs only in positions and normals. */
+#ifndef FFD_MESH_H
+#define FFD_MESH_H
+
+#include "core/core.h"
+
+#include <stdbool.h>
+#include <stdint.h>
+
+/* Span kinds: text, or the binary scalar type (PLY names; STL uses F32). */
+enum {
+    FFD_SPAN_TEXT = 0,
+    FFD_SPAN_I8,
+    FFD_SPAN_U8,
+    FFD_SPAN_I16,
+    FFD_SPAN_U16,
+    FFD_SPAN_I32,
+    FFD_SPAN_U32,
+    FFD_SPAN_F32,
+    FFD_SPAN_F64
+};
+
+/* Anchor of a normal no face uses (OBJ vn never referenced): set_positions leaves it alone. */
+#define FFD_NO_ANCHOR UINT32_MAX
+
+typedef struct ffd_span {
+    size_t offset;   /* byte offset in src */
+    uint32_t length; /* text: characters; binary: scalar size */
+    uint8_t kind;    /* FFD_SPAN_* */
+} ffd_span;
+
+struct ffd_mesh {
+    ffd_format format;     /* source format; FFD_FORMAT_AUTO for ffd_mesh_create */
+    ffd_encoding encoding; /* source encoding (ASCII, BINARY_LE, BINARY_BE) */
+    unsigned char *src;    /* source bytes, NUL-terminated (NULL when created from arrays) */
+    size_t src_size;
+
+    size_t vertex_count, vertex_cap;
+    double *positions;        /* 3 per vertex */
+    ffd_span *position_spans; /* 3 per vertex, NULL when src is NULL */
+
+    size_t face_count, face_cap;
+    uint32_t *face_offsets; /* face_count + 1 */
+    size_t index_count, index_cap;
+    uint32_t *face_indices;
+
+    size_t normal_count, normal_cap;
+    double *normals;
+    ffd_span *normal_spans;
+    uint32_t *normal_anchors;
+    int vertex_normals; /* normal i belongs to vertex i (PLY nx/ny/nz, NOFF) */
+    int facet_normals;  /* normal f belongs to face f (STL) */
+
+    size_t texcoord_count;
+};
+
+/* ---- building (mesh.c) -------------------------------------------------- */
+
+/* A zeroed mesh of the given source format with face_offsets = {0}; NULL on OOM. */
+ffd_mesh *ffd_mesh_alloc(ffd_format format);
+/* Ensure capacity; false on overflow or OOM. */
+bool ffd_mesh_reserve(ffd_mesh *m, size_t vertices, size_t faces, size_t indices, size_t normals);
+bool ffd_mesh_push_vertex(ffd_mesh *m, const double xyz[3], const ffd_span spans[3]);
+bool ffd_mesh_push_normal(ffd_mesh *m, const double n[3], const ffd_span spans[3], uint32_t anchor);
+bool ffd_mesh_push_index(ffd_mesh *m, uint32_t index);
+bool ffd_mesh_end_face(ffd_mesh *m); /* closes the face made of the indices pushed since the last */
+
+/* ---- text and binary scalars (mesh.c) ----------------------------------- */
+
+/* Blank within a line: space, tab, CR, VT, FF (not LF). */
+static inline bool ffd_is_blank(int c)
+{
+    return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f';
+}
+static inline bool ffd_is_space(int c)
+{
+    return ffd_is_blank(c) || c == '\n';
+}
+/* Parses one number starting exactly at *p (no leading blanks skipped); the
+ * number must end at whitespace, at '#' when hash_ends is set, or at end.
+ * Returns 1 and advances *p; 0 when no number starts at *p; -1 when garbage
+ * follows the digits (*p then points at the garbage). */
+int ffd_parse_number(const char **p, const char *end, bool hash_ends, double *out);
+/* Shortest "%.Ng" (N = 15..17) that reads back as v; returns the length. buf >= 32. */
+int ffd_format_double(char *buf, double v);
+/* Same for a value of float precision (6..9 digits). */
+int ffd_format_float(char *buf, float v);
+/* Size in bytes of a binary span kind (0 for text). */
+size_t ffd_span_kind_size(int kind);
+/* Reads a binary scalar of the kind at p. */
+double ffd_read_scalar(const unsigned char *p, int kind, bool big_endian);
+/* Writes v as kind (integers rounded and clamped) at p. */
+void ffd_write_scalar(unsigned char *p, int kind, bool big_endian, double v);
+/* The value a span held in the source. */
+double ffd_span_value(const ffd_mesh *m, const ffd_span *s);
+
+/* ---- growable output buffer (mesh_write.c) ------------------------------ */
+
+typedef struct ffd_buf {
+    unsigned char *data;
+    size_t size, cap;
+    bool oom;
+} ffd_buf;
+void ffd_buf_put(ffd_buf *b, const void *p, size_t n);
+void ffd_buf_puts(ffd_buf *b, const char *s);
+void ffd_buf_printf(ffd_buf *b, const char *fmt, ...) FFD_PRINTF(2, 3);
+void ffd_buf_double(ffd_buf *b, double v); /* shortest round-trip text */
+void ffd_buf_free(ffd_buf *b);
+
+/* ---- readers: take ownership of data (NUL at data[size]) in all cases ---- */
+
+ffd_status ffd_mesh_read_owned(unsigned char *data, size_t size, ffd_format format,
+                               const char *name, ffd_mesh **out, ffd_error *err);
+ffd_status ffd_obj_read(ffd_mesh *m, const char *name, ffd_error *err);
+ffd_status ffd_ply_read(ffd_mesh *m, const char *name, ffd_error *err);
+ffd_status ffd_off_read(ffd_mesh *m, const char *name, ffd_error *err);
+ffd_status ffd_stl_read(ffd_mesh *m, const char *name, ffd_error *err);
+
+/* ---- writers from data (each format file) ------------------------------- */
+
+ffd_status ffd_obj_write(const ffd_mesh *m, ffd_buf *b, ffd_error *err);
+ffd_status ffd_ply_write(const ffd_mesh *m, ffd_encoding enc, ffd_buf *b, ffd_error *err);
+/* PLY to PLY in another encoding: every element and property kept, values re-encoded. */
+ffd_status ffd_ply_transcode(const ffd_mesh *m, ffd_encoding enc, ffd_buf *b, ffd_error *err);
+ffd_status ffd_off_write(const ffd_mesh *m, ffd_buf *b, ffd_error *err);
+ffd_status ffd_stl_write(const ffd_mesh *m, ffd_encoding enc, ffd_buf *b, ffd_error *err);
+
+/* Unit normal of triangle (a, b, c) or zero for a degenerate one. */
+void ffd_triangle_normal(const double *a, const double *b, const double *c, double n[3]);
+
+#endif

@@ -1,0 +1,543 @@
+/* rig — the rig JSON format: reading it into an ffd_rig, and dispatching .prm files.
+ *
+ * The only file that includes cJSON. Every rejected value is reported with the
+ * file name and the JSON path of the offending key ("rig.json: moves[1].delta:
+ * expected an array of 3 finite numbers"); syntax errors with line and column.
+ * docs/rig.md describes the format. */
+#include "rig/rig.h"
+
+#include <cjson/cJSON.h>
+
+#include <ctype.h>
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+#include <strings.h>
+#include <sys/stat.h>
+
+/* Rig files are small; these bounds turn hostile input into a clear error. */
+#define RIG_MAX_BYTES ((size_t)64 << 20)
+#define RIG_MAX_DEPTH 64
+#define RIG_MAX_RESOLUTION 1024u
+#define RIG_PATH_MAX 96
+
+ffd_rig *ffd_rig_new(const char *name)
+{
+    ffd_rig *rig = ffd_calloc(1, sizeof *rig);
+    if (!rig)
+        return NULL;
+    rig->name = ffd_strdup(name ? name : "rig");
+    if (!rig->name) {
+        ffd_free(rig);
+        return NULL;
+    }
+    rig->basis = FFD_BASIS_BSPLINE;
+    rig->resolution[0] = rig->resolution[1] = rig->resolution[2] = 5;
+    rig->box_auto = 1;
+    rig->margin = 0.05;
+    rig->outside = FFD_OUTSIDE_FIXED;
+    return rig;
+}
+
+void ffd_rig_destroy(ffd_rig *rig)
+{
+    if (!rig)
+        return;
+    ffd_free(rig->name);
+    ffd_free(rig->moves);
+    ffd_free(rig->constraints);
+    ffd_free(rig);
+}
+
+/* ======================================================================
+ * Syntax: positions, nesting depth, cJSON
+ * ====================================================================== */
+
+/* 1-based line and column (in bytes) of text[offset]. */
+static void line_col(const char *text, size_t offset, size_t *line, size_t *col)
+{
+    size_t l = 1, c = 1;
+    for (size_t i = 0; i < offset; i++) {
+        if (text[i] == '\n') {
+            l++;
+            c = 1;
+        } else {
+            c++;
+        }
+    }
+    *line = l;
+    *col = c;
+}
+
+/* Offset of the first bracket nested deeper than RIG_MAX_DEPTH, or size when none.
+ * Checked before cJSON so that its recursion never sees hostile depths. */
+static size_t too_deep_at(const char *text, size_t size)
+{
+    size_t depth = 0;
+    int in_string = 0;
+    for (size_t i = 0; i < size; i++) {
+        char ch = text[i];
+        if (in_string) {
+            if (ch == '\\')
+                i++;
+            else if (ch == '"')
+                in_string = 0;
+        } else if (ch == '"') {
+            in_string = 1;
+        } else if (ch == '[' || ch == '{') {
+            if (++depth > RIG_MAX_DEPTH)
+                return i;
+        } else if ((ch == ']' || ch == '}') && depth > 0) {
+            depth--;
+        }
+    }
+    return size;
+}
+
+static ffd_status syntax_error(const char *name, const char *text, size_t size, size_t offset,
+                               const char *what, ffd_error *err)
+{
+    size_t line, col;
+    if (offset > size)
+        offset = size;
+    line_col(text, offset, &line, &col);
+    if (offset >= size)
+        return ffd_fail(err, FFD_ERR_PARSE, "%s:%zu:%zu: invalid JSON: %s at end of file", name,
+                        line, col, what);
+    char near[24];
+    size_t n = 0;
+    for (size_t i = offset; i < size && n + 1 < sizeof near && text[i] != '\n'; i++)
+        near[n++] = isprint((unsigned char)text[i]) ? text[i] : '?';
+    near[n] = 0;
+    return ffd_fail(err, FFD_ERR_PARSE, "%s:%zu:%zu: invalid JSON: %s near '%s'", name, line,
+                    col, what, near);
+}
+
+/* ======================================================================
+ * Values: each helper names the JSON path of what it rejects
+ * ====================================================================== */
+
+typedef struct parser {
+    const char *name;
+    ffd_error *err;
+} parser;
+
+static ffd_status expected(const parser *p, const char *path, const char *what)
+{
+    return ffd_fail(p->err, FFD_ERR_PARSE, "%s: %s: expected %s", p->name, path, what);
+}
+
+static ffd_status read_number(const parser *p, const cJSON *item, const char *path, double *out)
+{
+    if (!cJSON_IsNumber(item))
+        return expected(p, path, "a number");
+    if (!isfinite(item->valuedouble))
+        return ffd_fail(p->err, FFD_ERR_NONFINITE, "%s: %s: expected a finite number, got %g",
+                        p->name, path, item->valuedouble);
+    *out = item->valuedouble;
+    return FFD_OK;
+}
+
+/* An array of exactly 3 finite numbers. */
+static ffd_status read_vec3(const parser *p, const cJSON *item, const char *path, double out[3])
+{
+    if (!cJSON_IsArray(item) || cJSON_GetArraySize(item) != 3)
+        return expected(p, path, "an array of 3 finite numbers");
+    int i = 0;
+    const cJSON *v;
+    cJSON_ArrayForEach(v, item)
+    {
+        if (!cJSON_IsNumber(v))
+            return expected(p, path, "an array of 3 finite numbers");
+        if (!isfinite(v->valuedouble))
+            return ffd_fail(p->err, FFD_ERR_NONFINITE,
+                            "%s: %s[%d]: expected a finite number, got %g", p->name, path, i,
+                            v->valuedouble);
+        out[i++] = v->valuedouble;
+    }
+    return FFD_OK;
+}
+
+static int is_uint32(const cJSON *item)
+{
+    return cJSON_IsNumber(item) && item->valuedouble >= 0 && item->valuedouble <= 4294967295.0 &&
+           floor(item->valuedouble) == item->valuedouble;
+}
+
+/* An array of exactly 3 non-negative integers. */
+static ffd_status read_uint3(const parser *p, const cJSON *item, const char *path, uint32_t out[3])
+{
+    if (!cJSON_IsArray(item) || cJSON_GetArraySize(item) != 3)
+        return expected(p, path, "an array of 3 non-negative integers");
+    int i = 0;
+    const cJSON *v;
+    cJSON_ArrayForEach(v, item)
+    {
+        if (!is_uint32(v))
+            return expected(p, path, "an array of 3 non-negative integers");
+        out[i++] = (uint32_t)v->valuedouble;
+    }
+    return FFD_OK;
+}
+
+/* Index of s in the NULL-terminated list, or -1. */
+static int lookup(const char *s, const char *const *names)
+{
+    for (int i = 0; names[i]; i++)
+        if (strcmp(s, names[i]) == 0)
+            return i;
+    return -1;
+}
+
+/* One of a fixed set of strings; what describes the set for the message. */
+static ffd_status read_enum(const parser *p, const cJSON *item, const char *path,
+                            const char *const *names, const char *what, int *out)
+{
+    int v = cJSON_IsString(item) ? lookup(item->valuestring, names) : -1;
+    if (v < 0)
+        return expected(p, path, what);
+    *out = v;
+    return FFD_OK;
+}
+
+/* Rejects keys outside allowed (NULL-terminated) and keys given twice. */
+static ffd_status check_keys(const parser *p, const cJSON *object, const char *path,
+                             const char *const *allowed, const char *allowed_text)
+{
+    const cJSON *a;
+    cJSON_ArrayForEach(a, object)
+    {
+        char where[RIG_PATH_MAX + 80];
+        if (lookup(a->string, allowed) < 0) {
+            snprintf(where, sizeof where, "%s%s%.64s", path, *path ? "." : "", a->string);
+            return ffd_fail(p->err, FFD_ERR_PARSE, "%s: %s: unknown key, expected one of %s",
+                            p->name, where, allowed_text);
+        }
+        for (const cJSON *b = object->child; b != a; b = b->next) {
+            if (strcmp(a->string, b->string) == 0) {
+                snprintf(where, sizeof where, "%s%s%.64s", path, *path ? "." : "", a->string);
+                return ffd_fail(p->err, FFD_ERR_PARSE, "%s: %s: key given twice", p->name, where);
+            }
+        }
+    }
+    return FFD_OK;
+}
+
+/* ======================================================================
+ * Sections
+ * ====================================================================== */
+
+static ffd_status read_box(const parser *p, const cJSON *item, ffd_rig *rig)
+{
+    if (cJSON_IsString(item)) {
+        if (strcmp(item->valuestring, "auto") != 0)
+            return expected(p, "box", "\"auto\" or an object {\"origin\": [x,y,z], \"axes\": "
+                                      "[[..],[..],[..]]}");
+        rig->box_auto = 1;
+        return FFD_OK;
+    }
+    if (!cJSON_IsObject(item))
+        return expected(p, "box",
+                        "\"auto\" or an object {\"origin\": [x,y,z], \"axes\": [[..],[..],[..]]}");
+    static const char *const keys[] = {"origin", "axes", NULL};
+    ffd_status s = check_keys(p, item, "box", keys, "\"origin\", \"axes\"");
+    if (s)
+        return s;
+    const cJSON *origin = cJSON_GetObjectItemCaseSensitive(item, "origin");
+    const cJSON *axes = cJSON_GetObjectItemCaseSensitive(item, "axes");
+    if (!origin)
+        return expected(p, "box.origin", "an array of 3 finite numbers (missing)");
+    if (!axes)
+        return expected(p, "box.axes", "an array of 3 axes (missing)");
+    if ((s = read_vec3(p, origin, "box.origin", rig->box.origin)))
+        return s;
+    if (!cJSON_IsArray(axes) || cJSON_GetArraySize(axes) != 3)
+        return expected(p, "box.axes", "an array of 3 axes, each an array of 3 finite numbers");
+    int i = 0;
+    const cJSON *axis;
+    cJSON_ArrayForEach(axis, axes)
+    {
+        char path[RIG_PATH_MAX];
+        snprintf(path, sizeof path, "box.axes[%d]", i);
+        if ((s = read_vec3(p, axis, path, rig->box.axes[i])))
+            return s;
+        i++;
+    }
+    rig->box_auto = 0;
+    return FFD_OK;
+}
+
+static ffd_status read_moves(const parser *p, const cJSON *item, ffd_rig *rig)
+{
+    if (!cJSON_IsArray(item))
+        return expected(p, "moves", "an array of {\"index\": [i,j,k], \"delta\": [dx,dy,dz]}");
+    size_t n = (size_t)cJSON_GetArraySize(item);
+    if (n) {
+        rig->moves = ffd_calloc(n, sizeof *rig->moves);
+        if (!rig->moves)
+            return ffd_fail(p->err, FFD_ERR_NOMEM, "%s: out of memory for %zu moves", p->name, n);
+    }
+    static const char *const keys[] = {"index", "delta", NULL};
+    size_t i = 0;
+    const cJSON *m;
+    cJSON_ArrayForEach(m, item)
+    {
+        char path[RIG_PATH_MAX], sub[RIG_PATH_MAX + 16];
+        snprintf(path, sizeof path, "moves[%zu]", i);
+        if (!cJSON_IsObject(m))
+            return expected(p, path, "an object {\"index\": [i,j,k], \"delta\": [dx,dy,dz]}");
+        ffd_status s = check_keys(p, m, path, keys, "\"index\", \"delta\"");
+        if (s)
+            return s;
+        ffd_rig_move *move = &rig->moves[i];
+        const cJSON *index = cJSON_GetObjectItemCaseSensitive(m, "index");
+        const cJSON *delta = cJSON_GetObjectItemCaseSensitive(m, "delta");
+        snprintf(sub, sizeof sub, "%s.index", path);
+        if (!index)
+            return expected(p, sub, "an array of 3 non-negative integers (missing)");
+        if ((s = read_uint3(p, index, sub, move->index)))
+            return s;
+        snprintf(sub, sizeof sub, "%s.delta", path);
+        if (!delta)
+            return expected(p, sub, "an array of 3 finite numbers (missing)");
+        if ((s = read_vec3(p, delta, sub, move->delta)))
+            return s;
+        i++;
+    }
+    rig->move_count = n;
+    return FFD_OK;
+}
+
+static ffd_status read_constraints(const parser *p, const cJSON *item, ffd_rig *rig)
+{
+    if (!cJSON_IsArray(item))
+        return expected(p, "constraints",
+                        "an array of {\"vertex\": id, \"target\": [x,y,z]} or "
+                        "{\"point\": [x,y,z], \"target\": [x,y,z]}");
+    size_t n = (size_t)cJSON_GetArraySize(item);
+    if (n) {
+        rig->constraints = ffd_calloc(n, sizeof *rig->constraints);
+        if (!rig->constraints)
+            return ffd_fail(p->err, FFD_ERR_NOMEM, "%s: out of memory for %zu constraints",
+                            p->name, n);
+    }
+    static const char *const keys[] = {"vertex", "point", "target", NULL};
+    size_t i = 0;
+    const cJSON *c;
+    cJSON_ArrayForEach(c, item)
+    {
+        char path[RIG_PATH_MAX], sub[RIG_PATH_MAX + 16];
+        snprintf(path, sizeof path, "constraints[%zu]", i);
+        if (!cJSON_IsObject(c))
+            return expected(p, path,
+                            "an object {\"vertex\": id, \"target\": [x,y,z]} or "
+                            "{\"point\": [x,y,z], \"target\": [x,y,z]}");
+        ffd_status s = check_keys(p, c, path, keys, "\"vertex\", \"point\", \"target\"");
+        if (s)
+            return s;
+        ffd_rig_constraint *con = &rig->constraints[i];
+        const cJSON *vertex = cJSON_GetObjectItemCaseSensitive(c, "vertex");
+        const cJSON *point = cJSON_GetObjectItemCaseSensitive(c, "point");
+        const cJSON *target = cJSON_GetObjectItemCaseSensitive(c, "target");
+        if ((vertex != NULL) == (point != NULL))
+            return expected(p, path, vertex ? "either \"vertex\" or \"point\", not both"
+                                            : "a \"vertex\" or a \"point\" key");
+        if (vertex) {
+            snprintf(sub, sizeof sub, "%s.vertex", path);
+            if (!is_uint32(vertex))
+                return expected(p, sub, "a vertex id (a non-negative integer)");
+            con->kind = FFD_RIG_CONSTRAINT_VERTEX;
+            con->vertex = (uint32_t)vertex->valuedouble;
+        } else {
+            snprintf(sub, sizeof sub, "%s.point", path);
+            con->kind = FFD_RIG_CONSTRAINT_POINT;
+            if ((s = read_vec3(p, point, sub, con->point)))
+                return s;
+        }
+        snprintf(sub, sizeof sub, "%s.target", path);
+        if (!target)
+            return expected(p, sub, "an array of 3 finite numbers (missing)");
+        if ((s = read_vec3(p, target, sub, con->target)))
+            return s;
+        i++;
+    }
+    rig->constraint_count = n;
+    return FFD_OK;
+}
+
+/* Checks that need several keys: resolution bounds for the basis, move indices. */
+static ffd_status validate(const parser *p, const ffd_rig *rig)
+{
+    static const char *const basis_names[] = {"bspline", "bernstein"};
+    uint32_t lo = ffd_basis_min_resolution(rig->basis);
+    for (int a = 0; a < 3; a++) {
+        uint32_t r = rig->resolution[a];
+        if (r < lo)
+            return ffd_fail(p->err, FFD_ERR_INVALID,
+                            "%s: resolution[%d]: %u is below the minimum %u control points of "
+                            "the %s basis",
+                            p->name, a, r, lo, basis_names[rig->basis]);
+        if (r > RIG_MAX_RESOLUTION)
+            return ffd_fail(p->err, FFD_ERR_INVALID,
+                            "%s: resolution[%d]: %u is above the maximum %u control points",
+                            p->name, a, r, RIG_MAX_RESOLUTION);
+    }
+    for (size_t i = 0; i < rig->move_count; i++) {
+        const uint32_t *ix = rig->moves[i].index;
+        for (int a = 0; a < 3; a++)
+            if (ix[a] >= rig->resolution[a])
+                return ffd_fail(p->err, FFD_ERR_RANGE,
+                                "%s: moves[%zu].index: [%u, %u, %u] out of range for a "
+                                "%u x %u x %u lattice (indices start at 0)",
+                                p->name, i, ix[0], ix[1], ix[2], rig->resolution[0],
+                                rig->resolution[1], rig->resolution[2]);
+    }
+    return FFD_OK;
+}
+
+static ffd_status read_root(const parser *p, const cJSON *root, ffd_rig *rig)
+{
+    static const char *const keys[] = {"version", "deformer", "basis",       "resolution",
+                                       "box",     "margin",   "outside",     "rcond",
+                                       "moves",   "constraints", NULL};
+    static const char *const deformers[] = {"lattice", NULL};
+    static const char *const bases[] = {"bspline", "bernstein", NULL};
+    static const char *const outsides[] = {"fixed", "clamp", "extrapolate", NULL};
+    if (!cJSON_IsObject(root))
+        return ffd_fail(p->err, FFD_ERR_PARSE, "%s: expected a JSON object at the top level",
+                        p->name);
+    ffd_status s = check_keys(p, root, "", keys,
+                              "\"version\", \"deformer\", \"basis\", \"resolution\", \"box\", "
+                              "\"margin\", \"outside\", \"rcond\", \"moves\", \"constraints\"");
+    if (s)
+        return s;
+    const cJSON *item;
+    if ((item = cJSON_GetObjectItemCaseSensitive(root, "version"))) {
+        if (!cJSON_IsNumber(item) || item->valuedouble != 1.0)
+            return expected(p, "version", "1 (the only rig version)");
+    }
+    if ((item = cJSON_GetObjectItemCaseSensitive(root, "deformer"))) {
+        int d = 0;
+        if ((s = read_enum(p, item, "deformer", deformers, "\"lattice\"", &d)))
+            return s;
+    }
+    if ((item = cJSON_GetObjectItemCaseSensitive(root, "basis"))) {
+        int b = 0;
+        if ((s = read_enum(p, item, "basis", bases, "\"bspline\" or \"bernstein\"", &b)))
+            return s;
+        rig->basis = b ? FFD_BASIS_BERNSTEIN : FFD_BASIS_BSPLINE;
+    }
+    if ((item = cJSON_GetObjectItemCaseSensitive(root, "resolution"))) {
+        if ((s = read_uint3(p, item, "resolution", rig->resolution)))
+            return s;
+    }
+    if ((item = cJSON_GetObjectItemCaseSensitive(root, "box"))) {
+        if ((s = read_box(p, item, rig)))
+            return s;
+    }
+    if ((item = cJSON_GetObjectItemCaseSensitive(root, "margin"))) {
+        if ((s = read_number(p, item, "margin", &rig->margin)))
+            return s;
+        if (rig->margin < 0)
+            return expected(p, "margin", "a number >= 0");
+    }
+    if ((item = cJSON_GetObjectItemCaseSensitive(root, "outside"))) {
+        int o = 0;
+        if ((s = read_enum(p, item, "outside", outsides,
+                           "\"fixed\", \"clamp\" or \"extrapolate\"", &o)))
+            return s;
+        rig->outside = o == 0 ? FFD_OUTSIDE_FIXED : o == 1 ? FFD_OUTSIDE_CLAMP
+                                                           : FFD_OUTSIDE_EXTRAPOLATE;
+    }
+    if ((item = cJSON_GetObjectItemCaseSensitive(root, "rcond"))) {
+        if ((s = read_number(p, item, "rcond", &rig->rcond)))
+            return s;
+        if (rig->rcond < 0 || rig->rcond >= 1)
+            return expected(p, "rcond", "a number in [0, 1) (0: the solver's default)");
+    }
+    if ((item = cJSON_GetObjectItemCaseSensitive(root, "moves"))) {
+        if ((s = read_moves(p, item, rig)))
+            return s;
+    }
+    if ((item = cJSON_GetObjectItemCaseSensitive(root, "constraints"))) {
+        if ((s = read_constraints(p, item, rig)))
+            return s;
+    }
+    return validate(p, rig);
+}
+
+ffd_status ffd_rig_parse_json(const char *text, size_t size, const char *name, ffd_rig **out,
+                              ffd_error *err)
+{
+    *out = NULL;
+    name = ffd_name_or(name, "rig");
+    if (!text && size)
+        return ffd_fail(err, FFD_ERR_INVALID, "%s: no text", name);
+    if (size > RIG_MAX_BYTES)
+        return ffd_fail(err, FFD_ERR_INVALID, "%s: %zu bytes, rig files are limited to 64 MiB",
+                        name, size);
+    size_t start = 0;
+    while (start < size && isspace((unsigned char)text[start]))
+        start++;
+    if (start == size)
+        return ffd_fail(err, FFD_ERR_PARSE, "%s: empty file, expected a JSON object", name);
+    size_t deep = too_deep_at(text, size);
+    if (deep < size)
+        return syntax_error(name, text, size, deep, "nested deeper than 64 levels", err);
+
+    const char *end = NULL;
+    cJSON *root = cJSON_ParseWithLengthOpts(text, size, &end, 0);
+    if (!root) {
+        size_t at = end && end >= text ? (size_t)(end - text) : 0;
+        return syntax_error(name, text, size, at, "syntax error", err);
+    }
+    size_t rest = (size_t)(end - text);
+    while (rest < size && isspace((unsigned char)text[rest]))
+        rest++;
+    if (rest < size) {
+        cJSON_Delete(root);
+        return syntax_error(name, text, size, rest, "unexpected text after the JSON value", err);
+    }
+
+    ffd_rig *rig = ffd_rig_new(name);
+    if (!rig) {
+        cJSON_Delete(root);
+        return ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory", name);
+    }
+    parser p = {name, err};
+    ffd_status s = read_root(&p, root, rig);
+    cJSON_Delete(root);
+    if (s) {
+        ffd_rig_destroy(rig);
+        return s;
+    }
+    *out = rig;
+    return FFD_OK;
+}
+
+static int has_prm_extension(const char *path)
+{
+    size_t n = strlen(path);
+    return n >= 4 && strcasecmp(path + n - 4, ".prm") == 0;
+}
+
+ffd_status ffd_rig_read(const char *path, ffd_rig **out, ffd_error *err)
+{
+    *out = NULL;
+    struct stat st;
+    if (stat(path, &st) == 0 && S_ISREG(st.st_mode) && (size_t)st.st_size > RIG_MAX_BYTES)
+        return ffd_fail(err, FFD_ERR_INVALID,
+                        "%s: %lld bytes, rig files are limited to 64 MiB", path,
+                        (long long)st.st_size);
+    unsigned char *data;
+    size_t size;
+    ffd_status s = ffd_read_file(path, &data, &size, err);
+    if (s)
+        return s;
+    if (has_prm_extension(path))
+        s = ffd_rig_parse_prm((const char *)data, size, path, out, err);
+    else
+        s = ffd_rig_parse_json((const char *)data, size, path, out, err);
+    ffd_free(data);
+    return s;
+}

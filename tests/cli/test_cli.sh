@@ -1,0 +1,88 @@
+#!/usr/bin/env bash
+# The `ffd` command's successful paths: help, version, info (text and JSON),
+# convert, deform with --report and --timings, --in-place.
+# usage: bash test_cli.sh PATH_TO_ffd SOURCE_DIR
+set -u
+FFD=$1
+SRC=$2
+DATA=$SRC/tests/data/rig
+T=$(mktemp -d)
+trap 'rm -rf "$T"' EXIT
+failures=0
+
+fail() {
+    echo "FAIL: $*"
+    failures=$((failures + 1))
+}
+
+# ok ARGS...: runs ffd ARGS, expecting exit status 0; stdout in $T/stdout, stderr in $T/stderr.
+ok() {
+    "$FFD" "$@" >"$T/stdout" 2>"$T/stderr" || fail "ffd $* exited $?: $(cat "$T/stderr")"
+}
+has() { # has FILE FRAGMENT
+    grep -qF -- "$2" "$T/$1" || fail "$1 lacks '$2': $(cat "$T/$1")"
+}
+
+ok --help
+has stdout "usage: ffd COMMAND"
+has stdout "deform"
+ok --version
+has stdout "ffd 0.1.0"
+for c in info convert deform; do
+    ok "$c" --help
+    has stdout "usage: ffd $c"
+done
+
+ok info "$DATA/cube.obj"
+has stdout "vertices            8"
+has stdout "closed"
+ok info "$DATA/cube.off" --json
+has stdout '"format": "off", "vertices": 8, "faces": 6, "corners": 24'
+has stdout '"boundary_edges": 0, "nonmanifold_edges": 0, "closed": true'
+has stdout '"bbox": {"min": [0, 0, 0], "max": [1, 1, 1]}'
+
+printf 'OFF\n0 0 0\n' >"$T/empty.off"
+ok info --json "$T/empty.off"
+has stdout '"vertices": 0, "faces": 0'
+has stdout '"bbox": null}'
+
+ok convert "$DATA/cube.off" "$T/cube.obj"
+has stderr "wrote $T/cube.obj (8 vertices, 6 faces)"
+ok info --json "$T/cube.obj"
+has stdout '"format": "obj", "vertices": 8, "faces": 6'
+ok convert "$T/cube.obj" "$T/back.off"
+ok info --json "$T/back.off"
+has stdout '"vertices": 8, "faces": 6, "corners": 24'
+
+cp "$DATA/cube.obj" "$T/same.obj"
+ok convert "$T/same.obj" "$T/same.obj" --in-place
+cmp -s "$T/same.obj" "$DATA/cube.obj" || fail "convert --in-place to the same format changed the bytes"
+
+ok deform "$DATA/cube.obj" -o "$T/pulled.obj" --rig "$DATA/pull.json" --report --timings
+has stdout '{"constraints": [{"index": 0, "residual": '
+has stdout '"reached": ['
+has stdout '{"index": 2, "residual": '
+has stdout '"rank": 3, "outside": 0}'
+has stderr '{"read": '
+has stderr '"bind": '
+has stderr '"solve": '
+has stderr '"evaluate": '
+has stderr '"write": '
+has stderr "wrote $T/pulled.obj (8 vertices, 12 faces)"
+grep -q '^v 1.2 1.1 1.3' "$T/pulled.obj" || grep -q '^v 1.2000000000000' "$T/pulled.obj" ||
+    grep -q '^v 1.19999999999' "$T/pulled.obj" || fail "vertex 6 did not reach its target: $(grep '^v ' "$T/pulled.obj")"
+# --rig=RIG and --output=OUT forms, OFF input.
+ok deform "$DATA/cube.off" --output="$T/pulled.off" --rig="$DATA/pull.json"
+ok info --json "$T/pulled.off"
+has stdout '"vertices": 8, "faces": 6'
+
+cp "$DATA/cube.obj" "$T/inplace.obj"
+ok deform "$T/inplace.obj" --in-place --rig "$DATA/pull.json"
+cmp -s "$T/inplace.obj" "$T/pulled.obj" || fail "--in-place result differs from -o result"
+ok deform "$T/pulled.obj" -o "$T/pulled.obj" --in-place --rig "$DATA/pull.json"
+
+if [ "$failures" -ne 0 ]; then
+    echo "$failures failure(s)"
+    exit 1
+fi
+echo "cli pass"

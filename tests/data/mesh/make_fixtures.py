@@ -1,0 +1,123 @@
+#!/usr/bin/env python3
+"""Writes the small mesh fixtures used by tests/test_mesh.c (run from this directory)."""
+import struct
+
+open("all_forms.obj", "w", newline="").write(
+"""# fixture: every OBJ index form
+mtllib cube.mtl
+o cube
+v 0 0 0 1 0 0
+v 1.0 0 0 0 1 0
+v 1 1 0
+v 0 1.000 0
+v 0 0 1
+v 1 0 1
+v 1 1 1
+v 0 1 1
+vt 0 0
+vt 1 0
+vt 1 1
+vt 0 1
+vn 0 0 -1
+vn 0 0 1
+vn 0 -1 0
+vn 1 0 0
+vn 0 1 0
+vn -1 0 0
+vn 0.5 0.5 0.5
+g bottom
+usemtl red
+s off
+f 1 4 3 2
+g top
+s 1
+f 5/1 6/2 7/3 8/4
+f -8//-5 -7//-5 -3//-5 -4//-5
+f 2/2/4 3/3/4 7/3/4 6/2/4
+f 3//5 4//5 8//5 7//5
+f -5/-4/-2 -1/-3/-2 -4/-2/-2 1/-1/-2
+l 1 2
+p 3
+# end\r
+""")
+
+verts = [(0,0,0),(1,0,0),(1,1,0),(0,1,0),(0,0,1),(1,0,1),(1,1,1),(0,1,1)]
+faces = [(0,3,2,1),(4,5,6,7),(0,1,5,4),(1,2,6,5),(2,3,7,6),(3,0,4,7)]
+def ply_header(fmt):
+    return ("ply\nformat %s 1.0\ncomment fixture with extra properties and an extra element\n"
+            "element vertex 8\nproperty float x\nproperty double y\nproperty float32 z\n"
+            "property float nx\nproperty float ny\nproperty float nz\n"
+            "property uchar red\nproperty uint8 green\nproperty short quality\n"
+            "element face 6\nproperty list uchar int vertex_indices\nproperty int flags\n"
+            "element edge 2\nproperty int vertex1\nproperty uint32 vertex2\nproperty list ushort float32 weights\n"
+            "end_header\n" % fmt)
+def norm(v):
+    return tuple((c - 0.5) for c in v)
+out = ply_header("ascii")
+for i, v in enumerate(verts):
+    n = norm(v)
+    out += "%g %g %g %g %g %g %d %d %d\n" % (v + n + (i * 30, 255 - i, -i))
+for f in faces:
+    out += "4 %d %d %d %d 7\n" % f
+out += "0 1 2 0.25 0.75\n2 3 0\n"
+open("cube_ascii.ply", "w", newline="").write(out)
+for fmt, e in (("binary_little_endian", "<"), ("binary_big_endian", ">")):
+    b = ply_header(fmt).encode()
+    for i, v in enumerate(verts):
+        n = norm(v)
+        b += struct.pack(e + "fdffffBBh", v[0], v[1], v[2], n[0], n[1], n[2], i * 30, 255 - i, -i)
+    for f in faces:
+        b += struct.pack(e + "Biiiii", 4, *f, 7)
+    b += struct.pack(e + "iIHff", 0, 1, 2, 0.25, 0.75) + struct.pack(e + "iIH", 2, 3, 0)
+    open("cube_%s.ply" % ("ble" if e == "<" else "bbe"), "wb").write(b)
+
+open("comments.off", "w", newline="").write(
+"""OFF # a cube with comments and per-face colours
+# counts: vertices faces edges
+8 6 12
+
+# vertices
+0 0 0
+1 0 0
+1 1 0 # a comment after a vertex
+0 1 0
+0 0 1
+1 0 1
+1 1 1
+0 1 1
+# faces with colours
+4 0 3 2 1 1.0 0.0 0.0
+4 4 5 6 7 0 1 0
+4 0 1 5 4
+4 1 2 6 5
+4 2 3 7 6
+5 3 0 4 7 7 255 255 255 255
+""")
+
+open("normals.off", "w", newline="").write(
+"NOFF\n4 2 0\n0 0 0 0 0 1\n1 0 0 0 0 1\n1 1 0 0 0 1\n0 1 0 0 0 1\n3 0 1 2\n3 0 2 3\n")
+
+tris = [((0,0,-1),(0,0,0),(1,1,0),(1,0,0)), ((0,0,-1),(0,0,0),(0,1,0),(1,1,0)),
+        ((0,0,1),(0,0,1),(1,0,1),(1,1,1)), ((0.1,0.2,0.3),(0,0,0),(0.5,0,0),(0,0.5,0))]
+s = "solid fixture\n"
+for t in tris:
+    s += "  facet normal %e %e %e\n    outer loop\n" % t[0]
+    for v in t[1:]:
+        s += "      vertex %e %e %e\n" % v
+    s += "    endloop\n  endfacet\nendsolid fixture\n" if t is tris[-1] else "    endloop\n  endfacet\n"
+open("tri_ascii.stl", "w", newline="").write(s)
+b = b"solid-looking header of a binary STL".ljust(80, b" ") + struct.pack("<I", len(tris))
+for k, t in enumerate(tris):
+    b += struct.pack("<12fH", *(t[0] + t[1] + t[2] + t[3]), k)
+open("tri_binary.stl", "wb").write(b)
+
+# Bad inputs (more are built inline in the test).
+open("bad_index.obj", "w").write("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n")
+open("bad_nan.obj", "w").write("v 0 0 0\nv 1 nan 0\nv 0 1 0\nf 1 2 3\n")
+open("bad_counts.off", "w").write("OFF\n5 1 0\n0 0 0\n1 0 0\n0 1 0\n")
+open("bad_format.ply", "w").write("ply\nformat binary_middle_endian 1.0\nelement vertex 0\nend_header\n")
+open("bad_huge.ply", "w").write("ply\nformat binary_little_endian 1.0\nelement vertex 1099511627776\n"
+                                "property float x\nproperty float y\nproperty float z\nend_header\n\0\0\0\0")
+bb = b"\0" * 80 + struct.pack("<I", 3) + b"\0" * 50 * 2
+open("bad_size.stl", "wb").write(bb)
+open("empty.obj", "w").write("")

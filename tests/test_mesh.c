@@ -1,0 +1,895 @@
+/* Tests of the mesh module: lossless round trips, deformed writes, cross-format
+ * conversion, topology info, bad inputs, truncated prefixes, failing allocations. */
+#include "check.h"
+#include "ffd.h"
+#include "mesh/mesh.h"
+
+#include <math.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#define FIX FFD_SOURCE_DIR "/tests/data/mesh/"
+#define SHARED FFD_SHARED_DATA "/"
+
+static const char *const shared_files[] = {
+    "bunny.obj", "teapot.obj", "elephant.off", "hinge.stl", "double-torus-example.off",
+    "cow.off",   "refined_elephant.off",
+};
+
+static const char *const fixtures[] = {
+    "all_forms.obj", "cube_ascii.ply", "cube_ble.ply",  "cube_bbe.ply",
+    "comments.off",  "normals.off",    "tri_ascii.stl", "tri_binary.stl",
+};
+
+static unsigned char *load(const char *path, size_t *size)
+{
+    unsigned char *d = NULL;
+    ffd_error err = {{0}};
+    if (ffd_read_file(path, &d, size, &err) != FFD_OK) {
+        fprintf(stderr, "cannot load %s: %s\n", path, err.message);
+        return NULL;
+    }
+    return d;
+}
+
+static ffd_mesh *read_path(const char *path)
+{
+    ffd_mesh *m = NULL;
+    ffd_error err = {{0}};
+    ffd_status s = ffd_mesh_read(path, &m, &err);
+    if (s != FFD_OK)
+        fprintf(stderr, "read %s: %s\n", path, err.message);
+    return m;
+}
+
+static unsigned char *write_mem(const ffd_mesh *m, ffd_format f, ffd_encoding e, size_t *size)
+{
+    ffd_write_options o = {f, e};
+    unsigned char *d = NULL;
+    ffd_error err = {{0}};
+    ffd_status s = ffd_mesh_write_memory(m, &o, &d, size, &err);
+    if (s != FFD_OK)
+        fprintf(stderr, "write: %s\n", err.message);
+    return d;
+}
+
+/* ---------------------------------------------------------------------- */
+
+static void check_round_trip(const char *path)
+{
+    size_t size = 0, out_size = 0;
+    unsigned char *src = load(path, &size);
+    ffd_mesh *m = read_path(path);
+    CHECK(src && m);
+    if (src && m) {
+        unsigned char *out = write_mem(m, ffd_mesh_source_format(m), FFD_ENCODING_SAME, &out_size);
+        CHECK(out && out_size == size && memcmp(out, src, size) == 0);
+        if (!(out && out_size == size && memcmp(out, src, size) == 0))
+            fprintf(stderr, "  round trip differs: %s\n", path);
+        ffd_free(out);
+    }
+    ffd_free(src);
+    ffd_mesh_destroy(m);
+}
+
+static void test_round_trip_shared(void)
+{
+    char path[512];
+    for (size_t i = 0; i < sizeof shared_files / sizeof *shared_files; i++) {
+        snprintf(path, sizeof path, SHARED "%s", shared_files[i]);
+        check_round_trip(path);
+    }
+}
+
+static void test_round_trip_fixtures(void)
+{
+    char path[512];
+    for (size_t i = 0; i < sizeof fixtures / sizeof *fixtures; i++) {
+        snprintf(path, sizeof path, FIX "%s", fixtures[i]);
+        check_round_trip(path);
+    }
+}
+
+static void test_obj_contents(void)
+{
+    ffd_mesh *m = read_path(FIX "all_forms.obj");
+    CHECK(m);
+    if (!m)
+        return;
+    CHECK(ffd_mesh_vertex_count(m) == 8);
+    CHECK(ffd_mesh_face_count(m) == 6);
+    CHECK(ffd_mesh_normal_count(m) == 7);
+    ffd_mesh_info info;
+    CHECK_OK(ffd_mesh_compute_info(m, &info, NULL));
+    CHECK(info.texcoord_count == 4);
+    CHECK(info.corner_count == 24);
+    CHECK(info.closed == 1);
+    CHECK(info.edge_count == 12);
+    const uint32_t *off = ffd_mesh_face_offsets(m), *ix = ffd_mesh_face_indices(m);
+    /* f -8//-5 -7//-5 -3//-5 -4//-5 after 8 vertices: 0 1 5 4 */
+    CHECK(off[2] == 8 && ix[8] == 0 && ix[9] == 1 && ix[10] == 5 && ix[11] == 4);
+    /* f -5/-4/-2 -1/-3/-2 -4/-2/-2 1/-1/-2: 3 7 4 0 */
+    CHECK(ix[20] == 3 && ix[21] == 7 && ix[22] == 4 && ix[23] == 0);
+    const uint32_t *anchor = ffd_mesh_normal_anchors(m);
+    CHECK(anchor[2] == 0);             /* vn 3 first used by vertex 1 (index 0) */
+    CHECK(anchor[3] == 1);             /* vn 4 first used by 2/2/4 */
+    CHECK(anchor[5] == 3);             /* vn 6 (-2) first used by -5 = vertex 4 (index 3) */
+    CHECK(anchor[6] == FFD_NO_ANCHOR); /* vn 7 unused */
+    const double *p = ffd_mesh_positions(m);
+    CHECK(p[3] == 1.0 && p[10] == 1.0);
+    ffd_mesh_destroy(m);
+}
+
+static void test_ply_contents_and_transcode(void)
+{
+    static const char *const names[3] = {"cube_ascii.ply", "cube_ble.ply", "cube_bbe.ply"};
+    static const ffd_encoding encs[3] = {FFD_ENCODING_ASCII, FFD_ENCODING_BINARY_LE,
+                                         FFD_ENCODING_BINARY_BE};
+    for (int a = 0; a < 3; a++) {
+        char path[512];
+        snprintf(path, sizeof path, FIX "%s", names[a]);
+        ffd_mesh *m = read_path(path);
+        CHECK(m);
+        if (!m)
+            continue;
+        CHECK(ffd_mesh_vertex_count(m) == 8 && ffd_mesh_face_count(m) == 6);
+        CHECK(ffd_mesh_normal_count(m) == 8);
+        CHECK(ffd_mesh_normals(m)[0] == -0.5 && ffd_mesh_normal_anchors(m)[5] == 5);
+        for (int b = 0; b < 3; b++) {
+            /* The three fixtures hold the same values: re-encoding one gives the other. */
+            snprintf(path, sizeof path, FIX "%s", names[b]);
+            size_t want_size = 0, got_size = 0;
+            unsigned char *want = load(path, &want_size);
+            unsigned char *got = write_mem(m, FFD_FORMAT_PLY, encs[b], &got_size);
+            CHECK(want && got && want_size == got_size && memcmp(want, got, got_size) == 0);
+            ffd_free(want);
+            ffd_free(got);
+        }
+        ffd_mesh_destroy(m);
+    }
+}
+
+static void test_info_shared(void)
+{
+    static const struct {
+        const char *name;
+        size_t v, welded, f;
+        int closed;
+        size_t boundary;
+    } want[] = {
+        {"bunny.obj", 1839, 1839, 3674, 1, 0},
+        {"teapot.obj", 792, 0, 992, 0, 528},
+        {"elephant.off", 2775, 2775, 5558, 1, 0},
+        {"hinge.stl", 3636, 598, 1212, 1, 0},
+        {"double-torus-example.off", 231, 231, 220, 1, 0},
+        {"cow.off", 2904, 0, 5804, 1, 0},
+        {"refined_elephant.off", 44460, 0, 88928, 1, 0},
+    };
+    for (size_t i = 0; i < sizeof want / sizeof *want; i++) {
+        char path[512];
+        snprintf(path, sizeof path, SHARED "%s", want[i].name);
+        double t0 = ffd_now();
+        ffd_mesh *m = read_path(path);
+        double t1 = ffd_now();
+        CHECK(m);
+        if (!m)
+            continue;
+        ffd_mesh_info info;
+        CHECK_OK(ffd_mesh_compute_info(m, &info, NULL));
+        printf("     %-26s V %zu welded %zu F %zu E %zu boundary %zu nonmanifold %zu closed %d"
+               " (read %.1f ms)\n",
+               want[i].name, info.vertex_count, info.welded_vertex_count, info.face_count,
+               info.edge_count, info.boundary_edge_count, info.nonmanifold_edge_count, info.closed,
+               1e3 * (t1 - t0));
+        CHECK(info.vertex_count == want[i].v);
+        if (want[i].welded)
+            CHECK(info.welded_vertex_count == want[i].welded);
+        CHECK(info.face_count == want[i].f);
+        CHECK(info.closed == want[i].closed);
+        CHECK(info.boundary_edge_count == want[i].boundary);
+        if (want[i].closed) /* closed manifold triangle meshes: E = 3F/2 */
+            CHECK(info.face_count != info.corner_count / 3 || 2 * info.edge_count == 3 * info.face_count);
+        ffd_mesh_destroy(m);
+    }
+}
+
+/* ---------------------------------------------------------------------- */
+
+/* All spans of a mesh (positions and normals) in file order. */
+static ffd_span *sorted_spans(const ffd_mesh *m, size_t *n)
+{
+    size_t np = m->position_spans ? 3 * m->vertex_count : 0;
+    size_t nn = m->normal_spans ? 3 * m->normal_count : 0;
+    ffd_span *s = malloc((np + nn + 1) * sizeof *s);
+    size_t i = 0, j = 0, k = 0;
+    while (i < np || j < nn) {
+        if (j >= nn || (i < np && m->position_spans[i].offset < m->normal_spans[j].offset))
+            s[k++] = m->position_spans[i++];
+        else
+            s[k++] = m->normal_spans[j++];
+    }
+    *n = k;
+    return s;
+}
+
+/* The bytes between spans are identical in both meshes' sources. */
+static int same_outside_spans(const ffd_mesh *a, const ffd_mesh *b)
+{
+    size_t na, nb;
+    ffd_span *sa = sorted_spans(a, &na), *sb = sorted_spans(b, &nb);
+    int ok = na == nb;
+    size_t pa = 0, pb = 0;
+    for (size_t i = 0; ok && i <= na; i++) {
+        size_t ea = i < na ? sa[i].offset : a->src_size, eb = i < nb ? sb[i].offset : b->src_size;
+        if (ea - pa != eb - pb || memcmp(a->src + pa, b->src + pb, ea - pa) != 0)
+            ok = 0;
+        if (i < na) {
+            pa = sa[i].offset + sa[i].length;
+            pb = sb[i].offset + sb[i].length;
+        }
+    }
+    free(sa);
+    free(sb);
+    return ok;
+}
+
+static void deform(const double *p, double *q, size_t n)
+{
+    for (size_t i = 0; i < n; i++) {
+        double x = p[3 * i], y = p[3 * i + 1], z = p[3 * i + 2];
+        q[3 * i] = 1.1 * x + 0.2 * y + 0.1 * sin(z) + 1.0 / 3.0;
+        q[3 * i + 1] = y - 0.3 * x * z;
+        q[3 * i + 2] = 0.9 * z + 0.05 * x * x + 1e-3 * check_rand01();
+    }
+}
+
+static void check_deformed_write(const char *path)
+{
+    ffd_mesh *m = read_path(path);
+    CHECK(m);
+    if (!m)
+        return;
+    size_t nv = ffd_mesh_vertex_count(m);
+    double *q = malloc((3 * nv + 1) * sizeof *q);
+    deform(ffd_mesh_positions(m), q, nv);
+    CHECK_OK(ffd_mesh_set_positions(m, q, NULL, &check_err_));
+    size_t size = 0;
+    unsigned char *out = write_mem(m, ffd_mesh_source_format(m), FFD_ENCODING_SAME, &size);
+    ffd_mesh *r = NULL;
+    ffd_error err = {{0}};
+    CHECK(out && ffd_mesh_read_memory(out, size, ffd_mesh_source_format(m), "deformed", &r, &err) ==
+                     FFD_OK);
+    if (r) {
+        CHECK(ffd_mesh_vertex_count(r) == nv);
+        size_t bad = 0;
+        for (size_t i = 0; i < 3 * nv && ffd_mesh_vertex_count(r) == nv; i++) {
+            double want = r->position_spans[i].kind == FFD_SPAN_F32 ? (double)(float)q[i] : q[i];
+            bad += ffd_mesh_positions(r)[i] != want;
+        }
+        CHECK(bad == 0);
+        if (bad)
+            fprintf(stderr, "  %s: %zu positions differ\n", path, bad);
+        /* Normals written are the ones set_positions computed. */
+        size_t nn = ffd_mesh_normal_count(m);
+        CHECK(ffd_mesh_normal_count(r) == nn);
+        for (size_t i = 0; i < 3 * nn && ffd_mesh_normal_count(r) == nn; i++) {
+            double w = ffd_mesh_normals(m)[i];
+            if (r->normal_spans[i].kind == FFD_SPAN_F32)
+                w = (double)(float)w;
+            bad += ffd_mesh_normals(r)[i] != w;
+            if (ffd_mesh_normals(r)[i] != w && bad < 5)
+                fprintf(stderr, "  %s: normal %zu: %.17g != %.17g\n", path, i, ffd_mesh_normals(r)[i], w);
+        }
+        CHECK(bad == 0);
+        CHECK(same_outside_spans(m, r));
+        CHECK(ffd_mesh_face_count(r) == ffd_mesh_face_count(m));
+        CHECK(memcmp(ffd_mesh_face_indices(r), ffd_mesh_face_indices(m),
+                     sizeof(uint32_t) * ffd_mesh_face_offsets(m)[ffd_mesh_face_count(m)]) == 0);
+    }
+    ffd_mesh_destroy(r);
+    ffd_free(out);
+    free(q);
+    ffd_mesh_destroy(m);
+}
+
+static void test_deformed_write(void)
+{
+    char path[512];
+    for (size_t i = 0; i < sizeof fixtures / sizeof *fixtures; i++) {
+        snprintf(path, sizeof path, FIX "%s", fixtures[i]);
+        check_deformed_write(path);
+    }
+    for (size_t i = 0; i < sizeof shared_files / sizeof *shared_files; i++) {
+        snprintf(path, sizeof path, SHARED "%s", shared_files[i]);
+        check_deformed_write(path);
+    }
+}
+
+static void test_set_positions_normals(void)
+{
+    /* Jacobian path: diag(2,1,1) maps normal (1,1,0) to cofactor diag(1,2,2) (1,1,0) = (1,2,0). */
+    ffd_mesh *m = read_path(FIX "cube_ascii.ply");
+    CHECK(m);
+    if (!m)
+        return;
+    size_t nv = ffd_mesh_vertex_count(m);
+    double *p = malloc(3 * nv * sizeof *p), *J = calloc(9 * nv, sizeof *J);
+    double n0[24];
+    memcpy(n0, ffd_mesh_normals(m), sizeof n0);
+    for (size_t i = 0; i < nv; i++) {
+        const double *x = ffd_mesh_positions(m) + 3 * i;
+        p[3 * i] = 2 * x[0];
+        p[3 * i + 1] = x[1];
+        p[3 * i + 2] = x[2];
+        J[9 * i] = 2;
+        J[9 * i + 4] = 1;
+        J[9 * i + 8] = 1;
+    }
+    CHECK_OK(ffd_mesh_set_positions(m, p, J, &check_err_));
+    for (size_t i = 0; i < nv; i++) {
+        const double *n = ffd_mesh_normals(m) + 3 * i, *o = n0 + 3 * i;
+        double t[3] = {o[0], 2 * o[1], 2 * o[2]};
+        double lt = sqrt(t[0] * t[0] + t[1] * t[1] + t[2] * t[2]);
+        double lo = sqrt(o[0] * o[0] + o[1] * o[1] + o[2] * o[2]);
+        for (int d = 0; d < 3; d++)
+            CHECK_NEAR(n[d], t[d] * lo / lt, 1e-15);
+    }
+    /* NaN: refused, nothing changes. */
+    double keep = ffd_mesh_positions(m)[0];
+    p[5] = NAN;
+    ffd_error err = {{0}};
+    CHECK(ffd_mesh_set_positions(m, p, NULL, &err) == FFD_ERR_NONFINITE);
+    CHECK(ffd_mesh_positions(m)[0] == keep && strstr(err.message, "finite"));
+    /* Recomputed from faces: the cube corner 0 gets -(1,1,1)/sqrt3 times its old length. */
+    memcpy(p, ffd_mesh_positions(m), 3 * nv * sizeof *p);
+    for (size_t i = 0; i < nv; i++)
+        p[3 * i] /= 2; /* back to the unit cube */
+    for (size_t i = 0; i < 3 * nv; i++)
+        p[i] = 3 * p[i] + 1;
+    CHECK_OK(ffd_mesh_set_positions(m, p, NULL, &check_err_));
+    double len = sqrt(0.75);
+    for (int d = 0; d < 3; d++)
+        CHECK_NEAR(ffd_mesh_normals(m)[d], -len / sqrt(3.0), 1e-12);
+    ffd_mesh_destroy(m);
+    free(p);
+    free(J);
+
+    /* STL: facet normals recomputed from the deformed triangle; zero area gives 0 0 0. */
+    m = read_path(FIX "tri_ascii.stl");
+    CHECK(m);
+    if (!m)
+        return;
+    nv = ffd_mesh_vertex_count(m);
+    CHECK(nv == 12 && ffd_mesh_normal_count(m) == 4 && ffd_mesh_normal_anchors(m)[3] == 9);
+    p = malloc(3 * nv * sizeof *p);
+    memcpy(p, ffd_mesh_positions(m), 3 * nv * sizeof *p);
+    for (size_t i = 0; i < nv; i++)
+        p[3 * i + 2] *= -1; /* mirror in z */
+    p[3 * 10] = p[3 * 9];   /* collapse the last triangle */
+    p[3 * 10 + 1] = p[3 * 9 + 1];
+    p[3 * 10 + 2] = p[3 * 9 + 2];
+    CHECK_OK(ffd_mesh_set_positions(m, p, NULL, &check_err_));
+    const double *n = ffd_mesh_normals(m);
+    CHECK(n[0] == 0 && n[1] == 0 && n[2] == -1); /* planes z = const keep their normals */
+    CHECK(n[3] == 0 && n[4] == 0 && n[5] == -1);
+    CHECK(n[6] == 0 && n[7] == 0 && n[8] == 1);
+    CHECK(n[9] == 0 && n[10] == 0 && n[11] == 0);
+    ffd_mesh_destroy(m);
+    free(p);
+}
+
+static void test_obj_jacobian_and_transcode_deformed(void)
+{
+    ffd_mesh *m = read_path(FIX "all_forms.obj");
+    CHECK(m);
+    if (!m)
+        return;
+    /* Rotation by 90 degrees about z: x' = -y, y' = x. Normals rotate the same way. */
+    size_t nv = ffd_mesh_vertex_count(m), nn = ffd_mesh_normal_count(m);
+    double *p = malloc(3 * nv * sizeof *p), *J = calloc(9 * nv, sizeof *J);
+    double n0[21];
+    memcpy(n0, ffd_mesh_normals(m), sizeof n0);
+    for (size_t i = 0; i < nv; i++) {
+        const double *x = ffd_mesh_positions(m) + 3 * i;
+        p[3 * i] = -x[1];
+        p[3 * i + 1] = x[0];
+        p[3 * i + 2] = x[2];
+        double R[9] = {0, -1, 0, 1, 0, 0, 0, 0, 1};
+        memcpy(J + 9 * i, R, sizeof R);
+    }
+    CHECK_OK(ffd_mesh_set_positions(m, p, J, &check_err_));
+    const double *n = ffd_mesh_normals(m);
+    for (size_t i = 0; i < nn; i++) {
+        bool anchored = ffd_mesh_normal_anchors(m)[i] != FFD_NO_ANCHOR;
+        CHECK_NEAR(n[3 * i], anchored ? -n0[3 * i + 1] : n0[3 * i], 1e-15);
+        CHECK_NEAR(n[3 * i + 1], anchored ? n0[3 * i] : n0[3 * i + 1], 1e-15);
+        CHECK_NEAR(n[3 * i + 2], n0[3 * i + 2], 1e-15);
+    }
+    /* Singular Jacobian (flatten to a plane): cofactor maps (0,0,+-1) to zero, normal kept. */
+    memset(J, 0, 9 * nv * sizeof *J);
+    for (size_t i = 0; i < nv; i++)
+        J[9 * i] = J[9 * i + 4] = 1;
+    double before[21];
+    memcpy(before, ffd_mesh_normals(m), sizeof before);
+    CHECK_OK(ffd_mesh_set_positions(m, p, J, &check_err_));
+    CHECK(ffd_mesh_normals(m)[0] == before[0] && ffd_mesh_normals(m)[2] == before[2]);
+    ffd_mesh_destroy(m);
+    free(p);
+    free(J);
+
+    /* Deformed PLY written in another encoding: values re-encoded, extras intact. */
+    m = read_path(FIX "cube_ascii.ply");
+    CHECK(m);
+    if (!m)
+        return;
+    nv = ffd_mesh_vertex_count(m);
+    p = malloc(3 * nv * sizeof *p);
+    for (size_t i = 0; i < 3 * nv; i++)
+        p[i] = ffd_mesh_positions(m)[i] * 0.5 + 0.125;
+    CHECK_OK(ffd_mesh_set_positions(m, p, NULL, &check_err_));
+    size_t size = 0;
+    unsigned char *out = write_mem(m, FFD_FORMAT_PLY, FFD_ENCODING_BINARY_BE, &size);
+    ffd_mesh *r = NULL;
+    CHECK(out && ffd_mesh_read_memory(out, size, FFD_FORMAT_PLY, "t.ply", &r, NULL) == FFD_OK);
+    if (r) {
+        CHECK(memcmp(ffd_mesh_positions(r), p, 3 * nv * sizeof *p) == 0); /* exact in float */
+        CHECK(size == 871 && memcmp(out, "ply\nformat binary_big_endian 1.0\n", 33) == 0);
+    }
+    ffd_mesh_destroy(r);
+    ffd_free(out);
+    free(p);
+    ffd_mesh_destroy(m);
+}
+
+/* ---------------------------------------------------------------------- */
+
+static void check_convert(const char *path)
+{
+    static const struct {
+        ffd_format f;
+        ffd_encoding e;
+    } targets[] = {
+        {FFD_FORMAT_OBJ, FFD_ENCODING_SAME},       {FFD_FORMAT_OFF, FFD_ENCODING_SAME},
+        {FFD_FORMAT_PLY, FFD_ENCODING_ASCII},      {FFD_FORMAT_PLY, FFD_ENCODING_BINARY_LE},
+        {FFD_FORMAT_PLY, FFD_ENCODING_BINARY_BE},  {FFD_FORMAT_STL, FFD_ENCODING_ASCII},
+        {FFD_FORMAT_STL, FFD_ENCODING_BINARY_LE},
+    };
+    ffd_mesh *m = read_path(path);
+    CHECK(m);
+    if (!m)
+        return;
+    const double *P = ffd_mesh_positions(m);
+    const uint32_t *off = ffd_mesh_face_offsets(m), *ix = ffd_mesh_face_indices(m);
+    size_t nf = ffd_mesh_face_count(m), nv = ffd_mesh_vertex_count(m);
+    for (size_t t = 0; t < sizeof targets / sizeof *targets; t++) {
+        size_t size = 0;
+        unsigned char *out = write_mem(m, targets[t].f, targets[t].e, &size);
+        ffd_mesh *r = NULL;
+        ffd_error err = {{0}};
+        CHECK(out && ffd_mesh_read_memory(out, size, targets[t].f, "converted", &r, &err) == FFD_OK);
+        if (!r) {
+            fprintf(stderr, "  %s -> format %d: %s\n", path, (int)targets[t].f, err.message);
+            ffd_free(out);
+            continue;
+        }
+        const double *Q = ffd_mesh_positions(r);
+        size_t bad = 0;
+        if (targets[t].f == FFD_FORMAT_STL) {
+            /* fan triangles, corner by corner */
+            bool f32 = targets[t].e == FFD_ENCODING_BINARY_LE;
+            size_t tri = 0;
+            for (size_t f = 0; f < nf; f++)
+                for (uint32_t k = off[f] + 1; k + 1 < off[f + 1]; k++, tri++) {
+                    uint32_t c[3] = {ix[off[f]], ix[k], ix[k + 1]};
+                    for (int j = 0; j < 3; j++)
+                        for (int d = 0; d < 3; d++) {
+                            double w = P[3 * c[j] + d];
+                            if (f32)
+                                w = (double)(float)w;
+                            bad += tri < ffd_mesh_face_count(r) && Q[9 * tri + 3 * j + d] != w;
+                        }
+                }
+            CHECK(ffd_mesh_face_count(r) == tri);
+        } else {
+            CHECK(ffd_mesh_vertex_count(r) == nv && ffd_mesh_face_count(r) == nf);
+            for (size_t i = 0; i < 3 * nv && ffd_mesh_vertex_count(r) == nv; i++)
+                bad += Q[i] != P[i];
+            if (ffd_mesh_face_count(r) == nf)
+                bad += memcmp(ffd_mesh_face_offsets(r), off, (nf + 1) * sizeof *off) != 0 ||
+                       memcmp(ffd_mesh_face_indices(r), ix, off[nf] * sizeof *ix) != 0;
+        }
+        CHECK(bad == 0);
+        if (bad)
+            fprintf(stderr, "  %s -> format %d encoding %d: %zu mismatches\n", path,
+                    (int)targets[t].f, (int)targets[t].e, bad);
+        ffd_mesh_destroy(r);
+        ffd_free(out);
+    }
+    ffd_mesh_destroy(m);
+}
+
+static void test_cross_format(void)
+{
+    char path[512];
+    for (size_t i = 0; i < sizeof fixtures / sizeof *fixtures; i++) {
+        snprintf(path, sizeof path, FIX "%s", fixtures[i]);
+        check_convert(path);
+    }
+    for (size_t i = 0; i < 5; i++) {
+        snprintf(path, sizeof path, SHARED "%s", shared_files[i]);
+        check_convert(path);
+    }
+    /* Per-vertex normals travel PLY -> OBJ (vn) -> PLY. */
+    ffd_mesh *m = read_path(FIX "cube_ble.ply");
+    size_t size = 0;
+    unsigned char *out = m ? write_mem(m, FFD_FORMAT_OBJ, FFD_ENCODING_SAME, &size) : NULL;
+    ffd_mesh *r = NULL;
+    CHECK(out && ffd_mesh_read_memory(out, size, FFD_FORMAT_OBJ, "x.obj", &r, NULL) == FFD_OK);
+    CHECK(r && ffd_mesh_normal_count(r) == 8 &&
+          memcmp(ffd_mesh_normals(r), ffd_mesh_normals(m), 24 * sizeof(double)) == 0);
+    ffd_free(out);
+    ffd_mesh_destroy(r);
+    ffd_mesh_destroy(m);
+}
+
+static void test_create_and_info(void)
+{
+    const double P[12] = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1};
+    const uint32_t off[5] = {0, 3, 6, 9, 12};
+    const uint32_t ix[12] = {0, 2, 1, 0, 1, 3, 1, 2, 3, 0, 3, 2};
+    ffd_mesh *m = NULL;
+    CHECK_OK(ffd_mesh_create(P, 4, off, ix, 4, &m, &check_err_));
+    ffd_mesh_info info;
+    CHECK_OK(ffd_mesh_compute_info(m, &info, NULL));
+    CHECK(info.welded_vertex_count == 4 && info.edge_count == 6 && info.closed == 1);
+    CHECK(info.bbox_max[2] == 1 && info.bbox_min[0] == 0);
+    CHECK(ffd_mesh_source_format(m) == FFD_FORMAT_AUTO && ffd_mesh_normals(m) == NULL);
+    size_t size = 0;
+    unsigned char *out = write_mem(m, FFD_FORMAT_OFF, FFD_ENCODING_SAME, &size);
+    CHECK(out && size == strlen("OFF\n4 4 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 1 2 3\n3 0 3 2\n"));
+    ffd_free(out);
+    /* Three faces on one edge: non-manifold; drop one face: boundary. */
+    const uint32_t off2[4] = {0, 3, 6, 9};
+    const uint32_t ix2[9] = {0, 1, 2, 0, 1, 3, 1, 0, 3};
+    ffd_mesh *m2 = NULL;
+    CHECK_OK(ffd_mesh_create(P, 4, off2, ix2, 3, &m2, &check_err_));
+    CHECK_OK(ffd_mesh_compute_info(m2, &info, NULL));
+    CHECK(info.nonmanifold_edge_count == 1 && info.closed == 0);
+    ffd_mesh_destroy(m2);
+    ffd_mesh_destroy(m);
+    ffd_error err = {{0}};
+    const uint32_t badix[3] = {0, 1, 7};
+    CHECK(ffd_mesh_create(P, 4, off, badix, 1, &m, &err) == FFD_ERR_RANGE && m == NULL);
+    const double nanP[3] = {NAN, 0, 0};
+    CHECK(ffd_mesh_create(nanP, 1, NULL, NULL, 0, &m, &err) == FFD_ERR_NONFINITE);
+    const uint32_t off_short[2] = {0, 2};
+    CHECK(ffd_mesh_create(P, 4, off_short, ix, 1, &m, &err) == FFD_ERR_INVALID);
+    CHECK(ffd_format_from_path("a/b.OBJ") == FFD_FORMAT_OBJ && ffd_format_from_path("x.Ply") == FFD_FORMAT_PLY &&
+          ffd_format_from_path("x.off") == FFD_FORMAT_OFF && ffd_format_from_path("x.stl") == FFD_FORMAT_STL &&
+          ffd_format_from_path("x.txt") == FFD_FORMAT_AUTO && ffd_format_from_path("a.obj/x") == FFD_FORMAT_AUTO);
+}
+
+/* ---------------------------------------------------------------------- */
+
+static int has_location(const char *msg, const char *name);
+
+typedef struct {
+    const char *text;
+    size_t size; /* 0: strlen(text) */
+    ffd_format format;
+    ffd_status status;
+    const char *fragment; /* must occur in the message */
+} bad_case;
+
+static void test_bad_inputs(void)
+{
+    static const char huge_ply[] = "ply\nformat binary_little_endian 1.0\nelement vertex 1099511627776\n"
+                                   "property float x\nproperty float y\nproperty float z\nend_header\n";
+    static const char trunc_ply[] = "ply\nformat binary_little_endian 1.0\nelement vertex 1\n"
+                                    "property float x\nproperty float y\nproperty float z\nend_header\n"
+                                    "\0\0\0\0\0\0\0\0\0\0";
+    static const bad_case cases[] = {
+        {"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n", 0, FFD_FORMAT_OBJ, FFD_ERR_RANGE, "t:4: vertex index 4 out of range"},
+        {"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 0\n", 0, FFD_FORMAT_OBJ, FFD_ERR_RANGE, "t:4: vertex index 0"},
+        {"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 -4\n", 0, FFD_FORMAT_OBJ, FFD_ERR_RANGE, "t:4:"},
+        {"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1/1 2/1 3/1\n", 0, FFD_FORMAT_OBJ, FFD_ERR_RANGE, "texcoord"},
+        {"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1//2 2 3\n", 0, FFD_FORMAT_OBJ, FFD_ERR_RANGE, "normal"},
+        {"v 0 0 0\nv 1 0 0\nf 1 2\n", 0, FFD_FORMAT_OBJ, FFD_ERR_PARSE, "t:3: face has 2 vertices"},
+        {"v 0 0 0\nv 1 inf 0\n", 0, FFD_FORMAT_OBJ, FFD_ERR_NONFINITE, "t:2:"},
+        {"v 0 0 0\nv 1 0 nan\n", 0, FFD_FORMAT_OBJ, FFD_ERR_NONFINITE, "t:2:"},
+        {"v 0 0\n", 0, FFD_FORMAT_OBJ, FFD_ERR_PARSE, "t:1: expected 3 coordinates"},
+        {"v 0 0 0x\n", 0, FFD_FORMAT_OBJ, FFD_ERR_PARSE, "t:1: expected a number"},
+        {"v 0 0 0\n\nv 1 0 abc\n", 0, FFD_FORMAT_OBJ, FFD_ERR_PARSE, "t:3: expected a number, found 'abc'"},
+        {"v 0 0 0\nf 1 1/x 1\n", 0, FFD_FORMAT_OBJ, FFD_ERR_PARSE, "t:2: expected a face corner"},
+        {"vn 0 0\n", 0, FFD_FORMAT_OBJ, FFD_ERR_PARSE, "t:1:"},
+        {"", 0, FFD_FORMAT_OBJ, FFD_ERR_PARSE, "empty"},
+        {"", 0, FFD_FORMAT_PLY, FFD_ERR_PARSE, "empty"},
+        {"", 0, FFD_FORMAT_OFF, FFD_ERR_PARSE, "empty"},
+        {"", 0, FFD_FORMAT_STL, FFD_ERR_PARSE, "empty"},
+        {"OFF\n5 1 0\n0 0 0\n1 0 0\n0 1 0\n", 0, FFD_FORMAT_OFF, FFD_ERR_PARSE, "t:6: expected vertex 4 of 5"},
+        {"OFF\n3 2 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n", 0, FFD_FORMAT_OFF, FFD_ERR_PARSE, "t:7: expected face 2"},
+        {"OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n3 0 1 2\n", 0, FFD_FORMAT_OFF, FFD_ERR_PARSE,
+         "t:7: unexpected data"},
+        {"OFF\n3 1 0\n0 0 0\n1 0 x\n0 1 0\n3 0 1 2\n", 0, FFD_FORMAT_OFF, FFD_ERR_PARSE, "t:4: expected"},
+        {"OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 3\n", 0, FFD_FORMAT_OFF, FFD_ERR_RANGE, "t:6: face index 3"},
+        {"OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n2 0 1\n", 0, FFD_FORMAT_OFF, FFD_ERR_PARSE, "t:6: face 1 has 2"},
+        {"OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n4 0 1 2\n", 0, FFD_FORMAT_OFF, FFD_ERR_PARSE, "t:6:"},
+        {"OFF\n3 1 0\n0 0 0\n1 inf 0\n0 1 0\n3 0 1 2\n", 0, FFD_FORMAT_OFF, FFD_ERR_NONFINITE, "t:4:"},
+        {"OFF\n3000000000 1 0\n0 0 0\n", 0, FFD_FORMAT_OFF, FFD_ERR_PARSE, "t:4: expected vertex 2 of 3000000000, found end of file"},
+        {"OFX\n3 1 0\n", 0, FFD_FORMAT_OFF, FFD_ERR_PARSE, "t:1: expected an OFF header"},
+        {"OFF\n3 1 zero\n", 0, FFD_FORMAT_OFF, FFD_ERR_PARSE, "t:2:"},
+        {"OFF BINARY\n3 1 0\n", 0, FFD_FORMAT_OFF, FFD_ERR_UNSUPPORTED, "t:1:"},
+        {"ply\nformat ascii 2.0\nend_header\n", 0, FFD_FORMAT_PLY, FFD_ERR_PARSE, "t:2:"},
+        {"ply\nformat binary_middle_endian 1.0\nend_header\n", 0, FFD_FORMAT_PLY, FFD_ERR_PARSE,
+         "t:2: unknown PLY format"},
+        {"ply\nformat ascii 1.0\nelement vertex 1\nproperty float128 x\nend_header\n", 0, FFD_FORMAT_PLY,
+         FFD_ERR_PARSE, "t:4: unknown property type 'float128'"},
+        {"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\n"
+         "end_header\n",
+         0, FFD_FORMAT_PLY, FFD_ERR_PARSE, "t:8: header declares 1 'vertex'"},
+        {"ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\nproperty float z\n"
+         "end_header\n0 0 0\n1 1\n",
+         0, FFD_FORMAT_PLY, FFD_ERR_PARSE, "t:"},
+        {"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\n"
+         "end_header\n0 0 0\n1 1 1\n",
+         0, FFD_FORMAT_PLY, FFD_ERR_PARSE, "t:9: unexpected data"},
+        {"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\n"
+         "end_header\n0 nan 0\n",
+         0, FFD_FORMAT_PLY, FFD_ERR_NONFINITE, "t:8:"},
+        {"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+         "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 3\n",
+         0, FFD_FORMAT_PLY, FFD_ERR_RANGE, "t:13: face index 3"},
+        {"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+         "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n2 0 1\n",
+         0, FFD_FORMAT_PLY, FFD_ERR_PARSE, "t:13: face 0 has 2"},
+        {"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nend_header\n0 0\n", 0,
+         FFD_FORMAT_PLY, FFD_ERR_PARSE, "lacks x, y and z"},
+        {"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n", 0, FFD_FORMAT_PLY, FFD_ERR_PARSE,
+         "t:5: expected 'end_header'"},
+        {"plyx\n", 0, FFD_FORMAT_PLY, FFD_ERR_PARSE, "t:1: expected 'ply'"},
+        {huge_ply, 0, FFD_FORMAT_PLY, FFD_ERR_PARSE, "header declares 1099511627776"},
+        {trunc_ply, sizeof trunc_ply - 1, FFD_FORMAT_PLY, FFD_ERR_PARSE, "t: byte 115: header declares 1 'vertex' elements"},
+        {"solid x\n facet normal 0 0 1\n outer loop\n vertex 0 0 0\n vertex 1 0 0\n endloop\n", 0,
+         FFD_FORMAT_STL, FFD_ERR_PARSE, "t:6: expected 'vertex'"},
+        {"solid x\n facet normal 0 0 1\n outer loop\n vertex 0 0 0\n vertex 1 0 0\n vertex 1 1 nan\n"
+         " endloop\n endfacet\nendsolid x\n",
+         0, FFD_FORMAT_STL, FFD_ERR_NONFINITE, "t:6:"},
+        {"solid x\n facet normal 0 0 1\n outer loop\n vertex 0 0 0\n vertex 1 0 0\n vertex 1 1 0\n"
+         " endloop\n endfacet\nendsolid x\ngarbage\n",
+         0, FFD_FORMAT_STL, FFD_ERR_PARSE, "t:10:"},
+        {"solid x\n facet normal 0 0 1\n", 0, FFD_FORMAT_STL, FFD_ERR_PARSE, "t:3: expected 'outer'"},
+        {"binary header too short", 0, FFD_FORMAT_STL, FFD_ERR_PARSE, "byte"},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof *cases; i++) {
+        size_t size = cases[i].size ? cases[i].size : strlen(cases[i].text);
+        ffd_mesh *m = (ffd_mesh *)1;
+        ffd_error err = {{0}};
+        ffd_status s = ffd_mesh_read_memory(cases[i].text, size, cases[i].format, "t", &m, &err);
+        bool ok = s == cases[i].status && m == NULL && strstr(err.message, cases[i].fragment) &&
+                  (s == FFD_ERR_UNSUPPORTED || has_location(err.message, "t"));
+        CHECK(ok);
+        if (!ok)
+            fprintf(stderr, "  case %zu: status %d (want %d), message '%s' (want '%s')\n", i, (int)s,
+                    (int)cases[i].status, err.message, cases[i].fragment);
+        ffd_mesh_destroy(m == (ffd_mesh *)1 ? NULL : m);
+    }
+}
+
+static void test_bad_files(void)
+{
+    static const struct {
+        const char *name;
+        ffd_status status;
+        const char *fragment;
+    } cases[] = {
+        {"bad_index.obj", FFD_ERR_RANGE, "bad_index.obj:4: vertex index 9 out of range (3 vertices defined)"},
+        {"bad_nan.obj", FFD_ERR_NONFINITE, "bad_nan.obj:2:"},
+        {"bad_counts.off", FFD_ERR_PARSE, "bad_counts.off:6: expected vertex 4 of 5"},
+        {"bad_format.ply", FFD_ERR_PARSE, "bad_format.ply:2: unknown PLY format"},
+        {"bad_huge.ply", FFD_ERR_PARSE, "bad_huge.ply: byte 127: header declares 1099511627776"},
+        {"bad_size.stl", FFD_ERR_PARSE, "bad_size.stl: byte 80: binary STL declares 3 triangles"},
+        {"empty.obj", FFD_ERR_PARSE, "empty.obj: byte 0: empty file"},
+        {"missing.obj", FFD_ERR_IO, "missing.obj"},
+        {"", FFD_ERR_INVALID, "extension"},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof *cases; i++) {
+        char path[512];
+        snprintf(path, sizeof path, FIX "%s", cases[i].name);
+        ffd_mesh *m = NULL;
+        ffd_error err = {{0}};
+        double t0 = ffd_now();
+        ffd_status s = ffd_mesh_read(path, &m, &err);
+        CHECK(ffd_now() - t0 < 0.5);
+        bool ok = s == cases[i].status && m == NULL && strstr(err.message, cases[i].fragment);
+        CHECK(ok);
+        if (!ok)
+            fprintf(stderr, "  %s: status %d (want %d), message '%s'\n", cases[i].name, (int)s,
+                    (int)cases[i].status, err.message);
+        ffd_mesh_destroy(m);
+    }
+    /* A directory named like a mesh. */
+    mkdir("test_mesh_dir.obj", 0755);
+    ffd_mesh *m = NULL;
+    ffd_error err = {{0}};
+    CHECK(ffd_mesh_read("test_mesh_dir.obj", &m, &err) == FFD_ERR_IO && strstr(err.message, "directory"));
+    rmdir("test_mesh_dir.obj");
+}
+
+/* The message names the file, then a line ("name:12:") or a byte offset ("name: byte 80:"). */
+static int has_location(const char *msg, const char *name)
+{
+    size_t n = strlen(name);
+    if (strncmp(msg, name, n) != 0)
+        return 0;
+    msg += n;
+    if (msg[0] == ':' && msg[1] >= '0' && msg[1] <= '9')
+        return 1;
+    return strncmp(msg, ": byte ", 7) == 0 && msg[7] >= '0' && msg[7] <= '9';
+}
+
+/* Every prefix of every fixture either parses or fails with a located message. */
+static void test_truncated_prefixes(void)
+{
+    char path[512];
+    static const char *const more[] = {"hinge.stl", "bunny.obj", "cow.off"};
+    size_t nfix = sizeof fixtures / sizeof *fixtures;
+    for (size_t i = 0; i < nfix + 3; i++) {
+        if (i < nfix)
+            snprintf(path, sizeof path, FIX "%s", fixtures[i]);
+        else
+            snprintf(path, sizeof path, SHARED "%s", more[i - nfix]);
+        size_t size = 0;
+        unsigned char *d = load(path, &size);
+        CHECK(d);
+        if (!d)
+            continue;
+        if (size > 3000)
+            size = 3000;
+        ffd_format f = ffd_format_from_path(path);
+        size_t parsed = 0, failed = 0;
+        for (size_t n = 0; n < size; n++) {
+            ffd_mesh *m = NULL;
+            ffd_error err = {{0}};
+            ffd_status s = ffd_mesh_read_memory(d, n, f, path, &m, &err);
+            if (s == FFD_OK) {
+                parsed++;
+                CHECK(m != NULL);
+            } else {
+                failed++;
+                CHECK(m == NULL && err.message[0] != 0);
+                CHECK(has_location(err.message, path));
+                if (!has_location(err.message, path))
+                    fprintf(stderr, "  prefix %zu of %s: '%s'\n", n, path, err.message);
+            }
+            ffd_mesh_destroy(m);
+        }
+        CHECK(failed > 0);
+        ffd_free(d);
+        (void)parsed;
+    }
+}
+
+static void test_atomic_write(void)
+{
+    ffd_mesh *m = read_path(FIX "all_forms.obj");
+    CHECK(m);
+    if (!m)
+        return;
+    const char *path = "test_mesh_atomic.obj";
+    FILE *f = fopen(path, "wb");
+    fputs("keep me", f);
+    fclose(f);
+    ffd_error err = {{0}};
+    ffd_write_options bin = {FFD_FORMAT_OBJ, FFD_ENCODING_BINARY_LE};
+    CHECK(ffd_mesh_write(m, path, &bin, &err) == FFD_ERR_UNSUPPORTED && strstr(err.message, path));
+    size_t size = 0;
+    unsigned char *d = load(path, &size);
+    CHECK(d && size == 7 && memcmp(d, "keep me", 7) == 0);
+    ffd_free(d);
+    CHECK(ffd_mesh_write(m, "no/such/dir/out.obj", NULL, &err) == FFD_ERR_IO);
+    CHECK(ffd_mesh_write(m, "out.xyz", NULL, &err) == FFD_ERR_INVALID);
+    CHECK_OK(ffd_mesh_write(m, path, NULL, &check_err_));
+    d = load(path, &size);
+    size_t want_size = 0;
+    unsigned char *want = load(FIX "all_forms.obj", &want_size);
+    CHECK(d && want && size == want_size && memcmp(d, want, size) == 0);
+    ffd_free(d);
+    ffd_free(want);
+    remove(path);
+    ffd_mesh_destroy(m);
+}
+
+/* ---------------------------------------------------------------------- */
+
+typedef struct {
+    long left; /* allocations before failing; < 0: never */
+    long count;
+} fail_alloc;
+
+static void *fa_malloc(size_t n, void *u)
+{
+    fail_alloc *f = u;
+    f->count++;
+    if (f->left == 0)
+        return NULL;
+    if (f->left > 0)
+        f->left--;
+    return malloc(n);
+}
+
+static void *fa_realloc(void *p, size_t n, void *u)
+{
+    fail_alloc *f = u;
+    f->count++;
+    if (f->left == 0)
+        return NULL;
+    if (f->left > 0)
+        f->left--;
+    return realloc(p, n);
+}
+
+static void fa_free(void *p, void *u)
+{
+    (void)u;
+    free(p);
+}
+
+static void test_failing_allocations(void)
+{
+    char path[512];
+    for (size_t i = 0; i < sizeof fixtures / sizeof *fixtures; i++) {
+        snprintf(path, sizeof path, FIX "%s", fixtures[i]);
+        for (long k = 0;; k++) {
+            fail_alloc fa = {k, 0};
+            ffd_allocator a = {fa_malloc, fa_realloc, fa_free, &fa};
+            ffd_set_allocator(&a);
+            ffd_mesh *m = NULL;
+            ffd_error err = {{0}};
+            ffd_status s = ffd_mesh_read(path, &m, &err);
+            unsigned char *out = NULL;
+            size_t size = 0;
+            ffd_status w = FFD_OK;
+            if (s == FFD_OK) {
+                ffd_write_options o = {FFD_FORMAT_PLY, FFD_ENCODING_BINARY_BE};
+                w = ffd_mesh_write_memory(m, &o, &out, &size, &err);
+            }
+            ffd_free(out);
+            ffd_mesh_destroy(m);
+            ffd_set_allocator(NULL);
+            CHECK(s == FFD_OK || s == FFD_ERR_NOMEM);
+            CHECK(w == FFD_OK || w == FFD_ERR_NOMEM);
+            if (s == FFD_OK && w == FFD_OK)
+                break;
+            if (k > 10000) {
+                CHECK(!"allocation sweep did not finish");
+                break;
+            }
+        }
+    }
+}
+
+int main(int argc, char **argv)
+{
+    static const check_test tests[] = {
+        {"round_trip_shared", test_round_trip_shared},
+        {"round_trip_fixtures", test_round_trip_fixtures},
+        {"obj_contents", test_obj_contents},
+        {"ply_contents_and_transcode", test_ply_contents_and_transcode},
+        {"info_shared", test_info_shared},
+        {"deformed_write", test_deformed_write},
+        {"set_positions_normals", test_set_positions_normals},
+        {"obj_jacobian_and_transcode_deformed", test_obj_jacobian_and_transcode_deformed},
+        {"cross_format", test_cross_format},
+        {"create_and_info", test_create_and_info},
+        {"bad_inputs", test_bad_inputs},
+        {"bad_files", test_bad_files},
+        {"truncated_prefixes", test_truncated_prefixes},
+        {"atomic_write", test_atomic_write},
+        {"failing_allocations", test_failing_allocations},
+    };
+    return check_run(tests, sizeof tests / sizeof *tests, argc, argv);
+}

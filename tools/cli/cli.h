@@ -1,0 +1,57 @@
+/* cli — what the `ffd` subcommands share: exit codes, messages, option helpers,
+ * JSON output. The subcommands only parse, call the library and print. */
+#ifndef FFD_CLI_H
+#define FFD_CLI_H
+
+#include "ffd.h"
+
+#include <stdio.h>
+
+#if defined(__GNUC__)
+#define CLI_PRINTF(a, b) __attribute__((format(printf, a, b)))
+#else
+#define CLI_PRINTF(a, b)
+#endif
+
+enum {
+    CLI_EXIT_OK = 0,
+    CLI_EXIT_INPUT = 1, /* a file could not be read, parsed, deformed or written */
+    CLI_EXIT_USAGE = 2  /* bad command line */
+};
+
+/* Prints "ffd: MESSAGE" to stderr and returns code. */
+int cli_error(int code, const char *fmt, ...) CLI_PRINTF(2, 3);
+/* Prints "ffd: MESSAGE" and a pointer to `ffd COMMAND --help`; returns CLI_EXIT_USAGE. */
+int cli_usage_error(const char *command, const char *fmt, ...) CLI_PRINTF(2, 3);
+
+/* 1 when arg is -h or --help. */
+int cli_is_help(const char *arg);
+
+/* Matches an option taking a value, as "NAME VALUE" or "NAME=VALUE" (short
+ * names only the first form). Returns 1 and sets *value (advancing *i) on a
+ * match, 0 when argv[*i] is another argument, -1 when the value is missing. */
+int cli_option_value(int argc, char **argv, int *i, const char *name, const char *short_name,
+                     const char **value);
+
+/* Matches --ascii, --binary, --binary-be. Returns 1 and sets *encoding on a
+ * match, 0 when arg is something else, -1 when another encoding was already given. */
+int cli_encoding_option(const char *arg, ffd_encoding *encoding);
+
+/* Checks an output path before any work: a known mesh extension, and not the
+ * input file (same path, or same device and inode) unless in_place. Returns 0,
+ * or prints a usage error for command and returns CLI_EXIT_USAGE. */
+int cli_check_output(const char *command, const char *in, const char *out, int in_place);
+
+/* Monotonic seconds. */
+double cli_now(void);
+
+/* JSON output: a quoted, escaped string; a number (null when not finite). */
+void cli_json_string(FILE *f, const char *s);
+void cli_json_number(FILE *f, double v);
+
+/* Subcommands: argv[0] is the command name. Each returns the exit code. */
+int cmd_info(int argc, char **argv);
+int cmd_convert(int argc, char **argv);
+int cmd_deform(int argc, char **argv);
+
+#endif

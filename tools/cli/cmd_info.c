@@ -1,0 +1,114 @@
+/* ffd info — a mesh's counts, bounding box and edge topology, as text or JSON. */
+#include "cli.h"
+
+#include <string.h>
+
+static const char usage[] =
+    "usage: ffd info MESH [--json]\n"
+    "\n"
+    "Prints the vertex, face, corner, edge, normal and texture-coordinate counts,\n"
+    "the bounding box, whether the surface is closed, and its boundary and\n"
+    "non-manifold edges (after welding exactly equal positions).\n"
+    "\n"
+    "options:\n"
+    "  --json      one JSON object on stdout instead of text\n"
+    "  -h, --help  this help\n";
+
+static const char *format_name(ffd_format format)
+{
+    switch (format) {
+    case FFD_FORMAT_OBJ: return "obj";
+    case FFD_FORMAT_PLY: return "ply";
+    case FFD_FORMAT_OFF: return "off";
+    case FFD_FORMAT_STL: return "stl";
+    case FFD_FORMAT_AUTO: break;
+    }
+    return "unknown";
+}
+
+static void print_json(const char *path, ffd_format format, const ffd_mesh_info *info)
+{
+    printf("{\"file\": ");
+    cli_json_string(stdout, path);
+    printf(", \"format\": \"%s\", \"vertices\": %zu, \"faces\": %zu, \"corners\": %zu,"
+           " \"welded_vertices\": %zu, \"edges\": %zu, \"boundary_edges\": %zu,"
+           " \"nonmanifold_edges\": %zu, \"closed\": %s, \"normals\": %zu, \"texcoords\": %zu",
+           format_name(format), info->vertex_count, info->face_count, info->corner_count,
+           info->welded_vertex_count, info->edge_count, info->boundary_edge_count,
+           info->nonmanifold_edge_count, info->closed ? "true" : "false", info->normal_count,
+           info->texcoord_count);
+    if (info->vertex_count == 0) {
+        printf(", \"bbox\": null}\n");
+        return;
+    }
+    printf(", \"bbox\": {\"min\": [");
+    for (int a = 0; a < 3; a++) {
+        printf(a ? ", " : "");
+        cli_json_number(stdout, info->bbox_min[a]);
+    }
+    printf("], \"max\": [");
+    for (int a = 0; a < 3; a++) {
+        printf(a ? ", " : "");
+        cli_json_number(stdout, info->bbox_max[a]);
+    }
+    printf("]}}\n");
+}
+
+static void print_text(const char *path, ffd_format format, const ffd_mesh_info *info)
+{
+    printf("%s (%s)\n", path, format_name(format));
+    printf("  vertices            %zu (%zu distinct positions)\n", info->vertex_count,
+           info->welded_vertex_count);
+    printf("  faces               %zu (%zu corners)\n", info->face_count, info->corner_count);
+    printf("  edges               %zu\n", info->edge_count);
+    printf("  boundary edges      %zu\n", info->boundary_edge_count);
+    printf("  non-manifold edges  %zu\n", info->nonmanifold_edge_count);
+    printf("  surface             %s\n", info->closed ? "closed" : "open");
+    printf("  normals             %zu\n", info->normal_count);
+    printf("  texcoords           %zu\n", info->texcoord_count);
+    if (info->vertex_count) {
+        printf("  bbox min            %.9g %.9g %.9g\n", info->bbox_min[0], info->bbox_min[1],
+               info->bbox_min[2]);
+        printf("  bbox max            %.9g %.9g %.9g\n", info->bbox_max[0], info->bbox_max[1],
+               info->bbox_max[2]);
+    }
+}
+
+int cmd_info(int argc, char **argv)
+{
+    const char *path = NULL;
+    int json = 0;
+    for (int i = 1; i < argc; i++) {
+        const char *arg = argv[i];
+        if (cli_is_help(arg)) {
+            fputs(usage, stdout);
+            return CLI_EXIT_OK;
+        } else if (strcmp(arg, "--json") == 0) {
+            json = 1;
+        } else if (arg[0] == '-' && arg[1] != 0) {
+            return cli_usage_error("info", "unknown option '%s'", arg);
+        } else if (!path) {
+            path = arg;
+        } else {
+            return cli_usage_error("info", "unexpected argument '%s' (one MESH only)", arg);
+        }
+    }
+    if (!path)
+        return cli_usage_error("info", "missing MESH");
+
+    ffd_error err = {{0}};
+    ffd_mesh *mesh = NULL;
+    if (ffd_mesh_read(path, &mesh, &err) != FFD_OK)
+        return cli_error(CLI_EXIT_INPUT, "%s", err.message);
+    ffd_mesh_info info;
+    ffd_status s = ffd_mesh_compute_info(mesh, &info, &err);
+    ffd_format format = ffd_mesh_source_format(mesh);
+    ffd_mesh_destroy(mesh);
+    if (s != FFD_OK)
+        return cli_error(CLI_EXIT_INPUT, "%s", err.message);
+    if (json)
+        print_json(path, format, &info);
+    else
+        print_text(path, format, &info);
+    return CLI_EXIT_OK;
+}

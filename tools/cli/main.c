@@ -1,0 +1,169 @@
+/* ffd — the command-line tool: dispatch to one subcommand per file, and the
+ * helpers they share (cli.h). docs/cli.md is the manual. */
+#include "cli.h"
+
+#include <math.h>
+#include <stdarg.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <time.h>
+
+static const char usage[] =
+    "usage: ffd COMMAND [ARGS]\n"
+    "       ffd --help | --version\n"
+    "\n"
+    "Free-form deformation of triangle and polygon meshes (OBJ, PLY, OFF, STL).\n"
+    "\n"
+    "commands:\n"
+    "  info MESH [--json]                     counts, bounding box and edge topology\n"
+    "  convert IN OUT [--ascii|--binary|--binary-be]\n"
+    "                                         rewrite a mesh in the format of OUT's extension\n"
+    "  deform IN -o OUT --rig RIG [--report] [--timings] [--in-place]\n"
+    "         [--ascii|--binary|--binary-be]  apply a rig (JSON or PyGeM .prm) to a mesh\n"
+    "\n"
+    "Run 'ffd COMMAND --help' for a command's options.\n"
+    "Exit status: 0 success, 1 bad or unreadable input (or a failed write), 2 usage error.\n";
+
+int cli_error(int code, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    fputs("ffd: ", stderr);
+    vfprintf(stderr, fmt, ap);
+    fputc('\n', stderr);
+    va_end(ap);
+    return code;
+}
+
+int cli_usage_error(const char *command, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    fputs("ffd: ", stderr);
+    vfprintf(stderr, fmt, ap);
+    fputc('\n', stderr);
+    va_end(ap);
+    if (command)
+        fprintf(stderr, "Try 'ffd %s --help'.\n", command);
+    else
+        fputs("Try 'ffd --help'.\n", stderr);
+    return CLI_EXIT_USAGE;
+}
+
+int cli_is_help(const char *arg)
+{
+    return strcmp(arg, "-h") == 0 || strcmp(arg, "--help") == 0;
+}
+
+int cli_option_value(int argc, char **argv, int *i, const char *name, const char *short_name,
+                     const char **value)
+{
+    const char *arg = argv[*i];
+    size_t len = strlen(name);
+    if (strncmp(arg, name, len) == 0 && arg[len] == '=') {
+        *value = arg + len + 1;
+        return 1;
+    }
+    if (strcmp(arg, name) != 0 && !(short_name && strcmp(arg, short_name) == 0))
+        return 0;
+    if (*i + 1 >= argc)
+        return -1;
+    *value = argv[++*i];
+    return 1;
+}
+
+int cli_encoding_option(const char *arg, ffd_encoding *encoding)
+{
+    ffd_encoding e;
+    if (strcmp(arg, "--ascii") == 0)
+        e = FFD_ENCODING_ASCII;
+    else if (strcmp(arg, "--binary") == 0)
+        e = FFD_ENCODING_BINARY_LE;
+    else if (strcmp(arg, "--binary-be") == 0)
+        e = FFD_ENCODING_BINARY_BE;
+    else
+        return 0;
+    if (*encoding != FFD_ENCODING_SAME && *encoding != e)
+        return -1;
+    *encoding = e;
+    return 1;
+}
+
+static int same_file(const char *a, const char *b)
+{
+    struct stat sa, sb;
+    if (strcmp(a, b) == 0)
+        return 1;
+    if (stat(a, &sa) != 0 || stat(b, &sb) != 0)
+        return 0;
+    return sa.st_dev == sb.st_dev && sa.st_ino == sb.st_ino;
+}
+
+int cli_check_output(const char *command, const char *in, const char *out, int in_place)
+{
+    if (ffd_format_from_path(out) == FFD_FORMAT_AUTO)
+        return cli_usage_error(command,
+                               "%s: unknown output format (expected .obj, .ply, .off or .stl)", out);
+    int same = same_file(in, out);
+    if (!in_place && same)
+        return cli_usage_error(command,
+                               "%s: the output is the input file; pass --in-place to overwrite it",
+                               out);
+    if (in_place && !same)
+        return cli_usage_error(command, "--in-place: %s is not the input file", out);
+    return 0;
+}
+
+double cli_now(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+void cli_json_string(FILE *f, const char *s)
+{
+    fputc('"', f);
+    for (const unsigned char *p = (const unsigned char *)s; *p; p++) {
+        if (*p == '"' || *p == '\\')
+            fprintf(f, "\\%c", *p);
+        else if (*p < 0x20)
+            fprintf(f, "\\u%04x", *p);
+        else
+            fputc(*p, f);
+    }
+    fputc('"', f);
+}
+
+void cli_json_number(FILE *f, double v)
+{
+    if (isfinite(v))
+        fprintf(f, "%.17g", v);
+    else
+        fputs("null", f);
+}
+
+int main(int argc, char **argv)
+{
+    if (argc < 2)
+        return cli_usage_error(NULL, "missing command (info, convert, deform)");
+    const char *command = argv[1];
+    if (cli_is_help(command)) {
+        fputs(usage, stdout);
+        return CLI_EXIT_OK;
+    }
+    if (strcmp(command, "--version") == 0) {
+        printf("ffd %d.%d.%d\n", FFD_VERSION_MAJOR, FFD_VERSION_MINOR, FFD_VERSION_PATCH);
+        return CLI_EXIT_OK;
+    }
+    if (strcmp(command, "info") == 0)
+        return cmd_info(argc - 1, argv + 1);
+    if (strcmp(command, "convert") == 0)
+        return cmd_convert(argc - 1, argv + 1);
+    if (strcmp(command, "deform") == 0)
+        return cmd_deform(argc - 1, argv + 1);
+    if (command[0] == '-')
+        return cli_usage_error(NULL, "unknown option '%s'", command);
+    return cli_usage_error(NULL, "unknown command '%s' (expected info, convert or deform)",
+                           command);
+}
