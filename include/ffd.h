@@ -140,7 +140,8 @@ const uint32_t *ffd_mesh_face_indices(const ffd_mesh *mesh);
 /* Normals stored in the file (OBJ vn, PLY nx/ny/nz, STL facet normals):
  * #N by 3. normal_anchor[i] is the vertex whose deformation carries normal i
  * (OBJ: the first vertex that uses it in a face; PLY: its vertex; STL: the
- * first corner of its facet). NULL when the mesh has none. */
+ * first corner of its facet), or UINT32_MAX for an OBJ normal no face uses
+ * (left unchanged by ffd_mesh_set_positions). NULL when the mesh has none. */
 size_t ffd_mesh_normal_count(const ffd_mesh *mesh);
 const double *ffd_mesh_normals(const ffd_mesh *mesh);
 const uint32_t *ffd_mesh_normal_anchors(const ffd_mesh *mesh);
@@ -160,7 +161,8 @@ typedef struct ffd_mesh_info {
     size_t face_count;
     size_t corner_count;           /* sum of face sizes */
     size_t welded_vertex_count;    /* distinct positions (exactly equal coordinates merged) */
-    size_t edge_count;             /* undirected edges after welding */
+    size_t edge_count;             /* undirected edges between the file's vertex indices
+                                      (STL: between welded positions, since STL has no indices) */
     size_t boundary_edge_count;    /* edges used by one face */
     size_t nonmanifold_edge_count; /* edges used by three or more faces */
     size_t normal_count;
@@ -170,7 +172,9 @@ typedef struct ffd_mesh_info {
     double bbox_max[3];
 } ffd_mesh_info;
 
-/* Counts, bounding box and edge topology (after welding equal positions). */
+/* Counts, bounding box and edge topology. Edges join the file's own vertex
+ * indices, so unwelded patches (the teapot) show their boundaries; STL facets
+ * are joined through welded positions. */
 ffd_status ffd_mesh_compute_info(const ffd_mesh *mesh, ffd_mesh_info *info, ffd_error *err);
 
 /* ======================================================================
@@ -235,8 +239,8 @@ typedef enum ffd_basis {
 typedef enum ffd_outside {
     FFD_OUTSIDE_FIXED = 0,   /* keep their position (default) */
     FFD_OUTSIDE_CLAMP,       /* move with the nearest boundary point: continuous across the boundary */
-    FFD_OUTSIDE_EXTRAPOLATE  /* Bernstein: evaluate the polynomials outside [0,1] (PyGeM-like);
-                                B-spline: same as CLAMP */
+    FFD_OUTSIDE_EXTRAPOLATE  /* Bernstein: evaluate the polynomials outside [0,1];
+                                B-spline: same as CLAMP. (PyGeM keeps outside points FIXED.) */
 } ffd_outside;
 
 /* Parallelepiped: x = origin + s*axes[0] + t*axes[1] + u*axes[2], (s,t,u) in [0,1]^3. */
@@ -342,8 +346,15 @@ typedef struct ffd_rig_report {
     double max_residual;
     size_t outside_count;     /* vertices outside the lattice */
     ffd_timings timings;
+    uint32_t resolution[3];   /* the lattice's l, m, n */
+    double *control_points;   /* l*m*n by 3: the deformed lattice, index (i*m + j)*n + k */
 } ffd_rig_report;
 void ffd_rig_report_free(ffd_rig_report *report);
+
+/* Writes the report's deformed lattice as an OBJ file (one 'v' per control
+ * point, 'l' lines along the three lattice directions), atomically. */
+ffd_status ffd_rig_report_write_lattice(const ffd_rig_report *report, const char *path,
+                                        ffd_error *err);
 
 /* Applies the rig to the mesh: builds the deformer, binds the vertices,
  * applies moves, then solves the constraints, evaluates, and sets the mesh's

@@ -17,6 +17,7 @@ void ffd_rig_report_free(ffd_rig_report *report)
         return;
     ffd_free(report->residuals);
     ffd_free(report->reached);
+    ffd_free(report->control_points);
     memset(report, 0, sizeof *report);
 }
 
@@ -230,6 +231,12 @@ ffd_status ffd_rig_apply(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report *rep
         report->max_residual = result.max_residual;
         report->outside_count = outside_count;
         report->timings = timings;
+        size_t nc = ffd_lattice_control_count(lattice);
+        report->control_points = ffd_malloc_array(nc, 3 * sizeof(double));
+        if (report->control_points)
+            memcpy(report->control_points, ffd_lattice_control_points(lattice),
+                   nc * 3 * sizeof(double));
+        ffd_lattice_resolution(lattice, report->resolution);
     }
 fail:
     ffd_lattice_binding_destroy(pins);
@@ -242,5 +249,38 @@ fail:
     ffd_free(rows);
     ffd_free(deformed);
     ffd_free(jacobians);
+    return s;
+}
+
+ffd_status ffd_rig_report_write_lattice(const ffd_rig_report *report, const char *path,
+                                        ffd_error *err)
+{
+    if (!report || !report->control_points)
+        return ffd_fail(err, FFD_ERR_INVALID, "%s: the report holds no lattice", path);
+    const uint32_t l = report->resolution[0], m = report->resolution[1], n = report->resolution[2];
+    size_t count = (size_t)l * m * n;
+    /* at most ~80 bytes per vertex line and 3 lines per point of ~36 bytes */
+    size_t cap = 64 + count * (80 + 3 * 40);
+    char *buf = ffd_malloc(cap);
+    if (!buf)
+        return ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory", path);
+    size_t len = (size_t)snprintf(buf, cap, "# ffdkit lattice %ux%ux%u\n", l, m, n);
+    for (size_t i = 0; i < count; i++) {
+        const double *p = report->control_points + 3 * i;
+        len += (size_t)snprintf(buf + len, cap - len, "v %.17g %.17g %.17g\n", p[0], p[1], p[2]);
+    }
+    for (uint32_t i = 0; i < l; i++)
+        for (uint32_t j = 0; j < m; j++)
+            for (uint32_t k = 0; k < n; k++) {
+                size_t a = ((size_t)i * m + j) * n + k + 1; /* OBJ indices are 1-based */
+                if (i + 1 < l)
+                    len += (size_t)snprintf(buf + len, cap - len, "l %zu %zu\n", a, a + (size_t)m * n);
+                if (j + 1 < m)
+                    len += (size_t)snprintf(buf + len, cap - len, "l %zu %zu\n", a, a + n);
+                if (k + 1 < n)
+                    len += (size_t)snprintf(buf + len, cap - len, "l %zu %zu\n", a, a + 1);
+            }
+    ffd_status s = ffd_write_file_atomic(path, buf, len, err);
+    ffd_free(buf);
     return s;
 }

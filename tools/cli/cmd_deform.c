@@ -17,6 +17,7 @@ static const char usage[] =
     "  -r, --rig RIG     the rig file\n"
     "  --in-place        allow OUT to be IN (OUT defaults to IN)\n"
     "  --report          print the constraint residuals as JSON on stdout\n"
+    "  --lattice-out F   also write the deformed lattice to F (OBJ: points and lines)\n"
     "  --timings         print the seconds per phase as JSON on stderr\n"
     "  --ascii           text encoding (PLY, STL)\n"
     "  --binary          binary little-endian (PLY, STL)\n"
@@ -50,7 +51,7 @@ static void print_timings(double read, const ffd_timings *t, double write)
 
 int cmd_deform(int argc, char **argv)
 {
-    const char *in = NULL, *out = NULL, *rig_path = NULL;
+    const char *in = NULL, *out = NULL, *rig_path = NULL, *lattice_out = NULL;
     ffd_write_options options = {FFD_FORMAT_AUTO, FFD_ENCODING_SAME};
     int in_place = 0, want_report = 0, want_timings = 0;
     for (int i = 1; i < argc; i++) {
@@ -63,6 +64,10 @@ int cmd_deform(int argc, char **argv)
             if (e < 0)
                 return cli_usage_error("deform", "'%s' needs a value", arg);
         } else if ((e = cli_option_value(argc, argv, &i, "--rig", "-r", &rig_path)) != 0) {
+            if (e < 0)
+                return cli_usage_error("deform", "'%s' needs a value", arg);
+        } else if ((e = cli_option_value(argc, argv, &i, "--lattice-out", NULL, &lattice_out)) !=
+                   0) {
             if (e < 0)
                 return cli_usage_error("deform", "'%s' needs a value", arg);
         } else if ((e = cli_encoding_option(arg, &options.encoding)) != 0) {
@@ -117,6 +122,10 @@ int cmd_deform(int argc, char **argv)
         goto done;
     }
     double t3 = cli_now();
+    if (lattice_out && ffd_rig_report_write_lattice(&report, lattice_out, &err) != FFD_OK) {
+        cli_error(code, "%s", err.message);
+        goto done;
+    }
     if (want_report)
         print_report(&report);
     if (want_timings)

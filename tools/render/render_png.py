@@ -1,10 +1,11 @@
 #!/usr/bin/env python3
 """Renders meshes side by side into a PNG for the docs (no dependencies beyond Python 3).
 
-Usage: render_png.py OUT.png [--lattice LATTICE.obj] MESH.obj [MESH2.obj ...]
+Usage: render_png.py OUT.png MESH.obj[:LATTICE.obj] [MESH2.obj[:LATTICE2.obj] ...]
 Each mesh is drawn flat-shaded with a z-buffer, all with the same camera, in panels
-left to right. Reads OBJ 'v' and 'f' lines only (convert other formats with `ffd convert`).
-An optional lattice OBJ (vertices + 'l' lines) is drawn as dots and lines over the last panel.
+left to right. Reads OBJ 'v', 'f' and 'l' lines only (convert other formats with
+`ffd convert`). A lattice OBJ (as written by `ffd deform --lattice-out`) is drawn
+over its panel: red in front of the mesh, pale behind it.
 """
 import math
 import struct
@@ -46,7 +47,7 @@ def camera(points):
         x, y, z = (p[c] - centre[c] for c in range(3))
         x, z = x * math.cos(yaw) + z * math.sin(yaw), -x * math.sin(yaw) + z * math.cos(yaw)
         y, z = y * math.cos(pitch) - z * math.sin(pitch), y * math.sin(pitch) + z * math.cos(pitch)
-        s = 0.8 * W / size
+        s = 0.62 * W / size
         return (W / 2 + s * x, H / 2 - s * y, z)
     return project
 
@@ -88,19 +89,24 @@ def render(mesh, project, lattice=None):
     if lattice:
         lv, _, ll = lattice
         lp = [project(v) for v in lv]
+
+        def plot(x, y, z, front, behind):
+            if 0 <= x < W and 0 <= y < H:
+                if z >= zb[y][x]:
+                    img[y][x] = front
+                else:
+                    r, g, b = img[y][x]
+                    img[y][x] = ((r + behind[0]) // 2, (g + behind[1]) // 2, (b + behind[2]) // 2)
         for a, b in ll:
             n = int(max(abs(lp[a][0] - lp[b][0]), abs(lp[a][1] - lp[b][1]))) + 1
             for k in range(n + 1):
-                x = int(lp[a][0] + (lp[b][0] - lp[a][0]) * k / n)
-                y = int(lp[a][1] + (lp[b][1] - lp[a][1]) * k / n)
-                if 0 <= x < W and 0 <= y < H:
-                    img[y][x] = (200, 60, 40)
+                f = k / n
+                plot(int(lp[a][0] + (lp[b][0] - lp[a][0]) * f), int(lp[a][1] + (lp[b][1] - lp[a][1]) * f),
+                     lp[a][2] + (lp[b][2] - lp[a][2]) * f, (200, 60, 40), (230, 150, 140))
         for p in lp:
             for dy in range(-2, 3):
                 for dx in range(-2, 3):
-                    x, y = int(p[0]) + dx, int(p[1]) + dy
-                    if 0 <= x < W and 0 <= y < H:
-                        img[y][x] = (180, 30, 20)
+                    plot(int(p[0]) + dx, int(p[1]) + dy, p[2], (170, 20, 10), (220, 120, 110))
     return img
 
 
@@ -117,15 +123,15 @@ def write_png(path, rows):
 
 
 def main(argv):
-    out, args, lattice = argv[1], argv[2:], None
-    if args[0] == '--lattice':
-        lattice = read_obj(args[1])
-        args = args[2:]
-    meshes = [read_obj(p) for p in args]
-    allp = [v for m in meshes for v in m[0]] + (lattice[0] if lattice else [])
+    out, args = argv[1], argv[2:]
+    meshes, lattices = [], []
+    for a in args:
+        mesh, _, lat = a.partition(':')
+        meshes.append(read_obj(mesh))
+        lattices.append(read_obj(lat) if lat else None)
+    allp = [v for m in meshes for v in m[0]] + [v for l in lattices if l for v in l[0]]
     project = camera(allp)
-    panels = [render(m, project, lattice if i == len(meshes) - 1 else None)
-              for i, m in enumerate(meshes)]
+    panels = [render(m, project, l) for m, l in zip(meshes, lattices)]
     rows = [sum((p[y] for p in panels), []) for y in range(H)]
     write_png(out, rows)
 
