@@ -114,6 +114,8 @@ void ffd_buf_put(ffd_buf *b, const void *p, size_t n);
 void ffd_buf_puts(ffd_buf *b, const char *s);
 void ffd_buf_printf(ffd_buf *b, const char *fmt, ...) FFD_PRINTF(2, 3);
 void ffd_buf_double(ffd_buf *b, double v); /* shortest round-trip text */
+/* "<prefix>x y z\n" with shortest round-trip numbers (prefix may be ""). */
+void ffd_buf_vec3_line(ffd_buf *b, const char *prefix, const double p[3]);
 void ffd_buf_free(ffd_buf *b);
 
 /* ---- readers: take ownership of data (NUL at data[size]) in all cases ---- */

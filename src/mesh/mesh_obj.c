@@ -245,24 +245,10 @@ ffd_status ffd_obj_write(const ffd_mesh *m, ffd_buf *b, ffd_error *err)
     ffd_buf_printf(b, "# written by ffdkit: %zu vertices, %zu faces\n", m->vertex_count,
                    m->face_count);
     for (size_t i = 0; i < m->vertex_count; i++) {
-        const double *p = m->positions + 3 * i;
-        ffd_buf_puts(b, "v ");
-        ffd_buf_double(b, p[0]);
-        ffd_buf_puts(b, " ");
-        ffd_buf_double(b, p[1]);
-        ffd_buf_puts(b, " ");
-        ffd_buf_double(b, p[2]);
-        ffd_buf_puts(b, "\n");
+        ffd_buf_vec3_line(b, "v ", m->positions + 3 * i);
     }
     for (size_t i = 0; vn && i < m->normal_count; i++) {
-        const double *p = m->normals + 3 * i;
-        ffd_buf_puts(b, "vn ");
-        ffd_buf_double(b, p[0]);
-        ffd_buf_puts(b, " ");
-        ffd_buf_double(b, p[1]);
-        ffd_buf_puts(b, " ");
-        ffd_buf_double(b, p[2]);
-        ffd_buf_puts(b, "\n");
+        ffd_buf_vec3_line(b, "vn ", m->normals + 3 * i);
     }
     for (size_t f = 0; f < m->face_count && !b->oom; f++) {
         ffd_buf_puts(b, "f");

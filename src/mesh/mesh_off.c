@@ -252,13 +252,7 @@ ffd_status ffd_off_write(const ffd_mesh *m, ffd_buf *b, ffd_error *err)
 {
     ffd_buf_printf(b, "OFF\n%zu %zu 0\n", m->vertex_count, m->face_count);
     for (size_t i = 0; i < m->vertex_count && !b->oom; i++) {
-        const double *p = m->positions + 3 * i;
-        ffd_buf_double(b, p[0]);
-        ffd_buf_puts(b, " ");
-        ffd_buf_double(b, p[1]);
-        ffd_buf_puts(b, " ");
-        ffd_buf_double(b, p[2]);
-        ffd_buf_puts(b, "\n");
+        ffd_buf_vec3_line(b, "", m->positions + 3 * i);
     }
     for (size_t f = 0; f < m->face_count && !b->oom; f++) {
         ffd_buf_printf(b, "%u", m->face_offsets[f + 1] - m->face_offsets[f]);

@@ -88,6 +88,17 @@ void ffd_buf_double(ffd_buf *b, double v)
     ffd_buf_put(b, tmp, (size_t)n);
 }
 
+void ffd_buf_vec3_line(ffd_buf *b, const char *prefix, const double p[3])
+{
+    ffd_buf_puts(b, prefix);
+    ffd_buf_double(b, p[0]);
+    ffd_buf_puts(b, " ");
+    ffd_buf_double(b, p[1]);
+    ffd_buf_puts(b, " ");
+    ffd_buf_double(b, p[2]);
+    ffd_buf_puts(b, "\n");
+}
+
 void ffd_buf_free(ffd_buf *b)
 {
     ffd_free(b->data);

@@ -3,17 +3,8 @@
 # convert, deform with --report and --timings, --in-place.
 # usage: bash test_cli.sh PATH_TO_ffd SOURCE_DIR
 set -u
-FFD=$1
-SRC=$2
+source "$(dirname "$0")/lib.sh" "$@"
 DATA=$SRC/tests/data/rig
-T=$(mktemp -d)
-trap 'rm -rf "$T"' EXIT
-failures=0
-
-fail() {
-    echo "FAIL: $*"
-    failures=$((failures + 1))
-}
 
 # ok ARGS...: runs ffd ARGS, expecting exit status 0; stdout in $T/stdout, stderr in $T/stderr.
 ok() {

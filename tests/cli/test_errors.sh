@@ -4,17 +4,8 @@
 # no temporary file left behind.
 # usage: bash test_errors.sh PATH_TO_ffd SOURCE_DIR
 set -u
-FFD=$1
-SRC=$2
+source "$(dirname "$0")/lib.sh" "$@"
 DATA=$SRC/tests/data/rig
-T=$(mktemp -d)
-trap 'rm -rf "$T"' EXIT
-failures=0
-
-fail() {
-    echo "FAIL: $*"
-    failures=$((failures + 1))
-}
 
 # expect CODE FRAGMENT ARGS...: runs ffd ARGS, checks the exit code and that
 # stderr holds FRAGMENT (and starts with "ffd: ").

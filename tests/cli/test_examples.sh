@@ -4,18 +4,9 @@
 # topology (ffd info --json), same non-vertex lines, at least one moved vertex.
 # usage: bash test_examples.sh PATH_TO_ffd SOURCE_DIR
 set -u
-FFD=$1
-SRC=$2
+source "$(dirname "$0")/lib.sh" "$@"
 EX=$SRC/examples/lattice
 MESH=$EX/bunny.obj
-T=$(mktemp -d)
-trap 'rm -rf "$T"' EXIT
-failures=0
-
-fail() {
-    echo "FAIL: $*"
-    failures=$((failures + 1))
-}
 
 # info --json without the file name and the bounding box: what must not change.
 topology() {
