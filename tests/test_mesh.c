@@ -799,7 +799,49 @@ static void test_atomic_write(void)
     CHECK(d && want && size == want_size && memcmp(d, want, size) == 0);
     ffd_free(d);
     ffd_free(want);
+    /* an existing file keeps its permissions; a symbolic link stays a link */
+    chmod(path, 0600);
+    CHECK_OK(ffd_mesh_write(m, path, NULL, &check_err_));
+    struct stat st;
+    CHECK(stat(path, &st) == 0 && (st.st_mode & 0777) == 0600);
+    const char *link = "test_mesh_atomic_link.obj";
+    remove(link);
+    CHECK(symlink(path, link) == 0);
+    CHECK_OK(ffd_mesh_write(m, link, NULL, &check_err_));
+    struct stat lst;
+    CHECK(lstat(link, &lst) == 0 && S_ISLNK(lst.st_mode));
+    remove(link);
     remove(path);
+    ffd_mesh_destroy(m);
+}
+
+/* a PLY value outside its declared type is refused, never clamped or overflowed */
+static void test_ply_value_range(void)
+{
+    const char *ply = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\n"
+                      "property float y\nproperty float z\nelement face 1\n"
+                      "property list uchar int vertex_indices\nend_header\n"
+                      "0 0 0\n1 0 1e300\n0 1 0\n3 0 1 2\n";
+    ffd_mesh *m = NULL;
+    ffd_error err = {{0}};
+    CHECK(ffd_mesh_read_memory(ply, strlen(ply), FFD_FORMAT_PLY, "range.ply", &m, &err) ==
+          FFD_ERR_RANGE);
+    CHECK(m == NULL && strstr(err.message, "range.ply:") && strstr(err.message, "float"));
+    /* a deformation that leaves float range cannot be written as binary float */
+    const char *ok = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\n"
+                     "property float y\nproperty float z\nelement face 1\n"
+                     "property list uchar int vertex_indices\nend_header\n"
+                     "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
+    CHECK_OK(ffd_mesh_read_memory(ok, strlen(ok), FFD_FORMAT_PLY, "ok.ply", &m, &check_err_));
+    if (!m)
+        return;
+    double p[9] = {0, 0, 0, 1e300, 0, 0, 0, 1, 0};
+    CHECK_OK(ffd_mesh_set_positions(m, p, NULL, &check_err_));
+    ffd_write_options bin = {FFD_FORMAT_PLY, FFD_ENCODING_BINARY_LE};
+    unsigned char *data = NULL;
+    size_t size = 0;
+    CHECK(ffd_mesh_write_memory(m, &bin, &data, &size, &err) == FFD_ERR_RANGE);
+    CHECK(data == NULL);
     ffd_mesh_destroy(m);
 }
 
@@ -889,6 +931,7 @@ int main(int argc, char **argv)
         {"bad_files", test_bad_files},
         {"truncated_prefixes", test_truncated_prefixes},
         {"atomic_write", test_atomic_write},
+        {"ply_value_range", test_ply_value_range},
         {"failing_allocations", test_failing_allocations},
     };
     return check_run(tests, sizeof tests / sizeof *tests, argc, argv);

@@ -1,5 +1,7 @@
 /* core — whole-file reading and atomic writing (temporary file + rename). */
-#define _POSIX_C_SOURCE 200809L
+#ifndef _XOPEN_SOURCE
+#define _XOPEN_SOURCE 700 /* realpath */
+#endif
 #include "core.h"
 
 #include <errno.h>
@@ -58,14 +60,29 @@ ffd_status ffd_read_file(const char *path, unsigned char **data, size_t *size, f
 
 ffd_status ffd_write_file_atomic(const char *path, const void *data, size_t size, ffd_error *err)
 {
+    const char *shown = path; /* messages name the path the caller gave */
+    char *target = NULL;
+    struct stat lst;
+    /* write through a symbolic link: replace the file it points to, keep the link */
+    if (lstat(path, &lst) == 0 && S_ISLNK(lst.st_mode)) {
+        target = realpath(path, NULL);
+        if (!target)
+            return ffd_fail(err, FFD_ERR_IO, "%s: cannot resolve symbolic link: %s", path,
+                            strerror(errno));
+        path = target;
+    }
     size_t len = strlen(path);
     char *tmp = ffd_malloc(len + 32);
-    if (!tmp)
-        return ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory", path);
+    if (!tmp) {
+        free(target);
+        return ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory", shown);
+    }
     struct stat st;
-    if (stat(path, &st) == 0 && S_ISDIR(st.st_mode)) {
+    int exists = stat(path, &st) == 0;
+    if (exists && S_ISDIR(st.st_mode)) {
         ffd_free(tmp);
-        return ffd_fail(err, FFD_ERR_IO, "%s: is a directory, expected a file path", path);
+        free(target);
+        return ffd_fail(err, FFD_ERR_IO, "%s: is a directory, expected a file path", shown);
     }
     int fd = -1;
     for (int attempt = 0; attempt < 100 && fd < 0; attempt++) {
@@ -75,11 +92,15 @@ ffd_status ffd_write_file_atomic(const char *path, const void *data, size_t size
             break;
     }
     if (fd < 0) {
-        ffd_status s = ffd_fail(err, FFD_ERR_IO, "%s: cannot create temporary file: %s", path,
+        ffd_status s = ffd_fail(err, FFD_ERR_IO, "%s: cannot create temporary file: %s", shown,
                                 strerror(errno));
         ffd_free(tmp);
+        free(target);
         return s;
     }
+    /* an existing file keeps its permissions (a private file stays private) */
+    if (exists && fchmod(fd, st.st_mode & 07777) != 0)
+        goto fail;
     const unsigned char *p = data;
     size_t left = size;
     while (left > 0) {
@@ -102,6 +123,7 @@ ffd_status ffd_write_file_atomic(const char *path, const void *data, size_t size
     if (rename(tmp, path) != 0)
         goto fail;
     ffd_free(tmp);
+    free(target);
     return FFD_OK;
 fail:;
     int e = errno;
@@ -109,7 +131,8 @@ fail:;
         close(fd);
     unlink(tmp);
     ffd_free(tmp);
-    return ffd_fail(err, FFD_ERR_IO, "%s: cannot write: %s", path, strerror(e));
+    free(target);
+    return ffd_fail(err, FFD_ERR_IO, "%s: cannot write: %s", shown, strerror(e));
 }
 
 double ffd_now(void)

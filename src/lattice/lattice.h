@@ -19,7 +19,8 @@ struct ffd_lattice {
     uint32_t ext[3];     /* B-spline: l+4, m+4, n+4 (tripled-border net); Bernstein: l, m, n */
     double *P_ext;       /* B-spline: ext net by 3, kept equal to P through tie; Bernstein: == P */
     uint32_t *tie;       /* ext net -> distinct index (the compressed selection matrix S, eq. 6) */
-    /* B-spline rest map per axis: segment boundary values f(sigma), sigma = 0..res+1 */
+    /* B-spline rest map per axis: segment boundary values f(sigma), sigma = 0..res+1,
+     * then segment coefficients and inversion tables (ffd_bspline_rest_knots) */
     double *knots_value[3];
 };
 
@@ -59,14 +60,16 @@ static inline uint32_t ffd_bspline_tie(uint32_t e, uint32_t res)
     return e < 2 ? 0 : (e - 2 >= res - 1 ? res - 1 : e - 2);
 }
 
-/* Precomputes f(sigma) for sigma = 0..res+1 of the rest map (values in [0,1]). */
+/* Precomputes f(sigma) for sigma = 0..res+1 of the rest map (values in [0,1]),
+ * followed by the data ffd_bspline_invert needs (layout private to bspline_basis.c). */
 ffd_status ffd_bspline_rest_knots(uint32_t res, double **values);
 
 /* Rest map of one axis: the normalised position f(S) in [0,1] of global parameter S. */
 double ffd_bspline_rest_map(uint32_t res, double S, double *dfdS);
 
 /* Inverts the rest map of one axis: S with f(S) = x, for x in [0,1] (paper §2,
- * footnote 5: direct in the inner segments, cubic root solve in the outer two). */
+ * footnote 5: direct in the inner segments, cubic root solve in the outer two:
+ * closed form on the border segments, tabulated start + one Newton step next to them). */
 double ffd_bspline_invert(uint32_t res, const double *knot_values, double x);
 
 /* ---- Bernstein (bernstein_basis.c) ---- */

@@ -13,6 +13,7 @@
 #include "mesh.h"
 
 #include <ctype.h>
+#include <float.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -265,6 +266,20 @@ static double clamp_round(double v, double lo, double hi)
     if (!(v >= lo)) /* NaN goes low */
         return lo;
     return v > hi ? hi : v;
+}
+
+bool ffd_scalar_fits(int kind, double v)
+{
+    switch (kind) {
+    case FFD_SPAN_I8: return v >= INT8_MIN - 0.5 && v < INT8_MAX + 0.5;
+    case FFD_SPAN_U8: return v >= -0.5 && v < UINT8_MAX + 0.5;
+    case FFD_SPAN_I16: return v >= INT16_MIN - 0.5 && v < INT16_MAX + 0.5;
+    case FFD_SPAN_U16: return v >= -0.5 && v < UINT16_MAX + 0.5;
+    case FFD_SPAN_I32: return v >= INT32_MIN - 0.5 && v < INT32_MAX + 0.5;
+    case FFD_SPAN_U32: return v >= -0.5 && v < UINT32_MAX + 0.5;
+    case FFD_SPAN_F32: return isfinite(v) && fabs(v) <= FLT_MAX;
+    default: return isfinite(v);
+    }
 }
 
 void ffd_write_scalar(unsigned char *p, int kind, bool big_endian, double v)

@@ -99,6 +99,8 @@ size_t ffd_span_kind_size(int kind);
 /* Reads a binary scalar of the kind at p. */
 double ffd_read_scalar(const unsigned char *p, int kind, bool big_endian);
 /* Writes v as kind (integers rounded and clamped) at p. */
+/* Whether v can be stored in a binary/typed property of this kind without clamping. */
+bool ffd_scalar_fits(int kind, double v);
 void ffd_write_scalar(unsigned char *p, int kind, bool big_endian, double v);
 /* The value a span held in the source. */
 double ffd_span_value(const ffd_mesh *m, const ffd_span *s);

@@ -405,11 +405,26 @@ static ffd_status walk(walker *w, const ply_header *h, ffd_mesh *m, ffd_error *e
                             return ffd_fail(err, FFD_ERR_NONFINITE, "%s: non-finite '%s' of vertex %llu",
                                             loc_fmt(w, loc, sizeof loc), what, (unsigned long long)i);
                         }
+                        if (!ffd_scalar_fits(pr->type, v)) {
+                            w->pos = at;
+                            return ffd_fail(err, FFD_ERR_RANGE,
+                                            "%s: '%s' of vertex %llu is %g, outside the range of "
+                                            "its type %s",
+                                            loc_fmt(w, loc, sizeof loc), what, (unsigned long long)i,
+                                            v, type_name(pr->type));
+                        }
                         xyz[r - 1] = v;
                         sp[r - 1] = span;
-                        if (w->subst)
+                        if (w->subst) {
                             v = r <= 3 ? w->subst->positions[3 * i + (size_t)(r - 1)]
                                        : w->subst->normals[3 * i + (size_t)(r - 4)];
+                            if (!ffd_scalar_fits(pr->type, v))
+                                return ffd_fail(err, FFD_ERR_RANGE,
+                                                "vertex %llu: '%s' = %g does not fit the file's %s "
+                                                "property",
+                                                (unsigned long long)i, what, v,
+                                                type_name(pr->type));
+                        }
                     }
                     emit(w, pr->type, v);
                     continue;

@@ -132,6 +132,11 @@ static ffd_status patch_source(const ffd_mesh *m, ffd_buf *b, ffd_error *err)
     size_t ip = next_changed(m, m->positions, m->position_spans, np, 0);
     size_t in = next_changed(m, m->normals, m->normal_spans, nn, 0);
     if (m->encoding != FFD_ENCODING_ASCII) {
+        for (size_t i = ip; i < np; i = next_changed(m, m->positions, m->position_spans, np, i + 1))
+            if (!ffd_scalar_fits(m->position_spans[i].kind, m->positions[i]))
+                return ffd_fail(err, FFD_ERR_RANGE,
+                                "vertex %zu: coordinate %g does not fit the file's binary type", i / 3,
+                                m->positions[i]);
         ffd_buf_put(b, m->src, m->src_size);
         if (b->oom)
             return ffd_fail(err, FFD_ERR_NOMEM, "out of memory writing %zu bytes", m->src_size);

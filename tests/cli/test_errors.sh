@@ -97,6 +97,7 @@ ln -s in.obj "$T/symlink.obj"
 expect 2 "the output is the input file" deform "$T/symlink.obj" -o "$T/in.obj" --rig "$T/good.json"
 expect 2 "the output is the input file" convert "$T/in.obj" "$T/./in.obj"
 expect 2 "unknown option '--frobnicate'" deform "$T/in.obj" -o "$T/out.obj" --rig "$T/good.json" --frobnicate
+expect 2 "'-o' given twice" deform "$T/in.obj" -o "$T/a.obj" -o "$T/b.obj" --rig "$T/good.json"
 expect 2 "unknown option '-x'" info "$T/in.obj" -x
 expect 2 "unknown option '--binary-le'" convert "$T/in.obj" "$T/x.ply" --binary-le
 expect 2 "missing --rig" deform "$T/in.obj" -o "$T/out.obj"

@@ -30,6 +30,8 @@ int cli_is_help(const char *arg);
 /* Matches an option taking a value, as "NAME VALUE" or "NAME=VALUE" (short
  * names only the first form). Returns 1 and sets *value (advancing *i) on a
  * match, 0 when argv[*i] is another argument, -1 when the value is missing. */
+/* Returns 1 when argv[*i] is the option (value stored), 0 when not, -1 when the value is
+ * missing, -2 when the option was already given. */
 int cli_option_value(int argc, char **argv, int *i, const char *name, const char *short_name,
                      const char **value);
 

@@ -61,11 +61,15 @@ int cli_option_value(int argc, char **argv, int *i, const char *name, const char
     const char *arg = argv[*i];
     size_t len = strlen(name);
     if (strncmp(arg, name, len) == 0 && arg[len] == '=') {
+        if (*value)
+            return -2; /* given twice */
         *value = arg + len + 1;
         return 1;
     }
     if (strcmp(arg, name) != 0 && !(short_name && strcmp(arg, short_name) == 0))
         return 0;
+    if (*value)
+        return -2;
     if (*i + 1 >= argc)
         return -1;
     *value = argv[++*i];
