@@ -1,5 +1,11 @@
 /* Benchmark: lattice bind + evaluate throughput and direct-manipulation drag steps.
- * Usage: bench_lattice [--quick] [--json]   (results go to docs/benchmarks.md by hand) */
+ * Usage: bench_lattice [--quick] [--json]   (results go to docs/benchmarks.md by hand)
+ *
+ * Point order matters: binding scatters points into per-cell ranges and evaluation
+ * scatters results back to the caller's order, so both run faster when nearby points
+ * are nearby in memory. "random" points are i.i.d. uniform (worst case); "grid" points
+ * are one jittered point per cell of a k^3 grid in scan order, as a structured mesh or
+ * volume would give them. */
 #include "ffd.h"
 
 #include <math.h>
@@ -23,6 +29,20 @@ static double rnd(void)
     rng ^= rng << 25;
     rng ^= rng >> 27;
     return (double)((rng * 2685821657736338717ull) >> 11) * (1.0 / 9007199254740992.0);
+}
+
+/* n points in the unit cube: random order, or (grid) one jittered point per cell of
+ * the smallest k^3 grid holding n cells, in scan order (x slowest, z fastest). */
+static void fill_points(double *p, size_t n, int grid)
+{
+    size_t k = 1;
+    while (k * k * k < n)
+        k++;
+    for (size_t i = 0; i < n; i++)
+        for (int c = 0; c < 3; c++) {
+            size_t g = c == 0 ? i / (k * k) : c == 1 ? (i / k) % k : i % k;
+            p[3 * i + c] = grid ? ((double)g + rnd()) / (double)k : rnd();
+        }
 }
 
 static int cmp_double(const void *a, const void *b)
@@ -51,15 +71,16 @@ int main(int argc, char **argv)
     const uint32_t lres[] = {3, 5, 8};
     const int reps = quick ? 3 : 11;
     printf("threads: %d\n", omp_get_max_threads());
-    printf("| basis | points | lattice | bind ms | evaluate ms | Mpoints/s (eval) |\n");
-    printf("|---|---:|---:|---:|---:|---:|\n");
+    printf("| basis | points | order | lattice | bind ms | evaluate ms | Mpoints/s (eval) |\n");
+    printf("|---|---:|---|---:|---:|---:|---:|\n");
     ffd_box box = {{0, 0, 0}, {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}}};
     for (int basis = 0; basis < 2; basis++)
-        for (size_t si = 0; si < 3; si++) {
-            size_t n = sizes[si];
+        for (size_t si = 0; si < 4; si++) {
+            /* the last pass repeats 1M points in grid order */
+            int grid = si == 3;
+            size_t n = sizes[grid ? 2 : si];
             double *p = malloc(3 * n * sizeof *p), *q = malloc(3 * n * sizeof *q);
-            for (size_t i = 0; i < 3 * n; i++)
-                p[i] = rnd();
+            fill_points(p, n, grid);
             for (size_t li = 0; li < 3; li++) {
                 uint32_t res[3] = {lres[li], lres[li], lres[li]};
                 ffd_lattice *lat = NULL;
@@ -79,8 +100,9 @@ int main(int argc, char **argv)
                     ffd_lattice_bind(lat, p, n, FFD_OUTSIDE_FIXED, &b, NULL);
                 });
                 MEDIAN_OF(reps, te, ffd_lattice_eval(lat, b, q, NULL));
-                printf("| %s | %zu | %u^3 | %.2f | %.2f | %.1f |\n",
-                       basis ? "bernstein" : "bspline", n, lres[li], tb * 1e3, te * 1e3,
+                printf("| %s | %zu | %s | %u^3 | %.2f | %.2f | %.1f |\n",
+                       basis ? "bernstein" : "bspline", n, grid ? "grid" : "random", lres[li],
+                       tb * 1e3, te * 1e3,
                        n / te * 1e-6);
                 fflush(stdout);
                 ffd_lattice_binding_destroy(b);
@@ -91,62 +113,64 @@ int main(int argc, char **argv)
         }
 
     /* drag step: solve k constraints + re-evaluate 1M points, 5^3 B-spline */
-    printf("\n| constraints | solve ms | solve + re-evaluate 1M ms | max residual |\n");
-    printf("|---:|---:|---:|---:|\n");
-    size_t n = 1000000;
-    double *p = malloc(3 * n * sizeof *p), *q = malloc(3 * n * sizeof *q);
-    for (size_t i = 0; i < 3 * n; i++)
-        p[i] = rnd();
-    uint32_t res[3] = {5, 5, 5};
-    ffd_lattice *lat = NULL;
-    ffd_lattice_create(FFD_BASIS_BSPLINE, &box, res, &lat, NULL);
-    ffd_lattice_binding *b = NULL;
-    ffd_lattice_bind(lat, p, n, FFD_OUTSIDE_FIXED, &b, NULL);
-    const size_t ks[] = {1, 10, 100};
-    for (int ki = 0; ki < 3; ki++) {
-        size_t k = ks[ki];
-        size_t *pts = malloc(k * sizeof *pts);
-        double *cp = malloc(3 * k * sizeof *cp), *cur = malloc(3 * k * sizeof *cur),
-               *tgt = malloc(3 * k * sizeof *tgt), *dl = malloc(3 * 125 * sizeof *dl);
-        for (size_t i = 0; i < k; i++) {
-            pts[i] = (size_t)(rnd() * (double)n);
-            memcpy(cp + 3 * i, p + 3 * pts[i], 3 * sizeof(double));
+    printf("\n| order | constraints | solve ms | solve + re-evaluate 1M ms | max residual |\n");
+    printf("|---|---:|---:|---:|---:|\n");
+    for (int grid = 0; grid < 2; grid++) {
+        size_t n = 1000000;
+        double *p = malloc(3 * n * sizeof *p), *q = malloc(3 * n * sizeof *q);
+        fill_points(p, n, grid);
+        uint32_t res[3] = {5, 5, 5};
+        ffd_lattice *lat = NULL;
+        ffd_lattice_create(FFD_BASIS_BSPLINE, &box, res, &lat, NULL);
+        ffd_lattice_binding *b = NULL;
+        ffd_lattice_bind(lat, p, n, FFD_OUTSIDE_FIXED, &b, NULL);
+        const size_t ks[] = {1, 10, 100};
+        for (int ki = 0; ki < 3; ki++) {
+            size_t k = ks[ki];
+            size_t *pts = malloc(k * sizeof *pts);
+            double *cp = malloc(3 * k * sizeof *cp), *cur = malloc(3 * k * sizeof *cur),
+                   *tgt = malloc(3 * k * sizeof *tgt), *dl = malloc(3 * 125 * sizeof *dl);
+            for (size_t i = 0; i < k; i++) {
+                pts[i] = (size_t)(rnd() * (double)n);
+                memcpy(cp + 3 * i, p + 3 * pts[i], 3 * sizeof(double));
+            }
+            ffd_lattice_binding *cb = NULL;
+            ffd_lattice_bind(lat, cp, k, FFD_OUTSIDE_FIXED, &cb, NULL);
+            ffd_linear_map map;
+            ffd_lattice_linear_map(lat, cb, &map);
+            size_t *idx = malloc(k * sizeof *idx);
+            for (size_t i = 0; i < k; i++)
+                idx[i] = i;
+            double ts, tt;
+            ffd_manip_result mr = {0, 0, 0};
+            MEDIAN_OF(reps, ts, {
+                ffd_lattice_eval(lat, cb, cur, NULL);
+                for (size_t i = 0; i < 3 * k; i++)
+                    tgt[i] = cur[i] + 0.01 * (rnd() - 0.5);
+                ffd_manip_solve(&map, idx, k, cur, tgt, NULL, dl, NULL, &mr, NULL);
+            });
+            MEDIAN_OF(reps, tt, {
+                ffd_lattice_eval(lat, cb, cur, NULL);
+                for (size_t i = 0; i < 3 * k; i++)
+                    tgt[i] = cur[i] + 0.01 * (rnd() - 0.5);
+                ffd_manip_solve(&map, idx, k, cur, tgt, NULL, dl, NULL, &mr, NULL);
+                ffd_lattice_add(lat, dl, NULL);
+                ffd_lattice_eval(lat, b, q, NULL);
+            });
+            printf("| %s | %zu | %.3f | %.2f | %.2e |\n", grid ? "grid" : "random", k, ts * 1e3,
+                   tt * 1e3, mr.max_residual);
+            ffd_lattice_binding_destroy(cb);
+            free(pts);
+            free(cp);
+            free(cur);
+            free(tgt);
+            free(dl);
+            free(idx);
         }
-        ffd_lattice_binding *cb = NULL;
-        ffd_lattice_bind(lat, cp, k, FFD_OUTSIDE_FIXED, &cb, NULL);
-        ffd_linear_map map;
-        ffd_lattice_linear_map(lat, cb, &map);
-        size_t *idx = malloc(k * sizeof *idx);
-        for (size_t i = 0; i < k; i++)
-            idx[i] = i;
-        double ts, tt;
-        ffd_manip_result mr = {0, 0, 0};
-        MEDIAN_OF(reps, ts, {
-            ffd_lattice_eval(lat, cb, cur, NULL);
-            for (size_t i = 0; i < 3 * k; i++)
-                tgt[i] = cur[i] + 0.01 * (rnd() - 0.5);
-            ffd_manip_solve(&map, idx, k, cur, tgt, NULL, dl, NULL, &mr, NULL);
-        });
-        MEDIAN_OF(reps, tt, {
-            ffd_lattice_eval(lat, cb, cur, NULL);
-            for (size_t i = 0; i < 3 * k; i++)
-                tgt[i] = cur[i] + 0.01 * (rnd() - 0.5);
-            ffd_manip_solve(&map, idx, k, cur, tgt, NULL, dl, NULL, &mr, NULL);
-            ffd_lattice_add(lat, dl, NULL);
-            ffd_lattice_eval(lat, b, q, NULL);
-        });
-        printf("| %zu | %.3f | %.2f | %.2e |\n", k, ts * 1e3, tt * 1e3, mr.max_residual);
-        ffd_lattice_binding_destroy(cb);
-        free(pts);
-        free(cp);
-        free(cur);
-        free(tgt);
-        free(dl);
-        free(idx);
+        ffd_lattice_binding_destroy(b);
+        ffd_lattice_destroy(lat);
+        free(p);
+        free(q);
     }
-    ffd_lattice_binding_destroy(b);
-    ffd_lattice_destroy(lat);
-    free(p);
-    free(q);
     return 0;
 }
