@@ -63,11 +63,14 @@ ffd_status ffd_box_fit(const double *points, size_t n, double margin, ffd_box *b
 
 void ffd_lattice_sync(ffd_lattice *lat)
 {
-    if (lat->basis != FFD_BASIS_BSPLINE)
-        return;
     size_t ne = (size_t)lat->ext[0] * lat->ext[1] * lat->ext[2];
-    for (size_t e = 0; e < ne; e++)
-        memcpy(lat->P_ext + 3 * e, lat->P + 3 * (size_t)lat->tie[e], 3 * sizeof(double));
+    for (size_t e = 0; e < ne; e++) {
+        size_t j = lat->basis == FFD_BASIS_BSPLINE ? (size_t)lat->tie[e] : e;
+        for (int c = 0; c < 3; c++) {
+            lat->P_ext[3 * e + c] = lat->P[3 * j + c];
+            lat->D_ext[3 * e + c] = lat->P[3 * j + c] - lat->P_rest[3 * j + c];
+        }
+    }
 }
 
 ffd_status ffd_lattice_create(ffd_basis basis, const ffd_box *box, const uint32_t res[3],
@@ -143,8 +146,9 @@ ffd_status ffd_lattice_create(ffd_basis basis, const ffd_box *box, const uint32_
         }
         size_t ne = (size_t)lat->ext[0] * lat->ext[1] * lat->ext[2];
         lat->P_ext = ffd_malloc_array(ne, 3 * sizeof(double));
+        lat->D_ext = ffd_malloc_array(ne, 3 * sizeof(double));
         lat->tie = ffd_malloc_array(ne, sizeof(uint32_t));
-        if (!lat->P_ext || !lat->tie)
+        if (!lat->P_ext || !lat->D_ext || !lat->tie)
             goto oom;
         for (uint32_t i = 0; i < lat->ext[0]; i++)
             for (uint32_t j = 0; j < lat->ext[1]; j++)
@@ -158,6 +162,9 @@ ffd_status ffd_lattice_create(ffd_basis basis, const ffd_box *box, const uint32_
     } else {
         memcpy(lat->ext, res, sizeof lat->ext);
         lat->P_ext = lat->P;
+        lat->D_ext = ffd_calloc(count, 3 * sizeof(double));
+        if (!lat->D_ext)
+            goto oom;
     }
     *out = lat;
     return FFD_OK;
@@ -173,6 +180,7 @@ void ffd_lattice_destroy(ffd_lattice *lat)
         return;
     if (lat->P_ext != lat->P)
         ffd_free(lat->P_ext);
+    ffd_free(lat->D_ext);
     ffd_free(lat->P);
     ffd_free(lat->P_rest);
     ffd_free(lat->tie);

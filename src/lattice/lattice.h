@@ -18,6 +18,11 @@ struct ffd_lattice {
     double *P_rest;      /* l*m*n by 3, rest positions */
     uint32_t ext[3];     /* B-spline: l+4, m+4, n+4 (tripled-border net); Bernstein: l, m, n */
     double *P_ext;       /* B-spline: ext net by 3, kept equal to P through tie; Bernstein: == P */
+    double *D_ext;       /* displacements P - P_rest on the same net as P_ext. Evaluation adds
+                          * sum B D to the bound point instead of re-summing B P: the same
+                          * map (the rest lattice reproduces every point), but the identity
+                          * is exact and points whose control points did not move stay
+                          * bitwise unchanged */
     uint32_t *tie;       /* ext net -> distinct index (the compressed selection matrix S, eq. 6) */
     /* B-spline rest map per axis: segment boundary values f(sigma), sigma = 0..res+1,
      * then segment coefficients and inversion tables (ffd_bspline_rest_knots) */
@@ -41,12 +46,13 @@ struct ffd_lattice_binding {
     /* evaluation order: inside points sorted by cell, in blocks */
     uint32_t *order;       /* inside_count original indices */
     double *local;         /* 3 * inside_count, SoA: s[...], t[...], u[...] in [0,1] within the cell */
+    double *rest;          /* inside_count by 3: the bound points themselves, in sorted order */
     ffd_lattice_block *blocks;
     size_t block_count;
     /* outside points */
     uint32_t *out_index;   /* n - inside_count original indices */
     double *out_params;    /* 3 per outside point: parameters evaluated (clamped or raw) */
-    double *out_offset;    /* 3 per outside point: added to the evaluated position */
+    double *out_offset;    /* 3 per outside point: the point itself */
 };
 
 /* ---- uniform cubic B-spline (bspline_basis.c) ---- */
@@ -82,6 +88,9 @@ void ffd_bernstein_basis(uint32_t deg, double s, double *b, double *d);
 /* Evaluates position (and the three partial derivatives d/dS, d/dT, d/dU when dq != NULL)
  * at global parameters. */
 void ffd_lattice_eval_at(const ffd_lattice *lat, const double stu[3], double q[3], double dq[3][3]);
+
+/* The displacement sum B D at global parameters (see D_ext). */
+void ffd_lattice_displacement_at(const ffd_lattice *lat, const double stu[3], double d[3]);
 
 /* Rest position at global parameters (the box map of the rest normalised coordinates). */
 void ffd_lattice_rest_at(const ffd_lattice *lat, const double stu[3], double x[3]);

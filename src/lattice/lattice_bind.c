@@ -18,6 +18,7 @@ void ffd_lattice_binding_destroy(ffd_lattice_binding *b)
     ffd_free(b->inside);
     ffd_free(b->order);
     ffd_free(b->local);
+    ffd_free(b->rest);
     ffd_free(b->blocks);
     ffd_free(b->out_index);
     ffd_free(b->out_params);
@@ -133,20 +134,15 @@ static void bind_place(const bind_ctx *x, size_t k, size_t lo, size_t hi)
             const double *pt = x->points + 3 * i;
             b->out_index[o] = (uint32_t)i;
             memcpy(b->out_params + 3 * o, S, 3 * sizeof(double));
-            double rest[3];
-            ffd_lattice_rest_at(lat, S, rest);
-            /* fixed: the point itself; clamp: its offset from the clamped rest point;
-             * Bernstein extrapolation: nothing (the polynomials reproduce it) */
-            int extrapolate = b->outside == FFD_OUTSIDE_EXTRAPOLATE && !x->bspline;
-            for (int c = 0; c < 3; c++)
-                b->out_offset[3 * o + c] = b->outside == FFD_OUTSIDE_FIXED ? pt[c]
-                                           : extrapolate ? 0.0
-                                                         : pt[c] - rest[c];
+            /* the point itself: fixed keeps it, clamp and extrapolation add the
+             * lattice's displacement at the (clamped or raw) parameters */
+            memcpy(b->out_offset + 3 * o, pt, 3 * sizeof(double));
             o++;
             continue;
         }
         uint32_t pos = next[cell_of(x, S)]++;
         b->order[pos] = (uint32_t)i;
+        memcpy(b->rest + 3 * (size_t)pos, x->points + 3 * i, 3 * sizeof(double));
         if (x->bspline) {
             const uint32_t *res = lat->res;
             ls[pos] = S[0] - (double)segment_of(S[0], res[0]);
@@ -183,10 +179,11 @@ static int bind_prefix(bind_ctx *x, size_t n)
     b->inside_count = nin;
     b->order = ffd_malloc_array(nin, sizeof *b->order);
     b->local = ffd_malloc_array(nin, 3 * sizeof(double));
+    b->rest = ffd_malloc_array(nin, 3 * sizeof(double));
     b->out_index = ffd_malloc_array(nout, sizeof *b->out_index);
     b->out_params = ffd_malloc_array(nout, 3 * sizeof(double));
     b->out_offset = ffd_malloc_array(nout, 3 * sizeof(double));
-    return b->order && b->local && b->out_index && b->out_params && b->out_offset;
+    return b->order && b->local && b->rest && b->out_index && b->out_params && b->out_offset;
 }
 
 /* Blocks of at most BLOCK_POINTS points per cell, from the cell ends (after

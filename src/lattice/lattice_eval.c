@@ -35,7 +35,9 @@ static void axis_basis(const ffd_lattice *lat, int c, double S, uint32_t *first,
     }
 }
 
-void ffd_lattice_eval_at(const ffd_lattice *lat, const double stu[3], double q[3], double dq[3][3])
+/* Sum of the basis (and its derivatives) against a net laid out like P_ext. */
+static void eval_net(const ffd_lattice *lat, const double *net, const double stu[3], double q[3],
+                     double dq[3][3])
 {
     double bb[3][FFD_BERNSTEIN_MAX_RES], dd[3][FFD_BERNSTEIN_MAX_RES];
     uint32_t first[3], cnt[3];
@@ -49,7 +51,7 @@ void ffd_lattice_eval_at(const ffd_lattice *lat, const double stu[3], double q[3
             for (uint32_t k = 0; k < cnt[2]; k++) {
                 size_t e = (((size_t)(first[0] + a)) * lat->ext[1] + first[1] + b) * lat->ext[2] +
                            first[2] + k;
-                const double *p = lat->P_ext + 3 * e;
+                const double *p = net + 3 * e;
                 double w = bb[0][a] * bb[1][b] * bb[2][k];
                 double w0 = dd[0][a] * bb[1][b] * bb[2][k];
                 double w1 = bb[0][a] * dd[1][b] * bb[2][k];
@@ -65,6 +67,16 @@ void ffd_lattice_eval_at(const ffd_lattice *lat, const double stu[3], double q[3
     if (dq)
         for (int a = 0; a < 3; a++)
             memcpy(dq[a], acc[a + 1], 3 * sizeof(double));
+}
+
+void ffd_lattice_eval_at(const ffd_lattice *lat, const double stu[3], double q[3], double dq[3][3])
+{
+    eval_net(lat, lat->P_ext, stu, q, dq);
+}
+
+void ffd_lattice_displacement_at(const ffd_lattice *lat, const double stu[3], double d[3])
+{
+    eval_net(lat, lat->D_ext, stu, d, NULL);
 }
 
 void ffd_lattice_eval_params(const ffd_lattice *lat, const double stu[3], double out[3])
@@ -152,7 +164,7 @@ FFD_HOT static void bernstein_block(const ffd_lattice *lat, const double *restri
             for (size_t p = 0; p < np; p++)
                 wab[p] = ba[p] * bb[p];
             for (uint32_t c = 0; c < n; c++) {
-                const double *q = lat->P + 3 * (((size_t)a * m + b) * n + c);
+                const double *q = lat->D_ext + 3 * (((size_t)a * m + b) * n + c);
                 const double qx = q[0], qy = q[1], qz = q[2];
                 const double *bc = bu + (size_t)c * BLK;
                 for (size_t p = 0; p < np; p++) {
@@ -172,7 +184,7 @@ static void gather_cell(const ffd_lattice *lat, const uint32_t cell[3], double *
             for (int c = 0; c < 4; c++) {
                 size_t e = (((size_t)(cell[0] + a)) * lat->ext[1] + cell[1] + b) * lat->ext[2] +
                            cell[2] + c;
-                memcpy(cp + 3 * ((a * 4 + b) * 4 + c), lat->P_ext + 3 * e, 3 * sizeof(double));
+                memcpy(cp + 3 * ((a * 4 + b) * 4 + c), lat->D_ext + 3 * e, 3 * sizeof(double));
             }
 }
 
@@ -214,11 +226,12 @@ ffd_status ffd_lattice_eval(const ffd_lattice *lat, const ffd_lattice_binding *b
             } else {
                 bernstein_block(lat, S + p0, T + p0, U + p0, np, x, y, z, scratch);
             }
-            for (size_t p = 0; p < np; p++) {
+            const double *rest = bind->rest + 3 * p0;
+            for (size_t p = 0; p < np; p++) { /* the point plus the displacement sum B D */
                 double *o = out + 3 * (size_t)bind->order[p0 + p];
-                o[0] = x[p];
-                o[1] = y[p];
-                o[2] = z[p];
+                o[0] = rest[3 * p] + x[p];
+                o[1] = rest[3 * p + 1] + y[p];
+                o[2] = rest[3 * p + 2] + z[p];
             }
         }
         ffd_free(scratch);
@@ -228,15 +241,17 @@ ffd_status ffd_lattice_eval(const ffd_lattice *lat, const ffd_lattice_binding *b
     const size_t nout = bind->n - nin;
     for (size_t o = 0; o < nout; o++) {
         double *dst = out + 3 * (size_t)bind->out_index[o];
-        const double *off = bind->out_offset + 3 * o;
-        if (bind->outside == FFD_OUTSIDE_FIXED) { /* offset holds the point itself */
-            memcpy(dst, off, 3 * sizeof(double));
+        const double *x = bind->out_offset + 3 * o; /* the point itself */
+        if (bind->outside == FFD_OUTSIDE_FIXED) {
+            memcpy(dst, x, 3 * sizeof(double));
             continue;
         }
-        double q[3];
-        ffd_lattice_eval_at(lat, bind->out_params + 3 * o, q, NULL);
+        /* clamp: the displacement of the nearest boundary point; Bernstein
+         * extrapolation: of the polynomials at the raw parameters */
+        double d[3];
+        ffd_lattice_displacement_at(lat, bind->out_params + 3 * o, d);
         for (int c = 0; c < 3; c++)
-            dst[c] = q[c] + off[c];
+            dst[c] = x[c] + d[c];
     }
     return FFD_OK;
 }

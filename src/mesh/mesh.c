@@ -554,16 +554,21 @@ ffd_status ffd_mesh_set_positions(ffd_mesh *mesh, const double *positions,
         if (!acc)
             return ffd_fail(err, FFD_ERR_NOMEM, "ffd_mesh_set_positions: out of memory");
     }
-    memcpy(mesh->positions, positions, 3 * sizeof(double) * nv);
-    const double *P = mesh->positions;
     if (mesh->facet_normals) {
+        /* a facet whose corners did not move keeps its stored normal (and bytes) */
         for (size_t f = 0; f < mesh->normal_count && f < mesh->face_count; f++) {
             const uint32_t *ix = mesh->face_indices + mesh->face_offsets[f];
-            ffd_triangle_normal(P + 3 * ix[0], P + 3 * ix[1], P + 3 * ix[2],
-                                mesh->normals + 3 * f);
+            if (memcmp(mesh->positions + 3 * ix[0], positions + 3 * ix[0], 3 * sizeof(double)) ||
+                memcmp(mesh->positions + 3 * ix[1], positions + 3 * ix[1], 3 * sizeof(double)) ||
+                memcmp(mesh->positions + 3 * ix[2], positions + 3 * ix[2], 3 * sizeof(double)))
+                ffd_triangle_normal(positions + 3 * ix[0], positions + 3 * ix[1],
+                                    positions + 3 * ix[2], mesh->normals + 3 * f);
         }
+        memcpy(mesh->positions, positions, 3 * sizeof(double) * nv);
         return FFD_OK;
     }
+    memcpy(mesh->positions, positions, 3 * sizeof(double) * nv);
+    const double *P = mesh->positions;
     if (acc) {
         /* Area-weighted: the polygon's area vector (Newell) added to each corner. */
         for (size_t f = 0; f < mesh->face_count; f++) {

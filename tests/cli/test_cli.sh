@@ -72,6 +72,16 @@ ok deform "$T/inplace.obj" --in-place --rig "$DATA/pull.json"
 cmp -s "$T/inplace.obj" "$T/pulled.obj" || fail "--in-place result differs from -o result"
 ok deform "$T/pulled.obj" -o "$T/pulled.obj" --in-place --rig "$DATA/pull.json"
 
+# A rig that moves nothing writes every shared mesh back byte for byte
+# (evaluation adds the zero displacement to each point exactly).
+echo '{"deformer": "lattice"}' >"$T/identity.json"
+for m in "$SRC"/../shared/data/*.obj "$SRC"/../shared/data/*.off "$SRC"/../shared/data/*.stl; do
+    [ -f "$m" ] || continue
+    out="$T/identity_$(basename "$m")"
+    ok deform "$m" -o "$out" --rig "$T/identity.json"
+    cmp -s "$m" "$out" || fail "identity rig changed the bytes of $(basename "$m")"
+done
+
 if [ "$failures" -ne 0 ]; then
     echo "$failures failure(s)"
     exit 1
