@@ -112,7 +112,7 @@ double ffd_bspline_rest_map(uint32_t res, double S, double *dfdS)
         S = 0;
     if (S > nseg)
         S = nseg;
-    uint32_t sigma = S >= nseg ? nseg - 1 : (uint32_t)S;
+    uint32_t sigma = ffd_bspline_segment(S, res);
     double t = S - sigma, c[4];
     segment_cubic(res, sigma, c);
     if (dfdS)

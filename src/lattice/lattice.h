@@ -52,7 +52,7 @@ struct ffd_lattice_binding {
     /* outside points */
     uint32_t *out_index;   /* n - inside_count original indices */
     double *out_params;    /* 3 per outside point: parameters evaluated (clamped or raw) */
-    double *out_offset;    /* 3 per outside point: the point itself */
+    double *out_point;     /* 3 per outside point: the point itself */
 };
 
 /* ---- uniform cubic B-spline (bspline_basis.c) ---- */
@@ -64,6 +64,13 @@ void ffd_bspline_basis(double t, double b[4], double d[4]);
 static inline uint32_t ffd_bspline_tie(uint32_t e, uint32_t res)
 {
     return e < 2 ? 0 : (e - 2 >= res - 1 ? res - 1 : e - 2);
+}
+
+/* Segment 0..res of a global B-spline parameter (the last segment is closed). */
+static inline uint32_t ffd_bspline_segment(double S, uint32_t res)
+{
+    uint32_t sigma = S <= 0 ? 0 : (uint32_t)S;
+    return sigma > res ? res : sigma;
 }
 
 /* Precomputes f(sigma) for sigma = 0..res+1 of the rest map (values in [0,1]),
@@ -84,6 +91,14 @@ double ffd_bspline_invert(uint32_t res, const double *knot_values, double x);
 void ffd_bernstein_basis(uint32_t deg, double s, double *b, double *d);
 
 /* ---- internal evaluation helpers (lattice_eval.c) ---- */
+
+/* Basis values (and derivatives when d != NULL) of one axis with res control
+ * points at global parameter S; *first is the first slot they weigh. */
+void ffd_axis_basis(ffd_basis basis, uint32_t res, double S, uint32_t *first, double *b, double *d);
+
+/* FFD_ERR_INVALID when the binding was made for another basis or resolution. */
+ffd_status ffd_lattice_check_binding(const ffd_lattice *lat, const ffd_lattice_binding *b,
+                                     ffd_error *err);
 
 /* Evaluates position (and the three partial derivatives d/dS, d/dT, d/dU when dq != NULL)
  * at global parameters. */

@@ -22,7 +22,7 @@ void ffd_lattice_binding_destroy(ffd_lattice_binding *b)
     ffd_free(b->blocks);
     ffd_free(b->out_index);
     ffd_free(b->out_params);
-    ffd_free(b->out_offset);
+    ffd_free(b->out_point);
     ffd_free(b);
 }
 
@@ -35,12 +35,6 @@ int ffd_lattice_binding_params(const ffd_lattice_binding *b, size_t i, double st
     return b->inside[i];
 }
 
-/* Segment of a global B-spline parameter (the last segment is closed). */
-static inline uint32_t segment_of(double S, uint32_t res)
-{
-    uint32_t sigma = S <= 0 ? 0 : (uint32_t)S;
-    return sigma > res ? res : sigma;
-}
 
 /* Shared state of one bind. Points are split into `nchunk` contiguous chunks in
  * index order; each chunk has its own histogram row, and placement offsets are
@@ -70,8 +64,8 @@ static inline uint32_t cell_of(const bind_ctx *x, const double *S)
     if (!x->bspline)
         return 0;
     const uint32_t *res = x->lat->res;
-    return (segment_of(S[0], res[0]) * x->nseg[1] + segment_of(S[1], res[1])) * x->nseg[2] +
-           segment_of(S[2], res[2]);
+    return (ffd_bspline_segment(S[0], res[0]) * x->nseg[1] + ffd_bspline_segment(S[1], res[1])) * x->nseg[2] +
+           ffd_bspline_segment(S[2], res[2]);
 }
 
 /* Phase 1 on points [lo, hi): parameters and inside flags, cell counts into
@@ -136,7 +130,7 @@ static void bind_place(const bind_ctx *x, size_t k, size_t lo, size_t hi)
             memcpy(b->out_params + 3 * o, S, 3 * sizeof(double));
             /* the point itself: fixed keeps it, clamp and extrapolation add the
              * lattice's displacement at the (clamped or raw) parameters */
-            memcpy(b->out_offset + 3 * o, pt, 3 * sizeof(double));
+            memcpy(b->out_point + 3 * o, pt, 3 * sizeof(double));
             o++;
             continue;
         }
@@ -145,9 +139,9 @@ static void bind_place(const bind_ctx *x, size_t k, size_t lo, size_t hi)
         memcpy(b->rest + 3 * (size_t)pos, x->points + 3 * i, 3 * sizeof(double));
         if (x->bspline) {
             const uint32_t *res = lat->res;
-            ls[pos] = S[0] - (double)segment_of(S[0], res[0]);
-            lt[pos] = S[1] - (double)segment_of(S[1], res[1]);
-            lu[pos] = S[2] - (double)segment_of(S[2], res[2]);
+            ls[pos] = S[0] - (double)ffd_bspline_segment(S[0], res[0]);
+            lt[pos] = S[1] - (double)ffd_bspline_segment(S[1], res[1]);
+            lu[pos] = S[2] - (double)ffd_bspline_segment(S[2], res[2]);
         } else {
             ls[pos] = S[0];
             lt[pos] = S[1];
@@ -182,8 +176,8 @@ static int bind_prefix(bind_ctx *x, size_t n)
     b->rest = ffd_malloc_array(nin, 3 * sizeof(double));
     b->out_index = ffd_malloc_array(nout, sizeof *b->out_index);
     b->out_params = ffd_malloc_array(nout, 3 * sizeof(double));
-    b->out_offset = ffd_malloc_array(nout, 3 * sizeof(double));
-    return b->order && b->local && b->rest && b->out_index && b->out_params && b->out_offset;
+    b->out_point = ffd_malloc_array(nout, 3 * sizeof(double));
+    return b->order && b->local && b->rest && b->out_index && b->out_params && b->out_point;
 }
 
 /* Blocks of at most BLOCK_POINTS points per cell, from the cell ends (after

@@ -20,17 +20,14 @@
 
 /* ---- scalar evaluation at global parameters ---- */
 
-static void axis_basis(const ffd_lattice *lat, int c, double S, uint32_t *first, double *b, double *d)
+void ffd_axis_basis(ffd_basis basis, uint32_t res, double S, uint32_t *first, double *b, double *d)
 {
-    if (lat->basis == FFD_BASIS_BSPLINE) {
-        uint32_t res = lat->res[c];
-        uint32_t sigma = S <= 0 ? 0 : (uint32_t)S;
-        if (sigma > res)
-            sigma = res;
+    if (basis == FFD_BASIS_BSPLINE) {
+        uint32_t sigma = ffd_bspline_segment(S, res);
         ffd_bspline_basis(S - sigma, b, d);
         *first = sigma;
     } else {
-        ffd_bernstein_basis(lat->res[c] - 1, S, b, d);
+        ffd_bernstein_basis(res - 1, S, b, d);
         *first = 0;
     }
 }
@@ -42,7 +39,7 @@ static void eval_net(const ffd_lattice *lat, const double *net, const double stu
     double bb[3][FFD_BERNSTEIN_MAX_RES], dd[3][FFD_BERNSTEIN_MAX_RES];
     uint32_t first[3], cnt[3];
     for (int c = 0; c < 3; c++) {
-        axis_basis(lat, c, stu[c], &first[c], bb[c], dd[c]);
+        ffd_axis_basis(lat->basis, lat->res[c], stu[c], &first[c], bb[c], dd[c]);
         cnt[c] = lat->basis == FFD_BASIS_BSPLINE ? 4 : lat->res[c];
     }
     double acc[4][3] = {{0}};
@@ -188,7 +185,8 @@ static void gather_cell(const ffd_lattice *lat, const uint32_t cell[3], double *
             }
 }
 
-static ffd_status check_binding(const ffd_lattice *lat, const ffd_lattice_binding *b, ffd_error *err)
+ffd_status ffd_lattice_check_binding(const ffd_lattice *lat, const ffd_lattice_binding *b,
+                                     ffd_error *err)
 {
     if (b->basis != lat->basis || memcmp(b->res, lat->res, sizeof b->res) != 0)
         return ffd_fail(err, FFD_ERR_INVALID,
@@ -199,7 +197,7 @@ static ffd_status check_binding(const ffd_lattice *lat, const ffd_lattice_bindin
 ffd_status ffd_lattice_eval(const ffd_lattice *lat, const ffd_lattice_binding *bind, double *out,
                             ffd_error *err)
 {
-    ffd_status st = check_binding(lat, bind, err);
+    ffd_status st = ffd_lattice_check_binding(lat, bind, err);
     if (st != FFD_OK)
         return st;
     const size_t nin = bind->inside_count;
@@ -241,7 +239,7 @@ ffd_status ffd_lattice_eval(const ffd_lattice *lat, const ffd_lattice_binding *b
     const size_t nout = bind->n - nin;
     for (size_t o = 0; o < nout; o++) {
         double *dst = out + 3 * (size_t)bind->out_index[o];
-        const double *x = bind->out_offset + 3 * o; /* the point itself */
+        const double *x = bind->out_point + 3 * o;
         if (bind->outside == FFD_OUTSIDE_FIXED) {
             memcpy(dst, x, 3 * sizeof(double));
             continue;

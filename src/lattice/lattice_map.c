@@ -13,9 +13,9 @@
 ffd_status ffd_lattice_jacobian(const ffd_lattice *lat, const ffd_lattice_binding *bind, double *out,
                                 ffd_error *err)
 {
-    if (bind->basis != lat->basis || memcmp(bind->res, lat->res, sizeof bind->res) != 0)
-        return ffd_fail(err, FFD_ERR_INVALID,
-                        "binding was made for another lattice basis or resolution");
+    ffd_status st = ffd_lattice_check_binding(lat, bind, err);
+    if (st != FFD_OK)
+        return st;
     const long long nn = (long long)bind->n;
     const int bspline = lat->basis == FFD_BASIS_BSPLINE;
 #pragma omp parallel for schedule(static)
@@ -61,20 +61,11 @@ static size_t lattice_row(const void *self, size_t i, uint32_t *cols, double *w)
     const double *S = b->params + 3 * i;
     double bb[3][FFD_BERNSTEIN_MAX_RES > 4 ? FFD_BERNSTEIN_MAX_RES : 4];
     uint32_t first[3], cnt[3], ext[3];
+    const int bspline = b->basis == FFD_BASIS_BSPLINE;
     for (int c = 0; c < 3; c++) {
-        if (b->basis == FFD_BASIS_BSPLINE) {
-            uint32_t sigma = S[c] <= 0 ? 0 : (uint32_t)S[c];
-            if (sigma > b->res[c])
-                sigma = b->res[c];
-            ffd_bspline_basis(S[c] - sigma, bb[c], NULL);
-            first[c] = sigma;
-            cnt[c] = 4;
-            ext[c] = b->res[c] + 4;
-        } else {
-            ffd_bernstein_basis(b->res[c] - 1, S[c], bb[c], NULL);
-            first[c] = 0;
-            cnt[c] = ext[c] = b->res[c];
-        }
+        ffd_axis_basis(b->basis, b->res[c], S[c], &first[c], bb[c], NULL);
+        cnt[c] = bspline ? 4 : b->res[c];
+        ext[c] = bspline ? b->res[c] + 4 : b->res[c];
     }
     size_t k = 0;
     for (uint32_t a = 0; a < cnt[0]; a++)
