@@ -23,6 +23,8 @@ enum {
 int cli_error(int code, const char *fmt, ...) CLI_PRINTF(2, 3);
 /* Prints "ffd: MESSAGE" and a pointer to `ffd COMMAND --help`; returns CLI_EXIT_USAGE. */
 int cli_usage_error(const char *command, const char *fmt, ...) CLI_PRINTF(2, 3);
+/* The usage error for a negative cli_option_value result e on option arg. */
+int cli_option_error(const char *command, const char *arg, int e);
 
 /* 1 when arg is -h or --help. */
 int cli_is_help(const char *arg);

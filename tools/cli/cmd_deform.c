@@ -62,14 +62,14 @@ int cmd_deform(int argc, char **argv)
             return CLI_EXIT_OK;
         } else if ((e = cli_option_value(argc, argv, &i, "--output", "-o", &out)) != 0) {
             if (e < 0)
-                return cli_usage_error("deform", e == -2 ? "'%s' given twice" : "'%s' needs a value", arg);
+                return cli_option_error("deform", arg, e);
         } else if ((e = cli_option_value(argc, argv, &i, "--rig", "-r", &rig_path)) != 0) {
             if (e < 0)
-                return cli_usage_error("deform", e == -2 ? "'%s' given twice" : "'%s' needs a value", arg);
+                return cli_option_error("deform", arg, e);
         } else if ((e = cli_option_value(argc, argv, &i, "--lattice-out", NULL, &lattice_out)) !=
                    0) {
             if (e < 0)
-                return cli_usage_error("deform", e == -2 ? "'%s' given twice" : "'%s' needs a value", arg);
+                return cli_option_error("deform", arg, e);
         } else if ((e = cli_encoding_option(arg, &options.encoding)) != 0) {
             if (e < 0)
                 return cli_usage_error("deform", "'%s' conflicts with an earlier encoding option",

@@ -24,13 +24,18 @@ static const char usage[] =
     "Run 'ffd COMMAND --help' for a command's options.\n"
     "Exit status: 0 success, 1 bad or unreadable input (or a failed write), 2 usage error.\n";
 
+static void print_message(const char *fmt, va_list ap)
+{
+    fputs("ffd: ", stderr);
+    vfprintf(stderr, fmt, ap);
+    fputc('\n', stderr);
+}
+
 int cli_error(int code, const char *fmt, ...)
 {
     va_list ap;
     va_start(ap, fmt);
-    fputs("ffd: ", stderr);
-    vfprintf(stderr, fmt, ap);
-    fputc('\n', stderr);
+    print_message(fmt, ap);
     va_end(ap);
     return code;
 }
@@ -39,9 +44,7 @@ int cli_usage_error(const char *command, const char *fmt, ...)
 {
     va_list ap;
     va_start(ap, fmt);
-    fputs("ffd: ", stderr);
-    vfprintf(stderr, fmt, ap);
-    fputc('\n', stderr);
+    print_message(fmt, ap);
     va_end(ap);
     if (command)
         fprintf(stderr, "Try 'ffd %s --help'.\n", command);
@@ -74,6 +77,11 @@ int cli_option_value(int argc, char **argv, int *i, const char *name, const char
         return -1;
     *value = argv[++*i];
     return 1;
+}
+
+int cli_option_error(const char *command, const char *arg, int e)
+{
+    return cli_usage_error(command, e == -2 ? "'%s' given twice" : "'%s' needs a value", arg);
 }
 
 int cli_encoding_option(const char *arg, ffd_encoding *encoding)
