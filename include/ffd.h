@@ -315,6 +315,197 @@ void ffd_lattice_linear_map(const ffd_lattice *lattice, const ffd_lattice_bindin
                             ffd_linear_map *map);
 
 /* ======================================================================
+ * PB-FFD: point-based FFD with ellipsoidal basis functions
+ * (McDonnell & Qin, "PB-FFD: A Point-based Technique for Free-Form Deformation")
+ * ====================================================================== */
+
+/* One control point: an ellipsoidal basis function (EBF, eq. 1) centred at
+ * center, with the reference frame (a, b, c) = frame[0], frame[1], frame[2]
+ * (any lengths; linearly independent, else FFD_ERR_INVALID "degenerate
+ * frame") and its region of influence (ROI): the ellipsoid whose semi-axes
+ * have lengths radius[0..2] along the directions of a, b, c. Parameters
+ * u = (alpha, beta, gamma) solve v - center = alpha a + beta b + gamma c,
+ * which is eq. 3 for orthogonal frames and keeps rest reproduction exact
+ * for oblique ones. */
+typedef struct ffd_ebf {
+    double center[3];
+    double frame[3][3];
+    double radius[3];
+    int disabled; /* 1: takes no part in the deformation (its index is kept) */
+} ffd_ebf;
+
+/* The kernel (eq. 1 made continuous): with rho the ROI-normalised distance
+ * (rho^2 = (x-mu)^T R S^-2 R^T (x-mu) of eq. 1, S the ROI semi-axes; rho = 1
+ * on the ROI boundary), phi(rho) = exp(-rho^2 / (2 sigma^2)) * (1 - rho^2)^3
+ * for rho < 1 and 0 beyond. The first factor is eq. 1 divided by tau, so
+ * phi(0) = 1. Cut off literally, eq. 1 with sigma = 3 is still 0.95 on the
+ * boundary: the normalised weights (eq. 5) would jump there and the mesh
+ * would crack when a control point moves. The window (1 - rho^2)^3 makes phi
+ * and its first two derivatives vanish on the boundary, so the weights are
+ * C2 everywhere. */
+
+/* Zero means default for every field. */
+typedef struct ffd_pbffd_options {
+    double sigma;          /* eq. 1 standard deviation; default 3 */
+    int no_master;         /* 1: no master control point (default: one per level, §3.2.2) */
+    double master_radius;  /* master ROI radius, multiple of the bounding-sphere radius of the
+                              bound points and controls; default 2 (>= 1) */
+    double master_weight;  /* factor on the master's kernel value; default 1 */
+    uint32_t levels;       /* control-set levels (§3.4), 1 = no hierarchy; default 1 */
+} ffd_pbffd_options;
+
+typedef struct ffd_pbffd ffd_pbffd;
+
+/* Creates a PB-FFD deformer: the control set (copied) becomes level 0, the
+ * finest; levels 1..levels-1 are built by pairwise merging of the closest
+ * points (each half the size of the level below, §3.4), and each level's
+ * points are parameterised in the next coarser level (eq. 10). The n points
+ * (#n by 3, usually the mesh vertices) are bound to level 0 (W and D of
+ * eq. 7, sparse). Every level has an immovable master control point at the
+ * centre of the bounding box of the points and controls, unless
+ * options->no_master. Errors: FFD_ERR_INVALID (count == 0, zero or negative
+ * radius, degenerate frame, levels such that a level would have fewer than
+ * one control), FFD_ERR_NONFINITE, FFD_ERR_NOMEM. */
+ffd_status ffd_pbffd_create(const ffd_ebf *controls, size_t count, const double *points, size_t n,
+                            const ffd_pbffd_options *options, ffd_pbffd **out, ffd_error *err);
+void ffd_pbffd_destroy(ffd_pbffd *pb);
+
+size_t ffd_pbffd_point_count(const ffd_pbffd *pb);     /* bound points n */
+size_t ffd_pbffd_level_count(const ffd_pbffd *pb);
+/* Controls at level (0 = finest); 0 for a level out of range. */
+size_t ffd_pbffd_control_count(const ffd_pbffd *pb, size_t level);
+/* The current state of control index at level. FFD_ERR_RANGE. */
+ffd_status ffd_pbffd_control(const ffd_pbffd *pb, size_t level, size_t index, ffd_ebf *out,
+                             ffd_error *err);
+/* The master control point of level; 0 when there is none. */
+int ffd_pbffd_master(const ffd_pbffd *pb, size_t level, ffd_ebf *out);
+/* Bound points under no control point but the master (they move only
+ * through the master, i.e. not at all), and under fewer than two. */
+size_t ffd_pbffd_uncovered_count(const ffd_pbffd *pb);
+size_t ffd_pbffd_single_covered_count(const ffd_pbffd *pb);
+/* Number of control points (master excluded) whose ROI holds bound point i. */
+size_t ffd_pbffd_point_support(const ffd_pbffd *pb, size_t i);
+
+/* Moves control index of level by delta (an edit at that level, §3.4): the
+ * finer levels and the bound points follow (eq. 9-10); the coarser levels
+ * do not move: the point is re-parameterised in the next coarser level at
+ * its new position. FFD_ERR_RANGE, FFD_ERR_NONFINITE. */
+ffd_status ffd_pbffd_move(ffd_pbffd *pb, size_t level, size_t index, const double delta[3],
+                          ffd_error *err);
+/* Replaces the frame (the matrix A of eq. 7) of control index of level:
+ * rotating it twists, scaling it stretches the space around the point.
+ * The parameterisation is kept (no re-binding). FFD_ERR_RANGE,
+ * FFD_ERR_NONFINITE, FFD_ERR_INVALID (degenerate frame). */
+ffd_status ffd_pbffd_set_frame(ffd_pbffd *pb, size_t level, size_t index,
+                               const double frame[3][3], ffd_error *err);
+/* Puts every control point of every level back where it was created
+ * (or where the last control-set edit left it). */
+void ffd_pbffd_reset(ffd_pbffd *pb);
+
+/* Control-set edits on level 0, made in the current (possibly deformed)
+ * state: the bound points whose parameterisation the edit changes (those in
+ * the old or new ROI) are re-parameterised at their current positions, no
+ * others; the deformation seen so far is kept. add returns the new index;
+ * remove shifts the later indices down by one; set_enabled(0) keeps the index. */
+ffd_status ffd_pbffd_add(ffd_pbffd *pb, const ffd_ebf *control, size_t *index, ffd_error *err);
+ffd_status ffd_pbffd_remove(ffd_pbffd *pb, size_t index, ffd_error *err);
+ffd_status ffd_pbffd_set_enabled(ffd_pbffd *pb, size_t index, int enabled, ffd_error *err);
+/* Redefines control index (centre, frame, radius) in the current state. */
+ffd_status ffd_pbffd_redefine(ffd_pbffd *pb, size_t index, const ffd_ebf *control,
+                              ffd_error *err);
+
+/* Deformed positions of the bound points, n by 3: V = W P + D A (eq. 7),
+ * evaluated as rest + W dP + D dA, so that at rest it is exact (bitwise). */
+ffd_status ffd_pbffd_eval(const ffd_pbffd *pb, double *out, ffd_error *err);
+/* Jacobians d(x')/d(x) of the deformation at the bound points, n by 9 row-major. */
+ffd_status ffd_pbffd_jacobian(const ffd_pbffd *pb, double *out, ffd_error *err);
+
+/* The bound points as a linear map of the control points of level (0 =
+ * finest; coarser levels compose eq. 10), for ffd_manip_solve (§3.3): the
+ * master is not a column (it is fixed), disabled controls are tied
+ * FFD_TIE_FIXED. Apply the solution with ffd_pbffd_move per control. The
+ * map borrows pb; a control-set edit invalidates it. */
+ffd_status ffd_pbffd_linear_map(ffd_pbffd *pb, size_t level, ffd_linear_map *map, ffd_error *err);
+
+/* --- Automatic placement (§3.2.1, Figure 2) --- */
+
+typedef enum ffd_surface_kind {
+    FFD_SURFACE_AUTO = 0, /* closed when the mesh has no boundary and no non-manifold edge */
+    FFD_SURFACE_CLOSED,   /* interior (Voronoi) and exterior points */
+    FFD_SURFACE_OPEN      /* §3.2.3: offsets along both normal directions only */
+} ffd_surface_kind;
+
+/* Zero means default for every field. */
+typedef struct ffd_placement_options {
+    size_t interior_count;  /* interior (medial) points; default 60 */
+    size_t exterior_count;  /* exterior points (open surfaces: all points); default 60 */
+    double offset;          /* exterior offset along the normal, as a fraction of the
+                               bounding-box diagonal; default 0.1 x 0.5 = 5% of the diagonal
+                               (the paper's 10%, of the bounding sphere's radius) */
+    double radius_factor;   /* radius and frame lengths = factor x nearest-neighbour
+                               distance; default 1.5 */
+    ffd_surface_kind surface;
+    size_t voronoi_sites;   /* at most this many mesh vertices (an even subsample) go into
+                               the Voronoi diagram; default 8000; SIZE_MAX: all */
+    int no_cover;           /* 1: do not grow radii so that every vertex is under two points */
+} ffd_placement_options;
+
+typedef struct ffd_placement_report {
+    int open;                  /* 1: the open-surface path was taken */
+    int fell_back;             /* 1: CLOSED was asked or AUTO found defects: took the open path */
+    size_t interior_count;     /* placed interior points */
+    size_t exterior_count;     /* placed exterior points */
+    size_t voronoi_sites;      /* vertices given to Qhull */
+    size_t voronoi_vertices;   /* Voronoi vertices Qhull returned */
+    size_t inside_vertices;    /* of those, kept as inside the mesh */
+    size_t grown_radii;        /* controls whose radius grew to cover vertices */
+    double seconds_voronoi;    /* Qhull */
+    double seconds_total;
+    char note[256];            /* why the open path was taken, or "" */
+} ffd_placement_report;
+
+/* Places control points for the mesh (Figure 2): the requested counts of
+ * interior points (Voronoi vertices inside the mesh, octree decimation by
+ * merging closest pairs) and exterior points (vertices offset along their
+ * normals, decimated), each an EBF with an axis-aligned frame and radius =
+ * radius_factor x nearest-neighbour distance. The master is not included
+ * (ffd_pbffd_create adds it). *controls is freed with ffd_free. Errors:
+ * FFD_ERR_INVALID (no faces; more points requested than candidates exist:
+ * the message says how many there are), FFD_ERR_NUMERIC (Qhull failed: its
+ * message is captured, never printed), FFD_ERR_NOMEM. */
+ffd_status ffd_pbffd_place(const ffd_mesh *mesh, const ffd_placement_options *options,
+                           ffd_ebf **controls, size_t *count, ffd_placement_report *report,
+                           ffd_error *err);
+
+/* --- Curve-based deformation (§3.5) --- */
+
+typedef struct ffd_pbffd_curve ffd_pbffd_curve;
+
+/* A Catmull-Rom spline (centripetal, interpolating) through count >= 2
+ * control points, discretised into samples EBFs (0: one per radius/4 of
+ * arc length, at least 8) with ROI radius radius and rotation-minimising
+ * frames; the n points inside the union of the ROIs are parameterised in
+ * them; a master of weight options->master_weight (default here 0.05)
+ * fades the motion to zero at the ROI boundary, so points outside never
+ * move. FFD_ERR_INVALID (count < 2, radius <= 0, coincident consecutive
+ * control points), FFD_ERR_NONFINITE. */
+ffd_status ffd_pbffd_curve_create(const double *control_points, size_t count, double radius,
+                                  size_t samples, const double *points, size_t n,
+                                  const ffd_pbffd_options *options, ffd_pbffd_curve **out,
+                                  ffd_error *err);
+void ffd_pbffd_curve_destroy(ffd_pbffd_curve *curve);
+size_t ffd_pbffd_curve_control_count(const ffd_pbffd_curve *curve);
+/* Current curve control points, count by 3. */
+const double *ffd_pbffd_curve_control_points(const ffd_pbffd_curve *curve);
+/* Moves curve control point index by delta: the samples and their frames follow the new curve. */
+ffd_status ffd_pbffd_curve_move(ffd_pbffd_curve *curve, size_t index, const double delta[3],
+                                ffd_error *err);
+/* Deformed positions of the n points (points outside every ROI unchanged, bitwise). */
+ffd_status ffd_pbffd_curve_eval(const ffd_pbffd_curve *curve, double *out, ffd_error *err);
+/* 1 when point i lies in the curve's ROI. */
+int ffd_pbffd_curve_point_inside(const ffd_pbffd_curve *curve, size_t i);
+
+/* ======================================================================
  * Rigs: a recorded deformation (JSON, or a PyGeM .prm parameter file)
  * ====================================================================== */
 
@@ -346,15 +537,30 @@ typedef struct ffd_rig_report {
     double max_residual;
     size_t outside_count;     /* vertices outside the lattice */
     ffd_timings timings;
-    uint32_t resolution[3];   /* the lattice's l, m, n */
-    double *control_points;   /* l*m*n by 3: the deformed lattice, index (i*m + j)*n + k */
+    uint32_t resolution[3];   /* the lattice's l, m, n (0, 0, 0 for PB-FFD) */
+    double *control_points;   /* control_count by 3: the deformed lattice, index
+                                 (i*m + j)*n + k; PB-FFD: the finest level's centres */
+    size_t control_count;
+    /* PB-FFD only */
+    size_t level_count;
+    size_t uncovered_count;        /* vertices under no control point but the master */
+    int placed;                    /* 1: "controls": automatic placement ran */
+    ffd_placement_report placement;
 } ffd_rig_report;
 void ffd_rig_report_free(ffd_rig_report *report);
 
 /* Writes the report's deformed lattice as an OBJ file (one 'v' per control
- * point, 'l' lines along the three lattice directions), atomically. */
+ * point, 'l' lines along the three lattice directions; PB-FFD: the points
+ * only), atomically. */
 ffd_status ffd_rig_report_write_lattice(const ffd_rig_report *report, const char *path,
                                         ffd_error *err);
+
+/* Writes a PB-FFD rig holding this explicit control set (and nothing else)
+ * as JSON, atomically: what `ffd pbffd place` writes, ready to edit and to
+ * replay with ffd_rig_read. options (may be NULL) adds "sigma", "master" and
+ * "levels" when they differ from the defaults. */
+ffd_status ffd_rig_write_pbffd_controls(const char *path, const ffd_ebf *controls, size_t count,
+                                        const ffd_pbffd_options *options, ffd_error *err);
 
 /* Applies the rig to the mesh: builds the deformer, binds the vertices,
  * applies moves, then solves the constraints, evaluates, and sets the mesh's

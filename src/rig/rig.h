@@ -21,8 +21,59 @@ typedef struct ffd_rig_constraint {
     double target[3];
 } ffd_rig_constraint;
 
+typedef enum ffd_rig_deformer {
+    FFD_RIG_LATTICE = 0,
+    FFD_RIG_PBFFD
+} ffd_rig_deformer;
+
+/* PB-FFD: a move or a frame edit of one control point at one level. */
+typedef struct ffd_rig_pb_edit {
+    uint32_t level;
+    uint32_t control;
+    int by_near;          /* 1: the control whose centre is nearest to near[] */
+    double near[3];
+    int has_delta;
+    double delta[3];      /* moves: world-space displacement */
+    int frame_kind;       /* frames: 1 = frame given, 2 = rotate/scale */
+    double frame[3][3];   /* frame_kind 1: the new frame */
+    double axis[3];       /* frame_kind 2: rotation axis (any length) and angle (radians) */
+    double angle;
+    double scale[3];      /* frame_kind 2: scale factors along the frame's own axes */
+} ffd_rig_pb_edit;
+
+typedef struct ffd_rig_curve_move {
+    uint32_t index;
+    double delta[3];
+} ffd_rig_curve_move;
+
+typedef struct ffd_rig_curve {
+    double *points;       /* point_count by 3 */
+    size_t point_count;
+    double radius;
+    uint32_t samples;     /* 0: automatic */
+    ffd_rig_curve_move *moves;
+    size_t move_count;
+} ffd_rig_curve;
+
+typedef struct ffd_rig_pbffd {
+    int controls_auto;                 /* 1: ffd_pbffd_place with placement */
+    ffd_placement_options placement;
+    ffd_ebf *controls;                 /* controls_auto == 0 */
+    size_t control_count;
+    ffd_pbffd_options options;         /* sigma, master, levels */
+    uint32_t constraint_level;
+    ffd_rig_pb_edit *moves;
+    size_t move_count;
+    ffd_rig_pb_edit *frames;
+    size_t frame_count;
+    ffd_rig_curve *curves;
+    size_t curve_count;
+} ffd_rig_pbffd;
+
 struct ffd_rig {
     char *name;              /* file name for messages */
+    ffd_rig_deformer deformer;
+    ffd_rig_pbffd pb;        /* deformer == FFD_RIG_PBFFD */
     ffd_basis basis;
     uint32_t resolution[3];
     int box_auto;            /* 1: fit the mesh bounding box grown by margin */
@@ -35,6 +86,10 @@ struct ffd_rig {
     ffd_rig_constraint *constraints;
     size_t constraint_count;
 };
+
+/* PB-FFD application (rig_pbffd.c); constraints as for the lattice. */
+ffd_status ffd_rig_apply_pbffd(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report *report,
+                               ffd_error *err);
 
 /* A zeroed rig with defaults (bspline, 5x5x5, auto box, margin 0.05). NULL on OOM. */
 ffd_rig *ffd_rig_new(const char *name);

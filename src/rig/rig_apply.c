@@ -80,6 +80,8 @@ ffd_status ffd_rig_apply(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report *rep
         memset(report, 0, sizeof *report);
     if (!rig || !mesh)
         return ffd_fail(err, FFD_ERR_INVALID, "ffd_rig_apply: rig and mesh must not be NULL");
+    if (rig->deformer == FFD_RIG_PBFFD)
+        return ffd_rig_apply_pbffd(rig, mesh, report, err);
 
     const char *name = rig->name;
     const size_t n = ffd_mesh_vertex_count(mesh);
@@ -232,6 +234,8 @@ ffd_status ffd_rig_apply(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report *rep
         report->outside_count = outside_count;
         report->timings = timings;
         size_t nc = ffd_lattice_control_count(lattice);
+        report->control_count = nc;
+        report->level_count = 1;
         report->control_points = ffd_malloc_array(nc, 3 * sizeof(double));
         if (report->control_points)
             memcpy(report->control_points, ffd_lattice_control_points(lattice),
@@ -258,13 +262,14 @@ ffd_status ffd_rig_report_write_lattice(const ffd_rig_report *report, const char
     if (!report || !report->control_points)
         return ffd_fail(err, FFD_ERR_INVALID, "%s: the report holds no lattice", path);
     const uint32_t l = report->resolution[0], m = report->resolution[1], n = report->resolution[2];
-    size_t count = (size_t)l * m * n;
+    size_t count = report->control_count;
     /* at most ~80 bytes per vertex line and 3 lines per point of ~36 bytes */
     size_t cap = 64 + count * (80 + 3 * 40);
     char *buf = ffd_malloc(cap);
     if (!buf)
         return ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory", path);
-    size_t len = (size_t)snprintf(buf, cap, "# ffdkit lattice %ux%ux%u\n", l, m, n);
+    size_t len = l ? (size_t)snprintf(buf, cap, "# ffdkit lattice %ux%ux%u\n", l, m, n)
+                   : (size_t)snprintf(buf, cap, "# ffdkit PB-FFD control points: %zu\n", count);
     for (size_t i = 0; i < count; i++) {
         const double *p = report->control_points + 3 * i;
         len += (size_t)snprintf(buf + len, cap - len, "v %.17g %.17g %.17g\n", p[0], p[1], p[2]);

@@ -46,6 +46,14 @@ void ffd_rig_destroy(ffd_rig *rig)
     ffd_free(rig->name);
     ffd_free(rig->moves);
     ffd_free(rig->constraints);
+    ffd_free(rig->pb.controls);
+    ffd_free(rig->pb.moves);
+    ffd_free(rig->pb.frames);
+    for (size_t i = 0; i < rig->pb.curve_count; i++) {
+        ffd_free(rig->pb.curves[i].points);
+        ffd_free(rig->pb.curves[i].moves);
+    }
+    ffd_free(rig->pb.curves);
     ffd_free(rig);
 }
 
@@ -365,6 +373,508 @@ static ffd_status read_constraints(const parser *p, const cJSON *item, ffd_rig *
     return FFD_OK;
 }
 
+/* ======================================================================
+ * PB-FFD sections (docs/rig.md, "PB-FFD rigs")
+ * ====================================================================== */
+
+/* A non-negative integer that fits uint32_t. */
+static ffd_status read_index(const parser *p, const cJSON *item, const char *path,
+                             const char *what, uint32_t *out)
+{
+    if (!is_uint32(item))
+        return expected(p, path, what);
+    *out = (uint32_t)item->valuedouble;
+    return FFD_OK;
+}
+
+static ffd_status read_positive(const parser *p, const cJSON *item, const char *path, double *out)
+{
+    ffd_status s = read_number(p, item, path, out);
+    if (!s && !(*out > 0))
+        return ffd_fail(p->err, FFD_ERR_INVALID, "%s: %s: %g: expected a number > 0", p->name,
+                        path, *out);
+    return s;
+}
+
+/* Three vectors [[..],[..],[..]]. */
+static ffd_status read_frame(const parser *p, const cJSON *item, const char *path,
+                             double frame[3][3])
+{
+    if (!cJSON_IsArray(item) || cJSON_GetArraySize(item) != 3)
+        return expected(p, path, "an array of 3 axes, each an array of 3 finite numbers");
+    int i = 0;
+    const cJSON *axis;
+    cJSON_ArrayForEach(axis, item)
+    {
+        char sub[RIG_PATH_MAX + 8];
+        snprintf(sub, sizeof sub, "%s[%d]", path, i);
+        ffd_status s = read_vec3(p, axis, sub, frame[i]);
+        if (s)
+            return s;
+        i++;
+    }
+    return FFD_OK;
+}
+
+static ffd_status read_placement(const parser *p, const cJSON *item, ffd_rig_pbffd *pb)
+{
+    static const char *const keys[] = {"interior", "exterior", "offset", "radius_factor",
+                                       "surface",  "voronoi_sites", "cover", NULL};
+    static const char *const surfaces[] = {"auto", "closed", "open", NULL};
+    ffd_status s = check_keys(p, item, "controls", keys,
+                              "\"interior\", \"exterior\", \"offset\", \"radius_factor\", "
+                              "\"surface\", \"voronoi_sites\", \"cover\"");
+    if (s)
+        return s;
+    ffd_placement_options *o = &pb->placement;
+    const cJSON *v;
+    uint32_t count = 0;
+    if ((v = cJSON_GetObjectItemCaseSensitive(item, "interior"))) {
+        if ((s = read_index(p, v, "controls.interior", "a positive integer", &count)))
+            return s;
+        if (count == 0)
+            return expected(p, "controls.interior", "a positive integer");
+        o->interior_count = count;
+    }
+    if ((v = cJSON_GetObjectItemCaseSensitive(item, "exterior"))) {
+        if ((s = read_index(p, v, "controls.exterior", "a positive integer", &count)))
+            return s;
+        if (count == 0)
+            return expected(p, "controls.exterior", "a positive integer");
+        o->exterior_count = count;
+    }
+    if ((v = cJSON_GetObjectItemCaseSensitive(item, "offset")) &&
+        (s = read_positive(p, v, "controls.offset", &o->offset)))
+        return s;
+    if ((v = cJSON_GetObjectItemCaseSensitive(item, "radius_factor")) &&
+        (s = read_positive(p, v, "controls.radius_factor", &o->radius_factor)))
+        return s;
+    if ((v = cJSON_GetObjectItemCaseSensitive(item, "surface"))) {
+        int k = 0;
+        if ((s = read_enum(p, v, "controls.surface", surfaces,
+                           "\"auto\", \"closed\" or \"open\"", &k)))
+            return s;
+        o->surface = k == 0 ? FFD_SURFACE_AUTO : k == 1 ? FFD_SURFACE_CLOSED : FFD_SURFACE_OPEN;
+    }
+    if ((v = cJSON_GetObjectItemCaseSensitive(item, "voronoi_sites"))) {
+        if ((s = read_index(p, v, "controls.voronoi_sites", "a positive integer", &count)))
+            return s;
+        if (count < 5)
+            return ffd_fail(p->err, FFD_ERR_INVALID,
+                            "%s: controls.voronoi_sites: %u: expected at least 5", p->name, count);
+        o->voronoi_sites = count;
+    }
+    if ((v = cJSON_GetObjectItemCaseSensitive(item, "cover"))) {
+        if (!cJSON_IsBool(v))
+            return expected(p, "controls.cover", "true or false");
+        o->no_cover = cJSON_IsFalse(v);
+    }
+    pb->controls_auto = 1;
+    return FFD_OK;
+}
+
+static ffd_status read_control(const parser *p, const cJSON *c, const char *path, ffd_ebf *ebf)
+{
+    static const char *const keys[] = {"center", "radius", "frame", "enabled", NULL};
+    char sub[RIG_PATH_MAX + 16];
+    if (!cJSON_IsObject(c))
+        return expected(p, path, "an object {\"center\": [x,y,z], \"radius\": r}");
+    ffd_status s = check_keys(p, c, path, keys,
+                              "\"center\", \"radius\", \"frame\", \"enabled\"");
+    if (s)
+        return s;
+    const cJSON *center = cJSON_GetObjectItemCaseSensitive(c, "center");
+    const cJSON *radius = cJSON_GetObjectItemCaseSensitive(c, "radius");
+    const cJSON *frame = cJSON_GetObjectItemCaseSensitive(c, "frame");
+    const cJSON *enabled = cJSON_GetObjectItemCaseSensitive(c, "enabled");
+    snprintf(sub, sizeof sub, "%s.center", path);
+    if (!center)
+        return expected(p, sub, "an array of 3 finite numbers (missing)");
+    if ((s = read_vec3(p, center, sub, ebf->center)))
+        return s;
+    snprintf(sub, sizeof sub, "%s.radius", path);
+    if (!radius)
+        return expected(p, sub, "a number > 0 or an array of 3 (missing)");
+    if (cJSON_IsArray(radius)) {
+        if ((s = read_vec3(p, radius, sub, ebf->radius)))
+            return s;
+    } else {
+        if ((s = read_number(p, radius, sub, &ebf->radius[0])))
+            return s;
+        ebf->radius[1] = ebf->radius[2] = ebf->radius[0];
+    }
+    for (int a = 0; a < 3; a++)
+        if (!(ebf->radius[a] > 0))
+            return ffd_fail(p->err, FFD_ERR_INVALID, "%s: %s: %g: expected a radius > 0",
+                            p->name, sub, ebf->radius[a]);
+    if (frame) {
+        snprintf(sub, sizeof sub, "%s.frame", path);
+        if ((s = read_frame(p, frame, sub, ebf->frame)))
+            return s;
+    } else {
+        /* axis-aligned, lengths = the ROI semi-axes (§3.2.1: frame lengths = radius) */
+        memset(ebf->frame, 0, sizeof ebf->frame);
+        for (int a = 0; a < 3; a++)
+            ebf->frame[a][a] = ebf->radius[a];
+    }
+    if (enabled) {
+        snprintf(sub, sizeof sub, "%s.enabled", path);
+        if (!cJSON_IsBool(enabled))
+            return expected(p, sub, "true or false");
+        ebf->disabled = cJSON_IsFalse(enabled);
+    }
+    return FFD_OK;
+}
+
+static ffd_status read_controls(const parser *p, const cJSON *item, ffd_rig_pbffd *pb)
+{
+    static const char what[] =
+        "\"auto\", an object of placement options, or an array of "
+        "{\"center\": [x,y,z], \"radius\": r, \"frame\": [[..],[..],[..]]}";
+    if (cJSON_IsString(item)) {
+        if (strcmp(item->valuestring, "auto") != 0)
+            return expected(p, "controls", what);
+        pb->controls_auto = 1;
+        return FFD_OK;
+    }
+    if (cJSON_IsObject(item))
+        return read_placement(p, item, pb);
+    if (!cJSON_IsArray(item))
+        return expected(p, "controls", what);
+    size_t n = (size_t)cJSON_GetArraySize(item);
+    if (n == 0)
+        return expected(p, "controls", "at least one control point (or \"auto\")");
+    pb->controls = ffd_calloc(n, sizeof *pb->controls);
+    if (!pb->controls)
+        return ffd_fail(p->err, FFD_ERR_NOMEM, "%s: out of memory for %zu controls", p->name, n);
+    size_t i = 0;
+    const cJSON *c;
+    cJSON_ArrayForEach(c, item)
+    {
+        char path[RIG_PATH_MAX];
+        snprintf(path, sizeof path, "controls[%zu]", i);
+        ffd_status s = read_control(p, c, path, &pb->controls[i]);
+        if (s)
+            return s;
+        i++;
+    }
+    pb->control_count = n;
+    pb->controls_auto = 0;
+    return FFD_OK;
+}
+
+static ffd_status read_master(const parser *p, const cJSON *item, ffd_pbffd_options *o)
+{
+    if (cJSON_IsBool(item)) {
+        o->no_master = cJSON_IsFalse(item);
+        return FFD_OK;
+    }
+    if (!cJSON_IsObject(item))
+        return expected(p, "master", "true, false or {\"radius\": r, \"weight\": w}");
+    static const char *const keys[] = {"radius", "weight", NULL};
+    ffd_status s = check_keys(p, item, "master", keys, "\"radius\", \"weight\"");
+    if (s)
+        return s;
+    const cJSON *v;
+    if ((v = cJSON_GetObjectItemCaseSensitive(item, "radius"))) {
+        if ((s = read_number(p, v, "master.radius", &o->master_radius)))
+            return s;
+        if (o->master_radius < 1)
+            return ffd_fail(p->err, FFD_ERR_INVALID,
+                            "%s: master.radius: %g: expected a number >= 1 (a multiple of the "
+                            "bounding sphere's radius)",
+                            p->name, o->master_radius);
+    }
+    if ((v = cJSON_GetObjectItemCaseSensitive(item, "weight")) &&
+        (s = read_positive(p, v, "master.weight", &o->master_weight)))
+        return s;
+    return FFD_OK;
+}
+
+/* "moves" ({"control", "level", "delta"}) and "frames" ({"control", "level",
+ * "frame"} or {"control", "level", "rotate": {"axis", "angle"}, "scale"}). */
+static ffd_status read_pb_edits(const parser *p, const cJSON *item, const char *key, int frames,
+                                ffd_rig_pb_edit **out, size_t *count)
+{
+    static const char *const move_keys[] = {"control", "near", "level", "delta", NULL};
+    static const char *const frame_keys[] = {"control", "near",   "level", "frame",
+                                             "rotate",  "scale",  NULL};
+    static const char move_what[] = "an array of {\"control\": i, \"level\": l, \"delta\": "
+                                    "[dx,dy,dz]}";
+    static const char frame_what[] = "an array of {\"control\": i, \"level\": l, \"frame\": "
+                                     "[[..],[..],[..]]} or {\"control\": i, \"rotate\": "
+                                     "{\"axis\": [x,y,z], \"angle\": a}, \"scale\": [sx,sy,sz]}";
+    if (!cJSON_IsArray(item))
+        return expected(p, key, frames ? frame_what : move_what);
+    size_t n = (size_t)cJSON_GetArraySize(item);
+    if (n && !(*out = ffd_calloc(n, sizeof **out)))
+        return ffd_fail(p->err, FFD_ERR_NOMEM, "%s: out of memory for %zu %s", p->name, n, key);
+    size_t i = 0;
+    const cJSON *m;
+    cJSON_ArrayForEach(m, item)
+    {
+        char path[RIG_PATH_MAX], sub[RIG_PATH_MAX + 24];
+        snprintf(path, sizeof path, "%s[%zu]", key, i);
+        if (!cJSON_IsObject(m))
+            return expected(p, path, frames ? frame_what + 12 : move_what + 12);
+        ffd_status s = frames ? check_keys(p, m, path, frame_keys,
+                                           "\"control\", \"near\", \"level\", \"frame\", "
+                                           "\"rotate\", \"scale\"")
+                              : check_keys(p, m, path, move_keys,
+                                           "\"control\", \"near\", \"level\", \"delta\"");
+        if (s)
+            return s;
+        ffd_rig_pb_edit *e = &(*out)[i];
+        const cJSON *v = cJSON_GetObjectItemCaseSensitive(m, "control");
+        const cJSON *near = cJSON_GetObjectItemCaseSensitive(m, "near");
+        if ((v != NULL) == (near != NULL))
+            return expected(p, path, v ? "either \"control\" or \"near\", not both"
+                                       : "a \"control\" index or a \"near\" point");
+        if (v) {
+            snprintf(sub, sizeof sub, "%s.control", path);
+            if ((s = read_index(p, v, sub, "a control index (a non-negative integer)",
+                                &e->control)))
+                return s;
+        } else {
+            snprintf(sub, sizeof sub, "%s.near", path);
+            if ((s = read_vec3(p, near, sub, e->near)))
+                return s;
+            e->by_near = 1;
+        }
+        if ((v = cJSON_GetObjectItemCaseSensitive(m, "level"))) {
+            snprintf(sub, sizeof sub, "%s.level", path);
+            if ((s = read_index(p, v, sub, "a level (0 = finest)", &e->level)))
+                return s;
+        }
+        if (!frames) {
+            snprintf(sub, sizeof sub, "%s.delta", path);
+            if (!(v = cJSON_GetObjectItemCaseSensitive(m, "delta")))
+                return expected(p, sub, "an array of 3 finite numbers (missing)");
+            if ((s = read_vec3(p, v, sub, e->delta)))
+                return s;
+            e->has_delta = 1;
+            i++;
+            continue;
+        }
+        const cJSON *frame = cJSON_GetObjectItemCaseSensitive(m, "frame");
+        const cJSON *rotate = cJSON_GetObjectItemCaseSensitive(m, "rotate");
+        const cJSON *scale = cJSON_GetObjectItemCaseSensitive(m, "scale");
+        if (frame && (rotate || scale))
+            return expected(p, path, "either \"frame\" or \"rotate\"/\"scale\", not both");
+        if (!frame && !rotate && !scale)
+            return expected(p, path, "a \"frame\", \"rotate\" or \"scale\" key");
+        if (frame) {
+            snprintf(sub, sizeof sub, "%s.frame", path);
+            if ((s = read_frame(p, frame, sub, e->frame)))
+                return s;
+            e->frame_kind = 1;
+            i++;
+            continue;
+        }
+        e->frame_kind = 2;
+        e->scale[0] = e->scale[1] = e->scale[2] = 1;
+        e->axis[2] = 1;
+        if (rotate) {
+            static const char *const rot_keys[] = {"axis", "angle", NULL};
+            snprintf(sub, sizeof sub, "%s.rotate", path);
+            if (!cJSON_IsObject(rotate))
+                return expected(p, sub, "an object {\"axis\": [x,y,z], \"angle\": radians}");
+            if ((s = check_keys(p, rotate, sub, rot_keys, "\"axis\", \"angle\"")))
+                return s;
+            char leaf[RIG_PATH_MAX + 40];
+            snprintf(leaf, sizeof leaf, "%s.axis", sub);
+            if (!(v = cJSON_GetObjectItemCaseSensitive(rotate, "axis")))
+                return expected(p, leaf, "an array of 3 finite numbers (missing)");
+            if ((s = read_vec3(p, v, leaf, e->axis)))
+                return s;
+            if (e->axis[0] == 0 && e->axis[1] == 0 && e->axis[2] == 0)
+                return ffd_fail(p->err, FFD_ERR_INVALID, "%s: %s: the zero vector is no axis",
+                                p->name, leaf);
+            snprintf(leaf, sizeof leaf, "%s.angle", sub);
+            if (!(v = cJSON_GetObjectItemCaseSensitive(rotate, "angle")))
+                return expected(p, leaf, "an angle in radians (missing)");
+            if ((s = read_number(p, v, leaf, &e->angle)))
+                return s;
+        }
+        if (scale) {
+            snprintf(sub, sizeof sub, "%s.scale", path);
+            if ((s = read_vec3(p, scale, sub, e->scale)))
+                return s;
+            for (int a = 0; a < 3; a++)
+                if (e->scale[a] == 0)
+                    return ffd_fail(p->err, FFD_ERR_INVALID,
+                                    "%s: %s[%d]: a zero scale flattens the frame", p->name, sub,
+                                    a);
+        }
+        i++;
+    }
+    *count = n;
+    return FFD_OK;
+}
+
+static ffd_status read_curve(const parser *p, const cJSON *c, const char *path, ffd_rig_curve *curve)
+{
+    static const char *const keys[] = {"points", "radius", "samples", "moves", NULL};
+    static const char *const move_keys[] = {"index", "delta", NULL};
+    char sub[RIG_PATH_MAX + 16];
+    if (!cJSON_IsObject(c))
+        return expected(p, path, "an object {\"points\": [[x,y,z], ...], \"radius\": r, "
+                                 "\"moves\": [...]}");
+    ffd_status s = check_keys(p, c, path, keys, "\"points\", \"radius\", \"samples\", \"moves\"");
+    if (s)
+        return s;
+    const cJSON *v = cJSON_GetObjectItemCaseSensitive(c, "points");
+    snprintf(sub, sizeof sub, "%s.points", path);
+    if (!v || !cJSON_IsArray(v) || cJSON_GetArraySize(v) < 2)
+        return expected(p, sub, "an array of at least 2 points [x,y,z]");
+    size_t n = (size_t)cJSON_GetArraySize(v);
+    if (!(curve->points = ffd_malloc_array(n, 3 * sizeof(double))))
+        return ffd_fail(p->err, FFD_ERR_NOMEM, "%s: out of memory", p->name);
+    curve->point_count = n;
+    size_t i = 0;
+    const cJSON *pt;
+    cJSON_ArrayForEach(pt, v)
+    {
+        char leaf[RIG_PATH_MAX + 40];
+        snprintf(leaf, sizeof leaf, "%s[%zu]", sub, i);
+        if ((s = read_vec3(p, pt, leaf, curve->points + 3 * i)))
+            return s;
+        i++;
+    }
+    snprintf(sub, sizeof sub, "%s.radius", path);
+    if (!(v = cJSON_GetObjectItemCaseSensitive(c, "radius")))
+        return expected(p, sub, "a number > 0 (missing)");
+    if ((s = read_positive(p, v, sub, &curve->radius)))
+        return s;
+    if ((v = cJSON_GetObjectItemCaseSensitive(c, "samples"))) {
+        snprintf(sub, sizeof sub, "%s.samples", path);
+        if ((s = read_index(p, v, sub, "a non-negative integer (0: automatic)", &curve->samples)))
+            return s;
+    }
+    if ((v = cJSON_GetObjectItemCaseSensitive(c, "moves"))) {
+        snprintf(sub, sizeof sub, "%s.moves", path);
+        if (!cJSON_IsArray(v))
+            return expected(p, sub, "an array of {\"index\": i, \"delta\": [dx,dy,dz]}");
+        size_t k = (size_t)cJSON_GetArraySize(v);
+        if (k && !(curve->moves = ffd_calloc(k, sizeof *curve->moves)))
+            return ffd_fail(p->err, FFD_ERR_NOMEM, "%s: out of memory", p->name);
+        size_t j = 0;
+        const cJSON *m;
+        cJSON_ArrayForEach(m, v)
+        {
+            char mp[RIG_PATH_MAX + 40], leaf[RIG_PATH_MAX + 64];
+            snprintf(mp, sizeof mp, "%s[%zu]", sub, j);
+            if (!cJSON_IsObject(m))
+                return expected(p, mp, "an object {\"index\": i, \"delta\": [dx,dy,dz]}");
+            if ((s = check_keys(p, m, mp, move_keys, "\"index\", \"delta\"")))
+                return s;
+            const cJSON *ix = cJSON_GetObjectItemCaseSensitive(m, "index");
+            const cJSON *d = cJSON_GetObjectItemCaseSensitive(m, "delta");
+            snprintf(leaf, sizeof leaf, "%s.index", mp);
+            if (!ix)
+                return expected(p, leaf, "a curve point index (missing)");
+            if ((s = read_index(p, ix, leaf, "a curve point index", &curve->moves[j].index)))
+                return s;
+            if (curve->moves[j].index >= n)
+                return ffd_fail(p->err, FFD_ERR_RANGE,
+                                "%s: %s: %u out of range (the curve has %zu points)", p->name,
+                                leaf, curve->moves[j].index, n);
+            snprintf(leaf, sizeof leaf, "%s.delta", mp);
+            if (!d)
+                return expected(p, leaf, "an array of 3 finite numbers (missing)");
+            if ((s = read_vec3(p, d, leaf, curve->moves[j].delta)))
+                return s;
+            j++;
+        }
+        curve->move_count = k;
+    }
+    return FFD_OK;
+}
+
+static ffd_status read_curves(const parser *p, const cJSON *item, ffd_rig_pbffd *pb)
+{
+    if (!cJSON_IsArray(item))
+        return expected(p, "curves", "an array of {\"points\": [[x,y,z], ...], \"radius\": r, "
+                                     "\"moves\": [...]}");
+    size_t n = (size_t)cJSON_GetArraySize(item);
+    if (n && !(pb->curves = ffd_calloc(n, sizeof *pb->curves)))
+        return ffd_fail(p->err, FFD_ERR_NOMEM, "%s: out of memory", p->name);
+    pb->curve_count = n; /* so that destroy frees what was read */
+    size_t i = 0;
+    const cJSON *c;
+    cJSON_ArrayForEach(c, item)
+    {
+        char path[RIG_PATH_MAX];
+        snprintf(path, sizeof path, "curves[%zu]", i);
+        ffd_status s = read_curve(p, c, path, &pb->curves[i]);
+        if (s)
+            return s;
+        i++;
+    }
+    return FFD_OK;
+}
+
+static ffd_status validate_pbffd(const parser *p, const ffd_rig_pbffd *pb)
+{
+    uint32_t levels = pb->options.levels ? pb->options.levels : 1;
+    const ffd_rig_pb_edit *lists[2] = {pb->moves, pb->frames};
+    size_t counts[2] = {pb->move_count, pb->frame_count};
+    const char *keys[2] = {"moves", "frames"};
+    for (int l = 0; l < 2; l++)
+        for (size_t i = 0; i < counts[l]; i++)
+            if (lists[l][i].level >= levels)
+                return ffd_fail(p->err, FFD_ERR_RANGE,
+                                "%s: %s[%zu].level: %u out of range (the rig has %u level%s; "
+                                "0 is the finest)",
+                                p->name, keys[l], i, lists[l][i].level, levels,
+                                levels == 1 ? "" : "s");
+    if (pb->constraint_level >= levels)
+        return ffd_fail(p->err, FFD_ERR_RANGE,
+                        "%s: constraint_level: %u out of range (the rig has %u level%s)", p->name,
+                        pb->constraint_level, levels, levels == 1 ? "" : "s");
+    /* explicit controls: indices are known now (placed ones are checked at apply time) */
+    if (!pb->controls_auto)
+        for (int l = 0; l < 2; l++)
+            for (size_t i = 0; i < counts[l]; i++)
+                if (lists[l][i].level == 0 && !lists[l][i].by_near &&
+                    lists[l][i].control >= pb->control_count)
+                    return ffd_fail(p->err, FFD_ERR_RANGE,
+                                    "%s: %s[%zu].control: %u out of range (%zu controls)",
+                                    p->name, keys[l], i, lists[l][i].control, pb->control_count);
+    return FFD_OK;
+}
+
+static ffd_status read_pbffd_key(const parser *p, const cJSON *item, ffd_rig *rig)
+{
+    ffd_rig_pbffd *pb = &rig->pb;
+    const char *key = item->string;
+    ffd_status s;
+    if (strcmp(key, "controls") == 0)
+        return read_controls(p, item, pb);
+    if (strcmp(key, "sigma") == 0)
+        return read_positive(p, item, "sigma", &pb->options.sigma);
+    if (strcmp(key, "master") == 0)
+        return read_master(p, item, &pb->options);
+    if (strcmp(key, "levels") == 0) {
+        if ((s = read_index(p, item, "levels", "a positive integer", &pb->options.levels)))
+            return s;
+        if (pb->options.levels < 1 || pb->options.levels > 32)
+            return ffd_fail(p->err, FFD_ERR_INVALID, "%s: levels: %u: expected 1 to 32", p->name,
+                            pb->options.levels);
+        return FFD_OK;
+    }
+    if (strcmp(key, "constraint_level") == 0)
+        return read_index(p, item, "constraint_level", "a level (0 = finest)",
+                          &pb->constraint_level);
+    if (strcmp(key, "moves") == 0)
+        return read_pb_edits(p, item, "moves", 0, &pb->moves, &pb->move_count);
+    if (strcmp(key, "frames") == 0)
+        return read_pb_edits(p, item, "frames", 1, &pb->frames, &pb->frame_count);
+    if (strcmp(key, "curves") == 0)
+        return read_curves(p, item, pb);
+    return FFD_OK;
+}
+
 /* Checks that need several keys: resolution bounds for the basis, move indices. */
 static ffd_status validate(const parser *p, const ffd_rig *rig)
 {
@@ -395,20 +905,28 @@ static ffd_status validate(const parser *p, const ffd_rig *rig)
     return FFD_OK;
 }
 
+/* Keys of one deformer only; the other's are refused with a message naming it. */
+static const char *const lattice_only[] = {"basis", "resolution", "box", "margin", "outside", NULL};
+static const char *const pbffd_only[] = {"controls", "sigma",  "master", "levels",
+                                         "frames",   "curves", "constraint_level", NULL};
+
 static ffd_status read_root(const parser *p, const cJSON *root, ffd_rig *rig)
 {
-    static const char *const keys[] = {"version", "deformer", "basis",       "resolution",
-                                       "box",     "margin",   "outside",     "rcond",
-                                       "moves",   "constraints", NULL};
-    static const char *const deformers[] = {"lattice", NULL};
+    static const char *const keys[] = {"version", "deformer", "basis",   "resolution", "box",
+                                       "margin",  "outside",  "rcond",   "moves",
+                                       "constraints", "controls", "sigma", "master", "levels",
+                                       "frames",  "curves",   "constraint_level", NULL};
+    static const char *const deformers[] = {"lattice", "pbffd", NULL};
     static const char *const bases[] = {"bspline", "bernstein", NULL};
     static const char *const outsides[] = {"fixed", "clamp", "extrapolate", NULL};
     if (!cJSON_IsObject(root))
         return ffd_fail(p->err, FFD_ERR_PARSE, "%s: expected a JSON object at the top level",
                         p->name);
     ffd_status s = check_keys(p, root, "", keys,
-                              "\"version\", \"deformer\", \"basis\", \"resolution\", \"box\", "
-                              "\"margin\", \"outside\", \"rcond\", \"moves\", \"constraints\"");
+                              "\"version\", \"deformer\", \"rcond\", \"moves\", \"constraints\", "
+                              "lattice: \"basis\", \"resolution\", \"box\", \"margin\", "
+                              "\"outside\"; pbffd: \"controls\", \"sigma\", \"master\", "
+                              "\"levels\", \"frames\", \"curves\", \"constraint_level\"");
     if (s)
         return s;
     const cJSON *item;
@@ -418,8 +936,39 @@ static ffd_status read_root(const parser *p, const cJSON *root, ffd_rig *rig)
     }
     if ((item = cJSON_GetObjectItemCaseSensitive(root, "deformer"))) {
         int d = 0;
-        if ((s = read_enum(p, item, "deformer", deformers, "\"lattice\"", &d)))
+        if ((s = read_enum(p, item, "deformer", deformers, "\"lattice\" or \"pbffd\"", &d)))
             return s;
+        rig->deformer = d ? FFD_RIG_PBFFD : FFD_RIG_LATTICE;
+    }
+    const char *const *foreign = rig->deformer == FFD_RIG_PBFFD ? lattice_only : pbffd_only;
+    cJSON_ArrayForEach(item, root)
+    {
+        if (lookup(item->string, foreign) >= 0)
+            return ffd_fail(p->err, FFD_ERR_PARSE,
+                            "%s: %.64s: only for \"deformer\": \"%s\" rigs (this rig's deformer "
+                            "is \"%s\")",
+                            p->name, item->string,
+                            rig->deformer == FFD_RIG_PBFFD ? "lattice" : "pbffd",
+                            rig->deformer == FFD_RIG_PBFFD ? "pbffd" : "lattice");
+    }
+    if ((item = cJSON_GetObjectItemCaseSensitive(root, "rcond"))) {
+        if ((s = read_number(p, item, "rcond", &rig->rcond)))
+            return s;
+        if (rig->rcond < 0 || rig->rcond >= 1)
+            return expected(p, "rcond", "a number in [0, 1) (0: the solver's default)");
+    }
+    if ((item = cJSON_GetObjectItemCaseSensitive(root, "constraints"))) {
+        if ((s = read_constraints(p, item, rig)))
+            return s;
+    }
+    if (rig->deformer == FFD_RIG_PBFFD) {
+        rig->pb.controls_auto = 1;
+        cJSON_ArrayForEach(item, root)
+        {
+            if ((s = read_pbffd_key(p, item, rig)))
+                return s;
+        }
+        return validate_pbffd(p, &rig->pb);
     }
     if ((item = cJSON_GetObjectItemCaseSensitive(root, "basis"))) {
         int b = 0;
@@ -449,18 +998,8 @@ static ffd_status read_root(const parser *p, const cJSON *root, ffd_rig *rig)
         rig->outside = o == 0 ? FFD_OUTSIDE_FIXED : o == 1 ? FFD_OUTSIDE_CLAMP
                                                            : FFD_OUTSIDE_EXTRAPOLATE;
     }
-    if ((item = cJSON_GetObjectItemCaseSensitive(root, "rcond"))) {
-        if ((s = read_number(p, item, "rcond", &rig->rcond)))
-            return s;
-        if (rig->rcond < 0 || rig->rcond >= 1)
-            return expected(p, "rcond", "a number in [0, 1) (0: the solver's default)");
-    }
     if ((item = cJSON_GetObjectItemCaseSensitive(root, "moves"))) {
         if ((s = read_moves(p, item, rig)))
-            return s;
-    }
-    if ((item = cJSON_GetObjectItemCaseSensitive(root, "constraints"))) {
-        if ((s = read_constraints(p, item, rig)))
             return s;
     }
     return validate(p, rig);

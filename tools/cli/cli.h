@@ -57,5 +57,6 @@ void cli_json_number(FILE *f, double v);
 int cmd_info(int argc, char **argv);
 int cmd_convert(int argc, char **argv);
 int cmd_deform(int argc, char **argv);
+int cmd_pbffd(int argc, char **argv);
 
 #endif

@@ -17,7 +17,8 @@ static const char usage[] =
     "  -r, --rig RIG     the rig file\n"
     "  --in-place        allow OUT to be IN (OUT defaults to IN)\n"
     "  --report          print the constraint residuals as JSON on stdout\n"
-    "  --lattice-out F   also write the deformed lattice to F (OBJ: points and lines)\n"
+    "  --lattice-out F   also write the deformed lattice to F (OBJ: points and lines;\n"
+    "                    PB-FFD: the finest level's control points)\n"
     "  --timings         print the seconds per phase as JSON on stderr\n"
     "  --ascii           text encoding (PLY, STL)\n"
     "  --binary          binary little-endian (PLY, STL)\n"
@@ -39,7 +40,12 @@ static void print_report(const ffd_rig_report *report)
     }
     printf("], \"max_residual\": ");
     cli_json_number(stdout, report->max_residual);
-    printf(", \"rank\": %zu, \"outside\": %zu}\n", report->rank, report->outside_count);
+    printf(", \"rank\": %zu, \"outside\": %zu, \"controls\": %zu", report->rank,
+           report->outside_count, report->control_count);
+    if (report->resolution[0] == 0) /* PB-FFD */
+        printf(", \"levels\": %zu, \"uncovered\": %zu, \"placed\": %s", report->level_count,
+               report->uncovered_count, report->placed ? "true" : "false");
+    printf("}\n");
 }
 
 static void print_timings(double read, const ffd_timings *t, double write)
@@ -126,6 +132,8 @@ int cmd_deform(int argc, char **argv)
         cli_error(code, "%s", err.message);
         goto done;
     }
+    if (report.placed && report.placement.note[0])
+        fprintf(stderr, "ffd: note: %s\n", report.placement.note);
     if (want_report)
         print_report(&report);
     if (want_timings)

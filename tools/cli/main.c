@@ -20,6 +20,8 @@ static const char usage[] =
     "                                         rewrite a mesh in the format of OUT's extension\n"
     "  deform IN -o OUT --rig RIG [--report] [--timings] [--in-place]\n"
     "         [--ascii|--binary|--binary-be]  apply a rig (JSON or PyGeM .prm) to a mesh\n"
+    "  pbffd place MESH -o CONTROLS.json [--interior N] [--exterior N] ...\n"
+    "                                         place PB-FFD control points, write them as a rig\n"
     "\n"
     "Run 'ffd COMMAND --help' for a command's options.\n"
     "Exit status: 0 success, 1 bad or unreadable input (or a failed write), 2 usage error.\n";
@@ -158,7 +160,7 @@ void cli_json_number(FILE *f, double v)
 int main(int argc, char **argv)
 {
     if (argc < 2)
-        return cli_usage_error(NULL, "missing command (info, convert, deform)");
+        return cli_usage_error(NULL, "missing command (info, convert, deform, pbffd)");
     const char *command = argv[1];
     if (cli_is_help(command)) {
         fputs(usage, stdout);
@@ -174,8 +176,10 @@ int main(int argc, char **argv)
         return cmd_convert(argc - 1, argv + 1);
     if (strcmp(command, "deform") == 0)
         return cmd_deform(argc - 1, argv + 1);
+    if (strcmp(command, "pbffd") == 0)
+        return cmd_pbffd(argc - 1, argv + 1);
     if (command[0] == '-')
         return cli_usage_error(NULL, "unknown option '%s'", command);
-    return cli_usage_error(NULL, "unknown command '%s' (expected info, convert or deform)",
+    return cli_usage_error(NULL, "unknown command '%s' (expected info, convert, deform or pbffd)",
                            command);
 }
