@@ -547,9 +547,9 @@ static void by_rows(const ffd_pbffd *pb, size_t l, const ffd_ebf *upper, ffd_ebf
             double x = R->c[3 * i + a];
             for (size_t k = R->start[i]; k < R->start[i + 1]; k++) {
                 const ffd_ebf *e = &upper[R->col[k]];
-                const double *q = R->wd + 4 * k;
-                x += q[0] * e->center[a] + q[1] * e->frame[0][a] + q[2] * e->frame[1][a] +
-                     q[3] * e->frame[2][a];
+                const double *q = R->d + 3 * k;
+                x += R->w[k] * e->center[a] + q[0] * e->frame[0][a] + q[1] * e->frame[1][a] +
+                     q[2] * e->frame[2][a];
             }
             out[i].center[a] = x;
         }
@@ -601,7 +601,7 @@ static void test_hierarchy_composition(void)
         memcpy(x, p + 3 * i, sizeof x);
         for (size_t k = pb->mesh.start[i]; k < pb->mesh.start[i + 1]; k++)
             for (int a = 0; a < 3; a++)
-                x[a] += pb->mesh.wd[4 * k] * (L0[pb->mesh.col[k]].center[a] - c[pb->mesh.col[k]].center[a]);
+                x[a] += pb->mesh.w[k] * (L0[pb->mesh.col[k]].center[a] - c[pb->mesh.col[k]].center[a]);
         size_t e = map.row(map.self, i, cols, w);
         double y[3];
         memcpy(y, p + 3 * i, sizeof y);
@@ -703,7 +703,7 @@ static void test_hierarchy_fine_then_coarse(void)
     const ffd_ebf_rows *R = &pb->levels[0].rows;
     CHECK(R->start[j + 1] > R->start[j]);
     uint32_t k = R->col[R->start[j]];
-    double wk = R->wd[4 * R->start[j]];
+    double wk = R->w[R->start[j]];
     double d2[3] = {-0.1, 0.2, 0.05};
     CHECK_OK(ffd_pbffd_move(pb, 1, k, d2, NULL));
     ffd_ebf final;
@@ -805,8 +805,8 @@ static int same_row(const ffd_ebf_rows *a, size_t i, const ffd_ebf_rows *b, size
         uint32_t ca = a->col[a->start[i] + k], cb = b->col[b->start[i] + k];
         if (removed != SIZE_MAX && ca > removed)
             ca--;
-        if (ca != cb || memcmp(a->wd + 4 * (a->start[i] + k), b->wd + 4 * (b->start[i] + k),
-                               4 * sizeof(double)) != 0)
+        if (ca != cb || a->w[a->start[i] + k] != b->w[b->start[i] + k] ||
+            memcmp(a->d + 3 * (a->start[i] + k), b->d + 3 * (b->start[i] + k), 3 * sizeof(double)) != 0)
             return 0;
     }
     return 1;
@@ -911,7 +911,7 @@ static void check_edit(edit_op op, uint32_t levels)
         double w = 0;
         for (size_t k = old.start[i]; k < old.start[i + 1]; k++)
             if (old.col[k] == other)
-                w = old.wd[4 * k];
+                w = old.w[k];
         for (int a = 0; a < 3; a++)
             CHECK_NEAR(moved[3 * i + a], before[3 * i + a] + w * d[a], 1e-14);
     }

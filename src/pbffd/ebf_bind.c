@@ -1,13 +1,14 @@
 /* pbffd — parameterisation (PB-FFD §3.1): the rows of the sparse N x M matrix
  * W (w_ij = normalised weight, eq. 5) and of D (w_ij u_ij, eq. 7), computed in
- * parallel over points in fixed chunks, so that the rows do not depend on the
- * thread count. Absolute rows (the hierarchy, eq. 10) also keep the master's
+ * parallel over points (a counting pass, then each row written in place), so
+ * that the rows do not depend on the thread count. Absolute rows (the hierarchy, eq. 10) also keep the master's
  * constant term. */
 #include "pbffd/pbffd.h"
 
+#include <assert.h>
 #include <string.h>
 
-#define CHUNK 2048u
+#define CHUNK 1024
 
 void ffd_ebf_rows_free(ffd_ebf_rows *r)
 {
@@ -15,7 +16,8 @@ void ffd_ebf_rows_free(ffd_ebf_rows *r)
         return;
     ffd_free(r->start);
     ffd_free(r->col);
-    ffd_free(r->wd);
+    ffd_free(r->w);
+    ffd_free(r->d);
     ffd_free(r->c);
     memset(r, 0, sizeof *r);
 }
@@ -27,10 +29,11 @@ static ffd_status rows_alloc(ffd_ebf_rows *r, size_t n, size_t cap, int absolute
     r->cap = cap;
     r->start = ffd_malloc_array(n + 1, sizeof *r->start);
     r->col = ffd_malloc_array(cap ? cap : 1, sizeof *r->col);
-    r->wd = ffd_malloc_array(cap ? cap : 1, 4 * sizeof *r->wd);
+    r->w = ffd_malloc_array(cap ? cap : 1, sizeof *r->w);
+    r->d = ffd_malloc_array(cap ? cap : 1, 3 * sizeof *r->d);
     if (absolute)
         r->c = ffd_malloc_array(n ? n : 1, 3 * sizeof *r->c);
-    if (!r->start || !r->col || !r->wd || (absolute && !r->c)) {
+    if (!r->start || !r->col || !r->w || !r->d || (absolute && !r->c)) {
         ffd_ebf_rows_free(r);
         return FFD_ERR_NOMEM;
     }
@@ -38,120 +41,48 @@ static ffd_status rows_alloc(ffd_ebf_rows *r, size_t n, size_t cap, int absolute
     return FFD_OK;
 }
 
-typedef struct chunk_out {
-    size_t nnz, cap;
-    uint32_t *col;
-    double *wd;
-} chunk_out;
-
 ffd_status ffd_ebf_rows_bind(const ffd_ebf_space *s, const double *points, size_t n, int absolute,
                              size_t min_cap, ffd_ebf_rows *rows)
 {
     memset(rows, 0, sizeof *rows);
-    size_t nchunk = (n + CHUNK - 1) / CHUNK;
-    chunk_out *ch = ffd_calloc(nchunk ? nchunk : 1, sizeof *ch);
     size_t *start = ffd_malloc_array(n + 1, sizeof *start);
-    double *cst = absolute ? ffd_malloc_array(n ? n : 1, 3 * sizeof *cst) : NULL;
-    if (!ch || !start || (absolute && !cst)) {
-        ffd_free(ch);
-        ffd_free(start);
-        ffd_free(cst);
+    if (!start)
         return FFD_ERR_NOMEM;
+    /* pass 1: row lengths (no exp), pass 2: the rows in place; every point on its own */
+    const long long nn = (long long)n;
+#pragma omp parallel for schedule(static, CHUNK)
+    for (long long i = 0; i < nn; i++)
+        start[i + 1] = ffd_ebf_space_count(s, points + 3 * (size_t)i);
+    start[0] = 0;
+    size_t max_nnz = 0;
+    for (size_t i = 0; i < n; i++) {
+        if (start[i + 1] > max_nnz)
+            max_nnz = start[i + 1];
+        start[i + 1] += start[i];
     }
-    int failed = 0;
-    const long long nc = (long long)nchunk;
-#pragma omp parallel reduction(| : failed)
-    {
-        size_t m = s->count ? s->count : 1;
-        uint32_t *col = ffd_malloc_array(m, sizeof *col);
-        double *wd = ffd_malloc_array(m, 4 * sizeof *wd);
-        if (!col || !wd)
-            failed = 1;
-#pragma omp for schedule(dynamic, 1)
-        for (long long k = 0; k < nc; k++) {
-            if (!col || !wd)
-                continue;
-            chunk_out *o = &ch[k];
-            size_t lo = (size_t)k * CHUNK, hi = lo + CHUNK < n ? lo + CHUNK : n;
-            for (size_t i = lo; i < hi; i++) {
-                double mw;
-                size_t e = ffd_ebf_space_weights(s, points + 3 * i, col, wd, &mw);
-                start[i + 1] = e;
-                if (cst)
-                    for (int c = 0; c < 3; c++) /* the master's p_m + A_m u_m is the point itself */
-                        cst[3 * i + c] = mw * points[3 * i + c];
-                if (o->nnz + e > o->cap) {
-                    size_t cap = o->cap ? o->cap : 4 * (hi - lo);
-                    while (cap < o->nnz + e)
-                        cap *= 2;
-                    uint32_t *nc2 = ffd_realloc_array(o->col, cap, sizeof *nc2);
-                    if (nc2)
-                        o->col = nc2;
-                    double *nw = ffd_realloc_array(o->wd, cap, 4 * sizeof *nw);
-                    if (nw)
-                        o->wd = nw;
-                    if (!nc2 || !nw) {
-                        failed = 1;
-                        break;
-                    }
-                    o->cap = cap;
-                }
-                if (e == 0)
-                    continue;
-                memcpy(o->col + o->nnz, col, e * sizeof *col);
-                memcpy(o->wd + 4 * o->nnz, wd, 4 * e * sizeof *wd);
-                o->nnz += e;
-            }
-        }
-        ffd_free(col);
-        ffd_free(wd);
+    const size_t total = start[n], cap = total > min_cap ? total : min_cap;
+    ffd_status st = rows_alloc(rows, n, cap, absolute);
+    if (st != FFD_OK) {
+        ffd_free(start);
+        return st;
     }
-    ffd_status st = failed ? FFD_ERR_NOMEM : FFD_OK;
-    size_t total = 0, max_nnz = 0;
-    if (st == FFD_OK) {
-        start[0] = 0;
-        for (size_t i = 0; i < n; i++) {
-            size_t e = start[i + 1];
-            if (e > max_nnz)
-                max_nnz = e;
-            start[i + 1] = start[i] + e;
-        }
-        total = start[n];
-        size_t cap = total > min_cap ? total : min_cap;
-        rows->col = ffd_malloc_array(cap ? cap : 1, sizeof *rows->col);
-        rows->wd = ffd_malloc_array(cap ? cap : 1, 4 * sizeof *rows->wd);
-        if (!rows->col || !rows->wd)
-            st = FFD_ERR_NOMEM;
-        rows->cap = cap;
+    ffd_free(rows->start);
+    rows->start = start;
+    rows->max_nnz = max_nnz;
+    uint32_t *col = rows->col;
+    double *w = rows->w, *dd = rows->d, *cst = rows->c;
+#pragma omp parallel for schedule(static, CHUNK)
+    for (long long ii = 0; ii < nn; ii++) {
+        size_t i = (size_t)ii, at = start[i];
+        double mw;
+        size_t e = ffd_ebf_space_weights(s, points + 3 * i, col + at, w + at, dd + 3 * at, &mw);
+        (void)e;
+        assert(e == start[i + 1] - at);
+        if (cst)
+            for (int c = 0; c < 3; c++) /* the master's p_m + A_m u_m is the point itself */
+                cst[3 * i + c] = mw * points[3 * i + c];
     }
-    if (st == FFD_OK) {
-        size_t at = 0;
-        for (size_t k = 0; k < nchunk; k++) {
-            if (ch[k].nnz) {
-                memcpy(rows->col + at, ch[k].col, ch[k].nnz * sizeof *rows->col);
-                memcpy(rows->wd + 4 * at, ch[k].wd, 4 * ch[k].nnz * sizeof *rows->wd);
-            }
-            at += ch[k].nnz;
-        }
-        rows->n = n;
-        rows->start = start;
-        rows->c = cst;
-        rows->max_nnz = max_nnz;
-        start = NULL;
-        cst = NULL;
-    } else {
-        ffd_free(rows->col);
-        ffd_free(rows->wd);
-        memset(rows, 0, sizeof *rows);
-    }
-    for (size_t k = 0; k < nchunk; k++) {
-        ffd_free(ch[k].col);
-        ffd_free(ch[k].wd);
-    }
-    ffd_free(ch);
-    ffd_free(start);
-    ffd_free(cst);
-    return st;
+    return FFD_OK;
 }
 
 ffd_status ffd_ebf_rows_copy(const ffd_ebf_rows *src, size_t min_cap, ffd_ebf_rows *dst)
@@ -175,7 +106,8 @@ void ffd_ebf_rows_assign(ffd_ebf_rows *dst, const ffd_ebf_rows *src)
         dst->start[0] = 0;
     if (nnz) {
         memcpy(dst->col, src->col, nnz * sizeof *dst->col);
-        memcpy(dst->wd, src->wd, 4 * nnz * sizeof *dst->wd);
+        memcpy(dst->w, src->w, nnz * sizeof *dst->w);
+        memcpy(dst->d, src->d, 3 * nnz * sizeof *dst->d);
     }
     if (src->c && dst->c && src->n)
         memcpy(dst->c, src->c, 3 * src->n * sizeof *dst->c);
@@ -201,7 +133,8 @@ ffd_status ffd_ebf_rows_splice(const ffd_ebf_rows *old, const ffd_ebf_rows *sub,
         size_t b = src->start[i], e = src->start[i + 1];
         for (size_t k = b; k < e; k++) {
             out->col[at] = from_old && colmap ? colmap[src->col[k]] : src->col[k];
-            memcpy(out->wd + 4 * at, src->wd + 4 * k, 4 * sizeof *out->wd);
+            out->w[at] = src->w[k];
+            memcpy(out->d + 3 * at, src->d + 3 * k, 3 * sizeof *out->d);
             at++;
         }
         out->start[r + 1] = at;
@@ -220,10 +153,10 @@ void ffd_ebf_rows_eval_abs(const ffd_ebf_rows *rows, size_t i, const ffd_ebf *ct
     memcpy(x, rows->c + 3 * i, sizeof x);
     for (size_t k = rows->start[i]; k < rows->start[i + 1]; k++) {
         const ffd_ebf *e = &ctl[rows->col[k]];
-        const double *q = rows->wd + 4 * k;
+        const double w = rows->w[k], *q = rows->d + 3 * k;
         for (int c = 0; c < 3; c++)
-            x[c] += q[0] * e->center[c] + q[1] * e->frame[0][c] + q[2] * e->frame[1][c] +
-                    q[3] * e->frame[2][c];
+            x[c] += w * e->center[c] + q[0] * e->frame[0][c] + q[1] * e->frame[1][c] +
+                    q[2] * e->frame[2][c];
     }
     memcpy(out, x, sizeof x);
 }

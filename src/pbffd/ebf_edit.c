@@ -166,8 +166,10 @@ static ffd_status edit(ffd_pbffd *pb, edit_kind kind, size_t j, const ffd_ebf *c
     if (s.na) {
         if (ffd_pb_version_kernels(pb, &vk) != FFD_OK)
             goto nomem;
+        ffd_ebf_kernel master;
+        ffd_ebf_kernel_init(&pb->master, pb->master_weight, &master);
         for (size_t a = 0; a < s.na; a++) {
-            ffd_pb_jacobian_point(pb, vk, s.which[a], s.J_pre + 9 * a);
+            ffd_pb_jacobian_point(pb, vk, pb->has_master ? &master : NULL, s.which[a], s.J_pre + 9 * a);
             if (!is_identity(s.J_pre + 9 * a))
                 s.need_J = 1;
         }

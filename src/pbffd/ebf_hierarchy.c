@@ -223,6 +223,9 @@ ffd_status ffd_pb_place(ffd_pbffd *pb, size_t level, size_t index, const double 
 {
     ffd_pb_level *L = &pb->levels[level];
     int moved = center && memcmp(center, L->cur[index].center, 3 * sizeof(double)) != 0;
+    int turned = frame && memcmp(frame, L->cur[index].frame, 9 * sizeof(double)) != 0;
+    if (!moved && !turned)
+        return FFD_OK; /* nothing changes: the finer levels are not re-evaluated */
     if (moved && level + 1 < pb->level_count) {
         ffd_ebf_rows nr;
         if (reparam(pb, level, index, center, &nr) != FFD_OK)

@@ -41,7 +41,8 @@ void ffd_pb_version_kernels_free(const ffd_pbffd *pb, ffd_ebf_kernel **vk)
     ffd_free(vk);
 }
 
-void ffd_pb_jacobian_point(const ffd_pbffd *pb, ffd_ebf_kernel *const *vk, size_t i, double J[9])
+void ffd_pb_jacobian_point(const ffd_pbffd *pb, ffd_ebf_kernel *const *vk, const ffd_ebf_kernel *master,
+                           size_t i, double J[9])
 {
     const uint32_t v = pb->version ? pb->version[i] : 0;
     const ffd_ebf_kernel *K = vk[v];
@@ -57,10 +58,8 @@ void ffd_pb_jacobian_point(const ffd_pbffd *pb, ffd_ebf_kernel *const *vk, size_
         for (int c = 0; c < 3; c++)
             gS[c] += g[c];
     }
-    if (pb->has_master) {
-        ffd_ebf_kernel m;
-        ffd_ebf_kernel_init(&pb->master, pb->master_weight, &m);
-        S += ffd_ebf_phi(&m, inv2s2, x, NULL, g);
+    if (master) {
+        S += ffd_ebf_phi(master, inv2s2, x, NULL, g);
         for (int c = 0; c < 3; c++)
             gS[c] += g[c];
     }
@@ -102,10 +101,13 @@ ffd_status ffd_pbffd_jacobian(const ffd_pbffd *pb, double *out, ffd_error *err)
     ffd_ebf_kernel **vk = NULL;
     if (ffd_pb_version_kernels(pb, &vk) != FFD_OK)
         return ffd_fail(err, FFD_ERR_NOMEM, "out of memory computing Jacobians");
+    ffd_ebf_kernel master;
+    ffd_ebf_kernel_init(&pb->master, pb->master_weight, &master);
+    const ffd_ebf_kernel *mk = pb->has_master ? &master : NULL;
     const long long n = (long long)pb->n;
 #pragma omp parallel for schedule(static, 1024)
     for (long long i = 0; i < n; i++)
-        ffd_pb_jacobian_point(pb, vk, (size_t)i, out + 9 * (size_t)i);
+        ffd_pb_jacobian_point(pb, vk, mk, (size_t)i, out + 9 * (size_t)i);
     ffd_pb_version_kernels_free(pb, vk);
     return FFD_OK;
 }

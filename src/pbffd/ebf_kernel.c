@@ -107,11 +107,9 @@ double ffd_ebf_phi(const ffd_ebf_kernel *k, double inv2s2, const double x[3], do
             grad[0] = grad[1] = grad[2] = 0.0;
         return 0.0;
     }
-    /* eq. 1 over tau is exp(-rho^2 / (2 sigma^2)); the window (1 - rho^2)^3
-     * brings phi and its first two derivatives to zero on the ROI boundary */
-    double g = exp(-rho2 * inv2s2), t = 1.0 - rho2, t2 = t * t;
-    double phi = g * t2 * t * k->weight;
+    double phi = ffd_ebf_phi_of(rho2, inv2s2) * k->weight;
     if (grad) {
+        double g = exp(-rho2 * inv2s2), t = 1.0 - rho2, t2 = t * t;
         /* d phi / d rho^2 = -phi / (2 sigma^2) - 3 g t^2; d rho^2 / dx = 2 q^T r */
         double dr = (-g * t2 * t * inv2s2 - 3.0 * g * t2) * k->weight;
         for (int c = 0; c < 3; c++)

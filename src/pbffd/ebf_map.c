@@ -43,7 +43,7 @@ static size_t map_row(const void *self, size_t i, uint32_t *cols, double *w)
     if (m->level == 0) {
         for (size_t k = R->start[i]; k < R->start[i + 1]; k++) {
             cols[nnz] = R->col[k];
-            w[nnz] = R->wd[4 * k];
+            w[nnz] = R->w[k];
             nnz++;
         }
         return nnz;
@@ -54,7 +54,7 @@ static size_t map_row(const void *self, size_t i, uint32_t *cols, double *w)
     double *cv = m->val[0], *nv = m->val[1];
     for (size_t k = R->start[i]; k < R->start[i + 1]; k++) {
         cur[nnz] = R->col[k];
-        cv[nnz] = R->wd[4 * k];
+        cv[nnz] = R->w[k];
         nnz++;
     }
     for (size_t l = 0; l < m->level; l++) {
@@ -70,7 +70,7 @@ static size_t map_row(const void *self, size_t i, uint32_t *cols, double *w)
                     m->acc[q] = 0.0;
                     next[nn++] = q;
                 }
-                m->acc[q] += a * W->wd[4 * k];
+                m->acc[q] += a * W->w[k];
             }
         }
         for (size_t e = 0; e < nn; e++) {

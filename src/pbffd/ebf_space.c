@@ -64,7 +64,7 @@ static ffd_status build_grid(ffd_ebf_space *s)
     if (enabled == 0)
         return FFD_OK; /* no grid: every control is skipped anyway */
     /* cells about half the mean ROI width: each ROI meets a few cells, each cell few ROIs */
-    double h = 0.5 * width / (double)enabled;
+    double h = 0.25 * width / (double)enabled;
     for (;;) {
         size_t cells = 1;
         int ok = 1;
@@ -157,42 +157,78 @@ ffd_status ffd_ebf_space_init(ffd_ebf_space *s, const ffd_ebf *controls, size_t 
     return FFD_OK;
 }
 
-size_t ffd_ebf_space_weights(const ffd_ebf_space *s, const double x[3], uint32_t *col, double *wd,
-                             double *master_w)
+/* The controls whose ROI box may hold x: a grid cell's list, or all (*cand NULL). */
+static size_t candidates(const ffd_ebf_space *s, const double x[3], const uint32_t **cand)
 {
-    const uint32_t *cand = NULL;
-    size_t nc = s->count;
-    if (s->dim[0]) {
-        nc = 0;
-        int inside = 1;
-        for (int c = 0; c < 3; c++)
-            if (!(x[c] >= s->lo[c]) || x[c] > s->lo[c] + s->dim[c] / s->inv_h)
-                inside = 0;
-        if (inside) {
-            size_t cell = ((size_t)cell_coord(s, 0, x[0]) * s->dim[1] + cell_coord(s, 1, x[1])) *
-                              s->dim[2] +
-                          cell_coord(s, 2, x[2]);
-            cand = s->cell_ctl + s->cell_start[cell];
-            nc = s->cell_start[cell + 1] - s->cell_start[cell];
-        }
+    *cand = NULL;
+    if (!s->dim[0])
+        return s->count;
+    for (int c = 0; c < 3; c++)
+        if (!(x[c] >= s->lo[c]) || x[c] > s->lo[c] + s->dim[c] / s->inv_h)
+            return 0;
+    size_t cell = ((size_t)cell_coord(s, 0, x[0]) * s->dim[1] + cell_coord(s, 1, x[1])) * s->dim[2] +
+                  cell_coord(s, 2, x[2]);
+    *cand = s->cell_ctl + s->cell_start[cell];
+    return s->cell_start[cell + 1] - s->cell_start[cell];
+}
+
+/* rho^2 of x in an enabled control's ROI (eq. 1), v = x - center; 0 when x is
+ * outside the ROI's box or the control is disabled. */
+static inline int roi_rho2(const ffd_ebf_kernel *k, const double x[3], double v[3], double *rho2)
+{
+    if (k->weight == 0.0 || x[0] < k->lo[0] || x[0] > k->hi[0] || x[1] < k->lo[1] ||
+        x[1] > k->hi[1] || x[2] < k->lo[2] || x[2] > k->hi[2])
+        return 0;
+    for (int c = 0; c < 3; c++)
+        v[c] = x[c] - k->center[c];
+    double r2 = 0;
+    for (int a = 0; a < 3; a++) {
+        double r = k->q[a][0] * v[0] + k->q[a][1] * v[1] + k->q[a][2] * v[2];
+        r2 += r * r;
     }
-    size_t m = 0;
+    *rho2 = r2;
+    return 1;
+}
+
+/* Whether a control enters the row: phi > 0. Below this 1/(2 sigma^2) that is
+ * rho < 1 (exp(-rho^2/(2 sigma^2)) (1 - rho^2)^3 >= e^-300 (1e-16)^3 does not
+ * underflow), so counting needs no exp. */
+#define NO_UNDERFLOW_INV2S2 300.0
+
+static inline int accept(const ffd_ebf_space *s, double rho2)
+{
+    return rho2 < 1.0 && (s->inv2s2 <= NO_UNDERFLOW_INV2S2 || ffd_ebf_phi_of(rho2, s->inv2s2) > 0.0);
+}
+
+size_t ffd_ebf_space_count(const ffd_ebf_space *s, const double x[3])
+{
+    const uint32_t *cand;
+    size_t nc = candidates(s, x, &cand), m = 0;
+    for (size_t e = 0; e < nc; e++) {
+        double v[3], rho2;
+        if (roi_rho2(&s->kernel[cand ? cand[e] : e], x, v, &rho2) && accept(s, rho2))
+            m++;
+    }
+    return m;
+}
+
+size_t ffd_ebf_space_weights(const ffd_ebf_space *s, const double x[3], uint32_t *col, double *w,
+                             double *d, double *master_w)
+{
+    const uint32_t *cand;
+    size_t nc = candidates(s, x, &cand), m = 0;
     double sum = 0.0;
     for (size_t e = 0; e < nc; e++) {
         uint32_t j = cand ? cand[e] : (uint32_t)e;
         const ffd_ebf_kernel *k = &s->kernel[j];
-        if (k->weight == 0.0 || x[0] < k->lo[0] || x[0] > k->hi[0] || x[1] < k->lo[1] ||
-            x[1] > k->hi[1] || x[2] < k->lo[2] || x[2] > k->hi[2])
+        double v[3], rho2;
+        if (!roi_rho2(k, x, v, &rho2) || !accept(s, rho2))
             continue;
-        double u[3];
-        double phi = ffd_ebf_phi(k, s->inv2s2, x, u, NULL);
-        if (!(phi > 0.0))
-            continue;
+        double phi = ffd_ebf_phi_of(rho2, s->inv2s2); /* eq. 1 over tau, windowed */
         col[m] = j;
-        wd[4 * m] = phi;
-        wd[4 * m + 1] = u[0];
-        wd[4 * m + 2] = u[1];
-        wd[4 * m + 3] = u[2];
+        w[m] = phi;
+        for (int a = 0; a < 3; a++) /* eq. 3: v = alpha a + beta b + gamma c */
+            d[3 * m + a] = k->dual[a][0] * v[0] + k->dual[a][1] * v[1] + k->dual[a][2] * v[2];
         sum += phi;
         m++;
     }
@@ -203,11 +239,11 @@ size_t ffd_ebf_space_weights(const ffd_ebf_space *s, const double x[3], uint32_t
         return 0;
     }
     for (size_t e = 0; e < m; e++) {
-        double w = wd[4 * e] / total; /* eq. 5 */
-        wd[4 * e] = w;
-        wd[4 * e + 1] *= w; /* eq. 7: E, F, G = w alpha, w beta, w gamma */
-        wd[4 * e + 2] *= w;
-        wd[4 * e + 3] *= w;
+        double we = w[e] / total; /* eq. 5 */
+        w[e] = we;
+        d[3 * e] *= we; /* eq. 7: E, F, G = w alpha, w beta, w gamma */
+        d[3 * e + 1] *= we;
+        d[3 * e + 2] *= we;
     }
     *master_w = pm / total;
     return m;

@@ -18,6 +18,8 @@
 
 #include "core/core.h"
 
+#include <math.h>
+
 /* ---- one EBF prepared for evaluation (ebf_kernel.c) ---- */
 
 typedef struct ffd_ebf_kernel {
@@ -39,6 +41,15 @@ int ffd_ebf_frame_degenerate(const double frame[3][3]);
 
 /* Prepares e (valid, see ffd_ebf_check). weight multiplies phi. */
 void ffd_ebf_kernel_init(const ffd_ebf *e, double weight, ffd_ebf_kernel *k);
+
+/* The kernel of the ROI-normalised distance (rho^2 < 1): eq. 1 over tau,
+ * exp(-rho^2 / (2 sigma^2)), times the window (1 - rho^2)^3 that brings phi and
+ * its first two derivatives to zero on the ROI boundary. */
+static inline double ffd_ebf_phi_of(double rho2, double inv2s2)
+{
+    double t = 1.0 - rho2;
+    return exp(-rho2 * inv2s2) * (t * t * t);
+}
 
 /* The windowed kernel (ffd.h: eq. 1 / tau times (1 - rho^2)^3) at x, times
  * k->weight; 0 outside the ROI. u (may be NULL) receives the parameters
@@ -72,12 +83,15 @@ ffd_status ffd_ebf_space_init(ffd_ebf_space *s, const ffd_ebf *controls, size_t 
 void ffd_ebf_space_free(ffd_ebf_space *s);
 
 /* The normalised weights of eq. 5 at x: for each control whose kernel is
- * positive there (ascending index) col and wd = (w, w alpha, w beta, w gamma)
- * (a row of W and D, eq. 7). Returns the count (<= s->count). *master_w
+ * positive there (ascending index) col, w (a row of W) and d = w (alpha,
+ * beta, gamma) (3 each: a row of D, eq. 7). Returns the count (<= s->count). *master_w
  * receives the master's normalised weight, or 1 when no kernel (master
  * included) is positive at x: the point is then held where it is. */
-size_t ffd_ebf_space_weights(const ffd_ebf_space *s, const double x[3], uint32_t *col, double *wd,
-                             double *master_w);
+size_t ffd_ebf_space_weights(const ffd_ebf_space *s, const double x[3], uint32_t *col, double *w,
+                             double *d, double *master_w);
+
+/* The number of entries ffd_ebf_space_weights gives at x (no exp needed). */
+size_t ffd_ebf_space_count(const ffd_ebf_space *s, const double x[3]);
 
 /* ---- rows: sparse W and D (ebf_bind.c) ---- */
 
@@ -86,7 +100,8 @@ typedef struct ffd_ebf_rows {
     size_t cap;      /* entry capacity (>= start[n]) */
     size_t *start;   /* n + 1 */
     uint32_t *col;   /* control index per entry */
-    double *wd;      /* 4 per entry: w_ij and the D entries w_ij u_ij (PB-FFD eq. 7) */
+    double *w;       /* per entry: w_ij, the normalised weight (PB-FFD eq. 5), W of eq. 7 */
+    double *d;       /* 3 per entry: w_ij u_ij, the D of eq. 7 */
     double *c;       /* absolute rows only (n by 3): the master's constant term w_m x (eq. 10) */
     size_t max_nnz;  /* longest row */
 } ffd_ebf_rows;
@@ -173,13 +188,16 @@ ffd_status ffd_pb_rebase_levels(ffd_pbffd *pb);
 /* Kernels of every live version (NULL entries for free slots). */
 ffd_status ffd_pb_version_kernels(const ffd_pbffd *pb, ffd_ebf_kernel ***out);
 void ffd_pb_version_kernels_free(const ffd_pbffd *pb, ffd_ebf_kernel **k);
-/* d x' / d x at bound point i, 9 row-major. */
-void ffd_pb_jacobian_point(const ffd_pbffd *pb, ffd_ebf_kernel *const *vk, size_t i, double J[9]);
+/* d x' / d x at bound point i, 9 row-major; master: the master's kernel or NULL. */
+void ffd_pb_jacobian_point(const ffd_pbffd *pb, ffd_ebf_kernel *const *vk, const ffd_ebf_kernel *master,
+                           size_t i, double J[9]);
 
 /* ebf_map.c */
 void ffd_pb_map_state_free(ffd_pb_map_state *m);
 
-/* ebf_eval.c: delta table of level 0, 12 per control: dP, da, db, dc. */
-void ffd_pb_delta_table(const ffd_pbffd *pb, double *table);
+/* ebf_eval.c: the change of level 0 since its base, 12 per control (dP, da,
+ * db, dc); flags[j] |= 1 when control j changed, 2 when its frame did.
+ * Returns the OR of all flags. */
+unsigned ffd_pb_delta_table(const ffd_pbffd *pb, double *table, unsigned char *flags);
 
 #endif

@@ -10,3 +10,19 @@ fail() {
     echo "FAIL: $*"
     failures=$((failures + 1))
 }
+
+# ok ARGS...: runs ffd ARGS, expecting exit status 0; stdout in $T/stdout, stderr in $T/stderr.
+ok() {
+    "$FFD" "$@" >"$T/stdout" 2>"$T/stderr" || fail "ffd $* exited $?: $(cat "$T/stderr")"
+}
+# bad CODE ARGS...: runs ffd ARGS, expecting exit status CODE.
+bad() {
+    local code=$1
+    shift
+    "$FFD" "$@" >"$T/stdout" 2>"$T/stderr"
+    local rc=$?
+    [ "$rc" -eq "$code" ] || fail "ffd $* exited $rc, expected $code: $(cat "$T/stderr")"
+}
+has() { # has FILE FRAGMENT
+    grep -qF -- "$2" "$T/$1" || fail "$1 lacks '$2': $(cat "$T/$1")"
+}

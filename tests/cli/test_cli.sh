@@ -6,13 +6,6 @@ set -u
 source "$(dirname "$0")/lib.sh" "$@"
 DATA=$SRC/tests/data/rig
 
-# ok ARGS...: runs ffd ARGS, expecting exit status 0; stdout in $T/stdout, stderr in $T/stderr.
-ok() {
-    "$FFD" "$@" >"$T/stdout" 2>"$T/stderr" || fail "ffd $* exited $?: $(cat "$T/stderr")"
-}
-has() { # has FILE FRAGMENT
-    grep -qF -- "$2" "$T/$1" || fail "$1 lacks '$2': $(cat "$T/$1")"
-}
 
 ok --help
 has stdout "usage: ffd COMMAND"

@@ -177,9 +177,15 @@ static int cmd_place(int argc, char **argv)
     size_t count = 0;
     ffd_placement_report report = {0};
     int code = CLI_EXIT_INPUT;
-    if (ffd_mesh_read(in, &mesh, &err) != FFD_OK ||
-        ffd_pbffd_place(mesh, &options, &controls, &count, &report, &err) != FFD_OK ||
-        ffd_rig_write_pbffd_controls(out, controls, count, &pb_options, &err) != FFD_OK) {
+    if (ffd_mesh_read(in, &mesh, &err) != FFD_OK) {
+        cli_error(code, "%s", err.message);
+        goto done;
+    }
+    if (ffd_pbffd_place(mesh, &options, &controls, &count, &report, &err) != FFD_OK) {
+        cli_error(code, "%s: %s", in, err.message);
+        goto done;
+    }
+    if (ffd_rig_write_pbffd_controls(out, controls, count, &pb_options, &err) != FFD_OK) {
         cli_error(code, "%s", err.message);
         goto done;
     }

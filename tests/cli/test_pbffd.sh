@@ -1,0 +1,88 @@
+#!/usr/bin/env bash
+# PB-FFD from the command line: every example rig in examples/pbffd/ runs on
+# its mesh (positions change, nothing else); `ffd pbffd place` writes a rig
+# that replays to an identical mesh; bad input gets a clear message, a
+# non-zero exit and no output.
+# usage: bash test_pbffd.sh PATH_TO_ffd SOURCE_DIR
+set -u
+source "$(dirname "$0")/lib.sh" "$@"
+EX=$SRC/examples/pbffd
+
+topology() {
+    "$FFD" info --json "$1" | sed -e 's/"file": "[^"]*", //' -e 's/, "bbox": .*//'
+}
+
+count=0
+for rig in "$EX"/*.json; do
+    name=$(basename "$rig" .json)
+    mesh=$EX/${name%%-*}.off
+    [ -f "$mesh" ] || { fail "$name: no mesh $mesh"; continue; }
+    sum=$(cksum <"$mesh")
+    out=$T/$name.off
+    count=$((count + 1))
+    if ! "$FFD" deform "$mesh" -o "$out" --rig "$rig" --report >"$T/$name.report" 2>"$T/$name.err"; then
+        fail "$name: ffd deform failed: $(cat "$T/$name.err")"
+        continue
+    fi
+    [ "$(topology "$out")" = "$(topology "$mesh")" ] || fail "$name: counts or topology changed"
+    cmp -s "$mesh" "$out" && fail "$name: no vertex moved"
+    grep -q '"placed": true' "$T/$name.report" || fail "$name: report lacks placement: $(cat "$T/$name.report")"
+    grep -q '"uncovered": 0' "$T/$name.report" || fail "$name: uncovered vertices: $(cat "$T/$name.report")"
+    [ "$(cksum <"$mesh")" = "$sum" ] || fail "$name: the input mesh was modified"
+done
+[ "$count" -ge 4 ] || fail "expected at least 4 example rigs, found $count"
+
+# The direct-manipulation example reaches its targets.
+sed -e 's/.*"max_residual": \([^,]*\),.*/\1/' "$T/cow-drag.report" >"$T/maxres"
+awk '{ exit !($1 <= 1e-9) }' "$T/maxres" || fail "cow-drag.json: max_residual $(cat "$T/maxres") > 1e-9"
+
+# place writes a rig; replaying it without moves gives the mesh back byte for byte.
+ok pbffd place "$EX/cow.off" -o "$T/controls.json" --interior 30 --exterior 40 --levels 2 \
+    --points "$T/points.obj" --report
+has stdout '"controls": 70, "interior": 30, "exterior": 40, "open": false'
+has stderr "wrote $T/controls.json (70 control points: 30 interior, 40 exterior; closed surface;"
+grep -q '"levels": 2' "$T/controls.json" || fail "the placed rig lacks its levels"
+[ "$(grep -c '^v ' "$T/points.obj")" = 70 ] || fail "--points wrote $(grep -c '^v ' "$T/points.obj") points"
+ok deform "$EX/cow.off" -o "$T/same.off" --rig "$T/controls.json"
+cmp -s "$EX/cow.off" "$T/same.off" || fail "replaying placed controls without moves changed the mesh"
+
+# An open mesh takes the open-surface path and says so.
+printf 'v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0.2\nv 0.5 0.5 0.3\nf 1 2 5\nf 2 4 5\nf 4 3 5\nf 3 1 5\n' >"$T/open.obj"
+ok pbffd place "$T/open.obj" -o "$T/open.json" --exterior 6 --surface closed
+has stderr "note: "
+has stderr "open surface"
+
+# Bad input: message, exit status, no output.
+bad 2 pbffd
+has stderr "missing subcommand"
+bad 2 pbffd shuffle
+has stderr "unknown subcommand 'shuffle'"
+bad 2 pbffd place "$EX/cow.off"
+has stderr "missing -o CONTROLS.json"
+bad 2 pbffd place "$EX/cow.off" -o "$T/x.json" --interior 0
+has stderr "--interior '0': expected a positive integer"
+bad 2 pbffd place "$EX/cow.off" -o "$T/x.json" --surface flat
+has stderr "--surface 'flat'"
+bad 2 pbffd place "$EX/cow.off" -o "$T/x.json" --offset -1
+bad 1 pbffd place "$EX/cow.off" -o "$T/x.json" --interior 100000
+has stderr "only"
+has stderr "Voronoi vertices lie inside the mesh"
+[ -e "$T/x.json" ] && fail "a failed place wrote its output"
+bad 1 pbffd place "$T/missing.off" -o "$T/x.json"
+has stderr "missing.off"
+printf '{"deformer": "pbffd", "controls": [{"center": [0,0,0], "radius": 0}]}' >"$T/zero.json"
+bad 1 deform "$EX/cow.off" -o "$T/x.off" --rig "$T/zero.json"
+has stderr "zero.json: controls[0].radius: 0: expected a radius > 0"
+printf '{"deformer": "pbffd", "controls": [{"center": [0,0,0], "radius": 1, "frame": [[1,0,0],[2,0,0],[0,0,1]]}]}' >"$T/flat.json"
+bad 1 deform "$EX/cow.off" -o "$T/x.off" --rig "$T/flat.json"
+has stderr "degenerate frame"
+printf '{"deformer": "pbffd", "controls": [{"center": [9,9,9], "radius": 0.1}], "constraints": [{"vertex": 0, "target": [0,0,0]}]}' >"$T/far.json"
+bad 1 deform "$EX/cow.off" -o "$T/x.off" --rig "$T/far.json"
+has stderr "but the master's, so it cannot move"
+[ -e "$T/x.off" ] && fail "a failed deform wrote its output"
+
+if [ "$failures" -ne 0 ]; then
+    echo "$failures failure(s)"
+    exit 1
+fi
+echo "$count PB-FFD example rigs and the pbffd command pass"
