@@ -363,9 +363,17 @@ typedef struct ffd_pbffd ffd_pbffd;
  * (#n by 3, usually the mesh vertices) are bound to level 0 (W and D of
  * eq. 7, sparse). Every level has an immovable master control point at the
  * centre of the bounding box of the points and controls, unless
- * options->no_master. Errors: FFD_ERR_INVALID (count == 0, zero or negative
- * radius, degenerate frame, levels such that a level would have fewer than
- * one control), FFD_ERR_NONFINITE, FFD_ERR_NOMEM. */
+ * options->no_master. Level 1 merges the enabled controls of level 0 (the
+ * disabled ones are still parameterised in level 1); a merged point gets a
+ * spherical ROI about the midpoint that encloses both ROIs, with an
+ * axis-aligned frame of that radius. A point under no kernel at all (no
+ * control, outside the master) stays where it is. n may be 0 (points NULL).
+ * Errors name the control ("controls[3]: radius 0: expected > 0"):
+ * FFD_ERR_INVALID (count == 0, zero or negative radius, degenerate frame,
+ * levels such that a level would have fewer than one control: each level
+ * holds ceil(half) of the one below and a level of one control cannot be
+ * halved; options: sigma < 0, master_radius in (0, 1), master_weight < 0),
+ * FFD_ERR_NONFINITE, FFD_ERR_NOMEM. */
 ffd_status ffd_pbffd_create(const ffd_ebf *controls, size_t count, const double *points, size_t n,
                             const ffd_pbffd_options *options, ffd_pbffd **out, ffd_error *err);
 void ffd_pbffd_destroy(ffd_pbffd *pb);
@@ -389,7 +397,11 @@ size_t ffd_pbffd_point_support(const ffd_pbffd *pb, size_t i);
 /* Moves control index of level by delta (an edit at that level, §3.4): the
  * finer levels and the bound points follow (eq. 9-10); the coarser levels
  * do not move: the point is re-parameterised in the next coarser level at
- * its new position. FFD_ERR_RANGE, FFD_ERR_NONFINITE. */
+ * its new position (against that level's current state, which reproduces
+ * it). The cascade moves the centres of the finer control points whose rows
+ * name a changed point; their frames are kept. A point moved outside every
+ * ROI of the next coarser level no longer follows it (§3.4). FFD_ERR_RANGE,
+ * FFD_ERR_NONFINITE. */
 ffd_status ffd_pbffd_move(ffd_pbffd *pb, size_t level, size_t index, const double delta[3],
                           ffd_error *err);
 /* Replaces the frame (the matrix A of eq. 7) of control index of level:
@@ -399,32 +411,45 @@ ffd_status ffd_pbffd_move(ffd_pbffd *pb, size_t level, size_t index, const doubl
 ffd_status ffd_pbffd_set_frame(ffd_pbffd *pb, size_t level, size_t index,
                                const double frame[3][3], ffd_error *err);
 /* Puts every control point of every level back where it was created
- * (or where the last control-set edit left it). */
+ * (or where the last control-set edit left it), and undoes the
+ * re-parameterisations made by moves since. */
 void ffd_pbffd_reset(ffd_pbffd *pb);
 
 /* Control-set edits on level 0, made in the current (possibly deformed)
- * state: the bound points whose parameterisation the edit changes (those in
- * the old or new ROI) are re-parameterised at their current positions, no
- * others; the deformation seen so far is kept. add returns the new index;
- * remove shifts the later indices down by one; set_enabled(0) keeps the index. */
+ * state: the bound points whose parameterisation the edit changes (those
+ * whose weights name the control, i.e. in its old ROI when they were bound,
+ * and those inside its new ROI at their current positions) are
+ * re-parameterised at their current positions, no others; the deformation
+ * seen so far is kept (eval returns the same positions bitwise), and it
+ * becomes the state ffd_pbffd_reset returns to. The level-0 point itself is
+ * (re-)parameterised in level 1; the coarser levels are not rebuilt. add
+ * returns the new index; remove shifts the later indices down by one (the
+ * only control cannot be removed: FFD_ERR_INVALID); set_enabled(0) keeps the
+ * index. Errors: FFD_ERR_RANGE, FFD_ERR_INVALID and FFD_ERR_NONFINITE for a
+ * bad control ("control[4]: ..."), FFD_ERR_NOMEM; on error nothing changes. */
 ffd_status ffd_pbffd_add(ffd_pbffd *pb, const ffd_ebf *control, size_t *index, ffd_error *err);
 ffd_status ffd_pbffd_remove(ffd_pbffd *pb, size_t index, ffd_error *err);
 ffd_status ffd_pbffd_set_enabled(ffd_pbffd *pb, size_t index, int enabled, ffd_error *err);
-/* Redefines control index (centre, frame, radius) in the current state. */
+/* Redefines control index (centre, frame, radius) in the current state; its
+ * enabled state is kept (control->disabled is ignored: use set_enabled). */
 ffd_status ffd_pbffd_redefine(ffd_pbffd *pb, size_t index, const ffd_ebf *control,
                               ffd_error *err);
 
 /* Deformed positions of the bound points, n by 3: V = W P + D A (eq. 7),
  * evaluated as rest + W dP + D dA, so that at rest it is exact (bitwise). */
 ffd_status ffd_pbffd_eval(const ffd_pbffd *pb, double *out, ffd_error *err);
-/* Jacobians d(x')/d(x) of the deformation at the bound points, n by 9 row-major. */
+/* Jacobians d(x')/d(x) of the deformation at the bound points, n by 9
+ * row-major, with respect to the points as bound (after a control-set edit,
+ * a re-parameterised point's Jacobian composes with the one it had then). */
 ffd_status ffd_pbffd_jacobian(const ffd_pbffd *pb, double *out, ffd_error *err);
 
 /* The bound points as a linear map of the control points of level (0 =
  * finest; coarser levels compose eq. 10), for ffd_manip_solve (§3.3): the
  * master is not a column (it is fixed), disabled controls are tied
- * FFD_TIE_FIXED. Apply the solution with ffd_pbffd_move per control. The
- * map borrows pb; a control-set edit invalidates it. */
+ * FFD_TIE_FIXED. Apply the solution with ffd_pbffd_move per control (moves
+ * at one level keep the map exact). The map borrows pb and owns scratch
+ * inside it (composed rows): it is not thread-safe; a control-set edit, or a
+ * new map of the same level, invalidates it. */
 ffd_status ffd_pbffd_linear_map(ffd_pbffd *pb, size_t level, ffd_linear_map *map, ffd_error *err);
 
 /* --- Automatic placement (§3.2.1, Figure 2) --- */
@@ -487,8 +512,10 @@ typedef struct ffd_pbffd_curve ffd_pbffd_curve;
  * frames; the n points inside the union of the ROIs are parameterised in
  * them; a master of weight options->master_weight (default here 0.05)
  * fades the motion to zero at the ROI boundary, so points outside never
- * move. FFD_ERR_INVALID (count < 2, radius <= 0, coincident consecutive
- * control points), FFD_ERR_NONFINITE. */
+ * move. Samples are even in arc length on the curve as created and keep
+ * their curve parameter when it moves; options->levels is ignored (one
+ * level). FFD_ERR_INVALID (count < 2, radius <= 0, samples 1 or above
+ * 100000, coincident consecutive control points), FFD_ERR_NONFINITE. */
 ffd_status ffd_pbffd_curve_create(const double *control_points, size_t count, double radius,
                                   size_t samples, const double *points, size_t n,
                                   const ffd_pbffd_options *options, ffd_pbffd_curve **out,
@@ -497,7 +524,11 @@ void ffd_pbffd_curve_destroy(ffd_pbffd_curve *curve);
 size_t ffd_pbffd_curve_control_count(const ffd_pbffd_curve *curve);
 /* Current curve control points, count by 3. */
 const double *ffd_pbffd_curve_control_points(const ffd_pbffd_curve *curve);
-/* Moves curve control point index by delta: the samples and their frames follow the new curve. */
+/* Moves curve control point index by delta: the samples and their frames
+ * (rotation-minimising from the first sample's, turned with its tangent; the
+ * tangent axis scaled by the local stretch) follow the new curve.
+ * FFD_ERR_RANGE, FFD_ERR_NONFINITE, FFD_ERR_INVALID (consecutive control
+ * points would coincide); on error nothing changes. */
 ffd_status ffd_pbffd_curve_move(ffd_pbffd_curve *curve, size_t index, const double delta[3],
                                 ffd_error *err);
 /* Deformed positions of the n points (points outside every ROI unchanged, bitwise). */

@@ -170,7 +170,7 @@ ffd_status ffd_pbffd_create(const ffd_ebf *controls, size_t count, const double 
     pb->level_count = 1;
     pb->version_count = 1;
     ffd_pb_level *L0 = &pb->levels[0];
-    L0->count = L0->cap = count;
+    L0->count = count;
     L0->cur = ffd_malloc_array(count, sizeof *L0->cur);
     L0->base = ffd_malloc_array(count, sizeof *L0->base);
     L0->changed = ffd_calloc(count, 1);

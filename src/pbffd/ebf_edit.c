@@ -307,7 +307,7 @@ static ffd_status edit(ffd_pbffd *pb, edit_kind kind, size_t j, const ffd_ebf *c
     L0->cur = s.cur;
     L0->base = s.base;
     L0->changed = s.changed;
-    L0->count = L0->cap = s.count;
+    L0->count = s.count;
     s.cur = s.base = NULL;
     s.changed = NULL;
     if (pb->level_count > 1) {

@@ -152,7 +152,6 @@ ffd_status ffd_pb_build_hierarchy(ffd_pbffd *pb, uint32_t levels, ffd_error *err
         ffd_status st = decimate(below->cur, below->count, &L->cur, &L->count);
         pb->level_count = l + 1;
         if (st == FFD_OK) {
-            L->cap = L->count;
             L->base = ffd_malloc_array(L->count, sizeof *L->base);
             L->changed = ffd_calloc(L->count, 1);
             if (!L->base || !L->changed)
@@ -295,31 +294,4 @@ void ffd_pbffd_reset(ffd_pbffd *pb)
         if (L->rows.start) /* rows.cap >= the base rows' entries: no allocation */
             ffd_ebf_rows_assign(&L->rows, &L->rows_base);
     }
-}
-
-ffd_status ffd_pb_rebase_levels(ffd_pbffd *pb)
-{
-    ffd_ebf_rows *copies = ffd_calloc(pb->level_count, sizeof *copies);
-    if (!copies)
-        return FFD_ERR_NOMEM;
-    for (size_t l = 0; l < pb->level_count; l++) {
-        if (!pb->levels[l].rows.start)
-            continue;
-        if (ffd_ebf_rows_copy(&pb->levels[l].rows, 0, &copies[l]) != FFD_OK) {
-            for (size_t k = 0; k <= l; k++)
-                ffd_ebf_rows_free(&copies[k]);
-            ffd_free(copies);
-            return FFD_ERR_NOMEM;
-        }
-    }
-    for (size_t l = 0; l < pb->level_count; l++) {
-        ffd_pb_level *L = &pb->levels[l];
-        memcpy(L->base, L->cur, L->count * sizeof *L->cur);
-        if (L->rows.start) {
-            ffd_ebf_rows_free(&L->rows_base);
-            L->rows_base = copies[l];
-        }
-    }
-    ffd_free(copies);
-    return FFD_OK;
 }

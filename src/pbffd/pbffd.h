@@ -130,7 +130,7 @@ void ffd_ebf_rows_eval_abs(const ffd_ebf_rows *rows, size_t i, const ffd_ebf *ct
 
 /* One level of the hierarchy (§3.4). Level 0 is the finest. */
 typedef struct ffd_pb_level {
-    size_t count, cap;
+    size_t count;
     ffd_ebf *cur;           /* current P and A */
     ffd_ebf *base;          /* where reset puts them */
     ffd_ebf_rows rows;      /* this level's points over level + 1, absolute (eq. 10); none on the top */
@@ -181,8 +181,6 @@ ffd_status ffd_pb_build_hierarchy(ffd_pbffd *pb, uint32_t levels, ffd_error *err
  * it in level + 1 when the centre changed, and cascades to the finer levels. */
 ffd_status ffd_pb_place(ffd_pbffd *pb, size_t level, size_t index, const double center[3],
                         const double frame[3][3], ffd_error *err);
-/* base := cur and rows_base := rows on every level. */
-ffd_status ffd_pb_rebase_levels(ffd_pbffd *pb);
 
 /* ebf_jacobian.c */
 /* Kernels of every live version (NULL entries for free slots). */
