@@ -449,8 +449,8 @@ static void check_jacobian_fd(ffd_pbffd_options *o, int hierarchy)
     for (size_t i = 0; i < nb; i++)
         for (int a = 0; a < 3; a++)
             for (int r = 0; r < 3; r++) {
-                double fd = (q[3 * (7 * i + 1 + 2 * a) + r] - q[3 * (7 * i + 2 + 2 * a) + r]) /
-                            (2 * h);
+                double fd =
+                    (q[3 * (7 * i + 1 + 2 * a) + r] - q[3 * (7 * i + 2 + 2 * a) + r]) / (2 * h);
                 worst = fmax(worst, fabs(fd - J[9 * (7 * i) + 3 * r + a]));
             }
     CHECK(worst < 1e-6);
@@ -567,7 +567,8 @@ static void test_hierarchy_composition(void)
     CHECK(ffd_pbffd_control_count(pb, 1) == 8);
     CHECK(ffd_pbffd_control_count(pb, 2) == 4);
     CHECK(ffd_pbffd_control_count(pb, 3) == 0);
-    /* every coarse ROI encloses the ROIs of what it merged: the coarse points cover the fine ones */
+    /* every coarse ROI encloses the ROIs of what it merged: the coarse points cover the fine ones
+     */
     for (size_t l = 0; l < 2; l++)
         for (size_t i = 0; i < pb->levels[l].count; i++)
             CHECK(pb->levels[l].rows.start[i + 1] > pb->levels[l].rows.start[i]);
@@ -601,7 +602,8 @@ static void test_hierarchy_composition(void)
         memcpy(x, p + 3 * i, sizeof x);
         for (size_t k = pb->mesh.start[i]; k < pb->mesh.start[i + 1]; k++)
             for (int a = 0; a < 3; a++)
-                x[a] += pb->mesh.w[k] * (L0[pb->mesh.col[k]].center[a] - c[pb->mesh.col[k]].center[a]);
+                x[a] +=
+                    pb->mesh.w[k] * (L0[pb->mesh.col[k]].center[a] - c[pb->mesh.col[k]].center[a]);
         size_t e = map.row(map.self, i, cols, w);
         double y[3];
         memcpy(y, p + 3 * i, sizeof y);
@@ -693,7 +695,8 @@ static void test_hierarchy_fine_then_coarse(void)
         CHECK(after_fine.center[a] == c[j].center[a] + d1[a]);
     /* the coarser levels did not move */
     for (size_t l = 1; l < 3; l++)
-        CHECK(memcmp(pb->levels[l].cur, pb->levels[l].base, pb->levels[l].count * sizeof(ffd_ebf)) == 0);
+        CHECK(memcmp(pb->levels[l].cur, pb->levels[l].base,
+                     pb->levels[l].count * sizeof(ffd_ebf)) == 0);
     /* the point's new row reproduces its new position (re-parameterisation) */
     ffd_ebf L0[16], L1[8];
     by_rows(pb, 0, pb->levels[1].cur, L0);
@@ -721,7 +724,8 @@ static void test_hierarchy_fine_then_coarse(void)
     double *q = eval_new(pb);
     CHECK(memcmp(q, p, 3 * n * sizeof *q) == 0);
     for (size_t l = 0; l < 3; l++)
-        CHECK(memcmp(pb->levels[l].cur, pb->levels[l].base, pb->levels[l].count * sizeof(ffd_ebf)) == 0);
+        CHECK(memcmp(pb->levels[l].cur, pb->levels[l].base,
+                     pb->levels[l].count * sizeof(ffd_ebf)) == 0);
     by_rows(pb, 0, pb->levels[1].cur, L0);
     for (int a = 0; a < 3; a++)
         CHECK_NEAR(L0[j].center[a], c[j].center[a], 1e-14);
@@ -756,8 +760,8 @@ static void manip_at(size_t level)
     for (size_t e = 0; e < k; e++) {
         do
             pts[e] = (size_t)(check_rand01() * (double)n);
-        while (ffd_pbffd_point_support(pb, pts[e]) < 2 ||
-               fabs(p[3 * pts[e]] - 0.35) > 0.3 || fabs(p[3 * pts[e] + 1] - 0.35) > 0.3);
+        while (ffd_pbffd_point_support(pb, pts[e]) < 2 || fabs(p[3 * pts[e]] - 0.35) > 0.3 ||
+               fabs(p[3 * pts[e] + 1] - 0.35) > 0.3);
         for (int a = 0; a < 3; a++) {
             cur[3 * e + a] = q[3 * pts[e] + a];
             tgt[3 * e + a] = cur[3 * e + a] + rnd(-0.05, 0.05);
@@ -791,7 +795,11 @@ static void manip_at(size_t level)
 }
 
 static void test_manip_level0(void) { manip_at(0); }
-static void test_manip_coarse_level(void) { manip_at(1); manip_at(2); }
+static void test_manip_coarse_level(void)
+{
+    manip_at(1);
+    manip_at(2);
+}
 
 /* ================= control-set edits ================= */
 
@@ -806,7 +814,8 @@ static int same_row(const ffd_ebf_rows *a, size_t i, const ffd_ebf_rows *b, size
         if (removed != SIZE_MAX && ca > removed)
             ca--;
         if (ca != cb || a->w[a->start[i] + k] != b->w[b->start[i] + k] ||
-            memcmp(a->d + 3 * (a->start[i] + k), b->d + 3 * (b->start[i] + k), 3 * sizeof(double)) != 0)
+            memcmp(a->d + 3 * (a->start[i] + k), b->d + 3 * (b->start[i] + k),
+                   3 * sizeof(double)) != 0)
             return 0;
     }
     return 1;
@@ -855,12 +864,8 @@ static void check_edit(edit_op op, uint32_t levels)
         CHECK_OK(ffd_pbffd_remove(pb, j, NULL));
         CHECK(ffd_pbffd_control_count(pb, 0) == m - 1);
         break;
-    case DISABLE:
-        CHECK_OK(ffd_pbffd_set_enabled(pb, j, 0, NULL));
-        break;
-    case REDEFINE:
-        CHECK_OK(ffd_pbffd_redefine(pb, j, &neu, NULL));
-        break;
+    case DISABLE: CHECK_OK(ffd_pbffd_set_enabled(pb, j, 0, NULL)); break;
+    case REDEFINE: CHECK_OK(ffd_pbffd_redefine(pb, j, &neu, NULL)); break;
     }
     if (levels > 1)
         CHECK(pb->levels[0].rows.n == ffd_pbffd_control_count(pb, 0));
@@ -956,10 +961,22 @@ static void check_edit(edit_op op, uint32_t levels)
     ffd_pbffd_destroy(pb);
 }
 
-static void test_edit_add(void) { check_edit(ADD, 1); check_edit(ADD, 3); }
-static void test_edit_remove(void) { check_edit(REMOVE, 1); check_edit(REMOVE, 2); }
+static void test_edit_add(void)
+{
+    check_edit(ADD, 1);
+    check_edit(ADD, 3);
+}
+static void test_edit_remove(void)
+{
+    check_edit(REMOVE, 1);
+    check_edit(REMOVE, 2);
+}
 static void test_edit_disable(void) { check_edit(DISABLE, 1); }
-static void test_edit_redefine(void) { check_edit(REDEFINE, 1); check_edit(REDEFINE, 3); }
+static void test_edit_redefine(void)
+{
+    check_edit(REDEFINE, 1);
+    check_edit(REDEFINE, 3);
+}
 
 /* Points the edit re-parameterised keep their Jacobian with respect to the
  * original points: after the edit a finite difference over freshly bound
@@ -994,8 +1011,8 @@ static void test_edit_jacobian_composes(void)
     for (size_t i = 0; i < nb; i++)
         for (int a = 0; a < 3; a++)
             for (int r = 0; r < 3; r++) {
-                double fd = (q[3 * (7 * i + 1 + 2 * a) + r] - q[3 * (7 * i + 2 + 2 * a) + r]) /
-                            (2 * h);
+                double fd =
+                    (q[3 * (7 * i + 1 + 2 * a) + r] - q[3 * (7 * i + 2 + 2 * a) + r]) / (2 * h);
                 worst = fmax(worst, fabs(fd - J[9 * (7 * i) + 3 * r + a]));
             }
     CHECK(worst < 1e-5);

@@ -1,8 +1,8 @@
 /* pbffd — parameterisation (PB-FFD §3.1): the rows of the sparse N x M matrix
  * W (w_ij = normalised weight, eq. 5) and of D (w_ij u_ij, eq. 7), computed in
  * parallel over points (a counting pass, then each row written in place), so
- * that the rows do not depend on the thread count. Absolute rows (the hierarchy, eq. 10) also keep the master's
- * constant term. */
+ * that the rows do not depend on the thread count. Absolute rows (the
+ * hierarchy, eq. 10) also keep the master's constant term. */
 #include "pbffd/pbffd.h"
 
 #include <assert.h>

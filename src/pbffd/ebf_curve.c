@@ -11,14 +11,14 @@
 #include <string.h>
 
 #define DEFAULT_CURVE_MASTER_WEIGHT 0.05
-#define ARC_STEPS 64u    /* arc-length table resolution per segment */
-#define FRAME_STEPS 8u   /* double-reflection steps between samples */
+#define ARC_STEPS 64u  /* arc-length table resolution per segment */
+#define FRAME_STEPS 8u /* double-reflection steps between samples */
 #define MAX_SAMPLES 100000u
 #define MIN_SAMPLES 8u
 
 struct ffd_pbffd_curve {
     size_t count;
-    double *cp;          /* count by 3, current control points */
+    double *cp; /* count by 3, current control points */
     double radius;
     size_t samples;
     double *u;           /* samples: global parameter, segment + local in [0, 1] */
@@ -72,13 +72,16 @@ static void curve_eval(const double *P, size_t count, double u, double x[3], dou
     double m1[3], m2[3];
     for (int c = 0; c < 3; c++) {
         m1[c] = ((p[1][c] - p[0][c]) / d[0] - (p[2][c] - p[0][c]) / (d[0] + d[1]) +
-                 (p[2][c] - p[1][c]) / d[1]) * d[1];
+                 (p[2][c] - p[1][c]) / d[1]) *
+                d[1];
         m2[c] = ((p[2][c] - p[1][c]) / d[1] - (p[3][c] - p[1][c]) / (d[1] + d[2]) +
-                 (p[3][c] - p[2][c]) / d[2]) * d[1];
+                 (p[3][c] - p[2][c]) / d[2]) *
+                d[1];
     }
     double s2 = s * s, s3 = s2 * s;
     double h00 = 2 * s3 - 3 * s2 + 1, h10 = s3 - 2 * s2 + s, h01 = -2 * s3 + 3 * s2, h11 = s3 - s2;
-    double g00 = 6 * s2 - 6 * s, g10 = 3 * s2 - 4 * s + 1, g01 = -6 * s2 + 6 * s, g11 = 3 * s2 - 2 * s;
+    double g00 = 6 * s2 - 6 * s, g10 = 3 * s2 - 4 * s + 1, g01 = -6 * s2 + 6 * s,
+           g11 = 3 * s2 - 2 * s;
     for (int c = 0; c < 3; c++) {
         x[c] = h00 * p[1][c] + h10 * m1[c] + h01 * p[2][c] + h11 * m2[c];
         if (dx)
@@ -270,7 +273,8 @@ static ffd_status check_points(const double *P, size_t count, const char *what, 
             if (!isfinite(P[3 * i + c]))
                 return ffd_fail(err, FFD_ERR_NONFINITE, "%s[%zu]: not finite", what, i);
     for (size_t i = 0; i + 1 < count; i++)
-        if (P[3 * i] == P[3 * i + 3] && P[3 * i + 1] == P[3 * i + 4] && P[3 * i + 2] == P[3 * i + 5])
+        if (P[3 * i] == P[3 * i + 3] && P[3 * i + 1] == P[3 * i + 4] &&
+            P[3 * i + 2] == P[3 * i + 5])
             return ffd_fail(err, FFD_ERR_INVALID,
                             "%s[%zu] and [%zu] coincide: consecutive control points must differ",
                             what, i, i + 1);
@@ -371,7 +375,8 @@ ffd_status ffd_pbffd_curve_move(ffd_pbffd_curve *cv, size_t index, const double 
             return ffd_fail(err, FFD_ERR_NONFINITE, "curve move: delta is not finite");
     double *P = ffd_malloc_array(cv->count, 3 * sizeof *P);
     ffd_ebf *ebf = ffd_malloc_array(cv->samples, sizeof *ebf);
-    ffd_status st = P && ebf ? FFD_OK : ffd_fail(err, FFD_ERR_NOMEM, "out of memory moving the curve");
+    ffd_status st =
+        P && ebf ? FFD_OK : ffd_fail(err, FFD_ERR_NOMEM, "out of memory moving the curve");
     if (st == FFD_OK) {
         memcpy(P, cv->cp, cv->count * 3 * sizeof *P);
         for (int c = 0; c < 3; c++)
@@ -384,12 +389,14 @@ ffd_status ffd_pbffd_curve_move(ffd_pbffd_curve *cv, size_t index, const double 
         memcpy(r0, cv->r0, sizeof r0);
         size_t bad = curve_ebfs(cv, P, 0, t0, r0, ebf);
         if (bad != SIZE_MAX)
-            st = ffd_fail(err, FFD_ERR_INVALID, "the moved curve has no tangent at sample %zu", bad);
+            st =
+                ffd_fail(err, FFD_ERR_INVALID, "the moved curve has no tangent at sample %zu", bad);
     }
     if (st == FFD_OK)
         for (size_t i = 0; i < cv->samples && st == FFD_OK; i++)
             if (ffd_ebf_frame_degenerate((const double(*)[3])ebf[i].frame))
-                st = ffd_fail(err, FFD_ERR_INVALID, "the moved curve has a degenerate frame at sample %zu", i);
+                st = ffd_fail(err, FFD_ERR_INVALID,
+                              "the moved curve has a degenerate frame at sample %zu", i);
     /* one level: placing a sample re-parameterises nothing and cannot fail */
     if (st == FFD_OK) {
         for (size_t i = 0; i < cv->samples; i++)

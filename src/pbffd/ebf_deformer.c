@@ -53,10 +53,11 @@ static ffd_status check_options(const ffd_pbffd_options *o, ffd_error *err)
 {
     if (!o)
         return FFD_OK;
-    if (isnan(o->sigma) || isnan(o->master_radius) || isnan(o->master_weight) ||
-        isinf(o->sigma) || isinf(o->master_radius) || isinf(o->master_weight))
-        return ffd_fail(err, FFD_ERR_NONFINITE, "options: sigma, master_radius and master_weight "
-                                                "must be finite");
+    if (isnan(o->sigma) || isnan(o->master_radius) || isnan(o->master_weight) || isinf(o->sigma) ||
+        isinf(o->master_radius) || isinf(o->master_weight))
+        return ffd_fail(err, FFD_ERR_NONFINITE,
+                        "options: sigma, master_radius and master_weight "
+                        "must be finite");
     if (o->sigma < 0)
         return ffd_fail(err, FFD_ERR_INVALID, "options: sigma %g: expected > 0", o->sigma);
     if (o->master_radius != 0 && o->master_radius < 1)

@@ -17,26 +17,32 @@
 #include <math.h>
 #include <string.h>
 
-typedef enum edit_kind { EDIT_ADD, EDIT_REMOVE, EDIT_ENABLE, EDIT_DISABLE, EDIT_REDEFINE } edit_kind;
+typedef enum edit_kind {
+    EDIT_ADD,
+    EDIT_REMOVE,
+    EDIT_ENABLE,
+    EDIT_DISABLE,
+    EDIT_REDEFINE
+} edit_kind;
 
 /* Everything an edit allocates, so that it either commits whole or changes nothing. */
 typedef struct edit_state {
-    double *x_cur;          /* n by 3 current positions: the new base */
-    unsigned char *hit;     /* n flags: re-parameterised */
-    size_t *which;          /* affected point indices */
+    double *x_cur;      /* n by 3 current positions: the new base */
+    unsigned char *hit; /* n flags: re-parameterised */
+    size_t *which;      /* affected point indices */
     size_t na;
-    double *J_pre;          /* na by 9: Jacobians before the edit */
-    int need_J;             /* some J_pre is not the identity */
-    ffd_ebf *cur, *base;    /* level 0 after the edit */
+    double *J_pre;       /* na by 9: Jacobians before the edit */
+    int need_J;          /* some J_pre is not the identity */
+    ffd_ebf *cur, *base; /* level 0 after the edit */
     unsigned char *changed;
     size_t count;
-    ffd_ebf_rows level_rows;      /* level 0 over level 1 after the edit (when levels > 1) */
-    ffd_ebf_rows *rows_base;      /* level_count copies: the new base rows */
-    ffd_ebf_rows mesh;            /* the bound points' rows after the edit */
-    ffd_ebf *snapshot;            /* the new version */
-    ffd_pb_version *versions;     /* grown array (or NULL: the old one has a free slot) */
-    uint32_t *version;            /* allocated when pb->version was NULL */
-    double *J_ref;                /* allocated when needed and pb->J_ref was NULL */
+    ffd_ebf_rows level_rows;  /* level 0 over level 1 after the edit (when levels > 1) */
+    ffd_ebf_rows *rows_base;  /* level_count copies: the new base rows */
+    ffd_ebf_rows mesh;        /* the bound points' rows after the edit */
+    ffd_ebf *snapshot;        /* the new version */
+    ffd_pb_version *versions; /* grown array (or NULL: the old one has a free slot) */
+    uint32_t *version;        /* allocated when pb->version was NULL */
+    double *J_ref;            /* allocated when needed and pb->J_ref was NULL */
 } edit_state;
 
 static void edit_state_free(const ffd_pbffd *pb, edit_state *s)
@@ -169,7 +175,8 @@ static ffd_status edit(ffd_pbffd *pb, edit_kind kind, size_t j, const ffd_ebf *c
         ffd_ebf_kernel master;
         ffd_ebf_kernel_init(&pb->master, pb->master_weight, &master);
         for (size_t a = 0; a < s.na; a++) {
-            ffd_pb_jacobian_point(pb, vk, pb->has_master ? &master : NULL, s.which[a], s.J_pre + 9 * a);
+            ffd_pb_jacobian_point(pb, vk, pb->has_master ? &master : NULL, s.which[a],
+                                  s.J_pre + 9 * a);
             if (!is_identity(s.J_pre + 9 * a))
                 s.need_J = 1;
         }

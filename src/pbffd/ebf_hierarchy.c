@@ -228,8 +228,8 @@ ffd_status ffd_pb_place(ffd_pbffd *pb, size_t level, size_t index, const double 
     if (moved && level + 1 < pb->level_count) {
         ffd_ebf_rows nr;
         if (reparam(pb, level, index, center, &nr) != FFD_OK)
-            return ffd_fail(err, FFD_ERR_NOMEM, "out of memory re-parameterising level %zu control %zu",
-                            level, index);
+            return ffd_fail(err, FFD_ERR_NOMEM,
+                            "out of memory re-parameterising level %zu control %zu", level, index);
         ffd_ebf_rows_free(&L->rows);
         L->rows = nr;
     }
@@ -263,8 +263,8 @@ ffd_status ffd_pbffd_move(ffd_pbffd *pb, size_t level, size_t index, const doubl
     for (int k = 0; k < 3; k++) {
         c[k] = pb->levels[level].cur[index].center[k] + delta[k];
         if (!isfinite(delta[k]) || !isfinite(c[k]))
-            return ffd_fail(err, FFD_ERR_NONFINITE, "move of level %zu control %zu: delta is not finite",
-                            level, index);
+            return ffd_fail(err, FFD_ERR_NONFINITE,
+                            "move of level %zu control %zu: delta is not finite", level, index);
     }
     return ffd_pb_place(pb, level, index, c, NULL, err);
 }
@@ -278,11 +278,11 @@ ffd_status ffd_pbffd_set_frame(ffd_pbffd *pb, size_t level, size_t index, const 
     for (int a = 0; a < 3; a++)
         for (int c = 0; c < 3; c++)
             if (!isfinite(frame[a][c]))
-                return ffd_fail(err, FFD_ERR_NONFINITE, "level %zu control %zu: frame is not finite",
-                                level, index);
+                return ffd_fail(err, FFD_ERR_NONFINITE,
+                                "level %zu control %zu: frame is not finite", level, index);
     if (ffd_ebf_frame_degenerate(frame))
-        return ffd_fail(err, FFD_ERR_INVALID, "level %zu control %zu: degenerate frame (parallel axes)",
-                        level, index);
+        return ffd_fail(err, FFD_ERR_INVALID,
+                        "level %zu control %zu: degenerate frame (parallel axes)", level, index);
     return ffd_pb_place(pb, level, index, NULL, frame, err);
 }
 

@@ -41,8 +41,8 @@ void ffd_pb_version_kernels_free(const ffd_pbffd *pb, ffd_ebf_kernel **vk)
     ffd_free(vk);
 }
 
-void ffd_pb_jacobian_point(const ffd_pbffd *pb, ffd_ebf_kernel *const *vk, const ffd_ebf_kernel *master,
-                           size_t i, double J[9])
+void ffd_pb_jacobian_point(const ffd_pbffd *pb, ffd_ebf_kernel *const *vk,
+                           const ffd_ebf_kernel *master, size_t i, double J[9])
 {
     const uint32_t v = pb->version ? pb->version[i] : 0;
     const ffd_ebf_kernel *K = vk[v];
@@ -73,22 +73,21 @@ void ffd_pb_jacobian_point(const ffd_pbffd *pb, ffd_ebf_kernel *const *vk, const
                 gw[c] = (g[c] - w * gS[c]) / S;
                 for (int a = 0; a < 3; a++)
                     dA[a][c] = cur[j].frame[a][c] - snap[j].frame[a][c];
-                disp[c] = cur[j].center[c] - snap[j].center[c] + u[0] * dA[0][c] +
-                          u[1] * dA[1][c] + u[2] * dA[2][c];
+                disp[c] = cur[j].center[c] - snap[j].center[c] + u[0] * dA[0][c] + u[1] * dA[1][c] +
+                          u[2] * dA[2][c];
             }
             for (int r = 0; r < 3; r++)
                 for (int c = 0; c < 3; c++)
-                    F[3 * r + c] += disp[r] * gw[c] + w * (dA[0][r] * K[j].dual[0][c] +
-                                                           dA[1][r] * K[j].dual[1][c] +
-                                                           dA[2][r] * K[j].dual[2][c]);
+                    F[3 * r + c] += disp[r] * gw[c] +
+                                    w * (dA[0][r] * K[j].dual[0][c] + dA[1][r] * K[j].dual[1][c] +
+                                         dA[2][r] * K[j].dual[2][c]);
         }
     }
     if (pb->J_ref) {
         const double *R = pb->J_ref + 9 * i;
         for (int r = 0; r < 3; r++)
             for (int c = 0; c < 3; c++)
-                J[3 * r + c] =
-                    F[3 * r] * R[c] + F[3 * r + 1] * R[3 + c] + F[3 * r + 2] * R[6 + c];
+                J[3 * r + c] = F[3 * r] * R[c] + F[3 * r + 1] * R[3 + c] + F[3 * r + 2] * R[6 + c];
     } else {
         memcpy(J, F, sizeof F);
     }

@@ -13,8 +13,8 @@
 struct ffd_pb_map_state {
     const ffd_pbffd *pb;
     size_t level;
-    uint32_t *tie;          /* level 0: disabled controls fixed */
-    double *acc;            /* dense scratch over the widest level */
+    uint32_t *tie; /* level 0: disabled controls fixed */
+    double *acc;   /* dense scratch over the widest level */
     unsigned char *seen;
     uint32_t *list[2];
     double *val[2];

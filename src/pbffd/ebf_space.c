@@ -166,8 +166,9 @@ static size_t candidates(const ffd_ebf_space *s, const double x[3], const uint32
     for (int c = 0; c < 3; c++)
         if (!(x[c] >= s->lo[c]) || x[c] > s->lo[c] + s->dim[c] / s->inv_h)
             return 0;
-    size_t cell = ((size_t)cell_coord(s, 0, x[0]) * s->dim[1] + cell_coord(s, 1, x[1])) * s->dim[2] +
-                  cell_coord(s, 2, x[2]);
+    size_t cell =
+        ((size_t)cell_coord(s, 0, x[0]) * s->dim[1] + cell_coord(s, 1, x[1])) * s->dim[2] +
+        cell_coord(s, 2, x[2]);
     *cand = s->cell_ctl + s->cell_start[cell];
     return s->cell_start[cell + 1] - s->cell_start[cell];
 }
@@ -197,7 +198,8 @@ static inline int roi_rho2(const ffd_ebf_kernel *k, const double x[3], double v[
 
 static inline int accept(const ffd_ebf_space *s, double rho2)
 {
-    return rho2 < 1.0 && (s->inv2s2 <= NO_UNDERFLOW_INV2S2 || ffd_ebf_phi_of(rho2, s->inv2s2) > 0.0);
+    return rho2 < 1.0 &&
+           (s->inv2s2 <= NO_UNDERFLOW_INV2S2 || ffd_ebf_phi_of(rho2, s->inv2s2) > 0.0);
 }
 
 size_t ffd_ebf_space_count(const ffd_ebf_space *s, const double x[3])

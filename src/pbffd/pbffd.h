@@ -67,8 +67,8 @@ typedef struct ffd_ebf_space {
     size_t count;
     ffd_ebf_kernel *kernel; /* count; disabled controls have weight 0 */
     int has_master;
-    ffd_ebf_kernel master;  /* weight = master_weight */
-    double inv2s2;          /* 1 / (2 sigma^2) */
+    ffd_ebf_kernel master; /* weight = master_weight */
+    double inv2s2;         /* 1 / (2 sigma^2) */
     /* uniform grid over the ROIs' bounding boxes; dim[0] == 0: no grid (scan all) */
     uint32_t dim[3];
     double lo[3], inv_h;
@@ -96,14 +96,14 @@ size_t ffd_ebf_space_count(const ffd_ebf_space *s, const double x[3]);
 /* ---- rows: sparse W and D (ebf_bind.c) ---- */
 
 typedef struct ffd_ebf_rows {
-    size_t n;        /* rows */
-    size_t cap;      /* entry capacity (>= start[n]) */
-    size_t *start;   /* n + 1 */
-    uint32_t *col;   /* control index per entry */
-    double *w;       /* per entry: w_ij, the normalised weight (PB-FFD eq. 5), W of eq. 7 */
-    double *d;       /* 3 per entry: w_ij u_ij, the D of eq. 7 */
-    double *c;       /* absolute rows only (n by 3): the master's constant term w_m x (eq. 10) */
-    size_t max_nnz;  /* longest row */
+    size_t n;       /* rows */
+    size_t cap;     /* entry capacity (>= start[n]) */
+    size_t *start;  /* n + 1 */
+    uint32_t *col;  /* control index per entry */
+    double *w;      /* per entry: w_ij, the normalised weight (PB-FFD eq. 5), W of eq. 7 */
+    double *d;      /* 3 per entry: w_ij u_ij, the D of eq. 7 */
+    double *c;      /* absolute rows only (n by 3): the master's constant term w_m x (eq. 10) */
+    size_t max_nnz; /* longest row */
 } ffd_ebf_rows;
 
 /* Parameterises n points (PB-FFD eq. 3-7) in parallel; results do not depend
@@ -131,9 +131,9 @@ void ffd_ebf_rows_eval_abs(const ffd_ebf_rows *rows, size_t i, const ffd_ebf *ct
 /* One level of the hierarchy (§3.4). Level 0 is the finest. */
 typedef struct ffd_pb_level {
     size_t count;
-    ffd_ebf *cur;           /* current P and A */
-    ffd_ebf *base;          /* where reset puts them */
-    ffd_ebf_rows rows;      /* this level's points over level + 1, absolute (eq. 10); none on the top */
+    ffd_ebf *cur;      /* current P and A */
+    ffd_ebf *base;     /* where reset puts them */
+    ffd_ebf_rows rows; /* this level's points over level + 1, absolute (eq. 10); none on the top */
     ffd_ebf_rows rows_base; /* rows at the base state */
     unsigned char *changed; /* count flags, scratch of the cascade */
 } ffd_pb_level;
@@ -143,7 +143,7 @@ typedef struct ffd_pb_level {
 typedef struct ffd_pb_version {
     ffd_ebf *ctl; /* NULL: free slot */
     size_t count;
-    size_t refs;  /* bound points parameterised against it */
+    size_t refs; /* bound points parameterised against it */
 } ffd_pb_version;
 
 typedef struct ffd_pb_map_state ffd_pb_map_state;
@@ -152,17 +152,17 @@ struct ffd_pbffd {
     double sigma;
     double master_weight;
     int has_master;
-    ffd_ebf master;         /* one master for every level (immovable) */
+    ffd_ebf master; /* one master for every level (immovable) */
     size_t level_count;
     ffd_pb_level *levels;
     /* bound points: displacement rows over level 0:
      * x' = x_base + W (P - P_base) + D (A - A_base)    (PB-FFD eq. 7) */
     size_t n;
-    double *x_base;         /* n by 3: positions at level 0's base state */
-    double *x_ref;          /* n by 3: where each row was parameterised */
+    double *x_base; /* n by 3: positions at level 0's base state */
+    double *x_ref;  /* n by 3: where each row was parameterised */
     ffd_ebf_rows mesh;
-    uint32_t *version;      /* n: snapshot of each row; NULL: all 0 */
-    double *J_ref;          /* n by 9: d x_ref / d x; NULL: identity */
+    uint32_t *version; /* n: snapshot of each row; NULL: all 0 */
+    double *J_ref;     /* n by 9: d x_ref / d x; NULL: identity */
     ffd_pb_version *versions;
     size_t version_count;
     uint32_t version_latest;
@@ -187,8 +187,8 @@ ffd_status ffd_pb_place(ffd_pbffd *pb, size_t level, size_t index, const double 
 ffd_status ffd_pb_version_kernels(const ffd_pbffd *pb, ffd_ebf_kernel ***out);
 void ffd_pb_version_kernels_free(const ffd_pbffd *pb, ffd_ebf_kernel **k);
 /* d x' / d x at bound point i, 9 row-major; master: the master's kernel or NULL. */
-void ffd_pb_jacobian_point(const ffd_pbffd *pb, ffd_ebf_kernel *const *vk, const ffd_ebf_kernel *master,
-                           size_t i, double J[9]);
+void ffd_pb_jacobian_point(const ffd_pbffd *pb, ffd_ebf_kernel *const *vk,
+                           const ffd_ebf_kernel *master, size_t i, double J[9]);
 
 /* ebf_map.c */
 void ffd_pb_map_state_free(ffd_pb_map_state *m);
