@@ -80,4 +80,41 @@ static double check_rand01(void)
     return (double)((check_rng_state * 2685821657736338717ull) >> 11) * (1.0 / 9007199254740992.0);
 }
 
+/* An allocator (ffd_set_allocator) that fails after `left` successful
+ * allocations (-1: never) and counts the calls, for the out-of-memory tests:
+ *   fail_alloc fa = {k, 0};
+ *   ffd_allocator a = {fa_malloc, fa_realloc, fa_free, &fa};  */
+typedef struct check_fail_alloc {
+    long left;
+    long count;
+} fail_alloc;
+
+static inline void *fa_malloc(size_t n, void *u)
+{
+    fail_alloc *f = u;
+    f->count++;
+    if (f->left == 0)
+        return NULL;
+    if (f->left > 0)
+        f->left--;
+    return malloc(n);
+}
+
+static inline void *fa_realloc(void *p, size_t n, void *u)
+{
+    fail_alloc *f = u;
+    f->count++;
+    if (f->left == 0)
+        return NULL;
+    if (f->left > 0)
+        f->left--;
+    return realloc(p, n);
+}
+
+static inline void fa_free(void *p, void *u)
+{
+    (void)u;
+    free(p);
+}
+
 #endif

@@ -847,39 +847,6 @@ static void test_ply_value_range(void)
 
 /* ---------------------------------------------------------------------- */
 
-typedef struct {
-    long left; /* allocations before failing; < 0: never */
-    long count;
-} fail_alloc;
-
-static void *fa_malloc(size_t n, void *u)
-{
-    fail_alloc *f = u;
-    f->count++;
-    if (f->left == 0)
-        return NULL;
-    if (f->left > 0)
-        f->left--;
-    return malloc(n);
-}
-
-static void *fa_realloc(void *p, size_t n, void *u)
-{
-    fail_alloc *f = u;
-    f->count++;
-    if (f->left == 0)
-        return NULL;
-    if (f->left > 0)
-        f->left--;
-    return realloc(p, n);
-}
-
-static void fa_free(void *p, void *u)
-{
-    (void)u;
-    free(p);
-}
-
 static void test_failing_allocations(void)
 {
     char path[512];

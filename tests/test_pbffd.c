@@ -1296,36 +1296,6 @@ static void test_bad_input(void)
 
 /* ================= failing allocations ================= */
 
-typedef struct fail_alloc {
-    long left; /* allocations before failing; -1 never */
-} fail_alloc;
-
-static void *fa_malloc(size_t n, void *u)
-{
-    fail_alloc *f = u;
-    if (f->left == 0)
-        return NULL;
-    if (f->left > 0)
-        f->left--;
-    return malloc(n);
-}
-
-static void *fa_realloc(void *p, size_t n, void *u)
-{
-    fail_alloc *f = u;
-    if (f->left == 0)
-        return NULL;
-    if (f->left > 0)
-        f->left--;
-    return realloc(p, n);
-}
-
-static void fa_free(void *p, void *u)
-{
-    (void)u;
-    free(p);
-}
-
 static void test_failing_allocations(void)
 {
     size_t m = 12, n = 300;
@@ -1334,7 +1304,7 @@ static void test_failing_allocations(void)
     double cp[9] = {0, 0, 0, 1, 0, 0, 1, 1, 0};
     omp_set_num_threads(1);
     for (long k = 0;; k++) {
-        fail_alloc fa = {k};
+        fail_alloc fa = {k, 0};
         ffd_allocator a = {fa_malloc, fa_realloc, fa_free, &fa};
         ffd_set_allocator(&a);
         ffd_pbffd_options o = {0};

@@ -738,36 +738,6 @@ static void test_place_errors(void)
 
 /* ---- failing allocations ---- */
 
-typedef struct fail_alloc {
-    long left; /* allocations that still succeed; -1: all */
-} fail_alloc;
-
-static void *fa_malloc(size_t n, void *u)
-{
-    fail_alloc *f = u;
-    if (f->left == 0)
-        return NULL;
-    if (f->left > 0)
-        f->left--;
-    return malloc(n);
-}
-
-static void *fa_realloc(void *p, size_t n, void *u)
-{
-    fail_alloc *f = u;
-    if (f->left == 0)
-        return NULL;
-    if (f->left > 0)
-        f->left--;
-    return realloc(p, n);
-}
-
-static void fa_free(void *p, void *u)
-{
-    (void)u;
-    free(p);
-}
-
 static void failing_sweep(const ffd_mesh *m, size_t expect)
 {
     ffd_placement_options o = {0};
@@ -775,7 +745,7 @@ static void failing_sweep(const ffd_mesh *m, size_t expect)
     o.exterior_count = 20;
     o.voronoi_sites = 300;
     for (long k = 0;; k++) {
-        fail_alloc fa = {k};
+        fail_alloc fa = {k, 0};
         ffd_allocator a = {fa_malloc, fa_realloc, fa_free, &fa};
         ffd_set_allocator(&a);
         ffd_ebf *c = NULL;

@@ -1,7 +1,7 @@
 /* Tests for src/rig: the rig JSON format (every key, every rejected input with
  * its JSON path or line:column) and ffd_rig_apply on small meshes. */
 #include "check.h"
-#include "rig/rig.h"
+#include "check_rig.h"
 
 #include <stdio.h>
 #include <sys/stat.h>
@@ -11,36 +11,6 @@
  * Helpers
  * ====================================================================== */
 
-static ffd_rig *parse_ok(const char *json)
-{
-    ffd_rig *rig = NULL;
-    ffd_error err = {{0}};
-    ffd_status s = ffd_rig_parse_json(json, strlen(json), "rig.json", &rig, &err);
-    if (s != FFD_OK) {
-        fprintf(stderr, "%s: unexpected failure (%s): %s\n  json: %s\n", check_current,
-                ffd_status_string(s), err.message, json);
-        check_failures++;
-    }
-    return rig;
-}
-
-/* Parses json expecting status and a message containing fragment. */
-static void parse_bad_at(const char *json, ffd_status status, const char *fragment, int line)
-{
-    ffd_rig *rig = (ffd_rig *)1;
-    ffd_error err = {{0}};
-    ffd_status s = ffd_rig_parse_json(json, strlen(json), "rig.json", &rig, &err);
-    if (s != status || rig != NULL || !strstr(err.message, fragment)) {
-        fprintf(stderr,
-                "%s:%d: %s: expected %s with \"%s\", got %s \"%s\" (out %s)\n  json: %s\n",
-                __FILE__, line, check_current, ffd_status_string(status), fragment,
-                ffd_status_string(s), err.message, rig ? "not NULL" : "NULL", json);
-        check_failures++;
-    }
-    if (s == FFD_OK)
-        ffd_rig_destroy(rig);
-}
-#define parse_bad(json, status, fragment) parse_bad_at(json, status, fragment, __LINE__)
 
 /* A g x g x g grid of vertices in [lo, hi]^3 with one triangle (so the mesh has a face). */
 static ffd_mesh *grid_mesh(int g, double lo, double hi)
@@ -675,38 +645,18 @@ static void test_parse_prefixes(void)
 
 /* Fails the N-th allocation for every N until the call succeeds: each failure
  * is a clean status, leaves the mesh unchanged and leaks nothing (ASan). */
-typedef struct {
-    long countdown;
-} fail_alloc;
-
-static void *fail_malloc(size_t size, void *user)
-{
-    fail_alloc *f = user;
-    return f->countdown-- == 0 ? NULL : malloc(size);
-}
-static void *fail_realloc(void *ptr, size_t size, void *user)
-{
-    fail_alloc *f = user;
-    return f->countdown-- == 0 ? NULL : realloc(ptr, size);
-}
-static void fail_free(void *ptr, void *user)
-{
-    (void)user;
-    free(ptr);
-}
-
 static void test_allocation_failures(void)
 {
     static const char json[] =
         "{\"resolution\": [4, 4, 4], \"moves\": [{\"index\": [1, 1, 1], \"delta\": [0.1, 0, 0]}],"
         " \"constraints\": [{\"vertex\": 3, \"target\": [0.1, 0.2, 0.3]},"
         " {\"point\": [0.5, 0.5, 0.5], \"target\": [0.5, 0.6, 0.5]}]}";
-    fail_alloc f;
-    ffd_allocator a = {fail_malloc, fail_realloc, fail_free, &f};
+    fail_alloc f = {0, 0};
+    ffd_allocator a = {fa_malloc, fa_realloc, fa_free, &f};
     int parsed = 0, applied = 0;
     for (long n = 0; n < 10000 && !parsed; n++) {
         ffd_rig *rig = NULL;
-        f.countdown = n;
+        f.left = n;
         ffd_set_allocator(&a);
         ffd_status s = ffd_rig_parse_json(json, sizeof json - 1, "a.json", &rig, NULL);
         ffd_set_allocator(NULL);
@@ -723,7 +673,7 @@ static void test_allocation_failures(void)
     double *before = copy_positions(mesh);
     for (long n = 0; n < 10000 && !applied; n++) {
         ffd_rig_report report;
-        f.countdown = n;
+        f.left = n;
         ffd_set_allocator(&a);
         ffd_status s = ffd_rig_apply(rig, mesh, &report, NULL);
         ffd_set_allocator(NULL);

@@ -2,40 +2,11 @@
  * rejected value with its JSON path, the control-set writer round trip, and
  * ffd_rig_apply with explicit and placed controls, constraints and curves. */
 #include "check.h"
-#include "rig/rig.h"
+#include "check_rig.h"
 
 #include <stdio.h>
 #include <unistd.h>
 
-static ffd_rig *parse_ok(const char *json)
-{
-    ffd_rig *rig = NULL;
-    ffd_error err = {{0}};
-    ffd_status s = ffd_rig_parse_json(json, strlen(json), "rig.json", &rig, &err);
-    if (s != FFD_OK) {
-        fprintf(stderr, "%s: unexpected failure (%s): %s\n  json: %s\n", check_current,
-                ffd_status_string(s), err.message, json);
-        check_failures++;
-    }
-    return rig;
-}
-
-static void parse_bad_at(const char *json, ffd_status status, const char *fragment, int line)
-{
-    ffd_rig *rig = (ffd_rig *)1;
-    ffd_error err = {{0}};
-    ffd_status s = ffd_rig_parse_json(json, strlen(json), "rig.json", &rig, &err);
-    if (s != status || rig != NULL || !strstr(err.message, fragment)) {
-        fprintf(stderr,
-                "%s:%d: %s: expected %s with \"%s\", got %s \"%s\"\n  json: %s\n", __FILE__,
-                line, check_current, ffd_status_string(status), fragment, ffd_status_string(s),
-                err.message, json);
-        check_failures++;
-    }
-    if (s == FFD_OK)
-        ffd_rig_destroy(rig);
-}
-#define parse_bad(json, status, fragment) parse_bad_at(json, status, fragment, __LINE__)
 
 #define PB "{\"deformer\": \"pbffd\", "
 #define ONE "\"controls\": [{\"center\": [0,0,0], \"radius\": 1}]"
