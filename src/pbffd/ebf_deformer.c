@@ -220,12 +220,9 @@ size_t ffd_pbffd_control_count(const ffd_pbffd *pb, size_t level)
 ffd_status ffd_pbffd_control(const ffd_pbffd *pb, size_t level, size_t index, ffd_ebf *out,
                              ffd_error *err)
 {
-    if (level >= pb->level_count)
-        return ffd_fail(err, FFD_ERR_RANGE, "level %zu out of range (%zu levels)", level,
-                        pb->level_count);
-    if (index >= pb->levels[level].count)
-        return ffd_fail(err, FFD_ERR_RANGE, "control %zu out of range (%zu at level %zu)", index,
-                        pb->levels[level].count, level);
+    ffd_status s = ffd_pb_check_index(pb, level, index, err);
+    if (s)
+        return s;
     *out = pb->levels[level].cur[index];
     return FFD_OK;
 }

@@ -242,7 +242,7 @@ ffd_status ffd_pb_place(ffd_pbffd *pb, size_t level, size_t index, const double 
     return FFD_OK;
 }
 
-static ffd_status check_index(const ffd_pbffd *pb, size_t level, size_t index, ffd_error *err)
+ffd_status ffd_pb_check_index(const ffd_pbffd *pb, size_t level, size_t index, ffd_error *err)
 {
     if (level >= pb->level_count)
         return ffd_fail(err, FFD_ERR_RANGE, "level %zu out of range (%zu levels)", level,
@@ -256,7 +256,7 @@ static ffd_status check_index(const ffd_pbffd *pb, size_t level, size_t index, f
 ffd_status ffd_pbffd_move(ffd_pbffd *pb, size_t level, size_t index, const double delta[3],
                           ffd_error *err)
 {
-    ffd_status st = check_index(pb, level, index, err);
+    ffd_status st = ffd_pb_check_index(pb, level, index, err);
     if (st != FFD_OK)
         return st;
     double c[3];
@@ -272,7 +272,7 @@ ffd_status ffd_pbffd_move(ffd_pbffd *pb, size_t level, size_t index, const doubl
 ffd_status ffd_pbffd_set_frame(ffd_pbffd *pb, size_t level, size_t index, const double frame[3][3],
                                ffd_error *err)
 {
-    ffd_status st = check_index(pb, level, index, err);
+    ffd_status st = ffd_pb_check_index(pb, level, index, err);
     if (st != FFD_OK)
         return st;
     for (int a = 0; a < 3; a++)

@@ -181,6 +181,8 @@ ffd_status ffd_pb_build_hierarchy(ffd_pbffd *pb, uint32_t levels, ffd_error *err
  * it in level + 1 when the centre changed, and cascades to the finer levels. */
 ffd_status ffd_pb_place(ffd_pbffd *pb, size_t level, size_t index, const double center[3],
                         const double frame[3][3], ffd_error *err);
+/* FFD_ERR_RANGE naming the level or the control when either is out of range. */
+ffd_status ffd_pb_check_index(const ffd_pbffd *pb, size_t level, size_t index, ffd_error *err);
 
 /* ebf_jacobian.c */
 /* Kernels of every live version (NULL entries for free slots). */
