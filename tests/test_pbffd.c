@@ -1240,9 +1240,12 @@ static void test_bad_input(void)
     expect(ffd_pbffd_remove(pb, 0, &err), FFD_ERR_INVALID, &err, "only control");
     ffd_pbffd_destroy(pb);
 
-    /* never NaN: a tiny sigma underflows every kernel, points far away, no master */
+    /* a sigma so small that the kernel underflows inside its ROI is refused */
     memset(&o, 0, sizeof o);
     o.sigma = 1e-3;
+    expect(ffd_pbffd_create(c, 4, p, 2, &o, &pb, &err), FFD_ERR_INVALID, &err, "sigma");
+    /* never NaN: the smallest sigma, points far away, no master */
+    o.sigma = 0.05;
     o.no_master = 1;
     double far[9] = {0.9, 0.1, 0.0, 0.5, 0.5, 0.0, 50, 50, 50};
     pb = make(c, 4, far, 3, &o);

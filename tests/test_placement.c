@@ -618,7 +618,7 @@ static void test_place_open_teapot(void)
     CHECK(rep.open == 1 && rep.fell_back == 1);
     CHECK(rep.interior_count == 0 && rep.exterior_count == 90);
     CHECK(rep.voronoi_sites == 0 && rep.voronoi_vertices == 0);
-    CHECK(strstr(rep.note, "boundary") != NULL && strstr(rep.note, "interior_count") != NULL);
+    CHECK(strstr(rep.note, "boundary") != NULL && strstr(rep.note, "without interior points") != NULL);
     CHECK(check_controls(m, c, count) == 0);
     printf("     teapot: %s\n", rep.note);
     ffd_free(c);
@@ -627,7 +627,7 @@ static void test_place_open_teapot(void)
     o.surface = FFD_SURFACE_CLOSED;
     CHECK_OK(ffd_pbffd_place(m, &o, &c, &count, &rep, NULL));
     CHECK(count == 90 && rep.open && rep.fell_back);
-    CHECK(strstr(rep.note, "CLOSED") != NULL);
+    CHECK(strstr(rep.note, "a closed surface was asked for") != NULL);
     ffd_free(c);
 
     /* OPEN asked: no fallback, still a note */
@@ -667,7 +667,7 @@ static void test_place_errors(void)
     CHECK(ffd_pbffd_place(m, &o, &c, &count, &rep, &err) == FFD_ERR_INVALID);
     CHECK(c == NULL && count == 0);
     char expect[128];
-    snprintf(expect, sizeof expect, "interior_count 5000000: only %zu Voronoi vertices",
+    snprintf(expect, sizeof expect, "5000000 interior points asked for: only %zu Voronoi vertices",
              rep.inside_vertices);
     CHECK(rep.inside_vertices > 0 && strstr(err.message, expect) != NULL);
     printf("     %s\n", err.message);
@@ -675,7 +675,7 @@ static void test_place_errors(void)
     o.interior_count = 0;
     o.exterior_count = 2905;
     CHECK(ffd_pbffd_place(m, &o, &c, &count, NULL, &err) == FFD_ERR_INVALID);
-    CHECK(strstr(err.message, "exterior_count 2905: only 2904") != NULL);
+    CHECK(strstr(err.message, "2905 exterior points asked for: only 2904") != NULL);
     printf("     %s\n", err.message);
 
     o.exterior_count = 0;

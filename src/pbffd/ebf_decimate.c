@@ -46,7 +46,7 @@ static void find_nearest(const double *p, size_t m, size_t i, size_t *nn, double
         if (k == i)
             continue;
         double d = dist2(p + 3 * i, p + 3 * k);
-        if (d < bd) {
+        if (d < bd || best == SIZE_MAX) { /* an overflowed distance still names a point */
             bd = d;
             best = k;
         }

@@ -58,8 +58,10 @@ static ffd_status check_options(const ffd_pbffd_options *o, ffd_error *err)
         return ffd_fail(err, FFD_ERR_NONFINITE,
                         "options: sigma, master_radius and master_weight "
                         "must be finite");
-    if (o->sigma < 0)
-        return ffd_fail(err, FFD_ERR_INVALID, "options: sigma %g: expected > 0", o->sigma);
+    /* below 0.05 the Gaussian underflows inside the ROI: points would lose every weight */
+    if (o->sigma < 0 || (o->sigma > 0 && o->sigma < 0.05) || o->sigma > 1e6)
+        return ffd_fail(err, FFD_ERR_INVALID, "options: sigma %g: expected a number in [0.05, 1e6]",
+                        o->sigma);
     if (o->master_radius != 0 && o->master_radius < 1)
         return ffd_fail(err, FFD_ERR_INVALID, "options: master_radius %g: expected >= 1",
                         o->master_radius);

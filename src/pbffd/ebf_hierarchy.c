@@ -35,7 +35,7 @@ static void find_nn(merge_node *v, size_t m, size_t i)
         if (j == i || !v[j].alive)
             continue;
         double d = dist2(v[i].ebf.center, v[j].ebf.center);
-        if (d < v[i].nnd) {
+        if (d < v[i].nnd || v[i].nn == SIZE_MAX) { /* an overflowed distance still names a point */
             v[i].nnd = d;
             v[i].nn = j;
         }

@@ -49,6 +49,22 @@ ffd_status ffd_ebf_check(const ffd_ebf *e, const char *what, size_t index, ffd_e
             return ffd_fail(err, FFD_ERR_INVALID, "%s[%zu]: radius %g: expected > 0", what, index,
                             e->radius[a]);
     }
+    /* Products of three lengths (the frame's determinant) must stay in range. */
+    for (int c = 0; c < 3; c++)
+        if (fabs(e->center[c]) > FFD_PB_MAX_COORD)
+            return ffd_fail(err, FFD_ERR_INVALID,
+                            "%s[%zu]: center %g is beyond the supported range (|x| <= 1e100)",
+                            what, index, e->center[c]);
+    for (int a = 0; a < 3; a++) {
+        double len = sqrt(e->frame[a][0] * e->frame[a][0] + e->frame[a][1] * e->frame[a][1] +
+                          e->frame[a][2] * e->frame[a][2]);
+        if (len > FFD_PB_MAX_COORD || (len > 0 && len < FFD_PB_MIN_LENGTH) ||
+            e->radius[a] > FFD_PB_MAX_COORD || e->radius[a] < FFD_PB_MIN_LENGTH)
+            return ffd_fail(err, FFD_ERR_INVALID,
+                            "%s[%zu]: frame axis %d (length %g) or radius %g is beyond the "
+                            "supported range [1e-100, 1e100]",
+                            what, index, a, len, e->radius[a]);
+    }
     if (ffd_ebf_frame_degenerate(e->frame))
         return ffd_fail(err, FFD_ERR_INVALID, "%s[%zu]: degenerate frame (parallel axes)", what,
                         index);

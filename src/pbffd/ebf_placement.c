@@ -290,14 +290,16 @@ ffd_status ffd_pbffd_place(const ffd_mesh *mesh, const ffd_placement_options *op
         opt.interior_count = DEFAULT_INTERIOR;
     if (!opt.exterior_count)
         opt.exterior_count = DEFAULT_EXTERIOR;
-    if (!isfinite(opt.offset) || opt.offset < 0)
-        return ffd_fail(err, FFD_ERR_INVALID, "placement: offset %g: expected a finite number >= 0",
+    if (!isfinite(opt.offset) || opt.offset < 0 || opt.offset > 1)
+        return ffd_fail(err, FFD_ERR_INVALID,
+                        "placement: offset %g: expected a fraction of the bounding-box diagonal "
+                        "in (0, 1]",
                         opt.offset);
     if (opt.offset == 0)
         opt.offset = DEFAULT_OFFSET;
-    if (!isfinite(opt.radius_factor) || opt.radius_factor < 0)
+    if (!isfinite(opt.radius_factor) || opt.radius_factor < 0 || opt.radius_factor > 100)
         return ffd_fail(err, FFD_ERR_INVALID,
-                        "placement: radius_factor %g: expected a finite number > 0",
+                        "placement: radius_factor %g: expected a number in (0, 100]",
                         opt.radius_factor);
     if (opt.radius_factor == 0)
         opt.radius_factor = DEFAULT_RADIUS_FACTOR;
@@ -316,9 +318,15 @@ ffd_status ffd_pbffd_place(const ffd_mesh *mesh, const ffd_placement_options *op
     if (status != FFD_OK)
         return status;
     const double *x = mesh->positions;
-    for (size_t i = 0; i < 3 * nv; i++)
+    for (size_t i = 0; i < 3 * nv; i++) {
         if (!isfinite(x[i]))
             return ffd_fail(err, FFD_ERR_NONFINITE, "placement: vertex %zu is not finite", i / 3);
+        if (fabs(x[i]) > FFD_PB_MAX_COORD)
+            return ffd_fail(err, FFD_ERR_INVALID,
+                            "placement: vertex %zu: coordinate %g is beyond the supported range "
+                            "(|x| <= 1e100)",
+                            i / 3, x[i]);
+    }
     double ext[3], diag = 0;
     for (int a = 0; a < 3; a++) {
         ext[a] = info.bbox_max[a] - info.bbox_min[a];
@@ -327,6 +335,10 @@ ffd_status ffd_pbffd_place(const ffd_mesh *mesh, const ffd_placement_options *op
     diag = sqrt(diag);
     if (!(diag > 0) || !isfinite(diag))
         return ffd_fail(err, FFD_ERR_INVALID, "placement: the mesh's vertices all coincide");
+    if (diag < 1e-90)
+        return ffd_fail(err, FFD_ERR_INVALID,
+                        "placement: the mesh is too small (bounding-box diagonal %g < 1e-90)",
+                        diag);
 
     /* the surface kind */
     int defects = !info.closed || info.nonmanifold_edge_count > 0;
@@ -335,13 +347,13 @@ ffd_status ffd_pbffd_place(const ffd_mesh *mesh, const ffd_placement_options *op
         rep.fell_back = 1;
         snprintf(rep.note, sizeof rep.note,
                  "%s has %zu boundary and %zu non-manifold edges: placed as an open surface "
-                 "(PB-FFD 3.2.3), interior_count ignored",
-                 opt.surface == FFD_SURFACE_CLOSED ? "CLOSED was requested but the mesh"
+                 "(PB-FFD 3.2.3) without interior points",
+                 opt.surface == FFD_SURFACE_CLOSED ? "a closed surface was asked for but the mesh"
                                                    : "the mesh",
                  info.boundary_edge_count, info.nonmanifold_edge_count);
     } else if (rep.open) {
         snprintf(rep.note, sizeof rep.note,
-                 "open surface requested (PB-FFD 3.2.3): interior_count ignored");
+                 "placed as an open surface as asked (PB-FFD 3.2.3), without interior points");
     }
 
     double *normals = ffd_malloc_array(3 * (nv ? nv : 1), sizeof *normals);
@@ -382,7 +394,7 @@ ffd_status ffd_pbffd_place(const ffd_mesh *mesh, const ffd_placement_options *op
     exterior = opt.exterior_count;
     if (exterior > nc) {
         status = ffd_fail(err, FFD_ERR_INVALID,
-                          "exterior_count %zu: only %zu candidate points (%s %zu mesh vertices "
+                          "%zu exterior points asked for: only %zu candidate points (%s %zu mesh vertices "
                           "with a normal)",
                           exterior, nc, rep.open ? "offset both ways from the" : "offset from the",
                           ns);
@@ -454,7 +466,7 @@ ffd_status ffd_pbffd_place(const ffd_mesh *mesh, const ffd_placement_options *op
         rep.inside_vertices = inside;
         if (interior > inside) {
             status = ffd_fail(err, FFD_ERR_INVALID,
-                              "interior_count %zu: only %zu Voronoi vertices lie inside the mesh",
+                              "%zu interior points asked for: only %zu Voronoi vertices lie inside the mesh",
                               interior, inside);
             goto fail;
         }

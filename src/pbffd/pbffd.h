@@ -20,6 +20,11 @@
 
 #include <math.h>
 
+/* Centres, frame lengths and radii must lie within these magnitudes, so that
+ * squared distances and frame determinants neither overflow nor underflow. */
+#define FFD_PB_MAX_COORD 1e100
+#define FFD_PB_MIN_LENGTH 1e-100
+
 /* ---- one EBF prepared for evaluation (ebf_kernel.c) ---- */
 
 typedef struct ffd_ebf_kernel {

@@ -4,6 +4,7 @@
 #define FFD_PBFFD_PLACEMENT_H
 
 #include "core/core.h"
+#include "pbffd/pbffd.h"
 
 /* Octree decimation (§3.2.1 step 3): reduces n points (#n by 3) to exactly
  * target points by replacing closest pairs with their midpoints. The

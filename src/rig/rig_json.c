@@ -443,12 +443,23 @@ static ffd_status read_placement(const parser *p, const cJSON *item, ffd_rig_pbf
             return expected(p, "controls.exterior", "a positive integer");
         o->exterior_count = count;
     }
-    if ((v = cJSON_GetObjectItemCaseSensitive(item, "offset")) &&
-        (s = read_positive(p, v, "controls.offset", &o->offset)))
-        return s;
-    if ((v = cJSON_GetObjectItemCaseSensitive(item, "radius_factor")) &&
-        (s = read_positive(p, v, "controls.radius_factor", &o->radius_factor)))
-        return s;
+    if ((v = cJSON_GetObjectItemCaseSensitive(item, "offset"))) {
+        if ((s = read_positive(p, v, "controls.offset", &o->offset)))
+            return s;
+        if (o->offset > 1)
+            return ffd_fail(p->err, FFD_ERR_INVALID,
+                            "%s: controls.offset: %g: expected a fraction of the bounding-box "
+                            "diagonal in (0, 1]",
+                            p->name, o->offset);
+    }
+    if ((v = cJSON_GetObjectItemCaseSensitive(item, "radius_factor"))) {
+        if ((s = read_positive(p, v, "controls.radius_factor", &o->radius_factor)))
+            return s;
+        if (o->radius_factor > 100)
+            return ffd_fail(p->err, FFD_ERR_INVALID,
+                            "%s: controls.radius_factor: %g: expected a number in (0, 100]",
+                            p->name, o->radius_factor);
+    }
     if ((v = cJSON_GetObjectItemCaseSensitive(item, "surface"))) {
         int k = 0;
         if ((s = read_enum(p, v, "controls.surface", surfaces,
@@ -851,8 +862,16 @@ static ffd_status read_pbffd_key(const parser *p, const cJSON *item, ffd_rig *ri
     ffd_status s;
     if (strcmp(key, "controls") == 0)
         return read_controls(p, item, pb);
-    if (strcmp(key, "sigma") == 0)
-        return read_positive(p, item, "sigma", &pb->options.sigma);
+    if (strcmp(key, "sigma") == 0) {
+        if ((s = read_positive(p, item, "sigma", &pb->options.sigma)))
+            return s;
+        if (pb->options.sigma < 0.05 || pb->options.sigma > 1e6)
+            return ffd_fail(p->err, FFD_ERR_INVALID,
+                            "%s: sigma: %g: expected a number in [0.05, 1e6] (below 0.05 the "
+                            "kernel underflows inside its region of influence)",
+                            p->name, pb->options.sigma);
+        return FFD_OK;
+    }
     if (strcmp(key, "master") == 0)
         return read_master(p, item, &pb->options);
     if (strcmp(key, "levels") == 0) {

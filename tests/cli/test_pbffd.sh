@@ -79,7 +79,28 @@ has stderr "degenerate frame"
 printf '{"deformer": "pbffd", "controls": [{"center": [9,9,9], "radius": 0.1}], "constraints": [{"vertex": 0, "target": [0,0,0]}]}' >"$T/far.json"
 bad 1 deform "$EX/cow.off" -o "$T/x.off" --rig "$T/far.json"
 has stderr "but the master's, so it cannot move"
+printf '{"deformer": "pbffd", "sigma": 1e-300}' >"$T/sigma.json"
+bad 1 deform "$EX/cow.off" -o "$T/x.off" --rig "$T/sigma.json"
+has stderr "sigma: 1e-300: expected a number in [0.05, 1e6]"
+printf '{"deformer": "pbffd", "levels": 2, "controls": [{"center": [1e200,0,0], "radius": 1}, {"center": [-1e200,0,0], "radius": 1}]}' >"$T/huge.json"
+bad 1 deform "$EX/cow.off" -o "$T/x.off" --rig "$T/huge.json"
+has stderr "beyond the supported range"
 [ -e "$T/x.off" ] && fail "a failed deform wrote its output"
+
+# place never overwrites its input, and -o and --points are different files
+cp "$EX/cow.off" "$T/c.off"
+bad 2 pbffd place "$T/c.off" -o "$T/./c.off"
+has stderr "the output would overwrite the input mesh"
+bad 2 pbffd place "$T/c.off" -o "$T/r.json" --points "$T/c.off"
+has stderr "would overwrite the input mesh"
+bad 2 pbffd place "$T/c.off" -o "$T/r.obj" --points "$T/r.obj"
+has stderr "the same file as -o"
+bad 2 pbffd place "$T/c.off" -o "$T/r.json" --offset 1e300
+has stderr "--offset '1e300'"
+bad 1 pbffd place "$T/c.off" -o "$T/r.json" --levels 32 --interior 2 --exterior 1
+has stderr "level"
+cmp -s "$T/c.off" "$EX/cow.off" || fail "place modified its input"
+[ -e "$T/r.json" ] && fail "a failed place wrote its rig"
 
 if [ "$failures" -ne 0 ]; then
     echo "$failures failure(s)"

@@ -46,6 +46,9 @@ int cli_encoding_option(const char *arg, ffd_encoding *encoding);
  * or prints a usage error for command and returns CLI_EXIT_USAGE. */
 int cli_check_output(const char *command, const char *in, const char *out, int in_place);
 
+/* 1 when a and b name the same file (same path, or same device and inode). */
+int cli_same_file(const char *a, const char *b);
+
 /* Monotonic seconds. */
 double cli_now(void);
 

@@ -152,10 +152,13 @@ static int cmd_place(int argc, char **argv)
             return cli_usage_error("pbffd place", "--levels '%s': expected 1 to 32", levels);
         pb_options.levels = (uint32_t)v;
     }
-    if (offset && (options.offset = parse_positive(offset)) < 0)
-        return cli_usage_error("pbffd place", "--offset '%s': expected a number > 0", offset);
-    if (factor && (options.radius_factor = parse_positive(factor)) < 0)
-        return cli_usage_error("pbffd place", "--radius-factor '%s': expected a number > 0",
+    if (offset && ((options.offset = parse_positive(offset)) < 0 || options.offset > 1))
+        return cli_usage_error("pbffd place",
+                               "--offset '%s': expected a fraction of the diagonal in (0, 1]",
+                               offset);
+    if (factor && ((options.radius_factor = parse_positive(factor)) < 0 ||
+                   options.radius_factor > 100))
+        return cli_usage_error("pbffd place", "--radius-factor '%s': expected a number in (0, 100]",
                                factor);
     if (surface) {
         if (strcmp(surface, "auto") == 0)
@@ -168,8 +171,17 @@ static int cmd_place(int argc, char **argv)
             return cli_usage_error("pbffd place", "--surface '%s': expected auto, closed or open",
                                    surface);
     }
-    if (strcmp(in, out) == 0)
+    if (cli_same_file(in, out))
         return cli_usage_error("pbffd place", "%s: the output would overwrite the input mesh", out);
+    if (points && cli_same_file(in, points))
+        return cli_usage_error("pbffd place", "--points %s: would overwrite the input mesh",
+                               points);
+    if (points && cli_same_file(out, points))
+        return cli_usage_error("pbffd place", "--points %s: the same file as -o", points);
+    if (points && ffd_format_from_path(points) == FFD_FORMAT_AUTO)
+        return cli_usage_error("pbffd place",
+                               "--points %s: unknown format (expected .obj, .ply, .off or .stl)",
+                               points);
 
     ffd_error err = {{0}};
     ffd_mesh *mesh = NULL;
@@ -185,12 +197,20 @@ static int cmd_place(int argc, char **argv)
         cli_error(code, "%s: %s", in, err.message);
         goto done;
     }
+    /* the rig must replay: the library checks the levels against the count */
+    ffd_pbffd *check = NULL;
+    if (ffd_pbffd_create(controls, count, NULL, 0, &pb_options, &check, &err) != FFD_OK) {
+        cli_error(code, "%s: --levels %u: %s", in, pb_options.levels, err.message);
+        goto done;
+    }
+    ffd_pbffd_destroy(check);
+    if (points && (code = write_points(points, controls, count, &err)) != CLI_EXIT_OK)
+        goto done;
+    code = CLI_EXIT_INPUT;
     if (ffd_rig_write_pbffd_controls(out, controls, count, &pb_options, &err) != FFD_OK) {
         cli_error(code, "%s", err.message);
         goto done;
     }
-    if (points && (code = write_points(points, controls, count, &err)) != CLI_EXIT_OK)
-        goto done;
     if (report.note[0])
         fprintf(stderr, "ffd: note: %s\n", report.note);
     if (want_report)

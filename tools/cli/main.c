@@ -103,7 +103,7 @@ int cli_encoding_option(const char *arg, ffd_encoding *encoding)
     return 1;
 }
 
-static int same_file(const char *a, const char *b)
+int cli_same_file(const char *a, const char *b)
 {
     struct stat sa, sb;
     if (strcmp(a, b) == 0)
@@ -118,7 +118,7 @@ int cli_check_output(const char *command, const char *in, const char *out, int i
     if (ffd_format_from_path(out) == FFD_FORMAT_AUTO)
         return cli_usage_error(command,
                                "%s: unknown output format (expected .obj, .ply, .off or .stl)", out);
-    int same = same_file(in, out);
+    int same = cli_same_file(in, out);
     if (!in_place && same)
         return cli_usage_error(command,
                                "%s: the output is the input file; pass --in-place to overwrite it",
