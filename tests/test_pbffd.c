@@ -366,6 +366,66 @@ static void test_continuity_at_roi_boundary(void)
     ffd_pbffd_destroy(pb);
 }
 
+/* Any moved control, any ROI boundary (also of controls that did not move),
+ * oblique frames: crossing a boundary changes the deformation by no jump
+ * larger than 1e-6 of the move. */
+static void test_continuity_any_boundary(void)
+{
+    enum { M = 5, PER = 101 };
+    const double h = 1e-8;
+    ffd_ebf c[M];
+    for (int j = 0; j < M; j++) {
+        c[j] = sphere(rnd(-0.3, 0.3), rnd(-0.3, 0.3), rnd(-0.3, 0.3), 1);
+        for (int a = 0; a < 3; a++) {
+            c[j].radius[a] = rnd(0.5, 0.9);
+            for (int b = 0; b < 3; b++)
+                c[j].frame[a][b] = (a == b) * rnd(0.4, 1.0) + rnd(-0.25, 0.25); /* oblique */
+        }
+    }
+    /* for each control, PER points on a ray crossing its ROI boundary */
+    double *p = malloc(3 * M * PER * sizeof *p);
+    for (int j = 0; j < M; j++) {
+        double dir[3] = {rnd(-1, 1), rnd(-1, 1), rnd(-1, 1)}, u[3], x[3];
+        for (int a = 0; a < 3; a++)
+            x[a] = c[j].center[a] + dir[a];
+        double s_star = 1 / sqrt(ref_rho2(&c[j], x, u)); /* rho is linear along the ray */
+        for (int k = 0; k < PER; k++) {
+            double s = s_star + (k - PER / 2) * h;
+            for (int a = 0; a < 3; a++)
+                p[3 * (j * PER + k) + a] = c[j].center[a] + s * dir[a];
+        }
+    }
+    ffd_pbffd *pb = make(c, M, p, M * PER, NULL);
+    size_t seen = 0;
+    for (int moved = 0; moved < M && pb; moved++) {
+        double d[3] = {rnd(-0.5, 0.5), rnd(-0.5, 0.5), rnd(-0.5, 0.5)};
+        double dn = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+        ffd_pbffd_reset(pb);
+        CHECK_OK(ffd_pbffd_move(pb, 0, (size_t)moved, d, NULL));
+        double *q = eval_new(pb), worst = 0;
+        for (int j = 0; j < M; j++)
+            for (int k = 1; k < PER; k++) {
+                const double *a0 = q + 3 * (j * PER + k - 1), *a1 = q + 3 * (j * PER + k);
+                const double *b0 = p + 3 * (j * PER + k - 1), *b1 = p + 3 * (j * PER + k);
+                double jump = 0;
+                for (int a = 0; a < 3; a++) {
+                    double t = (a1[a] - b1[a]) - (a0[a] - b0[a]);
+                    jump += t * t;
+                }
+                worst = fmax(worst, sqrt(jump));
+            }
+        CHECK(worst <= 1e-6 * dn);
+        /* points on the boundaries of controls that did not move, that the move moves */
+        for (int j = 0; j < M; j++)
+            for (int k = 0; j != moved && k < PER; k++)
+                seen += fabs(q[3 * (j * PER + k)] - p[3 * (j * PER + k)]) > 1e-3 * dn;
+        free(q);
+    }
+    CHECK(seen > PER); /* the lines do see the moves: the test can fail */
+    free(p);
+    ffd_pbffd_destroy(pb);
+}
+
 /* ================= frames ================= */
 
 static void test_frame_rotation_and_scaling(void)
@@ -1371,6 +1431,7 @@ int main(int argc, char **argv)
         {"matches_reference", test_matches_reference},
         {"locality", test_locality},
         {"continuity_at_roi_boundary", test_continuity_at_roi_boundary},
+        {"continuity_any_boundary", test_continuity_any_boundary},
         {"frame_rotation_and_scaling", test_frame_rotation_and_scaling},
         {"jacobian_finite_differences", test_jacobian_finite_differences},
         {"thread_invariance", test_thread_invariance},
