@@ -87,6 +87,15 @@ struct ffd_rig {
     size_t constraint_count;
 };
 
+/* "NAME: CONTEXT: inner message" with the inner status (rig_apply.c). */
+ffd_status ffd_rig_wrap(ffd_error *err, ffd_status status, const char *name, const char *context,
+                        const ffd_error *inner);
+
+/* residuals[c] = |reached_c - target_c| for k constraints (k by 3 each);
+ * returns the largest (0 when k == 0). */
+double ffd_rig_residuals(size_t k, const double *reached, const double *targets,
+                         double *residuals);
+
 /* PB-FFD application (rig_pbffd.c); constraints as for the lattice. */
 ffd_status ffd_rig_apply_pbffd(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report *report,
                                ffd_error *err);

@@ -22,10 +22,25 @@ void ffd_rig_report_free(ffd_rig_report *report)
 }
 
 /* Prefixes a message from a lower layer with the rig's name and a context. */
-static ffd_status wrap(ffd_error *err, ffd_status status, const char *name, const char *context,
-                       const ffd_error *inner)
+ffd_status ffd_rig_wrap(ffd_error *err, ffd_status status, const char *name, const char *context,
+                        const ffd_error *inner)
 {
     return ffd_fail(err, status, "%s: %s: %s", name, context, inner->message);
+}
+
+double ffd_rig_residuals(size_t k, const double *reached, const double *targets,
+                         double *residuals)
+{
+    double max = 0;
+    for (size_t c = 0; c < k; c++) {
+        double d0 = reached[3 * c] - targets[3 * c];
+        double d1 = reached[3 * c + 1] - targets[3 * c + 1];
+        double d2 = reached[3 * c + 2] - targets[3 * c + 2];
+        residuals[c] = sqrt(d0 * d0 + d1 * d1 + d2 * d2);
+        if (residuals[c] > max)
+            max = residuals[c];
+    }
+    return max;
 }
 
 /* Rest positions of the constrained points (k by 3). Vertex ids are checked here. */
@@ -112,21 +127,21 @@ ffd_status ffd_rig_apply(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report *rep
 
     ffd_box box = rig->box;
     if (rig->box_auto && (s = ffd_box_fit(positions, n, rig->margin, &box, &inner))) {
-        s = wrap(err, s, name, "box \"auto\"", &inner);
+        s = ffd_rig_wrap(err, s, name, "box \"auto\"", &inner);
         goto fail;
     }
     if ((s = ffd_lattice_create(rig->basis, &box, rig->resolution, &lattice, &inner))) {
-        s = wrap(err, s, name, rig->box_auto ? "box \"auto\"" : "box", &inner);
+        s = ffd_rig_wrap(err, s, name, rig->box_auto ? "box \"auto\"" : "box", &inner);
         goto fail;
     }
 
     double t0 = ffd_now();
     if ((s = ffd_lattice_bind(lattice, positions, n, rig->outside, &binding, &inner))) {
-        s = wrap(err, s, name, "binding the mesh", &inner);
+        s = ffd_rig_wrap(err, s, name, "binding the mesh", &inner);
         goto fail;
     }
     if (k && (s = ffd_lattice_bind(lattice, rest, k, rig->outside, &pins, &inner))) {
-        s = wrap(err, s, name, "binding the constraints", &inner);
+        s = ffd_rig_wrap(err, s, name, "binding the constraints", &inner);
         goto fail;
     }
     double t1 = ffd_now();
@@ -136,7 +151,7 @@ ffd_status ffd_rig_apply(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report *rep
         if ((s = ffd_lattice_move(lattice, rig->moves[i].index, rig->moves[i].delta, &inner))) {
             char context[48];
             snprintf(context, sizeof context, "moves[%zu]", i);
-            s = wrap(err, s, name, context, &inner);
+            s = ffd_rig_wrap(err, s, name, context, &inner);
             goto fail;
         }
     }
@@ -145,7 +160,7 @@ ffd_status ffd_rig_apply(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report *rep
         if ((s = check_inside(rig, pins, err)))
             goto fail;
         if ((s = ffd_lattice_eval(lattice, pins, current, &inner))) {
-            s = wrap(err, s, name, "constraints", &inner);
+            s = ffd_rig_wrap(err, s, name, "constraints", &inner);
             goto fail;
         }
         ffd_linear_map map;
@@ -177,20 +192,11 @@ ffd_status ffd_rig_apply(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report *rep
             /* Report what the deformation really does at the constrained points. */
             s = ffd_lattice_eval(lattice, pins, current, &inner);
         }
-        if (!s) {
-            result.max_residual = 0;
-            for (size_t c = 0; c < k; c++) {
-                double d0 = current[3 * c] - targets[3 * c];
-                double d1 = current[3 * c + 1] - targets[3 * c + 1];
-                double d2 = current[3 * c + 2] - targets[3 * c + 2];
-                residuals[c] = sqrt(d0 * d0 + d1 * d1 + d2 * d2);
-                if (residuals[c] > result.max_residual)
-                    result.max_residual = residuals[c];
-            }
-        }
+        if (!s)
+            result.max_residual = ffd_rig_residuals(k, current, targets, residuals);
         ffd_free(targets);
         if (s) {
-            s = wrap(err, s, name, "constraints", &inner);
+            s = ffd_rig_wrap(err, s, name, "constraints", &inner);
             goto fail;
         }
     }
@@ -203,7 +209,7 @@ ffd_status ffd_rig_apply(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report *rep
         goto fail;
     }
     if ((s = ffd_lattice_eval(lattice, binding, deformed, &inner))) {
-        s = wrap(err, s, name, "evaluating", &inner);
+        s = ffd_rig_wrap(err, s, name, "evaluating", &inner);
         goto fail;
     }
     if (ffd_mesh_normal_count(mesh) > 0) {
@@ -213,13 +219,13 @@ ffd_status ffd_rig_apply(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report *rep
             goto fail;
         }
         if ((s = ffd_lattice_jacobian(lattice, binding, jacobians, &inner))) {
-            s = wrap(err, s, name, "Jacobians", &inner);
+            s = ffd_rig_wrap(err, s, name, "Jacobians", &inner);
             goto fail;
         }
     }
     size_t outside_count = n - ffd_lattice_binding_inside_count(binding);
     if ((s = ffd_mesh_set_positions(mesh, deformed, jacobians, &inner))) {
-        s = wrap(err, s, name, "deformed positions", &inner);
+        s = ffd_rig_wrap(err, s, name, "deformed positions", &inner);
         goto fail;
     }
     timings.evaluate = ffd_now() - t2;

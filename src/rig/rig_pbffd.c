@@ -10,12 +10,6 @@
 #include <stdio.h>
 #include <string.h>
 
-static ffd_status wrap(ffd_error *err, ffd_status status, const char *name, const char *context,
-                       const ffd_error *inner)
-{
-    return ffd_fail(err, status, "%s: %s: %s", name, context, inner->message);
-}
-
 /* Rodrigues: v rotated by angle about the unit axis k. */
 static void rotate(const double k[3], double angle, const double v[3], double out[3])
 {
@@ -89,7 +83,7 @@ static ffd_status apply_edits(const ffd_rig *rig, ffd_pbffd *pb, ffd_error *err)
             return s;
         if ((s = ffd_pbffd_move(pb, e->level, j, e->delta, &inner))) {
             snprintf(context, sizeof context, "moves[%zu]", i);
-            return wrap(err, s, rig->name, context, &inner);
+            return ffd_rig_wrap(err, s, rig->name, context, &inner);
         }
     }
     for (size_t i = 0; i < r->frame_count; i++) {
@@ -105,7 +99,7 @@ static ffd_status apply_edits(const ffd_rig *rig, ffd_pbffd *pb, ffd_error *err)
         }
         if (s) {
             snprintf(context, sizeof context, "frames[%zu]", i);
-            return wrap(err, s, rig->name, context, &inner);
+            return ffd_rig_wrap(err, s, rig->name, context, &inner);
         }
     }
     return FFD_OK;
@@ -118,12 +112,11 @@ static ffd_status solve_constraints(const ffd_rig *rig, ffd_pbffd *pb, const siz
                                     ffd_manip_result *result, ffd_error *err)
 {
     const size_t k = rig->constraint_count, level = rig->pb.constraint_level;
-    const size_t total = ffd_pbffd_point_count(pb);
     ffd_error inner = {{0}};
     ffd_linear_map map;
     ffd_status s = ffd_pbffd_linear_map(pb, level, &map, &inner);
     if (s)
-        return wrap(err, s, rig->name, "constraints", &inner);
+        return ffd_rig_wrap(err, s, rig->name, "constraints", &inner);
     size_t controls = ffd_pbffd_control_count(pb, level);
     if (map.variable_count != controls)
         return ffd_fail(err, FFD_ERR_UNSUPPORTED,
@@ -165,7 +158,7 @@ static ffd_status solve_constraints(const ffd_rig *rig, ffd_pbffd *pb, const siz
     ffd_manip_options options = {rig->rcond};
     if ((s = ffd_manip_solve(&map, rows, k, now, targets, &options, delta, NULL, result,
                              &inner))) {
-        s = wrap(err, s, rig->name, "constraints", &inner);
+        s = ffd_rig_wrap(err, s, rig->name, "constraints", &inner);
         goto done;
     }
     for (size_t j = 0; j < controls; j++) {
@@ -173,28 +166,18 @@ static ffd_status solve_constraints(const ffd_rig *rig, ffd_pbffd *pb, const siz
         if (d[0] == 0 && d[1] == 0 && d[2] == 0)
             continue;
         if ((s = ffd_pbffd_move(pb, level, j, d, &inner))) {
-            s = wrap(err, s, rig->name, "constraints", &inner);
+            s = ffd_rig_wrap(err, s, rig->name, "constraints", &inner);
             goto done;
         }
     }
     /* Report what the deformation really does at the constrained points. */
     if ((s = ffd_pbffd_eval(pb, current, &inner))) {
-        s = wrap(err, s, rig->name, "constraints", &inner);
+        s = ffd_rig_wrap(err, s, rig->name, "constraints", &inner);
         goto done;
     }
-    (void)total;
-    result->max_residual = 0;
-    for (size_t c = 0; c < k; c++) {
-        double r2 = 0;
-        for (int a = 0; a < 3; a++) {
-            reached[3 * c + a] = current[3 * rows[c] + a];
-            double d = reached[3 * c + a] - targets[3 * c + a];
-            r2 += d * d;
-        }
-        residuals[c] = sqrt(r2);
-        if (residuals[c] > result->max_residual)
-            result->max_residual = residuals[c];
-    }
+    for (size_t c = 0; c < k; c++)
+        memcpy(reached + 3 * c, current + 3 * rows[c], 3 * sizeof *reached);
+    result->max_residual = ffd_rig_residuals(k, reached, targets, residuals);
 done:
     ffd_free(cols);
     ffd_free(w);
@@ -223,7 +206,7 @@ static ffd_status apply_curves(const ffd_rig *rig, double *positions, size_t n, 
         ffd_pbffd_curve_destroy(curve);
         if (s) {
             snprintf(context, sizeof context, "curves[%zu]", c);
-            return wrap(err, s, rig->name, context, &inner);
+            return ffd_rig_wrap(err, s, rig->name, context, &inner);
         }
     }
     return FFD_OK;
@@ -285,14 +268,14 @@ ffd_status ffd_rig_apply_pbffd(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_repor
     if (rig->pb.controls_auto) {
         if ((s = ffd_pbffd_place(mesh, &rig->pb.placement, &placed, &control_count, &placement,
                                  &inner))) {
-            s = wrap(err, s, name, "controls (automatic placement)", &inner);
+            s = ffd_rig_wrap(err, s, name, "controls (automatic placement)", &inner);
             goto fail;
         }
         controls = placed;
     }
     if ((s = ffd_pbffd_create(controls, control_count, bound, total, &rig->pb.options, &pb,
                               &inner))) {
-        s = wrap(err, s, name, rig->pb.controls_auto ? "controls (placed)" : "controls", &inner);
+        s = ffd_rig_wrap(err, s, name, rig->pb.controls_auto ? "controls (placed)" : "controls", &inner);
         goto fail;
     }
     double t1 = ffd_now();
@@ -301,7 +284,7 @@ ffd_status ffd_rig_apply_pbffd(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_repor
     if ((s = apply_edits(rig, pb, err)))
         goto fail;
     if ((s = ffd_pbffd_eval(pb, current, &inner))) {
-        s = wrap(err, s, name, "evaluating", &inner);
+        s = ffd_rig_wrap(err, s, name, "evaluating", &inner);
         goto fail;
     }
     if (k && (s = solve_constraints(rig, pb, rows, current, reached, residuals, &result, err)))
@@ -316,14 +299,14 @@ ffd_status ffd_rig_apply_pbffd(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_repor
             goto fail;
         }
         if ((s = ffd_pbffd_jacobian(pb, jacobians, &inner))) {
-            s = wrap(err, s, name, "Jacobians", &inner);
+            s = ffd_rig_wrap(err, s, name, "Jacobians", &inner);
             goto fail;
         }
     }
     if ((s = apply_curves(rig, current, n, err)))
         goto fail;
     if ((s = ffd_mesh_set_positions(mesh, current, jacobians, &inner))) {
-        s = wrap(err, s, name, "deformed positions", &inner);
+        s = ffd_rig_wrap(err, s, name, "deformed positions", &inner);
         goto fail;
     }
     timings.evaluate = ffd_now() - t2;
