@@ -141,4 +141,47 @@ ffd_status ffd_stl_write(const ffd_mesh *m, ffd_encoding enc, ffd_buf *b, ffd_er
 /* Unit normal of triangle (a, b, c) or zero for a degenerate one. */
 void ffd_triangle_normal(const double *a, const double *b, const double *c, double n[3]);
 
+/* ---- refinement: new vertices and faces, same format (mesh_refine.c) ---- */
+
+/* A new vertex: the weighted average of earlier vertices (original ones,
+ * or new ones that come before it in the plan). Weights sum to 1. */
+typedef struct ffd_refine_vertex {
+    uint32_t parent_count; /* 1..4 */
+    uint32_t parent[4];
+    double weight[4];
+} ffd_refine_vertex;
+
+/* A refinement: new vertices get indices vertex_count, vertex_count+1, ...
+ * in order; the faces replace all of the mesh's faces. face_parent[f] is
+ * the original face new face f lies in (every original face with at least
+ * one child; an unchanged face is its own single child). The children of a
+ * face must be listed together, in the order the original faces appear. */
+typedef struct ffd_refine_plan {
+    size_t new_vertex_count;
+    const ffd_refine_vertex *new_vertices;
+    size_t face_count;
+    const uint32_t *face_offsets; /* face_count + 1 */
+    const uint32_t *face_indices; /* into old and new vertices */
+    const uint32_t *face_parent;  /* face_count */
+} ffd_refine_plan;
+
+/* Builds *out: the mesh refined by the plan, in m's format and encoding,
+ * written as a file of that format and read back (so *out is a normal,
+ * lossless mesh whose src is the new file). Everything the source holds is
+ * kept: every non-position element, property, comment and statement; new
+ * vertices interpolate every per-vertex property (PLY properties of any
+ * type, integers rounded and clamped; OFF and OBJ vertex colours; PLY
+ * normals) with the plan's weights flattened onto original vertices, and
+ * every per-corner attribute within the parent face (OBJ vt and vn: new vt
+ * and vn records are appended after the last existing ones); new faces
+ * copy their parent's per-face data (PLY face properties other than the
+ * index list, OFF face colours, STL attribute bytes, the OBJ group,
+ * material and smoothing context: the children of a face take its place
+ * in the file). Positions of new vertices are the weighted average of the
+ * current positions. A mesh made by ffd_mesh_create gets the same from
+ * arrays. FFD_ERR_INVALID (bad plan: index out of range, weights, parent
+ * order), FFD_ERR_NOMEM. */
+ffd_status ffd_mesh_refine(const ffd_mesh *m, const ffd_refine_plan *plan, ffd_mesh **out,
+                           ffd_error *err);
+
 #endif

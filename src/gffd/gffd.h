@@ -1,0 +1,112 @@
+/* gffd — generalized free-form deformation with scalar fields (Qin, Hua,
+ * Fang, Bao, Peng, "GFFD: Generalized free-form deformation with scalar
+ * fields", 2003).
+ *
+ * Files:
+ *   gffd_rbf.c        variational interpolation (Turk & O'Brien 1999): the
+ *                     r^3 + linear-polynomial interpolant, factor once, solve
+ *                     many, value and analytic gradient (§2, and eq. 4-6's warp)
+ *   gffd_distance.c   exact distances from a point to a primitive's geometry
+ *                     (point, segment, triangle, polyline, polygon mesh)
+ *   gffd_samples.c    the documented sampling rules: where each primitive's
+ *                     distance field is sampled (§2, Fig. 1)
+ *   gffd_skeleton.c   primitives checked and fitted; the merged field (eq. 1-2)
+ *   gffd_track.c      repositioning (§3, Fig. 5): gradient (eq. 3) and warp
+ *                     (eq. 4-6) tracking
+ *   gffd_deformer.c   the ffd_gffd handle: bind, edit, replace, track
+ *   gffd_resample.c   adaptive resampling (§4, Fig. 6)
+ */
+#ifndef FFD_GFFD_H
+#define FFD_GFFD_H
+
+#include "core/core.h"
+
+#include <stddef.h>
+#include <stdint.h>
+
+/* ---- variational interpolation (gffd_rbf.c) ------------------------------
+ *
+ * f(x) = sum_j w_j |x - c_j|^3 + a_0 + a_1 x + a_2 y + a_3 z, one column of
+ * (w, a) per value dimension, solving
+ *     [ A  P ] [w]   [v]
+ *     [ P' 0 ] [a] = [0]      A_ij = |c_i - c_j|^3, P_i = (1, x_i, y_i, z_i).
+ * The (m+4) x (m+4) symmetric indefinite matrix is factored once (LAPACK
+ * dsytrf, Bunch-Kaufman) and then solved for any number of right-hand
+ * sides (dsytrs). When the factorisation is singular or its reciprocal
+ * condition number (dsycon, 1-norm) is below FFD_RBF_RCOND — coincident
+ * centres, all centres coplanar so that P loses rank — the factor keeps a
+ * copy of the matrix instead and every solve is the minimum-norm least
+ * squares solution (ffd_dense_lstsq, SVD): the field then interpolates in
+ * the least-squares sense, and `regularised` says so. */
+
+#define FFD_RBF_RCOND 1e-14
+
+typedef struct ffd_rbf_factor {
+    size_t count;      /* m centres */
+    double *centres;   /* m by 3 (copied) */
+    double *lu;        /* (m+4)^2 column-major: dsytrf output, or the matrix itself when regularised */
+    int *ipiv;         /* m+4 (NULL when regularised) */
+    int regularised;   /* 1: solves are minimum-norm least squares */
+    double rcond;      /* reciprocal condition estimate (0 when singular) */
+} ffd_rbf_factor;
+
+/* Factors the interpolation matrix of the m centres (m >= 1, finite).
+ * FFD_ERR_NOMEM, FFD_ERR_NUMERIC (LAPACK failed), FFD_ERR_INVALID (m == 0). */
+ffd_status ffd_rbf_factor_create(const double *centres, size_t m, ffd_rbf_factor *out,
+                                 ffd_error *err);
+void ffd_rbf_factor_free(ffd_rbf_factor *f);
+
+/* A fitted interpolant: dim value columns over the factor's centres. */
+typedef struct ffd_rbf {
+    size_t count;      /* m */
+    int dim;           /* 1 (a distance field) or 3 (a warp displacement) */
+    double *centres;   /* m by 3 (copied, so the rbf outlives its factor) */
+    double *weights;   /* m by dim, row-major: w_j for centre j */
+    double poly[4][3]; /* poly[k][d]: a_k of column d (k = 0 constant, 1..3 x, y, z) */
+    double lo[3], hi[3]; /* bounding box of the centres */
+} ffd_rbf;
+
+/* Solves for values (m by dim, row-major) and fills out. dim is 1 or 3.
+ * FFD_ERR_NOMEM, FFD_ERR_NUMERIC, FFD_ERR_NONFINITE (a value or the solution). */
+ffd_status ffd_rbf_fit(const ffd_rbf_factor *f, const double *values, int dim, ffd_rbf *out,
+                       ffd_error *err);
+void ffd_rbf_free(ffd_rbf *r);
+
+/* f(x): value[dim]; gradient (may be NULL) receives dim rows of 3
+ * (gradient[3*d + k] = d f_d / d x_k), analytic: grad |x-c|^3 = 3 |x-c| (x-c). */
+void ffd_rbf_eval(const ffd_rbf *r, const double x[3], double *value, double *gradient);
+
+/* ---- exact distances (gffd_distance.c) ---------------------------------- */
+
+double ffd_dist2_point_segment(const double p[3], const double a[3], const double b[3]);
+/* Squared distance from p to the closed triangle (a, b, c); a degenerate
+ * triangle is measured as its longest edge. */
+double ffd_dist2_point_triangle(const double p[3], const double a[3], const double b[3],
+                                const double c[3]);
+
+/* ---- primitives (gffd_skeleton.c checks; gffd_samples.c samples) -------- */
+
+/* The primitive kinds of ffd.h (FFD_GFFD_POINT ...) with their geometry
+ * copied; polygons are fan-triangulated into tris (for distances). */
+typedef struct ffd_gffd_geometry {
+    int kind;              /* ffd_gffd_kind */
+    size_t vertex_count;
+    double *vertices;      /* vertex_count by 3 */
+    size_t tri_count;
+    uint32_t *tris;        /* tri_count by 3 (patch, polyhedron) */
+    double radius;         /* r_s, model units */
+} ffd_gffd_geometry;
+
+/* Exact (unsigned) distance from x to the geometry; for a polyhedron signed:
+ * negative inside (inside by ray parity against tris). */
+double ffd_gffd_geometry_distance(const ffd_gffd_geometry *g, const double x[3]);
+
+/* Sample points of one primitive's distance field (ffd.h documents the
+ * rules): *samples (count by 3) and *values (count: the exact signed
+ * distance from each sample to the geometry); coincident samples are
+ * merged. Freed with ffd_free. FFD_ERR_NOMEM, FFD_ERR_INVALID (more than
+ * max_samples samples: the message names the count and the limit). */
+ffd_status ffd_gffd_samples(const ffd_gffd_geometry *g, size_t max_samples, double **samples,
+                            double **values, size_t *count, ffd_error *err);
+
+#endif
