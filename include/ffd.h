@@ -622,8 +622,8 @@ double ffd_gffd_unit(const ffd_gffd *g);
 /* Primitives of the current skeleton, and their current geometry (borrowed,
  * valid until the skeleton changes). */
 size_t ffd_gffd_primitive_count(const ffd_gffd *g);
-ffd_status ffd_gffd_primitive(const ffd_gffd *g, size_t index, ffd_gffd_primitive *out,
-                              ffd_error *err);
+ffd_status ffd_gffd_get_primitive(const ffd_gffd *g, size_t index, ffd_gffd_primitive *out,
+                                  ffd_error *err);
 /* 1 when some primitive's field solve was singular and fell back to least
  * squares (coincident or coplanar samples). */
 int ffd_gffd_regularised(const ffd_gffd *g);
