@@ -769,12 +769,18 @@ typedef struct ffd_rig_report {
     size_t uncovered_count;        /* vertices under no control point but the master */
     int placed;                    /* 1: "controls": automatic placement ran */
     ffd_placement_report placement;
+    /* GFFD only (control_points: the current skeleton's vertices) */
+    size_t influenced_count;       /* vertices inside some influence region at bind time */
+    double gffd_unit;              /* the distance unit u used */
+    int gffd_regularised;          /* 1: a field solve fell back to least squares */
+    int resampled;                 /* 1: adaptive resampling ran */
+    ffd_gffd_resample_report gffd; /* tracking (and resampling) outcome */
 } ffd_rig_report;
 void ffd_rig_report_free(ffd_rig_report *report);
 
 /* Writes the report's deformed lattice as an OBJ file (one 'v' per control
  * point, 'l' lines along the three lattice directions; PB-FFD: the points
- * only), atomically. */
+ * only; GFFD: the skeleton's vertices), atomically. */
 ffd_status ffd_rig_report_write_lattice(const ffd_rig_report *report, const char *path,
                                         ffd_error *err);
 
@@ -787,7 +793,10 @@ ffd_status ffd_rig_write_pbffd_controls(const char *path, const ffd_ebf *control
 
 /* Applies the rig to the mesh: builds the deformer, binds the vertices,
  * applies moves, then solves the constraints, evaluates, and sets the mesh's
- * positions (normals transformed by the Jacobian). report may be NULL.
+ * positions (normals transformed by the Jacobian). A GFFD rig edits or
+ * replaces its skeleton and tracks the vertices (normals recomputed from
+ * the deformed faces); with "resample" the mesh gains vertices and faces
+ * (it is replaced by the refined mesh). report may be NULL.
  * Errors: FFD_ERR_RANGE (vertex id), FFD_ERR_INVALID, FFD_ERR_NONFINITE;
  * on error the mesh is unchanged. */
 ffd_status ffd_rig_apply(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report *report,

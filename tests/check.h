@@ -72,7 +72,7 @@ static int check_run(const check_test *tests, size_t n, int argc, char **argv)
 
 /* Deterministic random numbers for tests (xorshift64*). */
 static unsigned long long check_rng_state = 88172645463325252ull;
-static double check_rand01(void)
+static inline double check_rand01(void)
 {
     check_rng_state ^= check_rng_state >> 12;
     check_rng_state ^= check_rng_state << 25;

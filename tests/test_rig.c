@@ -159,7 +159,7 @@ static void test_parse_bad_keys_and_types(void)
     parse_bad("\"lattice\"", FFD_ERR_PARSE, "expected a JSON object");
     parse_bad("{\"version\": 2}", FFD_ERR_PARSE, "rig.json: version: expected 1");
     parse_bad("{\"version\": \"1\"}", FFD_ERR_PARSE, "version: expected 1");
-    parse_bad("{\"deformer\": \"tspline\"}", FFD_ERR_PARSE, "rig.json: deformer: expected \"lattice\" or \"pbffd\"");
+    parse_bad("{\"deformer\": \"tspline\"}", FFD_ERR_PARSE, "rig.json: deformer: expected \"lattice\", \"pbffd\" or \"gffd\"");
     parse_bad("{\"deformer\": 1}", FFD_ERR_PARSE, "deformer: expected \"lattice\"");
     parse_bad("{\"basis\": \"nurbs\"}", FFD_ERR_PARSE,
               "rig.json: basis: expected \"bspline\" or \"bernstein\"");

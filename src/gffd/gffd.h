@@ -51,7 +51,10 @@ typedef struct ffd_rbf_factor {
 } ffd_rbf_factor;
 
 /* Factors the interpolation matrix of the m centres (m >= 1, finite).
- * FFD_ERR_NOMEM, FFD_ERR_NUMERIC (LAPACK failed), FFD_ERR_INVALID (m == 0). */
+ * FFD_ERR_NOMEM, FFD_ERR_NUMERIC (LAPACK failed), FFD_ERR_INVALID (m == 0),
+ * FFD_ERR_NONFINITE (a centre). The matrix is built on the centres moved to
+ * their centroid and scaled by their largest distance from it, so that rcond
+ * and `regularised` do not depend on the skeleton's scale or position. */
 ffd_status ffd_rbf_factor_create(const double *centres, size_t m, ffd_rbf_factor *out,
                                  ffd_error *err);
 void ffd_rbf_factor_free(ffd_rbf_factor *f);
@@ -62,7 +65,11 @@ typedef struct ffd_rbf {
     int dim;           /* 1 (a distance field) or 3 (a warp displacement) */
     double *centres;   /* m by 3 (copied, so the rbf outlives its factor) */
     double *weights;   /* m by dim, row-major: w_j for centre j */
-    double poly[4][3]; /* poly[k][d]: a_k of column d (k = 0 constant, 1..3 x, y, z) */
+    double poly[4][3]; /* poly[k][d]: a_k of column d (k = 0 constant, 1..3 x, y, z), the
+                          polynomial being in x - origin: a_0 + a_1 (x - o_x) + ... */
+    double origin[3];  /* the centres' centroid (the polynomial's origin, for accuracy far
+                          from the world origin); plain data, so that a copy of the struct
+                          with deep copies of centres and weights is a working rbf */
     double lo[3], hi[3]; /* bounding box of the centres */
 } ffd_rbf;
 
@@ -73,7 +80,10 @@ ffd_status ffd_rbf_fit(const ffd_rbf_factor *f, const double *values, int dim, f
 void ffd_rbf_free(ffd_rbf *r);
 
 /* f(x): value[dim]; gradient (may be NULL) receives dim rows of 3
- * (gradient[3*d + k] = d f_d / d x_k), analytic: grad |x-c|^3 = 3 |x-c| (x-c). */
+ * (gradient[3*d + k] = d f_d / d x_k), analytic: grad |x-c|^3 = 3 |x-c| (x-c).
+ * No allocation; thread-safe. The sums run in a fixed lane order (SSE2 where
+ * the compiler targets it, the same order in portable C elsewhere), so the
+ * result does not depend on the platform's vector width. */
 void ffd_rbf_eval(const ffd_rbf *r, const double x[3], double *value, double *gradient);
 
 /* ---- exact distances (gffd_distance.c) ---------------------------------- */
@@ -98,14 +108,23 @@ typedef struct ffd_gffd_geometry {
 } ffd_gffd_geometry;
 
 /* Exact (unsigned) distance from x to the geometry; for a polyhedron signed:
- * negative inside (inside by ray parity against tris). */
+ * negative inside (inside by ray parity against tris: the majority of three
+ * rays in fixed oblique directions, a ray that grazes an edge or a vertex
+ * replaced by the next direction; 0 on the surface). O(tri_count). */
 double ffd_gffd_geometry_distance(const ffd_gffd_geometry *g, const double x[3]);
 
 /* Sample points of one primitive's distance field (ffd.h documents the
  * rules): *samples (count by 3) and *values (count: the exact signed
- * distance from each sample to the geometry); coincident samples are
- * merged. Freed with ffd_free. FFD_ERR_NOMEM, FFD_ERR_INVALID (more than
- * max_samples samples: the message names the count and the limit). */
+ * distance from each sample to the geometry); coincident samples (within
+ * 1e-12 x the geometry's bounding-box diagonal, or exactly equal) are merged,
+ * the first kept. Details the public rules leave open (gffd_samples.c):
+ * "faces" are the triangles of tris; vertex normals are angle-weighted (the
+ * same for any triangulation of a planar polygon); vertices of no triangle
+ * get no samples. Freed with ffd_free. max_samples == 0: no limit.
+ * FFD_ERR_NOMEM (also a polyline that would make over 1e9 samples),
+ * FFD_ERR_INVALID (more than max_samples samples after merging, or a
+ * polyline with more than 8 x max_samples before: the message names the
+ * count and the limit). */
 ffd_status ffd_gffd_samples(const ffd_gffd_geometry *g, size_t max_samples, double **samples,
                             double **values, size_t *count, ffd_error *err);
 

@@ -1,8 +1,12 @@
-/* math — LAPACK wrapper: minimum-norm least squares via the SVD (dgelsd). */
+/* math — LAPACK wrappers: minimum-norm least squares via the SVD (dgelsd);
+ * symmetric indefinite factor, solve and condition estimate (dsytrf, dsytrs,
+ * dsycon). */
 #include "math/dense.h"
 
 #include <lapacke.h>
 #include <limits.h>
+#include <math.h>
+#include <string.h>
 
 ffd_status ffd_dense_lstsq(size_t m, size_t n, size_t nrhs, double *A, double *B, double rcond,
                            size_t *rank, ffd_error *err)
@@ -54,4 +58,104 @@ done:
     ffd_free(work);
     ffd_free(iwork);
     return st;
+}
+
+/* ---- symmetric indefinite systems (dsytrf / dsytrs / dsycon) ------------ */
+
+_Static_assert(sizeof(lapack_int) == sizeof(int), "ipiv is int: LAPACK must use 32-bit integers");
+
+ffd_status ffd_dense_sym_factor(size_t n, double *A, int *ipiv, int *singular, ffd_error *err)
+{
+    *singular = 0;
+    if (n == 0)
+        return FFD_OK;
+    if (n > INT_MAX)
+        return ffd_fail(err, FFD_ERR_INVALID, "symmetric factor: system of %zu is too large", n);
+    lapack_int N = (lapack_int)n, info;
+    double wq = 0;
+    info = LAPACKE_dsytrf_work(LAPACK_COL_MAJOR, 'L', N, A, N, (lapack_int *)ipiv, &wq, -1);
+    if (info != 0)
+        return ffd_fail(err, FFD_ERR_NUMERIC,
+                        "symmetric factor: dsytrf workspace query failed (info %d)", (int)info);
+    size_t lwork = (size_t)wq + 1;
+    if (lwork < n)
+        lwork = n;
+    double *work = ffd_malloc_array(lwork, sizeof *work);
+    if (!work)
+        return ffd_fail(err, FFD_ERR_NOMEM, "symmetric factor: out of memory");
+    info = LAPACKE_dsytrf_work(LAPACK_COL_MAJOR, 'L', N, A, N, (lapack_int *)ipiv, work,
+                               (lapack_int)lwork);
+    ffd_free(work);
+    if (info < 0)
+        return ffd_fail(err, FFD_ERR_NUMERIC, "symmetric factor: dsytrf argument %d invalid",
+                        (int)-info);
+    if (info > 0)
+        *singular = 1;
+    return FFD_OK;
+}
+
+ffd_status ffd_dense_sym_solve(size_t n, size_t nrhs, const double *factor, const int *ipiv,
+                               double *B, ffd_error *err)
+{
+    if (n == 0 || nrhs == 0)
+        return FFD_OK;
+    if (n > INT_MAX || nrhs > INT_MAX)
+        return ffd_fail(err, FFD_ERR_INVALID, "symmetric solve: system of %zu is too large", n);
+    lapack_int N = (lapack_int)n;
+    lapack_int info = LAPACKE_dsytrs_work(LAPACK_COL_MAJOR, 'L', N, (lapack_int)nrhs, factor, N,
+                                          (const lapack_int *)ipiv, B, N);
+    if (info != 0)
+        return ffd_fail(err, FFD_ERR_NUMERIC, "symmetric solve: dsytrs failed (info %d)",
+                        (int)info);
+    return FFD_OK;
+}
+
+ffd_status ffd_dense_sym_rcond(size_t n, const double *factor, const int *ipiv, double anorm,
+                               double *rcond, ffd_error *err)
+{
+    *rcond = 0;
+    if (n == 0)
+        return FFD_OK;
+    if (n > INT_MAX)
+        return ffd_fail(err, FFD_ERR_INVALID, "condition estimate: system of %zu is too large", n);
+    lapack_int N = (lapack_int)n;
+    double *work = ffd_malloc_array(2 * n, sizeof *work);
+    lapack_int *iwork = ffd_malloc_array(n, sizeof *iwork);
+    ffd_status st = FFD_OK;
+    if (!work || !iwork) {
+        st = ffd_fail(err, FFD_ERR_NOMEM, "condition estimate: out of memory");
+        goto done;
+    }
+    lapack_int info = LAPACKE_dsycon_work(LAPACK_COL_MAJOR, 'L', N, factor, N,
+                                          (const lapack_int *)ipiv, anorm, rcond, work, iwork);
+    if (info != 0)
+        st = ffd_fail(err, FFD_ERR_NUMERIC, "condition estimate: dsycon failed (info %d)",
+                      (int)info);
+done:
+    ffd_free(work);
+    ffd_free(iwork);
+    return st;
+}
+
+double ffd_dense_sym_norm1(size_t n, const double *A)
+{
+    double best = 0;
+    for (size_t j = 0; j < n; j++) {
+        const double *col = A + j * n;
+        double s = 0;
+        for (size_t i = 0; i < n; i++)
+            s += fabs(col[i]);
+        if (s > best || s != s)
+            best = s;
+    }
+    return best;
+}
+
+ffd_status ffd_dense_svd3(const double *A, double *U, double *S, double *Vt)
+{
+    double a[9], work[64];
+    memcpy(a, A, sizeof a);
+    lapack_int info = LAPACKE_dgesvd_work(LAPACK_COL_MAJOR, 'A', 'A', 3, 3, a, 3, S, U, 3, Vt, 3,
+                                          work, 64);
+    return info == 0 ? FFD_OK : FFD_ERR_NUMERIC;
 }

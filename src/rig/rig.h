@@ -23,7 +23,8 @@ typedef struct ffd_rig_constraint {
 
 typedef enum ffd_rig_deformer {
     FFD_RIG_LATTICE = 0,
-    FFD_RIG_PBFFD
+    FFD_RIG_PBFFD,
+    FFD_RIG_GFFD
 } ffd_rig_deformer;
 
 /* PB-FFD: a move or a frame edit of one control point at one level. */
@@ -70,10 +71,60 @@ typedef struct ffd_rig_pbffd {
     size_t curve_count;
 } ffd_rig_pbffd;
 
+/* GFFD: one skeleton primitive, owned. */
+typedef struct ffd_rig_primitive {
+    ffd_gffd_kind kind;
+    double *vertices;     /* vertex_count by 3 */
+    size_t vertex_count;
+    uint32_t *face_offsets; /* face_count + 1 (patch, polyhedron) */
+    uint32_t *face_indices;
+    size_t face_count;
+    double radius;
+} ffd_rig_primitive;
+
+typedef enum ffd_rig_gffd_edit_kind {
+    FFD_RIG_EDIT_TRANSLATE = 0, /* every vertex += delta */
+    FFD_RIG_EDIT_ROTATE,        /* about axis through center by angle (radians) */
+    FFD_RIG_EDIT_SCALE,         /* about center by scale[3] */
+    FFD_RIG_EDIT_MOVE,          /* one vertex += delta */
+    FFD_RIG_EDIT_VERTICES       /* all vertices replaced */
+} ffd_rig_gffd_edit_kind;
+
+/* GFFD: one skeleton edit (§5, first way). */
+typedef struct ffd_rig_gffd_edit {
+    ffd_rig_gffd_edit_kind kind;
+    int all;              /* 1: every primitive (primitive ignored) */
+    uint32_t primitive;
+    uint32_t vertex;      /* MOVE */
+    double delta[3];      /* TRANSLATE, MOVE */
+    double axis[3];       /* ROTATE (any length) */
+    double angle;
+    double scale[3];      /* SCALE */
+    int has_center;       /* 0: the centroid of the vertices edited */
+    double center[3];
+    double *vertices;     /* VERTICES: vertex_count by 3 */
+    size_t vertex_count;
+} ffd_rig_gffd_edit;
+
+typedef struct ffd_rig_gffd {
+    ffd_rig_primitive *skeleton;
+    size_t skeleton_count;
+    ffd_rig_primitive *replace;   /* §5, second way; NULL when none */
+    size_t replace_count;
+    ffd_rig_gffd_edit *edits;
+    size_t edit_count;
+    double *corr_from, *corr_to;  /* user correspondences, corr_count by 3 each */
+    size_t corr_count;
+    ffd_gffd_options options;
+    int resample;
+    ffd_gffd_resample_options resample_options;
+} ffd_rig_gffd;
+
 struct ffd_rig {
     char *name;              /* file name for messages */
     ffd_rig_deformer deformer;
     ffd_rig_pbffd pb;        /* deformer == FFD_RIG_PBFFD */
+    ffd_rig_gffd gffd;       /* deformer == FFD_RIG_GFFD */
     ffd_basis basis;
     uint32_t resolution[3];
     int box_auto;            /* 1: fit the mesh bounding box grown by margin */
@@ -99,6 +150,15 @@ double ffd_rig_residuals(size_t k, const double *reached, const double *targets,
 /* PB-FFD application (rig_pbffd.c); constraints as for the lattice. */
 ffd_status ffd_rig_apply_pbffd(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report *report,
                                ffd_error *err);
+
+/* GFFD application (rig_gffd.c). */
+ffd_status ffd_rig_apply_gffd(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report *report,
+                              ffd_error *err);
+/* Reads a skeleton primitive's geometry from a file: a polyline from an OBJ
+ * file's v and l lines (one l statement, or none: the v lines in order), a
+ * patch or polyhedron from a mesh file (OBJ, PLY, OFF). */
+ffd_status ffd_rig_load_primitive(const char *path, ffd_rig_primitive *prim, ffd_error *err);
+void ffd_rig_primitive_free(ffd_rig_primitive *prim);
 
 /* A zeroed rig with defaults (bspline, 5x5x5, auto box, margin 0.05). NULL on OOM. */
 ffd_rig *ffd_rig_new(const char *name);

@@ -18,6 +18,7 @@ void ffd_rig_report_free(ffd_rig_report *report)
     ffd_free(report->residuals);
     ffd_free(report->reached);
     ffd_free(report->control_points);
+    ffd_gffd_resample_report_free(&report->gffd);
     memset(report, 0, sizeof *report);
 }
 
@@ -95,6 +96,8 @@ ffd_status ffd_rig_apply(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report *rep
         memset(report, 0, sizeof *report);
     if (!rig || !mesh)
         return ffd_fail(err, FFD_ERR_INVALID, "ffd_rig_apply: rig and mesh must not be NULL");
+    if (rig->deformer == FFD_RIG_GFFD)
+        return ffd_rig_apply_gffd(rig, mesh, report, err);
     if (rig->deformer == FFD_RIG_PBFFD)
         return ffd_rig_apply_pbffd(rig, mesh, report, err);
 

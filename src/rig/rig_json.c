@@ -54,6 +54,17 @@ void ffd_rig_destroy(ffd_rig *rig)
         ffd_free(rig->pb.curves[i].moves);
     }
     ffd_free(rig->pb.curves);
+    for (size_t i = 0; i < rig->gffd.skeleton_count; i++)
+        ffd_rig_primitive_free(&rig->gffd.skeleton[i]);
+    ffd_free(rig->gffd.skeleton);
+    for (size_t i = 0; i < rig->gffd.replace_count; i++)
+        ffd_rig_primitive_free(&rig->gffd.replace[i]);
+    ffd_free(rig->gffd.replace);
+    for (size_t i = 0; i < rig->gffd.edit_count; i++)
+        ffd_free(rig->gffd.edits[i].vertices);
+    ffd_free(rig->gffd.edits);
+    ffd_free(rig->gffd.corr_from);
+    ffd_free(rig->gffd.corr_to);
     ffd_free(rig);
 }
 
@@ -894,6 +905,521 @@ static ffd_status read_pbffd_key(const parser *p, const cJSON *item, ffd_rig *ri
     return FFD_OK;
 }
 
+
+/* ======================================================================
+ * GFFD sections (docs/rig.md, "GFFD rigs")
+ * ====================================================================== */
+
+/* path resolved against the rig file's directory (name), unless absolute. */
+static char *resolve_path(const char *name, const char *file)
+{
+    const char *slash = strrchr(name, '/');
+    if (file[0] == '/' || !slash)
+        return ffd_strdup(file);
+    size_t dir = (size_t)(slash - name) + 1, n = strlen(file);
+    char *out = ffd_malloc(dir + n + 1);
+    if (!out)
+        return NULL;
+    memcpy(out, name, dir);
+    memcpy(out + dir, file, n + 1);
+    return out;
+}
+
+/* An array of [x,y,z] points; at least min of them. */
+static ffd_status read_points(const parser *p, const cJSON *item, const char *path, size_t min,
+                              double **out, size_t *count)
+{
+    char what[64];
+    snprintf(what, sizeof what, "an array of at least %zu points [x,y,z]", min);
+    if (!cJSON_IsArray(item) || (size_t)cJSON_GetArraySize(item) < min)
+        return expected(p, path, what);
+    size_t n = (size_t)cJSON_GetArraySize(item);
+    if (n && !(*out = ffd_malloc_array(n, 3 * sizeof(double))))
+        return ffd_fail(p->err, FFD_ERR_NOMEM, "%s: out of memory", p->name);
+    *count = n;
+    size_t i = 0;
+    const cJSON *pt;
+    cJSON_ArrayForEach(pt, item)
+    {
+        char leaf[RIG_PATH_MAX + 40];
+        snprintf(leaf, sizeof leaf, "%s[%zu]", path, i);
+        ffd_status s = read_vec3(p, pt, leaf, *out + 3 * i);
+        if (s)
+            return s;
+        i++;
+    }
+    return FFD_OK;
+}
+
+/* Faces [[i,j,k,...], ...] as offsets and indices. */
+static ffd_status read_faces(const parser *p, const cJSON *item, const char *path,
+                             ffd_rig_primitive *prim)
+{
+    static const char what[] = "an array of faces, each an array of >= 3 vertex indices";
+    if (!cJSON_IsArray(item) || cJSON_GetArraySize(item) < 1)
+        return expected(p, path, what);
+    size_t n = (size_t)cJSON_GetArraySize(item), corners = 0;
+    const cJSON *f;
+    cJSON_ArrayForEach(f, item)
+    {
+        if (!cJSON_IsArray(f) || cJSON_GetArraySize(f) < 3)
+            return expected(p, path, what);
+        corners += (size_t)cJSON_GetArraySize(f);
+    }
+    if (corners > UINT32_MAX)
+        return expected(p, path, "fewer corners");
+    prim->face_offsets = ffd_malloc_array(n + 1, sizeof(uint32_t));
+    prim->face_indices = ffd_malloc_array(corners, sizeof(uint32_t));
+    if (!prim->face_offsets || !prim->face_indices)
+        return ffd_fail(p->err, FFD_ERR_NOMEM, "%s: out of memory", p->name);
+    size_t i = 0, c = 0;
+    prim->face_offsets[0] = 0;
+    cJSON_ArrayForEach(f, item)
+    {
+        const cJSON *v;
+        cJSON_ArrayForEach(v, f)
+        {
+            if (!is_uint32(v)) {
+                char leaf[RIG_PATH_MAX + 40];
+                snprintf(leaf, sizeof leaf, "%s[%zu]", path, i);
+                return expected(p, leaf, "vertex indices (non-negative integers)");
+            }
+            prim->face_indices[c++] = (uint32_t)v->valuedouble;
+        }
+        prim->face_offsets[++i] = (uint32_t)c;
+    }
+    prim->face_count = n;
+    return FFD_OK;
+}
+
+static ffd_status read_primitive(const parser *p, const cJSON *item, const char *path,
+                                 ffd_rig_primitive *prim)
+{
+    static const char *const keys[] = {"type", "radius", "position", "vertices", "faces", "file",
+                                       "name", NULL};
+    static const char *const kinds[] = {"point", "polyline", "patch", "polyhedron", NULL};
+    char sub[RIG_PATH_MAX + 24];
+    if (!cJSON_IsObject(item))
+        return expected(p, path, "a primitive {\"type\": \"point\"|\"polyline\"|\"patch\"|"
+                                 "\"polyhedron\", \"radius\": r, ...}");
+    ffd_status s = check_keys(p, item, path, keys,
+                              "\"type\", \"radius\", \"position\", \"vertices\", \"faces\", "
+                              "\"file\", \"name\"");
+    if (s)
+        return s;
+    const cJSON *v = cJSON_GetObjectItemCaseSensitive(item, "type");
+    snprintf(sub, sizeof sub, "%s.type", path);
+    int kind = 0;
+    if (!v)
+        return expected(p, sub, "\"point\", \"polyline\", \"patch\" or \"polyhedron\" (missing)");
+    if ((s = read_enum(p, v, sub, kinds, "\"point\", \"polyline\", \"patch\" or \"polyhedron\"",
+                       &kind)))
+        return s;
+    prim->kind = (ffd_gffd_kind)kind;
+    snprintf(sub, sizeof sub, "%s.radius", path);
+    if (!(v = cJSON_GetObjectItemCaseSensitive(item, "radius")))
+        return expected(p, sub, "the influence radius r_s > 0 (missing)");
+    if ((s = read_positive(p, v, sub, &prim->radius)))
+        return s;
+    if ((v = cJSON_GetObjectItemCaseSensitive(item, "name")) && !cJSON_IsString(v)) {
+        snprintf(sub, sizeof sub, "%s.name", path);
+        return expected(p, sub, "a string");
+    }
+    const cJSON *pos = cJSON_GetObjectItemCaseSensitive(item, "position");
+    const cJSON *verts = cJSON_GetObjectItemCaseSensitive(item, "vertices");
+    const cJSON *faces = cJSON_GetObjectItemCaseSensitive(item, "faces");
+    const cJSON *file = cJSON_GetObjectItemCaseSensitive(item, "file");
+    if (prim->kind == FFD_GFFD_POINT) {
+        if (verts || faces || file)
+            return expected(p, path, "a point with a \"position\" only");
+        snprintf(sub, sizeof sub, "%s.position", path);
+        if (!pos)
+            return expected(p, sub, "an array of 3 finite numbers (missing)");
+        if (!(prim->vertices = ffd_malloc(3 * sizeof(double))))
+            return ffd_fail(p->err, FFD_ERR_NOMEM, "%s: out of memory", p->name);
+        prim->vertex_count = 1;
+        return read_vec3(p, pos, sub, prim->vertices);
+    }
+    if (pos)
+        return expected(p, path, "\"vertices\" or \"file\" (\"position\" is for points)");
+    if (file) {
+        if (verts || faces)
+            return expected(p, path, "either \"file\" or \"vertices\", not both");
+        snprintf(sub, sizeof sub, "%s.file", path);
+        if (!cJSON_IsString(file) || !file->valuestring[0])
+            return expected(p, sub, "a file name");
+        char *resolved = resolve_path(p->name, file->valuestring);
+        if (!resolved)
+            return ffd_fail(p->err, FFD_ERR_NOMEM, "%s: out of memory", p->name);
+        ffd_error inner = {{0}};
+        ffd_rig_primitive loaded = {0};
+        s = ffd_rig_load_primitive(resolved, &loaded, &inner);
+        ffd_free(resolved);
+        if (s)
+            return ffd_fail(p->err, s, "%s: %s: %s", p->name, sub, inner.message);
+        if ((prim->kind == FFD_GFFD_POLYLINE) != (loaded.face_count == 0)) {
+            ffd_rig_primitive_free(&loaded);
+            return expected(p, sub, prim->kind == FFD_GFFD_POLYLINE
+                                        ? "a polyline file (OBJ v and l lines), not a mesh"
+                                        : "a mesh file with faces");
+        }
+        loaded.kind = prim->kind;
+        loaded.radius = prim->radius;
+        *prim = loaded;
+        return FFD_OK;
+    }
+    snprintf(sub, sizeof sub, "%s.vertices", path);
+    if (!verts)
+        return expected(p, sub, "an array of points [x,y,z], or a \"file\" (missing)");
+    size_t min = prim->kind == FFD_GFFD_POLYLINE ? 2 : 3;
+    if ((s = read_points(p, verts, sub, min, &prim->vertices, &prim->vertex_count)))
+        return s;
+    snprintf(sub, sizeof sub, "%s.faces", path);
+    if (prim->kind == FFD_GFFD_POLYLINE) {
+        if (faces)
+            return expected(p, sub, "no faces: a polyline joins its vertices in order");
+        return FFD_OK;
+    }
+    if (!faces)
+        return expected(p, sub, "an array of faces (missing)");
+    return read_faces(p, faces, sub, prim);
+}
+
+static ffd_status read_skeleton(const parser *p, const cJSON *item, const char *key,
+                                ffd_rig_primitive **out, size_t *count)
+{
+    if (!cJSON_IsArray(item) || cJSON_GetArraySize(item) < 1)
+        return expected(p, key, "an array of at least one primitive {\"type\": ..., \"radius\": "
+                                "r, ...}");
+    size_t n = (size_t)cJSON_GetArraySize(item);
+    if (!(*out = ffd_calloc(n, sizeof **out)))
+        return ffd_fail(p->err, FFD_ERR_NOMEM, "%s: out of memory", p->name);
+    *count = n; /* so that destroy frees what was read */
+    size_t i = 0;
+    const cJSON *c;
+    cJSON_ArrayForEach(c, item)
+    {
+        char path[RIG_PATH_MAX];
+        snprintf(path, sizeof path, "%s[%zu]", key, i);
+        ffd_status s = read_primitive(p, c, path, &(*out)[i]);
+        if (s)
+            return s;
+        i++;
+    }
+    return FFD_OK;
+}
+
+static ffd_status read_gffd_edit(const parser *p, const cJSON *m, const char *path,
+                                 ffd_rig_gffd_edit *e)
+{
+    static const char *const keys[] = {"primitive", "translate", "rotate", "scale", "center",
+                                       "vertex",    "move",      "vertices", NULL};
+    char sub[RIG_PATH_MAX + 40];
+    if (!cJSON_IsObject(m))
+        return expected(p, path, "an edit {\"primitive\": i or \"all\", and one of "
+                                 "\"translate\", \"rotate\", \"scale\", \"move\", \"vertices\"}");
+    ffd_status s = check_keys(p, m, path, keys,
+                              "\"primitive\", \"translate\", \"rotate\", \"scale\", \"center\", "
+                              "\"vertex\", \"move\", \"vertices\"");
+    if (s)
+        return s;
+    const cJSON *v = cJSON_GetObjectItemCaseSensitive(m, "primitive");
+    snprintf(sub, sizeof sub, "%s.primitive", path);
+    if (!v)
+        return expected(p, sub, "a primitive index or \"all\" (missing)");
+    if (cJSON_IsString(v) && strcmp(v->valuestring, "all") == 0)
+        e->all = 1;
+    else if ((s = read_index(p, v, sub, "a primitive index or \"all\"", &e->primitive)))
+        return s;
+    const char *ops[] = {"translate", "rotate", "scale", "move", "vertices"};
+    int op = -1;
+    for (int k = 0; k < 5; k++)
+        if (cJSON_GetObjectItemCaseSensitive(m, ops[k])) {
+            if (op >= 0)
+                return expected(p, path, "one of \"translate\", \"rotate\", \"scale\", \"move\", "
+                                         "\"vertices\" per edit");
+            op = k;
+        }
+    if (op < 0)
+        return expected(p, path, "one of \"translate\", \"rotate\", \"scale\", \"move\", "
+                                 "\"vertices\"");
+    const cJSON *center = cJSON_GetObjectItemCaseSensitive(m, "center");
+    const cJSON *vertex = cJSON_GetObjectItemCaseSensitive(m, "vertex");
+    if (center && op != 1 && op != 2)
+        return expected(p, path, "\"center\" only with \"rotate\" or \"scale\"");
+    if ((vertex != NULL) != (op == 3))
+        return expected(p, path, "\"vertex\" together with \"move\"");
+    if (center) {
+        snprintf(sub, sizeof sub, "%s.center", path);
+        if ((s = read_vec3(p, center, sub, e->center)))
+            return s;
+        e->has_center = 1;
+    }
+    v = cJSON_GetObjectItemCaseSensitive(m, ops[op]);
+    snprintf(sub, sizeof sub, "%s.%s", path, ops[op]);
+    switch (op) {
+    case 0:
+        e->kind = FFD_RIG_EDIT_TRANSLATE;
+        return read_vec3(p, v, sub, e->delta);
+    case 1: {
+        static const char *const rot_keys[] = {"axis", "angle", NULL};
+        e->kind = FFD_RIG_EDIT_ROTATE;
+        if (!cJSON_IsObject(v))
+            return expected(p, sub, "an object {\"axis\": [x,y,z], \"angle\": radians}");
+        if ((s = check_keys(p, v, sub, rot_keys, "\"axis\", \"angle\"")))
+            return s;
+        char leaf[RIG_PATH_MAX + 64];
+        const cJSON *a = cJSON_GetObjectItemCaseSensitive(v, "axis");
+        snprintf(leaf, sizeof leaf, "%s.axis", sub);
+        if (!a)
+            return expected(p, leaf, "an array of 3 finite numbers (missing)");
+        if ((s = read_vec3(p, a, leaf, e->axis)))
+            return s;
+        if (e->axis[0] == 0 && e->axis[1] == 0 && e->axis[2] == 0)
+            return ffd_fail(p->err, FFD_ERR_INVALID, "%s: %s: the zero vector is no axis",
+                            p->name, leaf);
+        a = cJSON_GetObjectItemCaseSensitive(v, "angle");
+        snprintf(leaf, sizeof leaf, "%s.angle", sub);
+        if (!a)
+            return expected(p, leaf, "an angle in radians (missing)");
+        return read_number(p, a, leaf, &e->angle);
+    }
+    case 2:
+        e->kind = FFD_RIG_EDIT_SCALE;
+        if (cJSON_IsNumber(v)) {
+            if ((s = read_number(p, v, sub, &e->scale[0])))
+                return s;
+            e->scale[1] = e->scale[2] = e->scale[0];
+        } else if ((s = read_vec3(p, v, sub, e->scale))) {
+            return s;
+        }
+        return FFD_OK;
+    case 3:
+        e->kind = FFD_RIG_EDIT_MOVE;
+        if (e->all)
+            return expected(p, path, "a primitive index with \"move\" (not \"all\")");
+        snprintf(sub, sizeof sub, "%s.vertex", path);
+        if ((s = read_index(p, vertex, sub, "a vertex index of the primitive", &e->vertex)))
+            return s;
+        snprintf(sub, sizeof sub, "%s.move", path);
+        return read_vec3(p, v, sub, e->delta);
+    default:
+        e->kind = FFD_RIG_EDIT_VERTICES;
+        if (e->all)
+            return expected(p, path, "a primitive index with \"vertices\" (not \"all\")");
+        return read_points(p, v, sub, 1, &e->vertices, &e->vertex_count);
+    }
+}
+
+static ffd_status read_gffd_edits(const parser *p, const cJSON *item, ffd_rig_gffd *g)
+{
+    if (!cJSON_IsArray(item))
+        return expected(p, "edits", "an array of skeleton edits");
+    size_t n = (size_t)cJSON_GetArraySize(item);
+    if (n && !(g->edits = ffd_calloc(n, sizeof *g->edits)))
+        return ffd_fail(p->err, FFD_ERR_NOMEM, "%s: out of memory", p->name);
+    g->edit_count = n;
+    size_t i = 0;
+    const cJSON *m;
+    cJSON_ArrayForEach(m, item)
+    {
+        char path[RIG_PATH_MAX];
+        snprintf(path, sizeof path, "edits[%zu]", i);
+        ffd_status s = read_gffd_edit(p, m, path, &g->edits[i]);
+        if (s)
+            return s;
+        i++;
+    }
+    return FFD_OK;
+}
+
+static ffd_status read_correspondences(const parser *p, const cJSON *item, ffd_rig_gffd *g)
+{
+    static const char *const keys[] = {"from", "to", NULL};
+    static const char what[] = "an array of {\"from\": [x,y,z], \"to\": [x,y,z]}";
+    if (!cJSON_IsArray(item) || cJSON_GetArraySize(item) < 1)
+        return expected(p, "correspondences", what);
+    size_t n = (size_t)cJSON_GetArraySize(item);
+    g->corr_from = ffd_malloc_array(n, 3 * sizeof(double));
+    g->corr_to = ffd_malloc_array(n, 3 * sizeof(double));
+    if (!g->corr_from || !g->corr_to)
+        return ffd_fail(p->err, FFD_ERR_NOMEM, "%s: out of memory", p->name);
+    size_t i = 0;
+    const cJSON *c;
+    cJSON_ArrayForEach(c, item)
+    {
+        char path[RIG_PATH_MAX], sub[RIG_PATH_MAX + 8];
+        snprintf(path, sizeof path, "correspondences[%zu]", i);
+        if (!cJSON_IsObject(c))
+            return expected(p, path, what + 12);
+        ffd_status s = check_keys(p, c, path, keys, "\"from\", \"to\"");
+        if (s)
+            return s;
+        const cJSON *f = cJSON_GetObjectItemCaseSensitive(c, "from");
+        const cJSON *t = cJSON_GetObjectItemCaseSensitive(c, "to");
+        snprintf(sub, sizeof sub, "%s.from", path);
+        if (!f)
+            return expected(p, sub, "a point [x,y,z] on the rest skeleton (missing)");
+        if ((s = read_vec3(p, f, sub, g->corr_from + 3 * i)))
+            return s;
+        snprintf(sub, sizeof sub, "%s.to", path);
+        if (!t)
+            return expected(p, sub, "a point [x,y,z] on the new skeleton (missing)");
+        if ((s = read_vec3(p, t, sub, g->corr_to + 3 * i)))
+            return s;
+        i++;
+    }
+    g->corr_count = n;
+    return FFD_OK;
+}
+
+static ffd_status read_resample(const parser *p, const cJSON *item, ffd_rig_gffd *g)
+{
+    static const char *const keys[] = {"ratio", "max_rounds", "max_vertices", NULL};
+    if (cJSON_IsBool(item)) {
+        g->resample = cJSON_IsTrue(item);
+        return FFD_OK;
+    }
+    if (!cJSON_IsObject(item))
+        return expected(p, "resample", "true, false or {\"ratio\": 1.8, \"max_rounds\": 8, "
+                                       "\"max_vertices\": n}");
+    ffd_status s = check_keys(p, item, "resample", keys,
+                              "\"ratio\", \"max_rounds\", \"max_vertices\"");
+    if (s)
+        return s;
+    g->resample = 1;
+    const cJSON *v;
+    if ((v = cJSON_GetObjectItemCaseSensitive(item, "ratio"))) {
+        if ((s = read_number(p, v, "resample.ratio", &g->resample_options.ratio)))
+            return s;
+        if (!(g->resample_options.ratio > 1) || g->resample_options.ratio > 1e6)
+            return expected(p, "resample.ratio", "a number > 1 (an edge splits when its length "
+                                                 "grows by this factor)");
+    }
+    if ((v = cJSON_GetObjectItemCaseSensitive(item, "max_rounds"))) {
+        if ((s = read_index(p, v, "resample.max_rounds", "an integer in 1..64",
+                            &g->resample_options.max_rounds)))
+            return s;
+        if (g->resample_options.max_rounds < 1 || g->resample_options.max_rounds > 64)
+            return expected(p, "resample.max_rounds", "an integer in 1..64");
+    }
+    if ((v = cJSON_GetObjectItemCaseSensitive(item, "max_vertices"))) {
+        uint32_t mv = 0;
+        if ((s = read_index(p, v, "resample.max_vertices", "a positive integer", &mv)))
+            return s;
+        if (mv == 0)
+            return expected(p, "resample.max_vertices", "a positive integer");
+        g->resample_options.max_vertices = mv;
+    }
+    return FFD_OK;
+}
+
+static ffd_status read_gffd_root(const parser *p, const cJSON *root, ffd_rig *rig)
+{
+    static const char *const keys[] = {"version",   "deformer",       "skeleton",       "unit",
+                                       "tolerance", "max_iterations", "tracking",       "max_samples",
+                                       "edits",     "replace",        "correspondences", "resample",
+                                       NULL};
+    static const char *const trackings[] = {"gradient", "warp", NULL};
+    ffd_rig_gffd *g = &rig->gffd;
+    const cJSON *item;
+    cJSON_ArrayForEach(item, root)
+    {
+        if (lookup(item->string, keys) < 0)
+            return ffd_fail(p->err, FFD_ERR_PARSE,
+                            "%s: %.64s: not a key of \"deformer\": \"gffd\" rigs, expected one of "
+                            "\"skeleton\", \"unit\", \"tolerance\", \"max_iterations\", "
+                            "\"tracking\", \"max_samples\", \"edits\", \"replace\", "
+                            "\"correspondences\", \"resample\"",
+                            p->name, item->string);
+    }
+    ffd_status s = check_keys(p, root, "", keys, "");
+    if (s)
+        return s;
+    if (!(item = cJSON_GetObjectItemCaseSensitive(root, "skeleton")))
+        return expected(p, "skeleton", "an array of primitives (missing)");
+    if ((s = read_skeleton(p, item, "skeleton", &g->skeleton, &g->skeleton_count)))
+        return s;
+    ffd_gffd_options *o = &g->options;
+    if ((item = cJSON_GetObjectItemCaseSensitive(root, "unit"))) {
+        if ((s = read_positive(p, item, "unit", &o->unit)))
+            return s;
+    }
+    if ((item = cJSON_GetObjectItemCaseSensitive(root, "tolerance"))) {
+        if ((s = read_positive(p, item, "tolerance", &o->tolerance)))
+            return s;
+        if (o->tolerance > 1)
+            return expected(p, "tolerance", "a number in (0, 1] (in units of \"unit\")");
+    }
+    if ((item = cJSON_GetObjectItemCaseSensitive(root, "max_iterations"))) {
+        if ((s = read_index(p, item, "max_iterations", "an integer in 1..100000",
+                            &o->max_iterations)))
+            return s;
+        if (o->max_iterations < 1 || o->max_iterations > 100000)
+            return expected(p, "max_iterations", "an integer in 1..100000");
+    }
+    if ((item = cJSON_GetObjectItemCaseSensitive(root, "max_samples"))) {
+        uint32_t ms = 0;
+        if ((s = read_index(p, item, "max_samples", "an integer in 1..20000", &ms)))
+            return s;
+        if (ms < 1 || ms > 20000)
+            return expected(p, "max_samples", "an integer in 1..20000");
+        o->max_samples = ms;
+    }
+    if ((item = cJSON_GetObjectItemCaseSensitive(root, "tracking"))) {
+        int t = 0;
+        if ((s = read_enum(p, item, "tracking", trackings, "\"gradient\" or \"warp\"", &t)))
+            return s;
+        o->tracking = t ? FFD_GFFD_TRACK_WARP : FFD_GFFD_TRACK_GRADIENT;
+    }
+    const cJSON *edits = cJSON_GetObjectItemCaseSensitive(root, "edits");
+    const cJSON *replace = cJSON_GetObjectItemCaseSensitive(root, "replace");
+    if (edits && replace)
+        return ffd_fail(p->err, FFD_ERR_PARSE,
+                        "%s: edits: a rig either edits its skeleton or replaces it, not both",
+                        p->name);
+    if (edits && (s = read_gffd_edits(p, edits, g)))
+        return s;
+    if (replace && (s = read_skeleton(p, replace, "replace", &g->replace, &g->replace_count)))
+        return s;
+    if ((item = cJSON_GetObjectItemCaseSensitive(root, "correspondences")) &&
+        (s = read_correspondences(p, item, g)))
+        return s;
+    if ((item = cJSON_GetObjectItemCaseSensitive(root, "resample")) &&
+        (s = read_resample(p, item, g)))
+        return s;
+    /* edits name primitives and vertices of the skeleton: check them now */
+    for (size_t i = 0; i < g->edit_count; i++) {
+        const ffd_rig_gffd_edit *e = &g->edits[i];
+        if (e->all)
+            continue;
+        if (e->primitive >= g->skeleton_count)
+            return ffd_fail(p->err, FFD_ERR_RANGE,
+                            "%s: edits[%zu].primitive: %u out of range (the skeleton has %zu "
+                            "primitive%s)",
+                            p->name, i, e->primitive, g->skeleton_count,
+                            g->skeleton_count == 1 ? "" : "s");
+        size_t nv = g->skeleton[e->primitive].vertex_count;
+        if (e->kind == FFD_RIG_EDIT_MOVE && e->vertex >= nv)
+            return ffd_fail(p->err, FFD_ERR_RANGE,
+                            "%s: edits[%zu].vertex: %u out of range (skeleton[%u] has %zu "
+                            "vertices)",
+                            p->name, i, e->vertex, e->primitive, nv);
+        if (e->kind == FFD_RIG_EDIT_VERTICES && e->vertex_count != nv)
+            return ffd_fail(p->err, FFD_ERR_INVALID,
+                            "%s: edits[%zu].vertices: %zu vertices, but skeleton[%u] has %zu: an "
+                            "edit keeps the skeleton's structure; to change it, use \"replace\" "
+                            "with \"correspondences\"",
+                            p->name, i, e->vertex_count, e->primitive, nv);
+    }
+    if (o->tracking == FFD_GFFD_TRACK_WARP && g->replace && !g->corr_count)
+        return ffd_fail(p->err, FFD_ERR_INVALID,
+                        "%s: replace: warp tracking after a skeleton replacement needs "
+                        "\"correspondences\" (points of the old skeleton and where they go)",
+                        p->name);
+    return FFD_OK;
+}
+
 /* Checks that need several keys: resolution bounds for the basis, move indices. */
 static ffd_status validate(const parser *p, const ffd_rig *rig)
 {
@@ -928,6 +1454,9 @@ static ffd_status validate(const parser *p, const ffd_rig *rig)
 static const char *const lattice_only[] = {"basis", "resolution", "box", "margin", "outside", NULL};
 static const char *const pbffd_only[] = {"controls", "sigma",  "master", "levels",
                                          "frames",   "curves", "constraint_level", NULL};
+static const char *const gffd_only[] = {"skeleton", "unit",    "tolerance",       "max_iterations",
+                                        "tracking", "max_samples", "edits",       "replace",
+                                        "correspondences", "resample", NULL};
 
 static ffd_status read_root(const parser *p, const cJSON *root, ffd_rig *rig)
 {
@@ -935,12 +1464,25 @@ static ffd_status read_root(const parser *p, const cJSON *root, ffd_rig *rig)
                                        "margin",  "outside",  "rcond",   "moves",
                                        "constraints", "controls", "sigma", "master", "levels",
                                        "frames",  "curves",   "constraint_level", NULL};
-    static const char *const deformers[] = {"lattice", "pbffd", NULL};
+    static const char *const deformers[] = {"lattice", "pbffd", "gffd", NULL};
     static const char *const bases[] = {"bspline", "bernstein", NULL};
     static const char *const outsides[] = {"fixed", "clamp", "extrapolate", NULL};
+    const cJSON *item;
     if (!cJSON_IsObject(root))
         return ffd_fail(p->err, FFD_ERR_PARSE, "%s: expected a JSON object at the top level",
                         p->name);
+    const cJSON *which = cJSON_GetObjectItemCaseSensitive(root, "deformer");
+    if (cJSON_IsString(which) && strcmp(which->valuestring, "gffd") == 0) {
+        rig->deformer = FFD_RIG_GFFD;
+        return read_gffd_root(p, root, rig);
+    }
+    cJSON_ArrayForEach(item, root)
+    {
+        if (lookup(item->string, gffd_only) >= 0)
+            return ffd_fail(p->err, FFD_ERR_PARSE,
+                            "%s: %.64s: only for \"deformer\": \"gffd\" rigs", p->name,
+                            item->string);
+    }
     ffd_status s = check_keys(p, root, "", keys,
                               "\"version\", \"deformer\", \"rcond\", \"moves\", \"constraints\", "
                               "lattice: \"basis\", \"resolution\", \"box\", \"margin\", "
@@ -948,14 +1490,14 @@ static ffd_status read_root(const parser *p, const cJSON *root, ffd_rig *rig)
                               "\"levels\", \"frames\", \"curves\", \"constraint_level\"");
     if (s)
         return s;
-    const cJSON *item;
     if ((item = cJSON_GetObjectItemCaseSensitive(root, "version"))) {
         if (!cJSON_IsNumber(item) || item->valuedouble != 1.0)
             return expected(p, "version", "1 (the only rig version)");
     }
     if ((item = cJSON_GetObjectItemCaseSensitive(root, "deformer"))) {
         int d = 0;
-        if ((s = read_enum(p, item, "deformer", deformers, "\"lattice\" or \"pbffd\"", &d)))
+        if ((s = read_enum(p, item, "deformer", deformers,
+                           "\"lattice\", \"pbffd\" or \"gffd\"", &d)))
             return s;
         rig->deformer = d ? FFD_RIG_PBFFD : FFD_RIG_LATTICE;
     }

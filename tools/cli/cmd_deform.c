@@ -18,7 +18,8 @@ static const char usage[] =
     "  --in-place        allow OUT to be IN (OUT defaults to IN)\n"
     "  --report          print the constraint residuals as JSON on stdout\n"
     "  --lattice-out F   also write the deformed lattice to F (OBJ: points and lines;\n"
-    "                    PB-FFD: the finest level's control points)\n"
+    "                    PB-FFD: the finest level's control points; GFFD: the\n"
+    "                    skeleton's vertices)\n"
     "  --timings         print the seconds per phase as JSON on stderr\n"
     "  --ascii           text encoding (PLY, STL)\n"
     "  --binary          binary little-endian (PLY, STL)\n"
@@ -42,9 +43,27 @@ static void print_report(const ffd_rig_report *report)
     cli_json_number(stdout, report->max_residual);
     printf(", \"rank\": %zu, \"outside\": %zu, \"controls\": %zu", report->rank,
            report->outside_count, report->control_count);
-    if (report->resolution[0] == 0) /* PB-FFD */
+    if (report->gffd_unit > 0) { /* GFFD */
+        const ffd_gffd_resample_report *g = &report->gffd;
+        printf(", \"influenced\": %zu, \"unit\": ", report->influenced_count);
+        cli_json_number(stdout, report->gffd_unit);
+        printf(", \"tracked\": %zu, \"converged\": %zu, \"not_converged\": %zu, \"failed\": [",
+               g->track.tracked, g->track.converged, g->track.failed_count);
+        for (size_t i = 0; i < g->track.failed_count; i++)
+            printf("%s%u", i ? ", " : "", g->track.failed[i]);
+        printf("], \"fallbacks\": %zu, \"iterations\": %zu, \"max_field_error\": ",
+               g->track.fallback_count, g->track.iterations);
+        cli_json_number(stdout, g->track.max_error);
+        printf(", \"regularised\": %s", report->gffd_regularised ? "true" : "false");
+        if (report->resampled)
+            printf(", \"resample\": {\"rounds\": %zu, \"added_vertices\": %zu, "
+                   "\"split_edges\": %zu, \"long_edges\": %zu, \"capped\": %s}",
+                   g->rounds, g->added_vertices, g->split_edges, g->long_edges,
+                   g->capped ? "true" : "false");
+    } else if (report->resolution[0] == 0) { /* PB-FFD */
         printf(", \"levels\": %zu, \"uncovered\": %zu, \"placed\": %s", report->level_count,
                report->uncovered_count, report->placed ? "true" : "false");
+    }
     printf("}\n");
 }
 
@@ -134,6 +153,18 @@ int cmd_deform(int argc, char **argv)
     }
     if (report.placed && report.placement.note[0])
         fprintf(stderr, "ffd: note: %s\n", report.placement.note);
+    if (report.gffd.track.failed_count) {
+        const ffd_gffd_track_report *t = &report.gffd.track;
+        fprintf(stderr, "ffd: warning: %zu vert%s did not regain %s field value (ids", t->failed_count,
+                t->failed_count == 1 ? "ex" : "ices", t->failed_count == 1 ? "its" : "their");
+        for (size_t i = 0; i < t->failed_count && i < 10; i++)
+            fprintf(stderr, " %u", t->failed[i]);
+        fprintf(stderr, "%s); they stay where tracking left them (--report lists all)\n",
+                t->failed_count > 10 ? " ..." : "");
+    }
+    if (report.resampled && report.gffd.capped)
+        fprintf(stderr, "ffd: warning: resampling stopped at its cap with %zu edges still "
+                        "stretched beyond the ratio\n", report.gffd.long_edges);
     if (want_report)
         print_report(&report);
     if (want_timings)

@@ -1,0 +1,428 @@
+/* gffd_deformer.c — the ffd_gffd handle (Qin et al. 2003): binding records
+ * each point's field value (§3), the skeleton is edited or replaced (§5),
+ * and tracking puts the points back on their iso-surfaces. */
+#include "gffd/gffd_lead.h"
+
+#include <math.h>
+#include <string.h>
+
+/* The largest |f/u| the exponentials of eq. 2 may meet, far below where exp
+ * overflows or underflows to zero. */
+#define GFFD_MAX_EXPONENT 600.0
+
+struct ffd_gffd {
+    ffd_gffd_skeleton *rest, *cur;
+    int replaced;                 /* cur is another skeleton, not an edit of rest */
+    ffd_gffd_options opt;         /* defaults resolved */
+    size_t n;
+    double *points;               /* n by 3, as bound */
+    double *e0;                   /* n recorded field values */
+    size_t influenced;
+    /* automatic correspondences: the rest skeleton's vertices */
+    size_t auto_count;
+    double *auto_from;
+    ffd_rbf_factor auto_factor;
+    int has_auto_factor;
+    /* user correspondences */
+    size_t user_count;
+    double *user_from, *user_to;
+    ffd_gffd_warp user_warp;
+};
+
+static ffd_status resolve_options(const ffd_gffd_options *o, ffd_gffd_options *r, ffd_error *err)
+{
+    memset(r, 0, sizeof *r);
+    if (o)
+        *r = *o;
+    if (!isfinite(r->unit) || r->unit < 0 || r->unit > 1e100)
+        return ffd_fail(err, FFD_ERR_INVALID, "unit %g: expected > 0 (0: automatic)", r->unit);
+    if (!isfinite(r->tolerance) || r->tolerance < 0 || r->tolerance > 1)
+        return ffd_fail(err, FFD_ERR_INVALID, "tolerance %g: expected in (0, 1] (0: default)",
+                        r->tolerance);
+    if (r->tolerance == 0)
+        r->tolerance = 1e-6;
+    if (r->max_iterations == 0)
+        r->max_iterations = 100;
+    if (r->max_iterations > 100000)
+        return ffd_fail(err, FFD_ERR_INVALID, "max_iterations %u: expected <= 100000",
+                        r->max_iterations);
+    if (r->tracking != FFD_GFFD_TRACK_GRADIENT && r->tracking != FFD_GFFD_TRACK_WARP)
+        return ffd_fail(err, FFD_ERR_INVALID, "unknown tracking mode %d", (int)r->tracking);
+    if (r->max_samples == 0)
+        r->max_samples = 4000;
+    return FFD_OK;
+}
+
+void ffd_gffd_destroy(ffd_gffd *g)
+{
+    if (!g)
+        return;
+    ffd_gffd_skeleton_destroy(g->rest);
+    ffd_gffd_skeleton_destroy(g->cur);
+    ffd_free(g->points);
+    ffd_free(g->e0);
+    ffd_free(g->auto_from);
+    if (g->has_auto_factor)
+        ffd_rbf_factor_free(&g->auto_factor);
+    ffd_free(g->user_from);
+    ffd_free(g->user_to);
+    if (g->user_warp.has_factor)
+        ffd_rbf_factor_free(&g->user_warp.factor);
+    if (g->user_warp.fitted)
+        ffd_rbf_free(&g->user_warp.displacement);
+    ffd_free(g);
+}
+
+/* The unit of eq. 2 must keep every exponent of a skeleton in range. */
+static ffd_status check_unit(const ffd_gffd_skeleton *s, double unit, ffd_error *err)
+{
+    double lo[3], hi[3];
+    ffd_gffd_skeleton_bounds(s, lo, hi);
+    double diag = sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
+                       (hi[2] - lo[2]) * (hi[2] - lo[2]));
+    double reach = (diag + 2 * s->max_radius) / unit;
+    if (!(reach <= GFFD_MAX_EXPONENT))
+        return ffd_fail(err, FFD_ERR_INVALID,
+                        "unit %g is too small for this skeleton: distances up to %g would reach "
+                        "exp(-%g); use a unit of at least %g",
+                        unit, diag + 2 * s->max_radius, reach,
+                        (diag + 2 * s->max_radius) / GFFD_MAX_EXPONENT);
+    return FFD_OK;
+}
+
+ffd_status ffd_gffd_create(const ffd_gffd_primitive *skeleton, size_t count, const double *points,
+                           size_t n, const ffd_gffd_options *options, ffd_gffd **out,
+                           ffd_error *err)
+{
+    *out = NULL;
+    ffd_gffd_options opt;
+    ffd_status st = resolve_options(options, &opt, err);
+    if (st != FFD_OK)
+        return st;
+    if (n > 0 && !points)
+        return ffd_fail(err, FFD_ERR_INVALID, "points missing");
+    if (n > UINT32_MAX)
+        return ffd_fail(err, FFD_ERR_INVALID, "too many points (%zu)", n);
+    for (size_t i = 0; i < 3 * n; i++)
+        if (!isfinite(points[i]))
+            return ffd_fail(err, FFD_ERR_NONFINITE, "point %zu is not finite", i / 3);
+    ffd_gffd *g = ffd_calloc(1, sizeof *g);
+    if (!g)
+        return ffd_fail(err, FFD_ERR_NOMEM, "out of memory");
+    g->opt = opt;
+    st = ffd_gffd_skeleton_create(skeleton, count, opt.max_samples, &g->rest, err);
+    if (st != FFD_OK)
+        goto fail;
+    /* u: 1/10 of the diagonal of the points and the skeleton together */
+    if (opt.unit == 0) {
+        double lo[3], hi[3];
+        ffd_gffd_skeleton_bounds(g->rest, lo, hi);
+        for (size_t i = 0; i < n; i++)
+            for (int k = 0; k < 3; k++) {
+                lo[k] = fmin(lo[k], points[3 * i + k]);
+                hi[k] = fmax(hi[k], points[3 * i + k]);
+            }
+        double diag = sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
+                           (hi[2] - lo[2]) * (hi[2] - lo[2]));
+        g->opt.unit = diag > 0 ? diag / 10 : g->rest->max_radius;
+    }
+    st = check_unit(g->rest, g->opt.unit, err);
+    if (st != FFD_OK)
+        goto fail;
+    ffd_gffd_skeleton_set_unit(g->rest, g->opt.unit);
+    st = ffd_gffd_skeleton_copy(g->rest, &g->cur, err);
+    if (st != FFD_OK)
+        goto fail;
+
+    g->n = n;
+    g->points = ffd_malloc_array(n ? n : 1, 3 * sizeof(double));
+    g->e0 = ffd_malloc_array(n ? n : 1, sizeof(double));
+    g->auto_count = ffd_gffd_correspondence_count(g->rest);
+    g->auto_from = ffd_malloc_array(g->auto_count, 3 * sizeof(double));
+    if (!g->points || !g->e0 || !g->auto_from) {
+        st = ffd_fail(err, FFD_ERR_NOMEM, "out of memory binding %zu points", n);
+        goto fail;
+    }
+    if (n)
+        memcpy(g->points, points, n * 3 * sizeof(double));
+    {
+        double *scratch = ffd_malloc_array(g->auto_count, 3 * sizeof(double));
+        if (!scratch) {
+            st = ffd_fail(err, FFD_ERR_NOMEM, "out of memory");
+            goto fail;
+        }
+        ffd_gffd_correspondences(g->rest, g->rest, g->auto_from, scratch);
+        ffd_free(scratch);
+    }
+    /* the warp's factor over P_j0 depends on the rest skeleton only: factor once */
+    if (g->auto_count <= opt.max_samples) {
+        st = ffd_rbf_factor_create(g->auto_from, g->auto_count, &g->auto_factor, err);
+        if (st != FFD_OK)
+            goto fail;
+        g->has_auto_factor = 1;
+    }
+
+    /* bind (§3): e_0 = E(P) in the rest field */
+    long long count_ll = (long long)n;
+    const ffd_gffd_skeleton *rest = g->rest;
+#pragma omp parallel for schedule(static)
+    for (long long i = 0; i < count_ll; i++)
+        g->e0[i] = ffd_gffd_skeleton_field(rest, points + 3 * i, NULL);
+    for (size_t i = 0; i < n; i++)
+        g->influenced += g->e0[i] > 0;
+    *out = g;
+    return FFD_OK;
+fail:
+    ffd_gffd_destroy(g);
+    return st;
+}
+
+size_t ffd_gffd_point_count(const ffd_gffd *g)
+{
+    return g->n;
+}
+
+size_t ffd_gffd_influenced_count(const ffd_gffd *g)
+{
+    return g->influenced;
+}
+
+double ffd_gffd_unit(const ffd_gffd *g)
+{
+    return g->opt.unit;
+}
+
+size_t ffd_gffd_primitive_count(const ffd_gffd *g)
+{
+    return g->cur->count;
+}
+
+ffd_status ffd_gffd_get_primitive(const ffd_gffd *g, size_t index, ffd_gffd_primitive *out,
+                                  ffd_error *err)
+{
+    if (index >= g->cur->count)
+        return ffd_fail(err, FFD_ERR_RANGE, "skeleton[%zu]: out of range (%zu primitives)", index,
+                        g->cur->count);
+    ffd_gffd_skeleton_describe(g->cur, index, out);
+    return FFD_OK;
+}
+
+int ffd_gffd_regularised(const ffd_gffd *g)
+{
+    for (size_t i = 0; i < g->cur->count; i++)
+        if (g->cur->parts[i].regularised)
+            return 1;
+    for (size_t i = 0; i < g->rest->count; i++)
+        if (g->rest->parts[i].regularised)
+            return 1;
+    return 0;
+}
+
+const double *ffd_gffd_bound_values(const ffd_gffd *g)
+{
+    return g->e0;
+}
+
+ffd_status ffd_gffd_set_vertices(ffd_gffd *g, size_t index, const double *vertices,
+                                 ffd_error *err)
+{
+    if (index >= g->cur->count)
+        return ffd_fail(err, FFD_ERR_RANGE, "skeleton[%zu]: out of range (%zu primitives)", index,
+                        g->cur->count);
+    if (!vertices)
+        return ffd_fail(err, FFD_ERR_INVALID, "skeleton[%zu]: vertices missing", index);
+    /* the new skeleton must keep the exponents of eq. 2 in range too */
+    ffd_gffd_part *q = &g->cur->parts[index];
+    double *old = q->geom.vertices;
+    q->geom.vertices = (double *)vertices;
+    ffd_status st = check_unit(g->cur, g->opt.unit, err);
+    q->geom.vertices = old;
+    if (st != FFD_OK)
+        return st;
+    st = ffd_gffd_skeleton_set_vertices(g->cur, index, vertices, g->opt.max_samples, err);
+    if (st != FFD_OK)
+        return st;
+    ffd_gffd_skeleton_set_unit(g->cur, g->opt.unit);
+    if (!g->replaced)
+        ffd_gffd_skeleton_align(g->cur, g->rest);
+    return FFD_OK;
+}
+
+ffd_status ffd_gffd_replace(ffd_gffd *g, const ffd_gffd_primitive *skeleton, size_t count,
+                            ffd_error *err)
+{
+    ffd_gffd_skeleton *s = NULL;
+    ffd_status st = ffd_gffd_skeleton_create(skeleton, count, g->opt.max_samples, &s, err);
+    if (st == FFD_OK)
+        st = check_unit(s, g->opt.unit, err);
+    if (st != FFD_OK) {
+        ffd_gffd_skeleton_destroy(s);
+        return st;
+    }
+    ffd_gffd_skeleton_set_unit(s, g->opt.unit);
+    ffd_gffd_skeleton_destroy(g->cur);
+    g->cur = s;
+    g->replaced = 1;
+    return FFD_OK;
+}
+
+ffd_status ffd_gffd_reset(ffd_gffd *g, ffd_error *err)
+{
+    ffd_gffd_skeleton *s = NULL;
+    ffd_status st = ffd_gffd_skeleton_copy(g->rest, &s, err);
+    if (st != FFD_OK)
+        return st;
+    ffd_gffd_skeleton_destroy(g->cur);
+    g->cur = s;
+    g->replaced = 0;
+    return ffd_gffd_set_correspondences(g, NULL, NULL, 0, err);
+}
+
+/* Fits the warp W(x, 1) - x through sources -> targets (eq. 4) on a factor of the sources. */
+static ffd_status fit_warp(const ffd_rbf_factor *factor, const double *from, const double *to,
+                           size_t k, ffd_rbf *out, ffd_error *err)
+{
+    double *disp = ffd_malloc_array(k, 3 * sizeof(double));
+    if (!disp)
+        return ffd_fail(err, FFD_ERR_NOMEM, "warp: out of memory");
+    for (size_t i = 0; i < 3 * k; i++)
+        disp[i] = to[i] - from[i];
+    ffd_status st = ffd_rbf_fit(factor, disp, 3, out, err);
+    ffd_free(disp);
+    return st;
+}
+
+ffd_status ffd_gffd_set_correspondences(ffd_gffd *g, const double *from, const double *to,
+                                        size_t k, ffd_error *err)
+{
+    ffd_gffd_warp w;
+    memset(&w, 0, sizeof w);
+    double *f = NULL, *t = NULL;
+    if (k > 0) {
+        if (!from || !to)
+            return ffd_fail(err, FFD_ERR_INVALID, "correspondences missing");
+        for (size_t i = 0; i < 3 * k; i++)
+            if (!isfinite(from[i]) || !isfinite(to[i]))
+                return ffd_fail(err, FFD_ERR_NONFINITE, "correspondence %zu is not finite", i / 3);
+        f = ffd_malloc_array(k, 3 * sizeof(double));
+        t = ffd_malloc_array(k, 3 * sizeof(double));
+        if (!f || !t) {
+            ffd_free(f);
+            ffd_free(t);
+            return ffd_fail(err, FFD_ERR_NOMEM, "correspondences: out of memory");
+        }
+        memcpy(f, from, k * 3 * sizeof(double));
+        memcpy(t, to, k * 3 * sizeof(double));
+        ffd_status st = ffd_rbf_factor_create(f, k, &w.factor, err);
+        if (st == FFD_OK) {
+            w.has_factor = 1;
+            st = fit_warp(&w.factor, f, t, k, &w.displacement, err);
+        }
+        if (st != FFD_OK) {
+            if (w.has_factor)
+                ffd_rbf_factor_free(&w.factor);
+            ffd_free(f);
+            ffd_free(t);
+            return st;
+        }
+        w.fitted = 1;
+    }
+    ffd_free(g->user_from);
+    ffd_free(g->user_to);
+    if (g->user_warp.has_factor)
+        ffd_rbf_factor_free(&g->user_warp.factor);
+    if (g->user_warp.fitted)
+        ffd_rbf_free(&g->user_warp.displacement);
+    g->user_from = f;
+    g->user_to = t;
+    g->user_count = k;
+    g->user_warp = w;
+    return FFD_OK;
+}
+
+/* The warp for the current state: the user's, or the edit's (rest vertices
+ * -> current vertices) fitted on the cached factor. *local is set when the
+ * caller must free warp->displacement. */
+static ffd_status current_warp(const ffd_gffd *g, ffd_gffd_warp *warp, const ffd_gffd_warp **use,
+                               int *local, ffd_error *err)
+{
+    *use = NULL;
+    *local = 0;
+    if (g->user_count) {
+        *use = &g->user_warp;
+        return FFD_OK;
+    }
+    if (g->replaced || !g->has_auto_factor)
+        return FFD_OK;
+    double *to = ffd_malloc_array(g->auto_count, 3 * sizeof(double));
+    if (!to)
+        return ffd_fail(err, FFD_ERR_NOMEM, "warp: out of memory");
+    double *from = ffd_malloc_array(g->auto_count, 3 * sizeof(double));
+    if (!from) {
+        ffd_free(to);
+        return ffd_fail(err, FFD_ERR_NOMEM, "warp: out of memory");
+    }
+    ffd_gffd_correspondences(g->rest, g->cur, from, to); /* from == auto_from */
+    ffd_free(from);
+    memset(warp, 0, sizeof *warp);
+    ffd_status st = fit_warp(&g->auto_factor, g->auto_from, to, g->auto_count,
+                             &warp->displacement, err);
+    ffd_free(to);
+    if (st != FFD_OK)
+        return st;
+    warp->fitted = 1;
+    *use = warp;
+    *local = 1;
+    return FFD_OK;
+}
+
+/* Shared by ffd_gffd_track and the resampler: tracks n points with values e0. */
+ffd_status ffd_gffd_track_with(const ffd_gffd *g, const double *points, const double *e0, size_t n,
+                               double *out, ffd_gffd_track_report *report, ffd_error *err);
+ffd_status ffd_gffd_track_with(const ffd_gffd *g, const double *points, const double *e0, size_t n,
+                               double *out, ffd_gffd_track_report *report, ffd_error *err)
+{
+    ffd_gffd_warp local_warp;
+    const ffd_gffd_warp *warp;
+    int local;
+    ffd_status st = current_warp(g, &local_warp, &warp, &local, err);
+    if (st != FFD_OK)
+        return st;
+    if (g->opt.tracking == FFD_GFFD_TRACK_WARP && !warp) {
+        return ffd_fail(err, FFD_ERR_INVALID,
+                        g->replaced ? "warp tracking after a skeleton replacement needs "
+                                      "correspondences (P_j0 -> P_j1)"
+                                    : "warp tracking needs correspondences: the skeleton has "
+                                      "too many vertices for automatic ones");
+    }
+    ffd_gffd_tracker t;
+    t.field = g->cur;
+    t.warp = warp;
+    t.mode = g->opt.tracking;
+    t.tolerance = g->opt.tolerance;
+    t.max_iterations = g->opt.max_iterations;
+    t.max_step = 2 * g->cur->max_radius;
+    st = ffd_gffd_track_points(&t, points, e0, n, out, report, err);
+    if (local)
+        ffd_rbf_free(&local_warp.displacement);
+    return st;
+}
+
+ffd_status ffd_gffd_track(const ffd_gffd *g, double *out, ffd_gffd_track_report *report,
+                          ffd_error *err)
+{
+    if (report)
+        memset(report, 0, sizeof *report);
+    return ffd_gffd_track_with(g, g->points, g->e0, g->n, out, report, err);
+}
+
+ffd_status ffd_gffd_field(const ffd_gffd *g, int current, const double *points, size_t n,
+                          double *values, double *gradients, ffd_error *err)
+{
+    if (n > 0 && (!points || !values))
+        return ffd_fail(err, FFD_ERR_INVALID, "points or values missing");
+    const ffd_gffd_skeleton *s = current ? g->cur : g->rest;
+    for (size_t i = 0; i < n; i++)
+        values[i] = ffd_gffd_skeleton_field(s, points + 3 * i, gradients ? gradients + 3 * i : NULL);
+    return FFD_OK;
+}
