@@ -1,7 +1,7 @@
 /* gffd_deformer.c — the ffd_gffd handle (Qin et al. 2003): binding records
  * each point's field value (§3), the skeleton is edited or replaced (§5),
  * and tracking puts the points back on their iso-surfaces. */
-#include "gffd/gffd_lead.h"
+#include "gffd/gffd.h"
 
 #include <math.h>
 #include <string.h>

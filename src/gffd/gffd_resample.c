@@ -2,7 +2,7 @@
  * 2003, §4, Fig. 6): edges stretched by the deformation get midpoints whose
  * field value is the average of their ends', cells are re-polygonised, and
  * the new points are tracked too, until no edge qualifies. */
-#include "gffd/gffd_lead.h"
+#include "gffd/gffd.h"
 #include "mesh/mesh.h"
 
 #include <math.h>

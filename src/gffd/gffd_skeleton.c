@@ -1,7 +1,7 @@
 /* gffd_skeleton.c — skeleton primitives checked, copied and fitted with
  * their variational distance fields, and the merged field of GFFD eq. 1-2
  * (Qin et al. 2003, §2). */
-#include "gffd/gffd_lead.h"
+#include "gffd/gffd.h"
 #include "math/dense.h"
 
 #include <math.h>

@@ -1,7 +1,7 @@
 /* gffd_track.c — repositioning points in a changed field (Qin et al. 2003,
  * §3, Fig. 5): gradient tracking (eq. 3) and tracking along the direction of
  * a variational warp through corresponding skeleton points (eq. 4-6). */
-#include "gffd/gffd_lead.h"
+#include "gffd/gffd.h"
 
 #include <math.h>
 #include <string.h>
@@ -86,6 +86,23 @@ static int fig5(const ffd_gffd_tracker *t, double ln_e0, const double *line, sea
         for (int k = 0; k < 3; k++)
             x[k] = q->p[k] + step * v[k];
         search_at(s, x, ln_e0, &n);
+        if (q->d * n.d < 0 && isfinite(n.d)) {
+            /* The step crossed the iso-surface. Before Fig. 5's halving,
+             * try the secant point of the bracket, which lands next to the
+             * root: halving alone approaches it only linearly. */
+            double shrink = q->d / (q->d - n.d);
+            if (shrink > 0 && shrink < 1) {
+                search t2;
+                double y[3];
+                for (int k = 0; k < 3; k++)
+                    y[k] = q->p[k] + shrink * step * v[k];
+                search_at(s, y, ln_e0, &t2);
+                if (fabs(t2.d) < t->tolerance || q->d * t2.d > 0) {
+                    step *= shrink;
+                    n = t2;
+                }
+            }
+        }
         for (int h = 0; q->d * n.d < 0 && h < GFFD_MAX_HALVINGS; h++) {
             step *= 0.5; /* the step crossed the iso-surface: halve it */
             for (int k = 0; k < 3; k++)
