@@ -21,8 +21,35 @@
 
 #include "core/core.h"
 
+#include <math.h>
 #include <stddef.h>
 #include <stdint.h>
+
+/* ---- small vector helpers shared by the gffd files ---- */
+
+static inline void sub3(const double a[3], const double b[3], double out[3])
+{
+    out[0] = a[0] - b[0];
+    out[1] = a[1] - b[1];
+    out[2] = a[2] - b[2];
+}
+
+static inline double dot3(const double a[3], const double b[3])
+{
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+
+static inline void cross3(const double a[3], const double b[3], double out[3])
+{
+    out[0] = a[1] * b[2] - a[2] * b[1];
+    out[1] = a[2] * b[0] - a[0] * b[2];
+    out[2] = a[0] * b[1] - a[1] * b[0];
+}
+
+static inline double norm3(const double a[3])
+{
+    return sqrt(dot3(a, a));
+}
 
 /* ---- variational interpolation (gffd_rbf.c) ------------------------------
  *

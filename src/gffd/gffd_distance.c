@@ -20,24 +20,8 @@
 #define RAY_PARALLEL 1e-12
 #define RAY_INPLANE 1e-9
 
-static inline void sub3(const double a[3], const double b[3], double out[3])
-{
-    out[0] = a[0] - b[0];
-    out[1] = a[1] - b[1];
-    out[2] = a[2] - b[2];
-}
 
-static inline double dot3(const double a[3], const double b[3])
-{
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-}
 
-static inline void cross3(const double a[3], const double b[3], double out[3])
-{
-    out[0] = a[1] * b[2] - a[2] * b[1];
-    out[1] = a[2] * b[0] - a[0] * b[2];
-    out[2] = a[0] * b[1] - a[1] * b[0];
-}
 
 double ffd_dist2_point_segment(const double p[3], const double a[3], const double b[3])
 {

@@ -27,17 +27,7 @@ static const char *kind_name(int kind)
     }
 }
 
-static void sub3(const double *a, const double *b, double *o)
-{
-    o[0] = a[0] - b[0];
-    o[1] = a[1] - b[1];
-    o[2] = a[2] - b[2];
-}
 
-static double norm3(const double *a)
-{
-    return sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]);
-}
 
 static void bounds_of(const double *v, size_t n, double lo[3], double hi[3])
 {

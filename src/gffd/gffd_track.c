@@ -20,15 +20,7 @@ static double field_delta(const ffd_gffd_skeleton *s, const double x[3], double 
     return log(*e) - ln_e0;
 }
 
-static double dot3(const double *a, const double *b)
-{
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-}
 
-static double norm3(const double *a)
-{
-    return sqrt(dot3(a, a));
-}
 
 /* The warp's prediction W(p0, 1) - p0 (eq. 5); 0 when it does not move p0. */
 static double warp_line(const ffd_gffd_warp *w, const double p0[3], double disp[3], double line[3])

@@ -120,6 +120,10 @@ void ffd_buf_double(ffd_buf *b, double v); /* shortest round-trip text */
 void ffd_buf_vec3_line(ffd_buf *b, const char *prefix, const double p[3]);
 void ffd_buf_free(ffd_buf *b);
 
+/* An OBJ integer (optional sign, digits; magnitude saturated near 2^40) at
+ * *pp before e: 1 and advances *pp, or 0 when none starts there (mesh_obj.c). */
+int ffd_obj_parse_int(const char **pp, const char *e, long long *out);
+
 /* ---- readers: take ownership of data (NUL at data[size]) in all cases ---- */
 
 ffd_status ffd_mesh_read_owned(unsigned char *data, size_t size, ffd_format format,

@@ -72,7 +72,7 @@ static int read_numbers(obj_ctx *c, const char *p, const char *e, int keep, doub
 }
 
 /* Parses an optionally signed integer; 0 when none. */
-static int parse_int(const char **pp, const char *e, long long *out)
+int ffd_obj_parse_int(const char **pp, const char *e, long long *out)
 {
     const char *p = *pp;
     bool neg = false;
@@ -191,16 +191,16 @@ ffd_status ffd_obj_read(ffd_mesh *m, const char *name, ffd_error *err)
                 const char *tok = r;
                 long long iv = 0, it = 0, in = 0;
                 bool has_t = false, has_n = false;
-                bool ok = parse_int(&r, e, &iv) == 1;
+                bool ok = ffd_obj_parse_int(&r, e, &iv) == 1;
                 if (ok && r < e && *r == '/') {
                     r++;
                     if (r < e && *r != '/') {
-                        ok = parse_int(&r, e, &it) == 1;
+                        ok = ffd_obj_parse_int(&r, e, &it) == 1;
                         has_t = true;
                     }
                     if (ok && r < e && *r == '/') {
                         r++;
-                        ok = parse_int(&r, e, &in) == 1;
+                        ok = ffd_obj_parse_int(&r, e, &in) == 1;
                         has_n = true;
                     }
                 }

@@ -694,44 +694,23 @@ static bool kw_is(const char *q, const char *k, const char *lit)
     return (size_t)(k - q) == n && memcmp(q, lit, n) == 0;
 }
 
-static int obj_int(const char **pp, const char *e, long long *out)
-{
-    const char *p = *pp;
-    bool neg = false;
-    if (p < e && (*p == '-' || *p == '+')) {
-        neg = *p == '-';
-        p++;
-    }
-    if (p >= e || *p < '0' || *p > '9')
-        return 0;
-    long long v = 0;
-    while (p < e && *p >= '0' && *p <= '9') {
-        if (v < (1LL << 40))
-            v = v * 10 + (*p - '0');
-        p++;
-    }
-    *out = neg ? -v : v;
-    *pp = p;
-    return 1;
-}
-
 /* One corner v[/[t][/n]]; false on anything else. */
 static bool obj_corner(const char **pp, const char *e, long long idx[3], bool has[2])
 {
     const char *p = *pp;
     has[0] = has[1] = false;
-    if (!obj_int(&p, e, &idx[0]))
+    if (!ffd_obj_parse_int(&p, e, &idx[0]))
         return false;
     if (p < e && *p == '/') {
         p++;
         if (p < e && *p != '/') {
-            if (!obj_int(&p, e, &idx[1]))
+            if (!ffd_obj_parse_int(&p, e, &idx[1]))
                 return false;
             has[0] = true;
         }
         if (p < e && *p == '/') {
             p++;
-            if (!obj_int(&p, e, &idx[2]))
+            if (!ffd_obj_parse_int(&p, e, &idx[2]))
                 return false;
             has[1] = true;
         }
