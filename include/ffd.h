@@ -665,19 +665,24 @@ typedef struct ffd_gffd_track_report {
 
 /* Repositions the bound points in the current field (§3, Fig. 5): each
  * influenced point starts where it was bound and moves until it regains
- * e_0: with P' = P + dV, dV = delta V / (grad(-ln E) . V) (the paper's
- * delta V with delta = ln E(P) - ln e_0 in units of u; the same step when
- * the field is a true distance), halving dV while it would cross the
- * iso-surface, reversing it when it does not improve; until |delta| <
- * tolerance or max_iterations. Gradient tracking takes V along grad(-ln E)
- * (eq. 3); where the gradient vanishes it uses the warp direction (counted
- * in fallback_count) or gives up. Warp tracking takes the line through P
- * along V = (W(P) - P)/|W(P) - P| (eq. 6) and starts at W(P) (eq. 5), so a
- * rigid motion of the skeleton moves the points rigidly. Points outside
- * every influence region at bind time are copied unchanged (bitwise), as
- * are points whose field value did not change. out: n by 3. report may be
- * NULL; free it with ffd_gffd_track_report_free. Parallel over points.
- * FFD_ERR_INVALID (warp tracking without correspondences), FFD_ERR_NOMEM. */
+ * e_0: dV = delta V / (grad(-ln E) . V) (the paper's delta V with
+ * delta = ln E(P) - ln e_0 in units of u; the same step when the field is a
+ * true distance); a step that would cross the iso-surface is tried at the
+ * secant point of the bracket, then halved; one that does not improve is
+ * reversed, then halved; until |delta| < tolerance or max_iterations.
+ * Gradient tracking takes V along grad(-ln E) (eq. 3); a point whose field
+ * value did not change is copied unchanged (bitwise); where the gradient
+ * vanishes it uses the warp (counted in fallback_count) or gives up. Warp
+ * tracking moves every influenced point along V = (W(P) - P)/|W(P) - P|
+ * (eq. 6) to W(P) (eq. 5) and restores its value there along the gradient
+ * (then, failing that, along the line through P in direction V, then along
+ * the gradient from P), so a rigid motion of the skeleton moves the points
+ * rigidly; points the warp moves are moved even where the field did not
+ * change. Points outside every influence region at bind time are copied
+ * unchanged (bitwise) in both modes. out: n by 3. report may be NULL; free
+ * it with ffd_gffd_track_report_free. Parallel over points, bitwise
+ * identical for any thread count. FFD_ERR_INVALID (warp tracking without
+ * correspondences), FFD_ERR_NOMEM. */
 ffd_status ffd_gffd_track(const ffd_gffd *g, double *out, ffd_gffd_track_report *report,
                           ffd_error *err);
 void ffd_gffd_track_report_free(ffd_gffd_track_report *report);

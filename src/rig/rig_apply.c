@@ -278,7 +278,10 @@ ffd_status ffd_rig_report_write_lattice(const ffd_rig_report *report, const char
     if (!buf)
         return ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory", path);
     size_t len = l ? (size_t)snprintf(buf, cap, "# ffdkit lattice %ux%ux%u\n", l, m, n)
-                   : (size_t)snprintf(buf, cap, "# ffdkit PB-FFD control points: %zu\n", count);
+                   : (size_t)snprintf(buf, cap, "# ffdkit %s: %zu\n",
+                                      report->gffd_unit > 0 ? "GFFD skeleton vertices"
+                                                            : "PB-FFD control points",
+                                      count);
     for (size_t i = 0; i < count; i++) {
         const double *p = report->control_points + 3 * i;
         len += (size_t)snprintf(buf + len, cap - len, "v %.17g %.17g %.17g\n", p[0], p[1], p[2]);

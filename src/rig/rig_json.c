@@ -1336,6 +1336,10 @@ static ffd_status read_gffd_root(const parser *p, const cJSON *root, ffd_rig *ri
     ffd_status s = check_keys(p, root, "", keys, "");
     if (s)
         return s;
+    if ((item = cJSON_GetObjectItemCaseSensitive(root, "version"))) {
+        if (!cJSON_IsNumber(item) || item->valuedouble != 1.0)
+            return expected(p, "version", "1 (the only rig version)");
+    }
     if (!(item = cJSON_GetObjectItemCaseSensitive(root, "skeleton")))
         return expected(p, "skeleton", "an array of primitives (missing)");
     if ((s = read_skeleton(p, item, "skeleton", &g->skeleton, &g->skeleton_count)))
@@ -1349,7 +1353,10 @@ static ffd_status read_gffd_root(const parser *p, const cJSON *root, ffd_rig *ri
         if ((s = read_positive(p, item, "tolerance", &o->tolerance)))
             return s;
         if (o->tolerance > 1)
-            return expected(p, "tolerance", "a number in (0, 1] (in units of \"unit\")");
+            return ffd_fail(p->err, FFD_ERR_INVALID,
+                            "%s: tolerance: %g: expected a number in (0, 1] (in units of "
+                            "\"unit\")",
+                            p->name, o->tolerance);
     }
     if ((item = cJSON_GetObjectItemCaseSensitive(root, "max_iterations"))) {
         if ((s = read_index(p, item, "max_iterations", "an integer in 1..100000",
