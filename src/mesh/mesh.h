@@ -133,6 +133,40 @@ ffd_status ffd_ply_read(ffd_mesh *m, const char *name, ffd_error *err);
 ffd_status ffd_off_read(ffd_mesh *m, const char *name, ffd_error *err);
 ffd_status ffd_stl_read(ffd_mesh *m, const char *name, ffd_error *err);
 
+/* ---- the PLY header (mesh_ply.c; also read by mesh_refine.c) ---- */
+
+typedef struct {
+    const char *name;
+    size_t name_len;
+    int type;       /* FFD_SPAN_* */
+    int count_type; /* list count type, 0 for a scalar property */
+} ply_prop;
+
+typedef struct {
+    const char *name;
+    size_t name_len;
+    uint64_t count;
+    size_t count_offset, count_len; /* where the count stands in the header */
+    ply_prop *props;
+    size_t nprops, cap;
+} ply_elem;
+
+typedef struct {
+    ply_elem *elems;
+    size_t n, cap;
+    ffd_encoding enc;
+    size_t data;                  /* offset of the first data byte */
+    size_t lines;                 /* header lines */
+    size_t format_begin, format_end; /* the format line, without its line terminator */
+} ply_header;
+
+/* Parses and checks a PLY header (messages "name:line: ..."); element and
+ * property names point into src. Free with ffd_ply_header_free, also after
+ * a failure. */
+ffd_status ffd_ply_parse_header(const unsigned char *src, size_t size, const char *name,
+                                ply_header *h, ffd_error *err);
+void ffd_ply_header_free(ply_header *h);
+
 /* ---- writers from data (each format file) ------------------------------- */
 
 ffd_status ffd_obj_write(const ffd_mesh *m, ffd_buf *b, ffd_error *err);

@@ -17,29 +17,6 @@
 #include <stdio.h>
 #include <string.h>
 
-typedef struct {
-    const char *name;
-    size_t name_len;
-    int type;       /* FFD_SPAN_* */
-    int count_type; /* list count type, 0 for a scalar property */
-} ply_prop;
-
-typedef struct {
-    const char *name;
-    size_t name_len;
-    uint64_t count;
-    ply_prop *props;
-    size_t nprops, cap;
-} ply_elem;
-
-typedef struct {
-    ply_elem *elems;
-    size_t n, cap;
-    ffd_encoding enc;
-    size_t data;                  /* offset of the first data byte */
-    size_t lines;                 /* header lines */
-    size_t format_begin, format_end; /* the format line, without its line terminator */
-} ply_header;
 
 static const struct {
     const char *name;
@@ -79,7 +56,7 @@ static bool name_is(const char *s, size_t n, const char *lit)
     return strlen(lit) == n && memcmp(s, lit, n) == 0;
 }
 
-static void header_free(ply_header *h)
+void ffd_ply_header_free(ply_header *h)
 {
     for (size_t i = 0; i < h->n; i++)
         ffd_free(h->elems[i].props);
@@ -107,8 +84,8 @@ static int words(const char *p, const char *e, const char **w, size_t *wl, int m
     return n;
 }
 
-static ffd_status parse_header(const unsigned char *src, size_t size, const char *name,
-                               ply_header *h, ffd_error *err)
+ffd_status ffd_ply_parse_header(const unsigned char *src, size_t size, const char *name,
+                                ply_header *h, ffd_error *err)
 {
     memset(h, 0, sizeof *h);
     const char *s = (const char *)src, *end = s + size, *p = s;
@@ -171,6 +148,8 @@ static ffd_status parse_header(const unsigned char *src, size_t size, const char
             el->name = w[1];
             el->name_len = wl[1];
             el->count = cnt;
+            el->count_offset = (size_t)(w[2] - s);
+            el->count_len = wl[2];
         } else if (name_is(w[0], wl[0], "property")) {
             if (h->n == 0)
                 return ffd_fail(err, FFD_ERR_PARSE, "%s:%zu: 'property' before any 'element'", name, line);
@@ -497,14 +476,14 @@ static ffd_status walk(walker *w, const ply_header *h, ffd_mesh *m, ffd_error *e
 ffd_status ffd_ply_read(ffd_mesh *m, const char *name, ffd_error *err)
 {
     ply_header h;
-    ffd_status st = parse_header(m->src, m->src_size, name, &h, err);
+    ffd_status st = ffd_ply_parse_header(m->src, m->src_size, name, &h, err);
     if (st == FFD_OK) {
         m->encoding = h.enc;
         walker w = {name, m->src, m->src_size, h.data, h.lines, h.enc, NULL, NULL, 0, true};
         w.line = h.lines + 1; /* data starts on the line after end_header */
         st = walk(&w, &h, m, err);
     }
-    header_free(&h);
+    ffd_ply_header_free(&h);
     return st;
 }
 
@@ -519,21 +498,21 @@ ffd_status ffd_ply_transcode(const ffd_mesh *m, ffd_encoding enc, ffd_buf *b, ff
 {
     ply_header h;
     ffd_error inner = {{0}};
-    ffd_status st = parse_header(m->src, m->src_size, "<source>", &h, &inner);
+    ffd_status st = ffd_ply_parse_header(m->src, m->src_size, "<source>", &h, &inner);
     if (st == FFD_OK) {
         ffd_buf_put(b, m->src, h.format_begin);
         ffd_buf_printf(b, "format %s 1.0", enc_name(enc));
         ffd_buf_put(b, m->src + h.format_end, h.data - h.format_end);
         ffd_mesh *scratch = ffd_mesh_alloc(FFD_FORMAT_PLY);
         if (!scratch) {
-            header_free(&h);
+            ffd_ply_header_free(&h);
             return ffd_fail(err, FFD_ERR_NOMEM, "out of memory");
         }
         walker w = {"<source>", m->src, m->src_size, h.data, h.lines + 1, h.enc, m, b, enc, true};
         st = walk(&w, &h, scratch, &inner);
         ffd_mesh_destroy(scratch);
     }
-    header_free(&h);
+    ffd_ply_header_free(&h);
     if (st != FFD_OK)
         return ffd_fail(err, st, "re-encoding the PLY source: %s", inner.message);
     return FFD_OK;

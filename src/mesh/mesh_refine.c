@@ -1244,29 +1244,9 @@ typedef struct {
     size_t face_base; /* kind 2: its first face */
 } pelem;
 
-static const struct {
-    const char *name;
-    int type;
-} ptypes[] = {
-    {"char", FFD_SPAN_I8},    {"uchar", FFD_SPAN_U8},    {"short", FFD_SPAN_I16},
-    {"ushort", FFD_SPAN_U16}, {"int", FFD_SPAN_I32},     {"uint", FFD_SPAN_U32},
-    {"float", FFD_SPAN_F32},  {"double", FFD_SPAN_F64},  {"int8", FFD_SPAN_I8},
-    {"uint8", FFD_SPAN_U8},   {"int16", FFD_SPAN_I16},   {"uint16", FFD_SPAN_U16},
-    {"int32", FFD_SPAN_I32},  {"uint32", FFD_SPAN_U32},  {"float32", FFD_SPAN_F32},
-    {"float64", FFD_SPAN_F64},
-};
-
 static bool pname(const char *s, size_t n, const char *lit)
 {
     return strlen(lit) == n && memcmp(s, lit, n) == 0;
-}
-
-static int ptype(const char *t, size_t n)
-{
-    for (size_t i = 0; i < sizeof ptypes / sizeof ptypes[0]; i++)
-        if (pname(t, n, ptypes[i].name))
-            return ptypes[i].type;
-    return 0;
 }
 
 static void pelems_free(pelem *el, size_t n)
@@ -1276,92 +1256,76 @@ static void pelems_free(pelem *el, size_t n)
     ffd_free(el);
 }
 
-/* The header of a PLY the reader accepted; *data: offset of the data. */
+/* The header of a PLY the reader accepted, read by the reader's own
+ * header parser and annotated with what refinement needs: the roles of the
+ * vertex coordinates and normals, the face index list. *data: offset of
+ * the data. */
 static ffd_status ply_parse_header(const ffd_mesh *m, pelem **out, size_t *nout, size_t *data,
                                    ffd_error *err)
 {
-    const char *s = (const char *)m->src, *end = s + m->src_size;
-    pelem *el = NULL;
-    size_t n = 0, cap = 0;
+    ply_header h;
+    ffd_error inner = {{0}};
+    ffd_status st = ffd_ply_parse_header(m->src, m->src_size, "<source>", &h, &inner);
+    if (st != FFD_OK)
+        ffd_ply_header_free(&h); /* the parser leaves what it built to the caller */
+    if (st == FFD_ERR_NOMEM)
+        return ffd_fail(err, st, "ffd_mesh_refine: out of memory");
+    if (st != FFD_OK)
+        return ffd_fail(err, FFD_ERR_INVALID, "ffd_mesh_refine: the mesh does not match its PLY source");
+    pelem *el = ffd_calloc(h.n ? h.n : 1, sizeof *el);
+    if (!el)
+        goto oom;
     bool have_vertex = false;
-    tline l;
-    for (const char *at = s; next_line(&at, end, &l);) {
-        const char *w[6];
-        size_t wl[6];
-        int nw = 0;
-        for (const char *p = l.p; nw < 6;) {
-            p = skip_blanks(p, l.ce);
-            if (p >= l.ce)
-                break;
-            w[nw] = p;
-            p = keyword_end(p, l.ce);
-            wl[nw] = (size_t)(p - w[nw]);
-            nw++;
+    for (size_t i = 0; i < h.n; i++) {
+        const ply_elem *he = &h.elems[i];
+        pelem *e = &el[i];
+        e->name = he->name;
+        e->nlen = he->name_len;
+        e->count = he->count;
+        e->coff = he->count_offset;
+        e->clen = he->count_len;
+        if (!have_vertex && pname(e->name, e->nlen, "vertex")) {
+            e->kind = 1;
+            have_vertex = true;
         }
-        if (nw == 0)
-            continue;
-        if (pname(w[0], wl[0], "end_header")) {
-            *data = (size_t)(l.next - s);
-            *out = el;
-            *nout = n;
-            return FFD_OK;
-        }
-        if (pname(w[0], wl[0], "element") && nw >= 3) {
-            if (!ffd_grow((void **)&el, &cap, n + 1, sizeof *el))
-                goto oom;
-            pelem *e = &el[n++];
-            memset(e, 0, sizeof *e);
-            e->name = w[1];
-            e->nlen = wl[1];
-            e->count = strtoull(w[2], NULL, 10);
-            e->coff = (size_t)(w[2] - s);
-            e->clen = wl[2];
-            if (!have_vertex && pname(w[1], wl[1], "vertex")) {
-                e->kind = 1;
-                have_vertex = true;
-            }
-        } else if (pname(w[0], wl[0], "property") && n > 0) {
-            pelem *e = &el[n - 1];
-            pprop pr = {0};
-            if (nw >= 5 && pname(w[1], wl[1], "list")) {
-                pr.count_type = ptype(w[2], wl[2]);
-                pr.type = ptype(w[3], wl[3]);
-                pr.name = w[4];
-                pr.nlen = wl[4];
-            } else if (nw >= 3) {
-                pr.type = ptype(w[1], wl[1]);
-                pr.name = w[2];
-                pr.nlen = wl[2];
-            }
-            if (!pr.type)
-                goto mismatch;
-            if (e->kind == 1 && !pr.count_type) {
+        if (he->nprops && !(e->props = ffd_calloc(he->nprops, sizeof *e->props)))
+            goto oom;
+        e->cap = e->np = he->nprops;
+        for (size_t k = 0; k < he->nprops; k++) {
+            const ply_prop *hp = &he->props[k];
+            pprop *pr = &e->props[k];
+            pr->name = hp->name;
+            pr->nlen = hp->name_len;
+            pr->type = hp->type;
+            pr->count_type = hp->count_type;
+            if (e->kind == 1 && !pr->count_type) {
                 static const char *const names[6] = {"x", "y", "z", "nx", "ny", "nz"};
                 for (int d = 0; d < 6; d++)
-                    if (pname(pr.name, pr.nlen, names[d]))
-                        pr.role = d + 1;
+                    if (pname(pr->name, pr->nlen, names[d]))
+                        pr->role = d + 1;
             }
-            bool list_name = pname(pr.name, pr.nlen, "vertex_indices") ||
-                             pname(pr.name, pr.nlen, "vertex_index");
-            if (pname(e->name, e->nlen, "face") && pr.count_type && list_name) {
+            bool list_name = pname(pr->name, pr->nlen, "vertex_indices") ||
+                             pname(pr->name, pr->nlen, "vertex_index");
+            if (pname(e->name, e->nlen, "face") && pr->count_type && list_name) {
                 if (e->kind == 2) {
-                    pelems_free(el, n);
+                    pelems_free(el, h.n);
+                    ffd_ply_header_free(&h);
                     return ffd_fail(err, FFD_ERR_UNSUPPORTED,
                                     "ffd_mesh_refine: a PLY face element with two vertex index lists");
                 }
-                pr.role = 7;
+                pr->role = 7;
                 e->kind = 2;
             }
-            if (!ffd_grow((void **)&e->props, &e->cap, e->np + 1, sizeof *e->props))
-                goto oom;
-            e->props[e->np++] = pr;
         }
     }
-mismatch:
-    pelems_free(el, n);
-    return ffd_fail(err, FFD_ERR_INVALID, "ffd_mesh_refine: the mesh does not match its PLY source");
+    *data = h.data;
+    *out = el;
+    *nout = h.n;
+    ffd_ply_header_free(&h);
+    return FFD_OK;
 oom:
-    pelems_free(el, n);
+    pelems_free(el, h.n);
+    ffd_ply_header_free(&h);
     return ffd_fail(err, FFD_ERR_NOMEM, "ffd_mesh_refine: out of memory");
 }
 
