@@ -215,7 +215,7 @@ void ffd_gffd_skeleton_align(ffd_gffd_skeleton *cur, const ffd_gffd_skeleton *re
  * a polyline vertex: 4 across its tangent; a patch vertex: 2 along its
  * normal), so that the warp is determined in 3D even for a straight or flat
  * skeleton and carries the cross-sections round a bend. count first, then
- * from (rest) and to (cur), count by 3 each. */
+ * from (rest) and to (cur), count by 3 each; either may be NULL. */
 size_t ffd_gffd_correspondence_count(const ffd_gffd_skeleton *rest);
 void ffd_gffd_correspondences(const ffd_gffd_skeleton *rest, const ffd_gffd_skeleton *cur,
                               double *from, double *to);

@@ -25,9 +25,17 @@ struct ffd_gffd {
     int has_auto_factor;
     /* user correspondences */
     size_t user_count;
-    double *user_from, *user_to;
     ffd_gffd_warp user_warp;
 };
+
+static void warp_release(ffd_gffd_warp *w)
+{
+    if (w->has_factor)
+        ffd_rbf_factor_free(&w->factor);
+    if (w->fitted)
+        ffd_rbf_free(&w->displacement);
+    memset(w, 0, sizeof *w);
+}
 
 static ffd_status resolve_options(const ffd_gffd_options *o, ffd_gffd_options *r, ffd_error *err)
 {
@@ -64,12 +72,7 @@ void ffd_gffd_destroy(ffd_gffd *g)
     ffd_free(g->auto_from);
     if (g->has_auto_factor)
         ffd_rbf_factor_free(&g->auto_factor);
-    ffd_free(g->user_from);
-    ffd_free(g->user_to);
-    if (g->user_warp.has_factor)
-        ffd_rbf_factor_free(&g->user_warp.factor);
-    if (g->user_warp.fitted)
-        ffd_rbf_free(&g->user_warp.displacement);
+    warp_release(&g->user_warp);
     ffd_free(g);
 }
 
@@ -145,15 +148,7 @@ ffd_status ffd_gffd_create(const ffd_gffd_primitive *skeleton, size_t count, con
     }
     if (n)
         memcpy(g->points, points, n * 3 * sizeof(double));
-    {
-        double *scratch = ffd_malloc_array(g->auto_count, 3 * sizeof(double));
-        if (!scratch) {
-            st = ffd_fail(err, FFD_ERR_NOMEM, "out of memory");
-            goto fail;
-        }
-        ffd_gffd_correspondences(g->rest, g->rest, g->auto_from, scratch);
-        ffd_free(scratch);
-    }
+    ffd_gffd_correspondences(g->rest, g->rest, g->auto_from, NULL);
     /* the warp's factor over P_j0 depends on the rest skeleton only: factor once */
     if (g->auto_count <= opt.max_samples) {
         st = ffd_rbf_factor_create(g->auto_from, g->auto_count, &g->auto_factor, err);
@@ -297,44 +292,24 @@ ffd_status ffd_gffd_set_correspondences(ffd_gffd *g, const double *from, const d
 {
     ffd_gffd_warp w;
     memset(&w, 0, sizeof w);
-    double *f = NULL, *t = NULL;
     if (k > 0) {
         if (!from || !to)
             return ffd_fail(err, FFD_ERR_INVALID, "correspondences missing");
         for (size_t i = 0; i < 3 * k; i++)
             if (!isfinite(from[i]) || !isfinite(to[i]))
                 return ffd_fail(err, FFD_ERR_NONFINITE, "correspondence %zu is not finite", i / 3);
-        f = ffd_malloc_array(k, 3 * sizeof(double));
-        t = ffd_malloc_array(k, 3 * sizeof(double));
-        if (!f || !t) {
-            ffd_free(f);
-            ffd_free(t);
-            return ffd_fail(err, FFD_ERR_NOMEM, "correspondences: out of memory");
-        }
-        memcpy(f, from, k * 3 * sizeof(double));
-        memcpy(t, to, k * 3 * sizeof(double));
-        ffd_status st = ffd_rbf_factor_create(f, k, &w.factor, err);
+        ffd_status st = ffd_rbf_factor_create(from, k, &w.factor, err);
         if (st == FFD_OK) {
             w.has_factor = 1;
-            st = fit_warp(&w.factor, f, t, k, &w.displacement, err);
+            st = fit_warp(&w.factor, from, to, k, &w.displacement, err);
         }
         if (st != FFD_OK) {
-            if (w.has_factor)
-                ffd_rbf_factor_free(&w.factor);
-            ffd_free(f);
-            ffd_free(t);
+            warp_release(&w);
             return st;
         }
         w.fitted = 1;
     }
-    ffd_free(g->user_from);
-    ffd_free(g->user_to);
-    if (g->user_warp.has_factor)
-        ffd_rbf_factor_free(&g->user_warp.factor);
-    if (g->user_warp.fitted)
-        ffd_rbf_free(&g->user_warp.displacement);
-    g->user_from = f;
-    g->user_to = t;
+    warp_release(&g->user_warp);
     g->user_count = k;
     g->user_warp = w;
     return FFD_OK;
@@ -357,13 +332,7 @@ static ffd_status current_warp(const ffd_gffd *g, ffd_gffd_warp *warp, const ffd
     double *to = ffd_malloc_array(g->auto_count, 3 * sizeof(double));
     if (!to)
         return ffd_fail(err, FFD_ERR_NOMEM, "warp: out of memory");
-    double *from = ffd_malloc_array(g->auto_count, 3 * sizeof(double));
-    if (!from) {
-        ffd_free(to);
-        return ffd_fail(err, FFD_ERR_NOMEM, "warp: out of memory");
-    }
-    ffd_gffd_correspondences(g->rest, g->cur, from, to); /* from == auto_from */
-    ffd_free(from);
+    ffd_gffd_correspondences(g->rest, g->cur, NULL, to); /* the sources are auto_from */
     memset(warp, 0, sizeof *warp);
     ffd_status st = fit_warp(&g->auto_factor, g->auto_from, to, g->auto_count,
                              &warp->displacement, err);

@@ -176,6 +176,14 @@ typedef struct faces {
     double *fref;
 } faces;
 
+static void faces_free(faces *o)
+{
+    ffd_free(o->off);
+    ffd_free(o->idx);
+    ffd_free(o->parent);
+    ffd_free(o->fref);
+}
+
 static bool emit(faces *o, const uint32_t *v, uint32_t k, uint32_t parent, double ref)
 {
     size_t c = o->cap_f;
@@ -471,10 +479,7 @@ ffd_status ffd_gffd_resample(const ffd_gffd *g, const ffd_mesh *mesh,
             if (k > 255) {
                 st = ffd_fail(err, FFD_ERR_UNSUPPORTED,
                               "resample: a face of %u vertices (at most 255 are supported)", k);
-                ffd_free(next.off);
-                ffd_free(next.idx);
-                ffd_free(next.parent);
-                ffd_free(next.fref);
+                faces_free(&next);
                 goto fail;
             }
             for (uint32_t j = 0; j < k; j++) {
@@ -482,17 +487,11 @@ ffd_status ffd_gffd_resample(const ffd_gffd *g, const ffd_mesh *mesh,
                 mids[j] = e ? e->mid : NO_VERTEX;
             }
             if (!split_cell(&s, &next, cur.idx + a, k, mids, cur.parent[f], cur.fref[f])) {
-                ffd_free(next.off);
-                ffd_free(next.idx);
-                ffd_free(next.parent);
-                ffd_free(next.fref);
+                faces_free(&next);
                 goto oom;
             }
         }
-        ffd_free(cur.off);
-        ffd_free(cur.idx);
-        ffd_free(cur.parent);
-        ffd_free(cur.fref);
+        faces_free(&cur);
         cur = next;
         rep.added_vertices += s.nv - first_new;
         if (!track_new(g, &s, first_centre, &rep.track, &st, err)) /* cell centres */
@@ -525,20 +524,14 @@ ffd_status ffd_gffd_resample(const ffd_gffd *g, const ffd_mesh *mesh,
         *report = rep;
     else
         ffd_gffd_resample_report_free(&rep);
-    ffd_free(cur.off);
-    ffd_free(cur.idx);
-    ffd_free(cur.parent);
-    ffd_free(cur.fref);
+    faces_free(&cur);
     state_free(&s);
     return FFD_OK;
 oom:
     st = ffd_fail(err, FFD_ERR_NOMEM, "resample: out of memory");
 fail:
     ffd_gffd_resample_report_free(&rep);
-    ffd_free(cur.off);
-    ffd_free(cur.idx);
-    ffd_free(cur.parent);
-    ffd_free(cur.fref);
+    faces_free(&cur);
     state_free(&s);
     return st;
 }

@@ -786,8 +786,10 @@ void ffd_gffd_correspondences(const ffd_gffd_skeleton *rest, const ffd_gffd_skel
         double h = 0.5 * r->geom.radius;
         for (size_t j = 0; j < r->geom.vertex_count; j++) {
             const double *a = r->geom.vertices + 3 * j, *b = c->geom.vertices + 3 * j;
-            memcpy(from + 3 * k, a, 3 * sizeof(double));
-            memcpy(to + 3 * k, b, 3 * sizeof(double));
+            if (from)
+                memcpy(from + 3 * k, a, 3 * sizeof(double));
+            if (to)
+                memcpy(to + 3 * k, b, 3 * sizeof(double));
             k++;
             if (per == 0)
                 continue;
@@ -829,8 +831,10 @@ void ffd_gffd_correspondences(const ffd_gffd_skeleton *rest, const ffd_gffd_skel
             }
             for (size_t o = 0; o < per; o++) {
                 for (int m = 0; m < 3; m++) {
-                    from[3 * k + m] = a[m] + offs[o][m];
-                    to[3 * k + m] = b[m] + rot[m][0] * offs[o][0] + rot[m][1] * offs[o][1] +
+                    if (from)
+                        from[3 * k + m] = a[m] + offs[o][m];
+                    if (to)
+                        to[3 * k + m] = b[m] + rot[m][0] * offs[o][0] + rot[m][1] * offs[o][1] +
                                     rot[m][2] * offs[o][2];
                 }
                 k++;
