@@ -142,6 +142,9 @@ struct ffd_rig {
 ffd_status ffd_rig_wrap(ffd_error *err, ffd_status status, const char *name, const char *context,
                         const ffd_error *inner);
 
+/* Rodrigues: v rotated by angle (radians) about the unit axis k (rig_apply.c). */
+void ffd_rig_rotate(const double k[3], double angle, const double v[3], double out[3]);
+
 /* residuals[c] = |reached_c - target_c| for k constraints (k by 3 each);
  * returns the largest (0 when k == 0). */
 double ffd_rig_residuals(size_t k, const double *reached, const double *targets,

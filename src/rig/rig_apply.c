@@ -22,6 +22,16 @@ void ffd_rig_report_free(ffd_rig_report *report)
     memset(report, 0, sizeof *report);
 }
 
+/* Rodrigues: v rotated by angle about the unit axis k. */
+void ffd_rig_rotate(const double k[3], double angle, const double v[3], double out[3])
+{
+    double c = cos(angle), s = sin(angle), kv = k[0] * v[0] + k[1] * v[1] + k[2] * v[2];
+    double cross[3] = {k[1] * v[2] - k[2] * v[1], k[2] * v[0] - k[0] * v[2],
+                       k[0] * v[1] - k[1] * v[0]};
+    for (int a = 0; a < 3; a++)
+        out[a] = v[a] * c + cross[a] * s + k[a] * kv * (1 - c);
+}
+
 /* Prefixes a message from a lower layer with the rig's name and a context. */
 ffd_status ffd_rig_wrap(ffd_error *err, ffd_status status, const char *name, const char *context,
                         const ffd_error *inner)

@@ -205,15 +205,6 @@ static ffd_gffd_primitive *public_skeleton(const ffd_rig_primitive *r, size_t n)
     return p;
 }
 
-/* Rodrigues: v rotated by angle about the unit axis k. */
-static void rotate(const double k[3], double angle, const double v[3], double out[3])
-{
-    double c = cos(angle), s = sin(angle), kv = k[0] * v[0] + k[1] * v[1] + k[2] * v[2];
-    double cross[3] = {k[1] * v[2] - k[2] * v[1], k[2] * v[0] - k[0] * v[2],
-                       k[0] * v[1] - k[1] * v[0]};
-    for (int a = 0; a < 3; a++)
-        out[a] = v[a] * c + cross[a] * s + k[a] * kv * (1 - c);
-}
 
 /* One edit on the current skeleton: the new vertices of each primitive it
  * touches, through ffd_gffd_set_vertices. */
@@ -268,7 +259,7 @@ static ffd_status apply_edit(const ffd_rig *rig, ffd_gffd *g, size_t i, ffd_erro
             case FFD_RIG_EDIT_ROTATE:
                 for (int a = 0; a < 3; a++)
                     d[a] = x[a] - center[a];
-                rotate(axis, e->angle, d, x);
+                ffd_rig_rotate(axis, e->angle, d, x);
                 for (int a = 0; a < 3; a++)
                     x[a] += center[a];
                 break;

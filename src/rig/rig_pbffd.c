@@ -10,15 +10,6 @@
 #include <stdio.h>
 #include <string.h>
 
-/* Rodrigues: v rotated by angle about the unit axis k. */
-static void rotate(const double k[3], double angle, const double v[3], double out[3])
-{
-    double c = cos(angle), s = sin(angle), kv = k[0] * v[0] + k[1] * v[1] + k[2] * v[2];
-    double cross[3] = {k[1] * v[2] - k[2] * v[1], k[2] * v[0] - k[0] * v[2],
-                       k[0] * v[1] - k[1] * v[0]};
-    for (int a = 0; a < 3; a++)
-        out[a] = v[a] * c + cross[a] * s + k[a] * kv * (1 - c);
-}
 
 /* The frame an edit asks for, from the control's current frame. */
 static void edited_frame(const ffd_rig_pb_edit *e, const double current[3][3], double out[3][3])
@@ -32,7 +23,7 @@ static void edited_frame(const ffd_rig_pb_edit *e, const double current[3][3], d
     for (int a = 0; a < 3; a++) {
         double scaled[3] = {current[a][0] * e->scale[a], current[a][1] * e->scale[a],
                             current[a][2] * e->scale[a]};
-        rotate(k, e->angle, scaled, out[a]);
+        ffd_rig_rotate(k, e->angle, scaled, out[a]);
     }
 }
 
