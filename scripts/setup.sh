@@ -4,7 +4,7 @@ set -euo pipefail
 PKGS=(build-essential cmake pkg-config
       liblapacke-dev libopenblas-dev libcjson-dev
       clang libclang-rt-14-dev
-      libqhull-dev)
+      libqhull-dev libsuitesparse-dev)
 missing=()
 for p in "${PKGS[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

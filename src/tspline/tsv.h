@@ -1,0 +1,288 @@
+/* tsv — the tailored cubic T-spline volume of proxy-driven FFD (Zhang, Zheng
+ * & Cai 2020) and its refinable T-lattice. Internal to the library.
+ *
+ * Design: ../shared/design/tspline-volume.md (section numbers below refer
+ * to it as "design §n"; "paper" is the Zhang-Zheng-Cai paper).
+ *
+ * Modules (one writer each):
+ *   tsv_lattice.c  registries, elements, indexes, locate, ray casting, splits
+ *   tsv_refine.c   pieces, the Sederberg closure, the three insertions
+ *   tsv_eval.c     univariate basis, support bins, transfer matrix Phi, Jacobians
+ *   tsv_proxy.c    occupancy, flood fill, proxy faces; ARAP graph from the lattice
+ *   tsv_check.c    fold-over check
+ *   tsv_arap.c     ARAP normal equations (CHOLMOD), rotations, solves
+ *   tsv_deformer.c the public ffd_tsv_* API
+ */
+#ifndef FFD_TSV_H
+#define FFD_TSV_H
+
+#include "core/core.h"
+
+#include <stdint.h>
+
+/* ---------------------------------------------------------------------
+ * Topological coordinates (design §1.1)
+ * --------------------------------------------------------------------- */
+
+/* Vertex planes sit at sigma = -1, 0, k, 2k, ..., 1, 2; frame planes (no
+ * vertices, padding only) at -3, -2 and 3, 4. kappa(sigma) = clamp(sigma, 0, 1). */
+#define TSV_SIGMA_MIN (-1.0)
+#define TSV_SIGMA_MAX 2.0
+/* Registry snap distance: a requested knot within this of an existing one is that one. */
+#define TSV_REGISTRY_SNAP 1e-13
+/* Weights below this are an error (design §3.4). */
+#define TSV_MIN_WEIGHT 1e-8
+
+static inline double tsv_kappa(double sigma)
+{
+    return sigma < 0.0 ? 0.0 : (sigma > 1.0 ? 1.0 : sigma);
+}
+
+/* Position channels carried through refinement (design §3.4). */
+enum { TSV_CURRENT = 0, TSV_REST = 1, TSV_REFERENCE = 2, TSV_NCH = 3 };
+
+typedef struct tsv_registry {
+    double *v;   /* sorted ascending, distinct; includes the frame planes -3,-2,3,4 */
+    size_t n, cap;
+} tsv_registry;
+
+typedef struct tsv_vertex {
+    double sg[3];           /* sigma coordinates (copies of registry values) */
+    double W;               /* weight w_i of eq. 1 */
+    double P[TSV_NCH][3];   /* positions: current, rest, reference */
+    uint8_t frozen;
+} tsv_vertex;
+
+typedef struct tsv_edge {
+    int axis;               /* direction of the edge */
+    double c[2];            /* sigma of the other two axes, in increasing axis order */
+    double lo, hi;          /* sigma range along axis, lo < hi */
+    uint32_t v0, v1;        /* vertices at lo and hi */
+} tsv_edge;
+
+typedef struct tsv_face {
+    int normal;             /* axis the face is perpendicular to */
+    double c;               /* sigma along the normal */
+    double lo[2], hi[2];    /* sigma ranges along the two in-plane axes, increasing axis order */
+    int32_t cell_neg;       /* cell on the -normal side, -1 = outside the domain */
+    int32_t cell_pos;       /* cell on the +normal side, -1 = outside the domain */
+} tsv_face;
+
+typedef struct tsv_cell {
+    double lo[3], hi[3];    /* sigma box */
+    uint8_t occupied;       /* the object meets it (tsv_proxy.c) */
+    uint8_t outside;        /* reached by the flood fill from the domain boundary */
+} tsv_cell;
+
+typedef struct tsv_lattice_index tsv_lattice_index; /* hashes and locators, tsv_lattice.c */
+
+typedef struct tsv_lattice {
+    tsv_registry reg[3];
+    tsv_vertex *verts;  size_t nv, cap_v;
+    tsv_edge *edges;    size_t ne, cap_e;
+    tsv_face *faces;    size_t nf, cap_f;
+    tsv_cell *cells;    size_t nc, cap_c;
+    uint32_t res[3];        /* initial n_s, n_t, n_u */
+    double box_min[3], box_max[3];
+    uint64_t version;       /* bumped by every topology change */
+    tsv_lattice_index *index;
+} tsv_lattice;
+
+/* ---------------------------------------------------------------------
+ * tsv_lattice.c
+ * --------------------------------------------------------------------- */
+
+/* The initial clamped uniform lattice (design §1.4): res[a] >= 4 vertex
+ * planes per axis, all channels at the Greville points, W = 1. Element ids
+ * as documented in ffd.h (cells (i*(n_t-1)+j)*(n_u-1)+k). */
+ffd_status tsv_lattice_create(const double box_min[3], const double box_max[3],
+                              const uint32_t res[3], tsv_lattice **out, ffd_error *err);
+void tsv_lattice_destroy(tsv_lattice *L);
+/* Deep copy (snapshot for roll-back). NULL on OOM. */
+tsv_lattice *tsv_lattice_clone(const tsv_lattice *L);
+/* Moves src's contents into dst (dst's old contents freed); src is left empty and freed. */
+void tsv_lattice_swap_in(tsv_lattice *dst, tsv_lattice *src);
+
+/* Registry: the canonical sigma for parameter value v in (0,1) on axis a
+ * (an existing one within TSV_REGISTRY_SNAP, else inserted). */
+ffd_status tsv_registry_get(tsv_lattice *L, int axis, double v, double *sigma, ffd_error *err);
+/* Registry neighbours of an existing sigma (frame planes beyond the ends). */
+double tsv_registry_prev(const tsv_lattice *L, int axis, double sigma);
+double tsv_registry_next(const tsv_lattice *L, int axis, double sigma);
+/* Global Greville coordinate gamma(sigma) = (kappa(prev) + kappa(sigma) + kappa(next))/3
+ * of a registry value (design §5.1): monotone, gamma(-1) = 0, gamma(2) = 1. */
+double tsv_gamma(const tsv_lattice *L, int axis, double sigma);
+
+/* Lookups (exact sigma compare). -1 / UINT32_MAX when absent. */
+uint32_t tsv_vertex_find(const tsv_lattice *L, const double sg[3]);
+
+/* Lowest-dimensional element whose closed box contains q: *dim = 0 vertex,
+ * 1 edge, 2 face, 3 cell; *id its index. q must lie in [-1,2]^3. */
+void tsv_locate(const tsv_lattice *L, const double q[3], int *dim, uint32_t *id);
+
+/* Local knot vectors of vertex v by ray casting (design §1.3, paper eq. 1):
+ * knots[d][0..4] in sigma (frame-padded). */
+void tsv_infer_knots(const tsv_lattice *L, uint32_t v, double knots[3][5]);
+
+/* Topological splits (design §3.1) at registry value x. The element keeps
+ * its id for the part below x; new parts are appended. New vertices get
+ * W = 1 and zero positions (the closure fills them). */
+ffd_status tsv_split_edge(tsv_lattice *L, uint32_t e, double x, uint32_t *new_vertex,
+                          ffd_error *err);
+ffd_status tsv_split_face(tsv_lattice *L, uint32_t f, int axis, double x, ffd_error *err);
+ffd_status tsv_split_cell(tsv_lattice *L, uint32_t c, int axis, double x, ffd_error *err);
+
+/* Vertex ids on face f's closed boundary, counter-clockwise seen from +normal
+ * (in the in-plane axes (a,b) = the two other axes in increasing order),
+ * starting at the (lo,lo) corner. *ids: ffd_malloc'd. */
+ffd_status tsv_face_ring(const tsv_lattice *L, uint32_t f, uint32_t **ids, size_t *count,
+                         ffd_error *err);
+/* Vertex ids on cell c's closed boundary (corners and hanging), ascending. */
+ffd_status tsv_cell_points(const tsv_lattice *L, uint32_t c, uint32_t **ids, size_t *count,
+                           ffd_error *err);
+/* Checks invariants 1-4 of design §1.2 (tests). FFD_ERR_NUMERIC with the first violation. */
+ffd_status tsv_lattice_validate(const tsv_lattice *L, ffd_error *err);
+
+/* ---------------------------------------------------------------------
+ * tsv_refine.c
+ * --------------------------------------------------------------------- */
+
+typedef struct tsv_refine_stats {
+    size_t added_points, moved_points, topology_steps;
+    double max_weight_deviation;
+} tsv_refine_stats;
+
+/* One edit = the public insertions (ids as before the edit): apply all the
+ * topology, then the closure of design §3.3 carrying every channel; on any
+ * error the lattice is restored from a snapshot. Updates L->version. */
+ffd_status tsv_refine(tsv_lattice *L, const ffd_tsv_insertion *ins, size_t count,
+                      tsv_refine_stats *stats, ffd_error *err);
+
+/* ---------------------------------------------------------------------
+ * tsv_eval.c
+ * --------------------------------------------------------------------- */
+
+/* Cubic B-spline N[k0..k4](x) on five sigma knots evaluated at parameter x
+ * (Cox-de Boor on their kappa values; right-closed at x = 1); *dx its
+ * derivative (may be NULL). */
+double tsv_basis(const double knots[5], double x, double *dx);
+
+/* Per-vertex cached knot vectors and a uniform support grid over [0,1]^3. */
+typedef struct tsv_support tsv_support;
+ffd_status tsv_support_build(const tsv_lattice *L, tsv_support **out, ffd_error *err);
+void tsv_support_destroy(tsv_support *S);
+/* Entries (vertex, W_v B_v, and d(W_v B_v)/d(s,t,u) when grad != NULL) of the
+ * blending functions nonzero at stu in [0,1]^3; returns the count; arrays
+ * need tsv_support_max(S) entries (grad 3 per entry). */
+size_t tsv_support_eval(const tsv_support *S, const double stu[3], uint32_t *ids, double *w,
+                        double *grad);
+size_t tsv_support_max(const tsv_support *S);
+
+/* Transfer matrix Phi (design §2), CSR: Phi[p][v] = W_v B_v(params_p). */
+typedef struct tsv_phi {
+    size_t rows, cols;
+    size_t *rowptr;
+    uint32_t *col;
+    double *val;
+} tsv_phi;
+ffd_status tsv_phi_build(const tsv_lattice *L, const tsv_support *S, const double *params,
+                         size_t n, tsv_phi *phi, ffd_error *err);
+void tsv_phi_free(tsv_phi *phi);
+/* out (rows by 3) = Phi P[channel]; parallel over rows, bitwise independent of threads. */
+void tsv_phi_apply(const tsv_phi *phi, const tsv_lattice *L, int channel, double *out);
+/* F at stu (clamped) for a channel; jac (9, row-major dF/d(s,t,u), may be NULL). */
+void tsv_eval_point(const tsv_lattice *L, const tsv_support *S, int channel, const double stu[3],
+                    double out[3], double *jac);
+
+/* ---------------------------------------------------------------------
+ * tsv_proxy.c
+ * --------------------------------------------------------------------- */
+
+typedef struct tsv_object {
+    const double *params;        /* n by 3, in [0,1]^3 */
+    size_t n;
+    const uint32_t *face_offsets; /* face_count + 1, or NULL */
+    const uint32_t *face_indices;
+    size_t face_count;
+} tsv_object;
+
+typedef struct tsv_proxy {
+    size_t face_count;
+    uint32_t *face_offsets, *face_indices, *face_cells;   /* face_cells: the inside cell */
+    uint32_t *lattice_face;       /* face_count: the lattice face id */
+    size_t vertex_count;
+    uint32_t *vertices;           /* ascending */
+    size_t occupied_cells, inside_cells;
+} tsv_proxy;
+
+/* Sets cells[].occupied (triangle-box SAT in gamma coordinates, design §5.1;
+ * points in boxes when there are no faces) and cells[].outside (flood fill),
+ * then extracts the proxy faces (design §5.3). Replaces *proxy's contents. */
+ffd_status tsv_proxy_build(tsv_lattice *L, const tsv_object *obj, tsv_proxy *proxy,
+                           ffd_error *err);
+void tsv_proxy_free(tsv_proxy *proxy);
+
+/* ---------------------------------------------------------------------
+ * tsv_arap.c — works on plain arrays (design §6)
+ * --------------------------------------------------------------------- */
+
+typedef struct tsv_arap_graph {
+    size_t n;                      /* lattice points */
+    const double *ref;             /* n by 3 reference positions p */
+    const uint32_t *edges;         /* 2 per lattice edge (undirected, each once): N_L, E_1F */
+    size_t edge_count;
+    const uint32_t *vol;           /* 2 per volumetric-graph pair (undirected, each once,
+                                      includes the lattice edges): N_V, E_V */
+    size_t vol_count;
+    const uint32_t *proxy_offsets; /* proxy polygons over lattice ids: E_M */
+    const uint32_t *proxy_indices;
+    size_t proxy_face_count;
+    const double *proxy_uv;        /* 2 per proxy corner: in-plane gamma coordinates,
+                                      for the ear-clipping triangulation */
+} tsv_arap_graph;
+
+/* Builds the graph arrays from the lattice (reference channel) and its
+ * proxy (tsv_proxy.c). Arrays are owned by the graph; free with
+ * tsv_arap_graph_free. */
+ffd_status tsv_arap_graph_build(const tsv_lattice *L, const tsv_proxy *proxy,
+                                tsv_arap_graph *g, ffd_error *err);
+void tsv_arap_graph_free(tsv_arap_graph *g);
+
+enum { TSV_FREE = 0, TSV_HARD = 1, TSV_SOFT = 2 };
+
+typedef struct tsv_arap_weights {
+    double one_form, proxy, volume, target;
+} tsv_arap_weights;
+
+typedef struct tsv_arap tsv_arap;
+/* Factorises A (design §6) for roles (n: TSV_FREE, TSV_HARD fixed at its
+ * target, TSV_SOFT penalty w.target). FFD_ERR_INVALID when nothing is
+ * constrained; FFD_ERR_NUMERIC when CHOLMOD fails. The graph is copied. */
+ffd_status tsv_arap_create(const tsv_arap_graph *g, const uint8_t *roles,
+                           const tsv_arap_weights *w, tsv_arap **out, ffd_error *err);
+void tsv_arap_destroy(tsv_arap *a);
+/* iterations x (assemble rotated B, solve, refit rotations). targets: n by 3,
+ * read at constrained rows. x: n by 3, in: warm start, out: solution.
+ * Rotations persist between calls (warm start). */
+ffd_status tsv_arap_solve(tsv_arap *a, const double *targets, double *x, uint32_t iterations,
+                          ffd_error *err);
+
+/* ---------------------------------------------------------------------
+ * tsv_deformer.c — the public object
+ * --------------------------------------------------------------------- */
+
+struct ffd_tsv {
+    tsv_lattice *L;
+    tsv_support *S;
+    tsv_phi phi;
+    double *params;               /* n by 3 */
+    size_t n;
+    uint32_t *face_offsets, *face_indices; /* the object's faces (copied), or NULL */
+    size_t face_count;
+    tsv_proxy proxy;
+    double *current;              /* nv by 3 cache of P[TSV_CURRENT] for the public getter */
+    uint32_t *tie;                /* linear map tie vector */
+    uint64_t frozen_version;      /* bumped when the frozen set changes */
+};
+
+#endif
