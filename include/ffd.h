@@ -959,8 +959,9 @@ typedef struct ffd_tsv_fold_report {
     size_t folded_cell_count;   /* cells with det J <= 0 at some sample */
     uint32_t *folded_cells;     /* their ids, ascending (ffd_free; NULL when none) */
     double min_det;             /* min det J over all samples (1 at rest) */
-    size_t inverted_face_count; /* object faces whose deformed normal opposes the
-                                   Jacobian-mapped rest normal */
+    size_t inverted_face_count; /* object faces whose deformed normal opposes J^-T n, the
+                                   normal an orientation-preserving map gives their rest
+                                   normal n (at the face's centre): folded or flipped faces */
     uint32_t *inverted_faces;   /* their ids, ascending (ffd_free; NULL when none) */
 } ffd_tsv_fold_report;
 
@@ -1017,14 +1018,35 @@ typedef struct ffd_rig_report {
     int gffd_regularised;          /* 1: a field solve fell back to least squares */
     int resampled;                 /* 1: adaptive resampling ran */
     ffd_gffd_resample_report gffd; /* tracking (and resampling) outcome */
+    /* T-spline only (control_points: the T-lattice's current control points, by id) */
+    int tspline;                   /* 1: a "tspline" rig */
+    uint32_t *lattice_edges;       /* lattice_edge_count pairs of control ids */
+    size_t lattice_edge_count;
+    size_t cell_count;
+    size_t proxy_face_count;
+    uint32_t *proxy_offsets;       /* proxy_face_count + 1 */
+    uint32_t *proxy_indices;       /* control ids, faces oriented outwards */
+    size_t proxy_vertex_count;
+    size_t refinements;            /* refinement steps applied */
+    size_t added_points;           /* control points they added (requested and extra) */
+    size_t moved_points;           /* existing control points they moved */
+    double max_weight_deviation;   /* max |W - 1| at the end */
+    size_t arap_solves;            /* deform steps */
+    double max_handle_error;       /* over all deform steps */
+    ffd_tsv_fold_report folds;     /* fold-over check of the final map */
 } ffd_rig_report;
 void ffd_rig_report_free(ffd_rig_report *report);
 
 /* Writes the report's deformed lattice as an OBJ file (one 'v' per control
  * point, 'l' lines along the three lattice directions; PB-FFD: the points
- * only; GFFD: the skeleton's vertices), atomically. */
+ * only; GFFD: the skeleton's vertices; T-spline: every control point and
+ * one 'l' per T-lattice edge), atomically. */
 ffd_status ffd_rig_report_write_lattice(const ffd_rig_report *report, const char *path,
                                         ffd_error *err);
+/* T-spline rigs: writes the proxy (its control points, deformed, and its
+ * polygons) as an OBJ file, atomically; FFD_ERR_INVALID for other rigs. */
+ffd_status ffd_rig_report_write_proxy(const ffd_rig_report *report, const char *path,
+                                      ffd_error *err);
 
 /* Writes a PB-FFD rig holding this explicit control set (and nothing else)
  * as JSON, atomically: what `ffd pbffd place` writes, ready to edit and to

@@ -36,14 +36,6 @@ static ffd_mesh *grid_mesh(int g, double lo, double hi)
     return mesh;
 }
 
-static double *copy_positions(const ffd_mesh *mesh)
-{
-    size_t n = 3 * ffd_mesh_vertex_count(mesh);
-    double *p = malloc(n * sizeof *p);
-    memcpy(p, ffd_mesh_positions(mesh), n * sizeof *p);
-    return p;
-}
-
 static int same_positions(const ffd_mesh *mesh, const double *before)
 {
     size_t n = 3 * ffd_mesh_vertex_count(mesh);
@@ -159,7 +151,7 @@ static void test_parse_bad_keys_and_types(void)
     parse_bad("\"lattice\"", FFD_ERR_PARSE, "expected a JSON object");
     parse_bad("{\"version\": 2}", FFD_ERR_PARSE, "rig.json: version: expected 1");
     parse_bad("{\"version\": \"1\"}", FFD_ERR_PARSE, "version: expected 1");
-    parse_bad("{\"deformer\": \"tspline\"}", FFD_ERR_PARSE, "rig.json: deformer: expected \"lattice\", \"pbffd\" or \"gffd\"");
+    parse_bad("{\"deformer\": \"tsplines\"}", FFD_ERR_PARSE, "rig.json: deformer: expected \"lattice\", \"pbffd\", \"gffd\" or \"tspline\"");
     parse_bad("{\"deformer\": 1}", FFD_ERR_PARSE, "deformer: expected \"lattice\"");
     parse_bad("{\"basis\": \"nurbs\"}", FFD_ERR_PARSE,
               "rig.json: basis: expected \"bspline\" or \"bernstein\"");

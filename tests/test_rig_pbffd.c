@@ -94,7 +94,7 @@ static void test_parse_bad(void)
 {
     parse_bad(PB "\"resolution\": [3,3,3]}", FFD_ERR_PARSE, "resolution: only for \"deformer\": \"lattice\"");
     parse_bad("{\"levels\": 2}", FFD_ERR_PARSE, "levels: only for \"deformer\": \"pbffd\"");
-    parse_bad("{\"deformer\": \"pb\"}", FFD_ERR_PARSE, "deformer: expected \"lattice\", \"pbffd\" or \"gffd\"");
+    parse_bad("{\"deformer\": \"pb\"}", FFD_ERR_PARSE, "deformer: expected \"lattice\", \"pbffd\", \"gffd\" or \"tspline\"");
     parse_bad(PB "\"controls\": []}", FFD_ERR_PARSE, "controls: expected at least one");
     parse_bad(PB "\"controls\": \"some\"}", FFD_ERR_PARSE, "controls: expected \"auto\"");
     parse_bad(PB "\"controls\": [{\"center\": [0,0,0], \"radius\": 0}]}", FFD_ERR_INVALID,
@@ -190,17 +190,6 @@ static void test_write_round_trip(void)
     unlink(path);
     CHECK(ffd_rig_write_pbffd_controls(path, controls, 3, NULL, &err) == FFD_ERR_NONFINITE);
     CHECK(access(path, F_OK) != 0);
-}
-
-static ffd_status apply_json(const char *json, ffd_mesh *mesh, ffd_rig_report *report,
-                             ffd_error *err)
-{
-    ffd_rig *rig = NULL;
-    ffd_status s = ffd_rig_parse_json(json, strlen(json), "rig.json", &rig, err);
-    if (s == FFD_OK)
-        s = ffd_rig_apply(rig, mesh, report, err);
-    ffd_rig_destroy(rig);
-    return s;
 }
 
 #define FOUR_CONTROLS                                                                    \

@@ -24,7 +24,8 @@ typedef struct ffd_rig_constraint {
 typedef enum ffd_rig_deformer {
     FFD_RIG_LATTICE = 0,
     FFD_RIG_PBFFD,
-    FFD_RIG_GFFD
+    FFD_RIG_GFFD,
+    FFD_RIG_TSPLINE
 } ffd_rig_deformer;
 
 /* PB-FFD: a move or a frame edit of one control point at one level. */
@@ -120,11 +121,82 @@ typedef struct ffd_rig_gffd {
     ffd_gffd_resample_options resample_options;
 } ffd_rig_gffd;
 
+
+/* T-spline: a set of control points, by one of several selectors. */
+typedef enum ffd_rig_tsv_select {
+    FFD_RIG_SELECT_POINTS = 0, /* control point ids */
+    FFD_RIG_SELECT_NEAR,       /* the proxy point nearest to a position (current positions) */
+    FFD_RIG_SELECT_BOX,        /* every control point whose current position is in a box */
+    FFD_RIG_SELECT_EDGES,      /* the ends of edges */
+    FFD_RIG_SELECT_FACES,      /* the points on faces' boundaries */
+    FFD_RIG_SELECT_CELLS       /* the points on cells' boundaries */
+} ffd_rig_tsv_select;
+
+typedef struct ffd_rig_tsv_selection {
+    ffd_rig_tsv_select kind;
+    uint32_t *ids;            /* POINTS, EDGES, FACES, CELLS */
+    size_t id_count;
+    double near[3];           /* NEAR */
+    double box_min[3], box_max[3]; /* BOX */
+} ffd_rig_tsv_selection;
+
+/* A selection moved by a delta or rotated about an axis through a centre. */
+typedef struct ffd_rig_tsv_handle {
+    ffd_rig_tsv_selection sel;
+    int has_delta;
+    double delta[3];
+    int has_rotate;
+    double axis[3];           /* any length */
+    double angle;             /* radians */
+    int has_center;           /* 0: the centroid of the selection */
+    double center[3];
+} ffd_rig_tsv_handle;
+
+/* One requested insertion: by id, or the element nearest a position; or
+ * every cell inside the proxy (octree split of the proxy, Fig. 6-7). */
+typedef struct ffd_rig_tsv_refinement {
+    ffd_tsv_element kind;
+    uint32_t id;
+    int by_near;
+    double near[3];
+    int proxy_cells;
+    double ratio;             /* edges: 0 = midpoint */
+} ffd_rig_tsv_refinement;
+
+typedef enum ffd_rig_tsv_step_kind {
+    FFD_RIG_STEP_REFINE = 0,  /* one refinement edit */
+    FFD_RIG_STEP_DEFORM,      /* proxy-driven ARAP solve (§3.4) */
+    FFD_RIG_STEP_MOVE,        /* control points moved directly */
+    FFD_RIG_STEP_CONSTRAIN    /* direct manipulation of object vertices (core solver) */
+} ffd_rig_tsv_step_kind;
+
+typedef struct ffd_rig_tsv_step {
+    ffd_rig_tsv_step_kind kind;
+    ffd_rig_tsv_refinement *refinements;
+    size_t refinement_count;
+    ffd_rig_tsv_handle *handles;       /* DEFORM handles, MOVE moves */
+    size_t handle_count;
+    ffd_rig_tsv_selection *freeze;     /* DEFORM, CONSTRAIN */
+    size_t freeze_count;
+    ffd_tsv_arap_options arap;         /* DEFORM */
+    ffd_rig_constraint *constraints;   /* CONSTRAIN (vertex constraints) */
+    size_t constraint_count;
+} ffd_rig_tsv_step;
+
+typedef struct ffd_rig_tspline {
+    uint32_t resolution[3];
+    ffd_tsv_options options;
+    ffd_rig_tsv_step *steps;
+    size_t step_count;
+    uint32_t fold_samples;             /* 0: default */
+} ffd_rig_tspline;
+
 struct ffd_rig {
     char *name;              /* file name for messages */
     ffd_rig_deformer deformer;
     ffd_rig_pbffd pb;        /* deformer == FFD_RIG_PBFFD */
     ffd_rig_gffd gffd;       /* deformer == FFD_RIG_GFFD */
+    ffd_rig_tspline tsv;     /* deformer == FFD_RIG_TSPLINE */
     ffd_basis basis;
     uint32_t resolution[3];
     int box_auto;            /* 1: fit the mesh bounding box grown by margin */
@@ -162,6 +234,11 @@ ffd_status ffd_rig_apply_gffd(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report
  * patch or polyhedron from a mesh file (OBJ, PLY, OFF). */
 ffd_status ffd_rig_load_primitive(const char *path, ffd_rig_primitive *prim, ffd_error *err);
 void ffd_rig_primitive_free(ffd_rig_primitive *prim);
+
+/* T-spline application (rig_tspline.c). */
+ffd_status ffd_rig_apply_tspline(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report *report,
+                                 ffd_error *err);
+void ffd_rig_tspline_free(ffd_rig_tspline *t);
 
 /* A zeroed rig with defaults (bspline, 5x5x5, auto box, margin 0.05). NULL on OOM. */
 ffd_rig *ffd_rig_new(const char *name);

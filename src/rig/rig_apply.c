@@ -19,6 +19,10 @@ void ffd_rig_report_free(ffd_rig_report *report)
     ffd_free(report->reached);
     ffd_free(report->control_points);
     ffd_gffd_resample_report_free(&report->gffd);
+    ffd_free(report->lattice_edges);
+    ffd_free(report->proxy_offsets);
+    ffd_free(report->proxy_indices);
+    ffd_tsv_fold_report_free(&report->folds);
     memset(report, 0, sizeof *report);
 }
 
@@ -110,6 +114,8 @@ ffd_status ffd_rig_apply(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report *rep
         return ffd_rig_apply_gffd(rig, mesh, report, err);
     if (rig->deformer == FFD_RIG_PBFFD)
         return ffd_rig_apply_pbffd(rig, mesh, report, err);
+    if (rig->deformer == FFD_RIG_TSPLINE)
+        return ffd_rig_apply_tspline(rig, mesh, report, err);
 
     const char *name = rig->name;
     const size_t n = ffd_mesh_vertex_count(mesh);
@@ -275,11 +281,87 @@ fail:
     return s;
 }
 
+/* "v" lines for the report's control points; returns the length written. */
+static size_t obj_vertices(const ffd_rig_report *report, char *buf, size_t cap, size_t len)
+{
+    for (size_t i = 0; i < report->control_count; i++) {
+        const double *p = report->control_points + 3 * i;
+        len += (size_t)snprintf(buf + len, cap - len, "v %.17g %.17g %.17g\n", p[0], p[1], p[2]);
+    }
+    return len;
+}
+
+/* The T-lattice: every control point and one line per edge. */
+static ffd_status write_tspline_lattice(const ffd_rig_report *report, const char *path,
+                                        ffd_error *err)
+{
+    size_t cap = 96 + report->control_count * 80 + report->lattice_edge_count * 26;
+    char *buf = ffd_malloc(cap);
+    if (!buf)
+        return ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory", path);
+    size_t len = (size_t)snprintf(buf, cap, "# ffdkit T-lattice: %zu control points, %zu edges\n",
+                                  report->control_count, report->lattice_edge_count);
+    len = obj_vertices(report, buf, cap, len);
+    for (size_t e = 0; e < report->lattice_edge_count; e++)
+        len += (size_t)snprintf(buf + len, cap - len, "l %u %u\n",
+                                report->lattice_edges[2 * e] + 1,
+                                report->lattice_edges[2 * e + 1] + 1);
+    ffd_status s = ffd_write_file_atomic(path, buf, len, err);
+    ffd_free(buf);
+    return s;
+}
+
+ffd_status ffd_rig_report_write_proxy(const ffd_rig_report *report, const char *path,
+                                      ffd_error *err)
+{
+    if (!report || !report->tspline || !report->control_points)
+        return ffd_fail(err, FFD_ERR_INVALID, "%s: only a T-spline rig has a proxy", path);
+    /* only the proxy's own points, renumbered */
+    size_t nv = report->control_count, corners = report->proxy_offsets[report->proxy_face_count];
+    uint32_t *map = ffd_malloc_array(nv ? nv : 1, sizeof(uint32_t));
+    size_t cap = 128 + report->proxy_vertex_count * 80 + corners * 12 + report->proxy_face_count * 4;
+    char *buf = ffd_malloc(cap);
+    if (!map || !buf) {
+        ffd_free(map);
+        ffd_free(buf);
+        return ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory", path);
+    }
+    for (size_t v = 0; v < nv; v++)
+        map[v] = UINT32_MAX;
+    size_t len = (size_t)snprintf(buf, cap,
+                                  "# ffdkit T-spline proxy: %zu points, %zu faces "
+                                  "(points in order of their control ids)\n",
+                                  report->proxy_vertex_count, report->proxy_face_count);
+    uint32_t next = 0;
+    /* mark used points in one pass, then number them in id order */
+    for (size_t k = 0; k < corners; k++)
+        map[report->proxy_indices[k]] = 0;
+    for (size_t v = 0; v < nv; v++) {
+        if (map[v] == UINT32_MAX)
+            continue;
+        map[v] = ++next;
+        const double *p = report->control_points + 3 * v;
+        len += (size_t)snprintf(buf + len, cap - len, "v %.17g %.17g %.17g\n", p[0], p[1], p[2]);
+    }
+    for (size_t f = 0; f < report->proxy_face_count; f++) {
+        len += (size_t)snprintf(buf + len, cap - len, "f");
+        for (uint32_t k = report->proxy_offsets[f]; k < report->proxy_offsets[f + 1]; k++)
+            len += (size_t)snprintf(buf + len, cap - len, " %u", map[report->proxy_indices[k]]);
+        len += (size_t)snprintf(buf + len, cap - len, "\n");
+    }
+    ffd_status s = ffd_write_file_atomic(path, buf, len, err);
+    ffd_free(map);
+    ffd_free(buf);
+    return s;
+}
+
 ffd_status ffd_rig_report_write_lattice(const ffd_rig_report *report, const char *path,
                                         ffd_error *err)
 {
     if (!report || !report->control_points)
         return ffd_fail(err, FFD_ERR_INVALID, "%s: the report holds no lattice", path);
+    if (report->tspline)
+        return write_tspline_lattice(report, path, err);
     const uint32_t l = report->resolution[0], m = report->resolution[1], n = report->resolution[2];
     size_t count = report->control_count;
     /* at most ~80 bytes per vertex line and 3 lines per point of ~36 bytes */
@@ -292,10 +374,7 @@ ffd_status ffd_rig_report_write_lattice(const ffd_rig_report *report, const char
                                       report->gffd_unit > 0 ? "GFFD skeleton vertices"
                                                             : "PB-FFD control points",
                                       count);
-    for (size_t i = 0; i < count; i++) {
-        const double *p = report->control_points + 3 * i;
-        len += (size_t)snprintf(buf + len, cap - len, "v %.17g %.17g %.17g\n", p[0], p[1], p[2]);
-    }
+    len = obj_vertices(report, buf, cap, len);
     for (uint32_t i = 0; i < l; i++)
         for (uint32_t j = 0; j < m; j++)
             for (uint32_t k = 0; k < n; k++) {

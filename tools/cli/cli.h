@@ -61,5 +61,6 @@ int cmd_info(int argc, char **argv);
 int cmd_convert(int argc, char **argv);
 int cmd_deform(int argc, char **argv);
 int cmd_pbffd(int argc, char **argv);
+int cmd_tspline(int argc, char **argv);
 
 #endif

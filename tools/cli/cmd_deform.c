@@ -19,7 +19,8 @@ static const char usage[] =
     "  --report          print the constraint residuals as JSON on stdout\n"
     "  --lattice-out F   also write the deformed lattice to F (OBJ: points and lines;\n"
     "                    PB-FFD: the finest level's control points; GFFD: the\n"
-    "                    skeleton's vertices)\n"
+    "                    skeleton's vertices; T-spline: the T-lattice's points and edges)\n"
+    "  --proxy-out F     T-spline rigs: also write the deformed proxy to F (OBJ)\n"
     "  --timings         print the seconds per phase as JSON on stderr\n"
     "  --ascii           text encoding (PLY, STL)\n"
     "  --binary          binary little-endian (PLY, STL)\n"
@@ -60,6 +61,25 @@ static void print_report(const ffd_rig_report *report)
                    "\"split_edges\": %zu, \"long_edges\": %zu, \"capped\": %s}",
                    g->rounds, g->added_vertices, g->split_edges, g->long_edges,
                    g->capped ? "true" : "false");
+    } else if (report->tspline) {
+        const ffd_tsv_fold_report *f = &report->folds;
+        printf(", \"cells\": %zu, \"proxy_points\": %zu, \"proxy_faces\": %zu, "
+               "\"refinements\": %zu, \"added_points\": %zu, \"moved_points\": %zu, "
+               "\"max_weight_deviation\": ",
+               report->cell_count, report->proxy_vertex_count, report->proxy_face_count,
+               report->refinements, report->added_points, report->moved_points);
+        cli_json_number(stdout, report->max_weight_deviation);
+        printf(", \"arap_solves\": %zu, \"max_handle_error\": ", report->arap_solves);
+        cli_json_number(stdout, report->max_handle_error);
+        printf(", \"folds\": {\"cells_checked\": %zu, \"min_det\": ", f->cells_checked);
+        cli_json_number(stdout, f->min_det);
+        printf(", \"folded_cells\": [");
+        for (size_t i = 0; i < f->folded_cell_count; i++)
+            printf("%s%u", i ? ", " : "", f->folded_cells[i]);
+        printf("], \"inverted_faces\": [");
+        for (size_t i = 0; i < f->inverted_face_count; i++)
+            printf("%s%u", i ? ", " : "", f->inverted_faces[i]);
+        printf("]}");
     } else if (report->resolution[0] == 0) { /* PB-FFD */
         printf(", \"levels\": %zu, \"uncovered\": %zu, \"placed\": %s", report->level_count,
                report->uncovered_count, report->placed ? "true" : "false");
@@ -76,7 +96,7 @@ static void print_timings(double read, const ffd_timings *t, double write)
 
 int cmd_deform(int argc, char **argv)
 {
-    const char *in = NULL, *out = NULL, *rig_path = NULL, *lattice_out = NULL;
+    const char *in = NULL, *out = NULL, *rig_path = NULL, *lattice_out = NULL, *proxy_out = NULL;
     ffd_write_options options = {FFD_FORMAT_AUTO, FFD_ENCODING_SAME};
     int in_place = 0, want_report = 0, want_timings = 0;
     for (int i = 1; i < argc; i++) {
@@ -93,6 +113,9 @@ int cmd_deform(int argc, char **argv)
                 return cli_option_error("deform", arg, e);
         } else if ((e = cli_option_value(argc, argv, &i, "--lattice-out", NULL, &lattice_out)) !=
                    0) {
+            if (e < 0)
+                return cli_option_error("deform", arg, e);
+        } else if ((e = cli_option_value(argc, argv, &i, "--proxy-out", NULL, &proxy_out)) != 0) {
             if (e < 0)
                 return cli_option_error("deform", arg, e);
         } else if ((e = cli_encoding_option(arg, &options.encoding)) != 0) {
@@ -151,6 +174,10 @@ int cmd_deform(int argc, char **argv)
         cli_error(code, "%s", err.message);
         goto done;
     }
+    if (proxy_out && ffd_rig_report_write_proxy(&report, proxy_out, &err) != FFD_OK) {
+        cli_error(code, "%s", err.message);
+        goto done;
+    }
     if (report.placed && report.placement.note[0])
         fprintf(stderr, "ffd: note: %s\n", report.placement.note);
     if (report.gffd.track.failed_count) {
@@ -165,6 +192,17 @@ int cmd_deform(int argc, char **argv)
     if (report.resampled && report.gffd.capped)
         fprintf(stderr, "ffd: warning: resampling stopped at its cap with %zu edges still "
                         "stretched beyond the ratio\n", report.gffd.long_edges);
+    if (report.folds.folded_cell_count || report.folds.inverted_face_count) {
+        const ffd_tsv_fold_report *f = &report.folds;
+        fprintf(stderr, "ffd: warning: the deformation folds over: %zu cell%s with a non-positive "
+                        "Jacobian determinant (min %.3g; cells",
+                f->folded_cell_count, f->folded_cell_count == 1 ? "" : "s", f->min_det);
+        for (size_t i = 0; i < f->folded_cell_count && i < 10; i++)
+            fprintf(stderr, " %u", f->folded_cells[i]);
+        fprintf(stderr, "%s), %zu inverted face%s (--report lists all)\n",
+                f->folded_cell_count > 10 ? " ..." : "", f->inverted_face_count,
+                f->inverted_face_count == 1 ? "" : "s");
+    }
     if (want_report)
         print_report(&report);
     if (want_timings)

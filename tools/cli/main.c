@@ -22,6 +22,8 @@ static const char usage[] =
     "         [--ascii|--binary|--binary-be]  apply a rig (JSON or PyGeM .prm) to a mesh\n"
     "  pbffd place MESH -o CONTROLS.json [--interior N] [--exterior N] ...\n"
     "                                         place PB-FFD control points, write them as a rig\n"
+    "  tspline proxy MESH -o PROXY.obj [--resolution L,M,N] [--rig RIG] [--lattice F]\n"
+    "                                         write the T-spline proxy (and T-lattice) of a mesh\n"
     "\n"
     "Run 'ffd COMMAND --help' for a command's options.\n"
     "Exit status: 0 success, 1 bad or unreadable input (or a failed write), 2 usage error.\n";
@@ -160,7 +162,7 @@ void cli_json_number(FILE *f, double v)
 int main(int argc, char **argv)
 {
     if (argc < 2)
-        return cli_usage_error(NULL, "missing command (info, convert, deform, pbffd)");
+        return cli_usage_error(NULL, "missing command (info, convert, deform, pbffd, tspline)");
     const char *command = argv[1];
     if (cli_is_help(command)) {
         fputs(usage, stdout);
@@ -178,8 +180,10 @@ int main(int argc, char **argv)
         return cmd_deform(argc - 1, argv + 1);
     if (strcmp(command, "pbffd") == 0)
         return cmd_pbffd(argc - 1, argv + 1);
+    if (strcmp(command, "tspline") == 0)
+        return cmd_tspline(argc - 1, argv + 1);
     if (command[0] == '-')
         return cli_usage_error(NULL, "unknown option '%s'", command);
-    return cli_usage_error(NULL, "unknown command '%s' (expected info, convert, deform or pbffd)",
+    return cli_usage_error(NULL, "unknown command '%s' (expected info, convert, deform, pbffd or tspline)",
                            command);
 }

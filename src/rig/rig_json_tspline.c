@@ -1,0 +1,513 @@
+/* rig_json_tspline.c — "deformer": "tspline" rigs (docs/rig.md, "T-spline
+ * rigs"): a lattice size and a sequence of steps, each a refinement, a
+ * proxy-driven ARAP deformation, a direct move of control points, or direct
+ * manipulation of object vertices. */
+#include "rig/rig_json.h"
+
+#include <stdio.h>
+#include <string.h>
+
+#define TSV_RIG_MAX_RES 256u
+
+static const char *const selector_keys[] = {"points", "near", "box", "edges", "faces", "cells", NULL};
+#define SELECTOR_TEXT "\"points\", \"near\", \"box\", \"edges\", \"faces\" or \"cells\""
+
+static void selection_free(ffd_rig_tsv_selection *s)
+{
+    ffd_free(s->ids);
+    s->ids = NULL;
+}
+
+void ffd_rig_tspline_free(ffd_rig_tspline *t)
+{
+    for (size_t i = 0; i < t->step_count; i++) {
+        ffd_rig_tsv_step *st = &t->steps[i];
+        ffd_free(st->refinements);
+        for (size_t h = 0; h < st->handle_count; h++)
+            selection_free(&st->handles[h].sel);
+        ffd_free(st->handles);
+        for (size_t f = 0; f < st->freeze_count; f++)
+            selection_free(&st->freeze[f]);
+        ffd_free(st->freeze);
+        ffd_free(st->constraints);
+    }
+    ffd_free(t->steps);
+    memset(t, 0, sizeof *t);
+}
+
+/* An array of non-negative integers. */
+static ffd_status read_ids(const parser *p, const cJSON *item, const char *path, uint32_t **ids,
+                           size_t *count)
+{
+    if (!cJSON_IsArray(item) || cJSON_GetArraySize(item) == 0)
+        return rig_expected(p, path, "a non-empty array of ids (non-negative integers)");
+    size_t n = (size_t)cJSON_GetArraySize(item);
+    *ids = ffd_malloc_array(n, sizeof(uint32_t));
+    if (!*ids)
+        return ffd_fail(p->err, FFD_ERR_NOMEM, "%s: %s: out of memory", p->name, path);
+    size_t i = 0;
+    const cJSON *v;
+    cJSON_ArrayForEach(v, item)
+    {
+        if (!rig_is_uint32(v)) {
+            ffd_free(*ids);
+            *ids = NULL;
+            char sub[RIG_PATH_MAX + 64];
+            snprintf(sub, sizeof sub, "%.100s[%zu]", path, i);
+            return rig_expected(p, sub, "an id (a non-negative integer)");
+        }
+        (*ids)[i++] = (uint32_t)v->valuedouble;
+    }
+    *count = n;
+    return FFD_OK;
+}
+
+/* The one selector key of an object that may hold other keys too. */
+static ffd_status read_selection(const parser *p, const cJSON *obj, const char *path,
+                                 ffd_rig_tsv_selection *sel)
+{
+    const cJSON *found = NULL;
+    int kind = -1;
+    for (int k = 0; selector_keys[k]; k++) {
+        const cJSON *it = cJSON_GetObjectItemCaseSensitive(obj, selector_keys[k]);
+        if (!it)
+            continue;
+        if (found)
+            return rig_expected(p, path, "exactly one of " SELECTOR_TEXT);
+        found = it;
+        kind = k;
+    }
+    if (!found)
+        return rig_expected(p, path, "one of " SELECTOR_TEXT " (which control points)");
+    char sub[RIG_PATH_MAX + 64];
+    snprintf(sub, sizeof sub, "%.100s.%s", path, selector_keys[kind]);
+    memset(sel, 0, sizeof *sel);
+    ffd_status s = FFD_OK;
+    switch (kind) {
+    case 0:
+        sel->kind = FFD_RIG_SELECT_POINTS;
+        return read_ids(p, found, sub, &sel->ids, &sel->id_count);
+    case 1:
+        sel->kind = FFD_RIG_SELECT_NEAR;
+        return rig_read_vec3(p, found, sub, sel->near);
+    case 2: {
+        static const char *const keys[] = {"min", "max", NULL};
+        sel->kind = FFD_RIG_SELECT_BOX;
+        if (!cJSON_IsObject(found))
+            return rig_expected(p, sub, "an object {\"min\": [x,y,z], \"max\": [x,y,z]}");
+        if ((s = rig_check_keys(p, found, sub, keys, "\"min\", \"max\"")))
+            return s;
+        char k2[RIG_PATH_MAX + 128];
+        snprintf(k2, sizeof k2, "%.100s.min", sub);
+        const cJSON *mn = cJSON_GetObjectItemCaseSensitive(found, "min");
+        const cJSON *mx = cJSON_GetObjectItemCaseSensitive(found, "max");
+        if (!mn)
+            return rig_expected(p, k2, "an array of 3 finite numbers (missing)");
+        if ((s = rig_read_vec3(p, mn, k2, sel->box_min)))
+            return s;
+        snprintf(k2, sizeof k2, "%.100s.max", sub);
+        if (!mx)
+            return rig_expected(p, k2, "an array of 3 finite numbers (missing)");
+        if ((s = rig_read_vec3(p, mx, k2, sel->box_max)))
+            return s;
+        for (int a = 0; a < 3; a++)
+            if (sel->box_min[a] > sel->box_max[a])
+                return ffd_fail(p->err, FFD_ERR_INVALID,
+                                "%s: %s: min[%d] %g is above max[%d] %g", p->name, sub, a,
+                                sel->box_min[a], a, sel->box_max[a]);
+        return FFD_OK;
+    }
+    default:
+        sel->kind = kind == 3 ? FFD_RIG_SELECT_EDGES
+                              : kind == 4 ? FFD_RIG_SELECT_FACES : FFD_RIG_SELECT_CELLS;
+        return read_ids(p, found, sub, &sel->ids, &sel->id_count);
+    }
+}
+
+/* A selection alone: {"points": [..]} etc. */
+static ffd_status read_selections(const parser *p, const cJSON *item, const char *path,
+                                  ffd_rig_tsv_selection **out, size_t *count)
+{
+    if (!cJSON_IsArray(item))
+        return rig_expected(p, path, "an array of selections {" SELECTOR_TEXT ": ...}");
+    size_t n = (size_t)cJSON_GetArraySize(item);
+    if (!n)
+        return FFD_OK;
+    *out = ffd_calloc(n, sizeof **out);
+    if (!*out)
+        return ffd_fail(p->err, FFD_ERR_NOMEM, "%s: out of memory", p->name);
+    *count = n;
+    size_t i = 0;
+    const cJSON *c;
+    cJSON_ArrayForEach(c, item)
+    {
+        char sub[RIG_PATH_MAX + 64];
+        snprintf(sub, sizeof sub, "%.100s[%zu]", path, i);
+        if (!cJSON_IsObject(c))
+            return rig_expected(p, sub, "an object {" SELECTOR_TEXT ": ...}");
+        ffd_status s = rig_check_keys(p, c, sub, selector_keys, SELECTOR_TEXT);
+        if (s || (s = read_selection(p, c, sub, &(*out)[i])))
+            return s;
+        i++;
+    }
+    return FFD_OK;
+}
+
+/* A selection with "delta" or "rotate". */
+static ffd_status read_handles(const parser *p, const cJSON *item, const char *path,
+                               ffd_rig_tsv_handle **out, size_t *count)
+{
+    static const char *const keys[] = {"points", "near", "box", "edges", "faces", "cells",
+                                       "delta",  "rotate", NULL};
+    static const char *const rot_keys[] = {"axis", "angle", "center", NULL};
+    if (!cJSON_IsArray(item) || cJSON_GetArraySize(item) == 0)
+        return rig_expected(p, path, "a non-empty array of {selection, \"delta\": [x,y,z]} or "
+                                     "{selection, \"rotate\": {\"axis\", \"angle\"}}");
+    size_t n = (size_t)cJSON_GetArraySize(item);
+    *out = ffd_calloc(n, sizeof **out);
+    if (!*out)
+        return ffd_fail(p->err, FFD_ERR_NOMEM, "%s: out of memory", p->name);
+    *count = n;
+    size_t i = 0;
+    const cJSON *c;
+    cJSON_ArrayForEach(c, item)
+    {
+        char sub[RIG_PATH_MAX + 64], k2[RIG_PATH_MAX + 192];
+        snprintf(sub, sizeof sub, "%.100s[%zu]", path, i);
+        if (!cJSON_IsObject(c))
+            return rig_expected(p, sub, "an object {selection, \"delta\" or \"rotate\"}");
+        ffd_rig_tsv_handle *h = &(*out)[i];
+        ffd_status s = rig_check_keys(p, c, sub, keys,
+                                      SELECTOR_TEXT ", \"delta\", \"rotate\"");
+        if (s || (s = read_selection(p, c, sub, &h->sel)))
+            return s;
+        const cJSON *delta = cJSON_GetObjectItemCaseSensitive(c, "delta");
+        const cJSON *rotate = cJSON_GetObjectItemCaseSensitive(c, "rotate");
+        if ((delta != NULL) == (rotate != NULL))
+            return rig_expected(p, sub, "either \"delta\" or \"rotate\" (one of them)");
+        if (delta) {
+            snprintf(k2, sizeof k2, "%.100s.delta", sub);
+            h->has_delta = 1;
+            if ((s = rig_read_vec3(p, delta, k2, h->delta)))
+                return s;
+        } else {
+            snprintf(k2, sizeof k2, "%.100s.rotate", sub);
+            if (!cJSON_IsObject(rotate))
+                return rig_expected(p, k2, "an object {\"axis\": [x,y,z], \"angle\": radians, "
+                                           "\"center\": [x,y,z] (optional)}");
+            if ((s = rig_check_keys(p, rotate, k2, rot_keys, "\"axis\", \"angle\", \"center\"")))
+                return s;
+            h->has_rotate = 1;
+            char k3[RIG_PATH_MAX + 256];
+            const cJSON *axis = cJSON_GetObjectItemCaseSensitive(rotate, "axis");
+            const cJSON *angle = cJSON_GetObjectItemCaseSensitive(rotate, "angle");
+            const cJSON *center = cJSON_GetObjectItemCaseSensitive(rotate, "center");
+            snprintf(k3, sizeof k3, "%.100s.axis", k2);
+            if (!axis)
+                return rig_expected(p, k3, "an array of 3 finite numbers (missing)");
+            if ((s = rig_read_vec3(p, axis, k3, h->axis)))
+                return s;
+            if (h->axis[0] == 0 && h->axis[1] == 0 && h->axis[2] == 0)
+                return ffd_fail(p->err, FFD_ERR_INVALID, "%s: %s: the zero vector has no direction",
+                                p->name, k3);
+            snprintf(k3, sizeof k3, "%.100s.angle", k2);
+            if (!angle)
+                return rig_expected(p, k3, "a number of radians (missing)");
+            if ((s = rig_read_number(p, angle, k3, &h->angle)))
+                return s;
+            if (center) {
+                snprintf(k3, sizeof k3, "%.100s.center", k2);
+                h->has_center = 1;
+                if ((s = rig_read_vec3(p, center, k3, h->center)))
+                    return s;
+            }
+        }
+        i++;
+    }
+    return FFD_OK;
+}
+
+static ffd_status read_refinements(const parser *p, const cJSON *item, const char *path,
+                                   ffd_rig_tsv_step *st)
+{
+    static const char *const keys[] = {"cell", "face", "edge", "cells", "ratio", NULL};
+    if (!cJSON_IsArray(item) || cJSON_GetArraySize(item) == 0)
+        return rig_expected(p, path, "a non-empty array of {\"cell\"|\"face\"|\"edge\": id or "
+                                     "{\"near\": [x,y,z]}} or {\"cells\": \"proxy\"}");
+    size_t n = (size_t)cJSON_GetArraySize(item);
+    st->refinements = ffd_calloc(n, sizeof *st->refinements);
+    if (!st->refinements)
+        return ffd_fail(p->err, FFD_ERR_NOMEM, "%s: out of memory", p->name);
+    st->refinement_count = n;
+    size_t i = 0;
+    const cJSON *c;
+    cJSON_ArrayForEach(c, item)
+    {
+        char sub[RIG_PATH_MAX + 64], k2[RIG_PATH_MAX + 192];
+        snprintf(sub, sizeof sub, "%.100s[%zu]", path, i);
+        ffd_rig_tsv_refinement *r = &st->refinements[i];
+        if (!cJSON_IsObject(c))
+            return rig_expected(p, sub, "an object {\"cell\"|\"face\"|\"edge\": id}");
+        ffd_status s = rig_check_keys(p, c, sub, keys,
+                                      "\"cell\", \"face\", \"edge\", \"cells\", \"ratio\"");
+        if (s)
+            return s;
+        const cJSON *which = NULL;
+        int count = 0;
+        for (int k = 0; k < 4; k++) {
+            const cJSON *it = cJSON_GetObjectItemCaseSensitive(c, keys[k]);
+            if (it) {
+                count++;
+                which = it;
+                r->kind = k == 0 || k == 3 ? FFD_TSV_CELL : k == 1 ? FFD_TSV_FACE : FFD_TSV_EDGE;
+                r->proxy_cells = k == 3;
+            }
+        }
+        if (count != 1)
+            return rig_expected(p, sub, "exactly one of \"cell\", \"face\", \"edge\", \"cells\"");
+        snprintf(k2, sizeof k2, "%.100s.%s", sub, which->string);
+        if (r->proxy_cells) {
+            if (!cJSON_IsString(which) || strcmp(which->valuestring, "proxy") != 0)
+                return rig_expected(p, k2, "\"proxy\" (octree-split every cell inside the proxy)");
+        } else if (cJSON_IsObject(which)) {
+            static const char *const near_keys[] = {"near", NULL};
+            if ((s = rig_check_keys(p, which, k2, near_keys, "\"near\"")))
+                return s;
+            const cJSON *near = cJSON_GetObjectItemCaseSensitive(which, "near");
+            char k3[RIG_PATH_MAX + 256];
+            snprintf(k3, sizeof k3, "%.100s.near", k2);
+            if (!near)
+                return rig_expected(p, k3, "an array of 3 finite numbers (missing)");
+            r->by_near = 1;
+            if ((s = rig_read_vec3(p, near, k3, r->near)))
+                return s;
+        } else if ((s = rig_read_index(p, which, k2, "an id or {\"near\": [x,y,z]}", &r->id))) {
+            return s;
+        }
+        const cJSON *ratio = cJSON_GetObjectItemCaseSensitive(c, "ratio");
+        if (ratio) {
+            snprintf(k2, sizeof k2, "%.100s.ratio", sub);
+            if (r->kind != FFD_TSV_EDGE)
+                return ffd_fail(p->err, FFD_ERR_PARSE, "%s: %s: only for an \"edge\" insertion",
+                                p->name, k2);
+            if ((s = rig_read_number(p, ratio, k2, &r->ratio)))
+                return s;
+            if (!(r->ratio > 0 && r->ratio < 1))
+                return ffd_fail(p->err, FFD_ERR_INVALID,
+                                "%s: %s: %g: expected a number in (0, 1) (where the point goes "
+                                "along the edge's knot interval)",
+                                p->name, k2, r->ratio);
+        }
+        i++;
+    }
+    return FFD_OK;
+}
+
+static ffd_status read_weights(const parser *p, const cJSON *item, const char *path,
+                               ffd_tsv_arap_options *o)
+{
+    static const char *const keys[] = {"one_form", "proxy", "volume", "target", NULL};
+    if (!cJSON_IsObject(item))
+        return rig_expected(p, path, "an object {\"one_form\", \"proxy\", \"volume\", \"target\"}");
+    ffd_status s = rig_check_keys(p, item, path, keys,
+                                  "\"one_form\", \"proxy\", \"volume\", \"target\"");
+    if (s)
+        return s;
+    double *dst[4] = {&o->w_one_form, &o->w_proxy, &o->w_volume, &o->w_target};
+    for (int k = 0; k < 4; k++) {
+        const cJSON *w = cJSON_GetObjectItemCaseSensitive(item, keys[k]);
+        if (!w)
+            continue;
+        char sub[RIG_PATH_MAX + 64];
+        snprintf(sub, sizeof sub, "%.100s.%s", path, keys[k]);
+        if ((s = rig_read_positive(p, w, sub, dst[k])))
+            return s;
+        if (*dst[k] > 1e6)
+            return ffd_fail(p->err, FFD_ERR_INVALID, "%s: %s: %g: expected a weight in (0, 1e6]",
+                            p->name, sub, *dst[k]);
+    }
+    return FFD_OK;
+}
+
+static ffd_status read_bool(const parser *p, const cJSON *item, const char *path, int *out)
+{
+    if (!cJSON_IsBool(item))
+        return rig_expected(p, path, "true or false");
+    *out = cJSON_IsTrue(item) ? 1 : 0;
+    return FFD_OK;
+}
+
+static ffd_status read_deform(const parser *p, const cJSON *item, const char *path,
+                              ffd_rig_tsv_step *st)
+{
+    static const char *const keys[] = {"handles", "freeze", "weights", "iterations",
+                                       "soft",    "only_target", NULL};
+    if (!cJSON_IsObject(item))
+        return rig_expected(p, path, "an object {\"handles\": [..], \"freeze\": [..], ...}");
+    ffd_status s = rig_check_keys(p, item, path, keys,
+                                  "\"handles\", \"freeze\", \"weights\", \"iterations\", "
+                                  "\"soft\", \"only_target\"");
+    if (s)
+        return s;
+    char sub[RIG_PATH_MAX + 128];
+    const cJSON *it = cJSON_GetObjectItemCaseSensitive(item, "handles");
+    snprintf(sub, sizeof sub, "%.100s.handles", path);
+    if (!it)
+        return rig_expected(p, sub, "an array of handles (missing: a deformation moves something)");
+    if ((s = read_handles(p, it, sub, &st->handles, &st->handle_count)))
+        return s;
+    if ((it = cJSON_GetObjectItemCaseSensitive(item, "freeze"))) {
+        snprintf(sub, sizeof sub, "%.100s.freeze", path);
+        if ((s = read_selections(p, it, sub, &st->freeze, &st->freeze_count)))
+            return s;
+    }
+    if ((it = cJSON_GetObjectItemCaseSensitive(item, "weights"))) {
+        snprintf(sub, sizeof sub, "%.100s.weights", path);
+        if ((s = read_weights(p, it, sub, &st->arap)))
+            return s;
+    }
+    if ((it = cJSON_GetObjectItemCaseSensitive(item, "iterations"))) {
+        snprintf(sub, sizeof sub, "%.100s.iterations", path);
+        if ((s = rig_read_index(p, it, sub, "an integer in 1..1000", &st->arap.iterations)))
+            return s;
+        if (st->arap.iterations < 1 || st->arap.iterations > 1000)
+            return rig_expected(p, sub, "an integer in 1..1000");
+    }
+    if ((it = cJSON_GetObjectItemCaseSensitive(item, "soft"))) {
+        snprintf(sub, sizeof sub, "%.100s.soft", path);
+        if ((s = read_bool(p, it, sub, &st->arap.soft)))
+            return s;
+    }
+    if ((it = cJSON_GetObjectItemCaseSensitive(item, "only_target"))) {
+        snprintf(sub, sizeof sub, "%.100s.only_target", path);
+        if ((s = read_bool(p, it, sub, &st->arap.only_target)))
+            return s;
+    }
+    return FFD_OK;
+}
+
+static ffd_status read_constrain(const parser *p, const cJSON *item, const char *path,
+                                 ffd_rig_tsv_step *st)
+{
+    static const char *const keys[] = {"targets", "freeze", NULL};
+    if (!cJSON_IsObject(item))
+        return rig_expected(p, path, "an object {\"targets\": [{\"vertex\", \"target\"}], "
+                                     "\"freeze\": [..]}");
+    ffd_status s = rig_check_keys(p, item, path, keys, "\"targets\", \"freeze\"");
+    if (s)
+        return s;
+    char sub[RIG_PATH_MAX + 128];
+    const cJSON *it = cJSON_GetObjectItemCaseSensitive(item, "targets");
+    snprintf(sub, sizeof sub, "%.100s.targets", path);
+    if (!it)
+        return rig_expected(p, sub, "an array of {\"vertex\": id, \"target\": [x,y,z]} (missing)");
+    if ((s = rig_read_constraints(p, it, sub, &st->constraints, &st->constraint_count)))
+        return s;
+    for (size_t i = 0; i < st->constraint_count; i++)
+        if (st->constraints[i].kind != FFD_RIG_CONSTRAINT_VERTEX)
+            return ffd_fail(p->err, FFD_ERR_PARSE,
+                            "%s: %s[%zu].point: T-spline rigs constrain object vertices "
+                            "(\"vertex\": id); a point in space has no binding",
+                            p->name, sub, i);
+    if ((it = cJSON_GetObjectItemCaseSensitive(item, "freeze"))) {
+        snprintf(sub, sizeof sub, "%.100s.freeze", path);
+        if ((s = read_selections(p, it, sub, &st->freeze, &st->freeze_count)))
+            return s;
+    }
+    return FFD_OK;
+}
+
+static ffd_status read_steps(const parser *p, const cJSON *item, ffd_rig_tspline *t)
+{
+    static const char *const kinds[] = {"refine", "deform", "move", "constraints", NULL};
+    if (!cJSON_IsArray(item))
+        return rig_expected(p, "steps", "an array of steps {\"refine\"|\"deform\"|\"move\"|"
+                                        "\"constraints\": ...}");
+    size_t n = (size_t)cJSON_GetArraySize(item);
+    if (!n)
+        return FFD_OK;
+    t->steps = ffd_calloc(n, sizeof *t->steps);
+    if (!t->steps)
+        return ffd_fail(p->err, FFD_ERR_NOMEM, "%s: out of memory", p->name);
+    t->step_count = n;
+    size_t i = 0;
+    const cJSON *c;
+    cJSON_ArrayForEach(c, item)
+    {
+        char sub[RIG_PATH_MAX], k2[RIG_PATH_MAX + 64];
+        snprintf(sub, sizeof sub, "steps[%zu]", i);
+        if (!cJSON_IsObject(c) || cJSON_GetArraySize(c) != 1)
+            return rig_expected(p, sub, "an object with one key: \"refine\", \"deform\", "
+                                        "\"move\" or \"constraints\"");
+        ffd_status s = rig_check_keys(p, c, sub, kinds,
+                                      "\"refine\", \"deform\", \"move\", \"constraints\"");
+        if (s)
+            return s;
+        const cJSON *body = c->child;
+        ffd_rig_tsv_step *st = &t->steps[i];
+        int k = rig_lookup(body->string, kinds);
+        snprintf(k2, sizeof k2, "%.100s.%s", sub, body->string);
+        st->kind = (ffd_rig_tsv_step_kind)k;
+        if (k == 0)
+            s = read_refinements(p, body, k2, st);
+        else if (k == 1)
+            s = read_deform(p, body, k2, st);
+        else if (k == 2)
+            s = read_handles(p, body, k2, &st->handles, &st->handle_count);
+        else
+            s = read_constrain(p, body, k2, st);
+        if (s)
+            return s;
+        i++;
+    }
+    return FFD_OK;
+}
+
+ffd_status rig_read_tspline_root(const parser *p, const cJSON *root, ffd_rig *rig)
+{
+    static const char *const keys[] = {"version", "deformer", "resolution", "padding",
+                                       "steps",   "fold_samples", NULL};
+    ffd_rig_tspline *t = &rig->tsv;
+    t->resolution[0] = t->resolution[1] = t->resolution[2] = 6;
+    const cJSON *item;
+    cJSON_ArrayForEach(item, root)
+    {
+        if (rig_lookup(item->string, keys) < 0)
+            return ffd_fail(p->err, FFD_ERR_PARSE,
+                            "%s: %.64s: not a key of \"deformer\": \"tspline\" rigs, expected one "
+                            "of \"resolution\", \"padding\", \"steps\", \"fold_samples\"",
+                            p->name, item->string);
+    }
+    ffd_status s = rig_check_keys(p, root, "", keys, "");
+    if (s)
+        return s;
+    if ((item = cJSON_GetObjectItemCaseSensitive(root, "version"))) {
+        if (!cJSON_IsNumber(item) || item->valuedouble != 1.0)
+            return rig_expected(p, "version", "1 (the only rig version)");
+    }
+    if ((item = cJSON_GetObjectItemCaseSensitive(root, "resolution"))) {
+        if ((s = rig_read_uint3(p, item, "resolution", t->resolution)))
+            return s;
+        for (int a = 0; a < 3; a++)
+            if (t->resolution[a] < 4 || t->resolution[a] > TSV_RIG_MAX_RES)
+                return ffd_fail(p->err, FFD_ERR_INVALID,
+                                "%s: resolution[%d]: %u: expected 4 to %u control points (a cubic "
+                                "T-spline volume needs at least 4 per axis)",
+                                p->name, a, t->resolution[a], TSV_RIG_MAX_RES);
+    }
+    if ((item = cJSON_GetObjectItemCaseSensitive(root, "padding"))) {
+        if ((s = rig_read_number(p, item, "padding", &t->options.padding)))
+            return s;
+        if (t->options.padding < 0 || t->options.padding > 100)
+            return rig_expected(p, "padding", "a number in [0, 100] (fraction of the extent)");
+    }
+    if ((item = cJSON_GetObjectItemCaseSensitive(root, "fold_samples"))) {
+        if ((s = rig_read_index(p, item, "fold_samples", "an integer in 1..64", &t->fold_samples)))
+            return s;
+        if (t->fold_samples < 1 || t->fold_samples > 64)
+            return rig_expected(p, "fold_samples", "an integer in 1..64");
+    }
+    if ((item = cJSON_GetObjectItemCaseSensitive(root, "steps")) && (s = read_steps(p, item, t)))
+        return s;
+    return FFD_OK;
+}

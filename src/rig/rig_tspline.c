@@ -1,0 +1,475 @@
+/* rig_tspline.c — applying a "tspline" rig (Zhang, Zheng & Cai 2020): build
+ * the T-spline volume over the mesh, run the steps in order (refinements,
+ * proxy-driven ARAP deformations, direct moves, direct manipulation of
+ * vertices), evaluate, check the map for folds. The mesh changes only at
+ * the end, all or nothing. */
+#include "rig/rig.h"
+#include "tspline/tsv.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+/* A growable set of control ids with membership flags. */
+typedef struct id_set {
+    uint32_t *ids;
+    size_t count, cap;
+    uint8_t *in;   /* control_count flags */
+} id_set;
+
+static ffd_status set_add(id_set *s, uint32_t v, ffd_error *err)
+{
+    if (s->in[v])
+        return FFD_OK;
+    if (!ffd_grow((void **)&s->ids, &s->cap, s->count + 1, sizeof(uint32_t)))
+        return ffd_fail(err, FFD_ERR_NOMEM, "out of memory");
+    s->ids[s->count++] = v;
+    s->in[v] = 1;
+    return FFD_OK;
+}
+
+static void set_clear(id_set *s)
+{
+    for (size_t i = 0; i < s->count; i++)
+        s->in[s->ids[i]] = 0;
+    s->count = 0;
+}
+
+static const char *select_name(ffd_rig_tsv_select k)
+{
+    static const char *const names[] = {"points", "near", "box", "edges", "faces", "cells"};
+    return names[k];
+}
+
+/* The control points a selection names (design: proxy points for "near"). */
+static ffd_status select_points(ffd_tsv *t, const ffd_rig_tsv_selection *sel, id_set *out,
+                                ffd_error *err)
+{
+    const size_t nv = ffd_tsv_control_count(t);
+    const double *P = ffd_tsv_control_points(t);
+    ffd_status s = FFD_OK;
+    switch (sel->kind) {
+    case FFD_RIG_SELECT_POINTS:
+        for (size_t i = 0; i < sel->id_count && !s; i++) {
+            if (sel->ids[i] >= nv)
+                return ffd_fail(err, FFD_ERR_RANGE, "points[%zu]: control point %u: there are %zu",
+                                i, sel->ids[i], nv);
+            s = set_add(out, sel->ids[i], err);
+        }
+        return s;
+    case FFD_RIG_SELECT_NEAR: {
+        ffd_tsv_proxy proxy;
+        ffd_tsv_get_proxy(t, &proxy);
+        size_t m = proxy.vertex_count ? proxy.vertex_count : nv;
+        double best = INFINITY;
+        uint32_t arg = 0;
+        for (size_t i = 0; i < m; i++) {
+            uint32_t v = proxy.vertex_count ? proxy.vertices[i] : (uint32_t)i;
+            const double *p = P + 3 * (size_t)v;
+            double d = (p[0] - sel->near[0]) * (p[0] - sel->near[0]) +
+                       (p[1] - sel->near[1]) * (p[1] - sel->near[1]) +
+                       (p[2] - sel->near[2]) * (p[2] - sel->near[2]);
+            if (d < best) {
+                best = d;
+                arg = v;
+            }
+        }
+        return set_add(out, arg, err);
+    }
+    case FFD_RIG_SELECT_BOX: {
+        size_t before = out->count;
+        for (size_t v = 0; v < nv && !s; v++) {
+            const double *p = P + 3 * v;
+            int inside = 1;
+            for (int a = 0; a < 3; a++)
+                if (p[a] < sel->box_min[a] || p[a] > sel->box_max[a])
+                    inside = 0;
+            if (inside)
+                s = set_add(out, (uint32_t)v, err);
+        }
+        if (!s && out->count == before && !sel->id_count) {
+            /* an empty box is almost always a mistake in the rig */
+            return ffd_fail(err, FFD_ERR_INVALID,
+                            "box [%g, %g, %g] - [%g, %g, %g] holds no control point",
+                            sel->box_min[0], sel->box_min[1], sel->box_min[2], sel->box_max[0],
+                            sel->box_max[1], sel->box_max[2]);
+        }
+        return s;
+    }
+    default: {
+        ffd_tsv_element kind = sel->kind == FFD_RIG_SELECT_EDGES   ? FFD_TSV_EDGE
+                               : sel->kind == FFD_RIG_SELECT_FACES ? FFD_TSV_FACE
+                                                                    : FFD_TSV_CELL;
+        for (size_t i = 0; i < sel->id_count && !s; i++) {
+            uint32_t *ids = NULL;
+            size_t count = 0;
+            ffd_error inner = {{0}};
+            s = ffd_tsv_element_points(t, kind, sel->ids[i], &ids, &count, &inner);
+            if (s)
+                return ffd_fail(err, s, "%s[%zu]: %s", select_name(sel->kind), i, inner.message);
+            for (size_t j = 0; j < count && !s; j++)
+                s = set_add(out, ids[j], err);
+            ffd_free(ids);
+        }
+        return s;
+    }
+    }
+}
+
+/* Where a handle's points go: translated, or rotated about its centre. */
+static void handle_targets(const ffd_rig_tsv_handle *h, const double *P, const uint32_t *ids,
+                           size_t count, double *targets)
+{
+    double c[3] = {0, 0, 0}, k[3] = {0, 0, 0};
+    if (h->has_rotate) {
+        if (h->has_center) {
+            memcpy(c, h->center, sizeof c);
+        } else {
+            for (size_t i = 0; i < count; i++)
+                for (int a = 0; a < 3; a++)
+                    c[a] += P[3 * (size_t)ids[i] + a] / (double)count;
+        }
+        double len = sqrt(h->axis[0] * h->axis[0] + h->axis[1] * h->axis[1] +
+                          h->axis[2] * h->axis[2]);
+        for (int a = 0; a < 3; a++)
+            k[a] = h->axis[a] / len;
+    }
+    for (size_t i = 0; i < count; i++) {
+        const double *p = P + 3 * (size_t)ids[i];
+        double *q = targets + 3 * i;
+        if (h->has_delta) {
+            for (int a = 0; a < 3; a++)
+                q[a] = p[a] + h->delta[a];
+        } else {
+            double v[3] = {p[0] - c[0], p[1] - c[1], p[2] - c[2]}, r[3];
+            ffd_rig_rotate(k, h->angle, v, r);
+            for (int a = 0; a < 3; a++)
+                q[a] = c[a] + r[a];
+        }
+    }
+}
+
+/* Sets the frozen set to exactly the points of the selections. */
+static ffd_status apply_freeze(ffd_tsv *t, const ffd_rig_tsv_step *st, id_set *scratch,
+                               ffd_error *err)
+{
+    const size_t nv = ffd_tsv_control_count(t);
+    ffd_status s = FFD_OK;
+    set_clear(scratch);
+    for (size_t f = 0; f < st->freeze_count && !s; f++) {
+        ffd_error inner = {{0}};
+        s = select_points(t, &st->freeze[f], scratch, &inner);
+        if (s)
+            return ffd_fail(err, s, "freeze[%zu]: %s", f, inner.message);
+    }
+    for (size_t v = 0; v < nv && !s; v++)
+        s = ffd_tsv_set_frozen(t, (uint32_t)v, scratch->in[v], err);
+    set_clear(scratch);
+    return s;
+}
+
+static ffd_status step_refine(ffd_tsv *t, const ffd_rig_tsv_step *st, ffd_rig_report *report,
+                              ffd_error *err)
+{
+    ffd_tsv_insertion *ins = NULL;
+    size_t count = 0, cap = 0;
+    ffd_status s = FFD_OK;
+    for (size_t i = 0; i < st->refinement_count && !s; i++) {
+        const ffd_rig_tsv_refinement *r = &st->refinements[i];
+        if (r->proxy_cells) {
+            /* octree split of every cell inside the proxy (Fig. 6-7) */
+            const tsv_lattice *L = t->L;
+            for (size_t c = 0; c < L->nc && !s; c++) {
+                if (L->cells[c].outside)
+                    continue;
+                int thick = 0;
+                for (int a = 0; a < 3; a++)
+                    thick += L->cells[c].hi[a] > L->cells[c].lo[a] &&
+                             tsv_kappa(L->cells[c].hi[a]) > tsv_kappa(L->cells[c].lo[a]);
+                if (!thick)
+                    continue;
+                if (!ffd_grow((void **)&ins, &cap, count + 1, sizeof *ins))
+                    s = ffd_fail(err, FFD_ERR_NOMEM, "out of memory");
+                else
+                    ins[count++] = (ffd_tsv_insertion){FFD_TSV_CELL, (uint32_t)c, 0};
+            }
+            continue;
+        }
+        ffd_tsv_insertion one = {r->kind, r->id, r->ratio};
+        if (r->by_near) {
+            ffd_error inner = {{0}};
+            s = ffd_tsv_locate(t, r->kind, r->near, &one.id, &inner);
+            if (s) {
+                s = ffd_fail(err, s, "refine[%zu]: %s", i, inner.message);
+                break;
+            }
+        }
+        if (!ffd_grow((void **)&ins, &cap, count + 1, sizeof *ins))
+            s = ffd_fail(err, FFD_ERR_NOMEM, "out of memory");
+        else
+            ins[count++] = one;
+    }
+    if (!s) {
+        ffd_tsv_refine_report rr;
+        s = ffd_tsv_refine(t, ins, count, &rr, err);
+        if (!s && report) {
+            report->refinements++;
+            report->added_points += rr.added_points;
+            report->moved_points += rr.moved_points;
+        }
+    }
+    ffd_free(ins);
+    return s;
+}
+
+static ffd_status step_deform(ffd_tsv *t, const ffd_rig_tsv_step *st, id_set *set,
+                              ffd_rig_report *report, ffd_error *err)
+{
+    ffd_status s = apply_freeze(t, st, set, err);
+    if (s)
+        return s;
+    const double *P = ffd_tsv_control_points(t);
+    double *targets = NULL;
+    size_t cap = 0;
+    set_clear(set);
+    for (size_t h = 0; h < st->handle_count && !s; h++) {
+        size_t before = set->count;
+        ffd_error inner = {{0}};
+        s = select_points(t, &st->handles[h].sel, set, &inner);
+        if (s) {
+            s = ffd_fail(err, s, "handles[%zu]: %s", h, inner.message);
+            break;
+        }
+        for (size_t i = before; i < set->count; i++)
+            if (ffd_tsv_frozen(t, set->ids[i])) {
+                s = ffd_fail(err, FFD_ERR_INVALID,
+                             "handles[%zu]: control point %u is also frozen: a target for a "
+                             "frozen point conflicts with keeping it fixed",
+                             h, set->ids[i]);
+                break;
+            }
+        if (s)
+            break;
+        if (!ffd_grow((void **)&targets, &cap, 3 * set->count, sizeof(double))) {
+            s = ffd_fail(err, FFD_ERR_NOMEM, "out of memory");
+            break;
+        }
+        handle_targets(&st->handles[h], P, set->ids + before, set->count - before,
+                       targets + 3 * before);
+    }
+    ffd_tsv_arap *arap = NULL;
+    ffd_tsv_arap_report ar = {0};
+    if (!s)
+        s = ffd_tsv_arap_begin(t, set->ids, set->count, &st->arap, &arap, err);
+    if (!s)
+        s = ffd_tsv_arap_solve(arap, targets, &ar, err);
+    ffd_tsv_arap_destroy(arap);
+    if (!s && report) {
+        report->arap_solves++;
+        if (ar.max_handle_error > report->max_handle_error)
+            report->max_handle_error = ar.max_handle_error;
+    }
+    set_clear(set);
+    ffd_free(targets);
+    return s;
+}
+
+static ffd_status step_move(ffd_tsv *t, const ffd_rig_tsv_step *st, id_set *set, ffd_error *err)
+{
+    ffd_status s = FFD_OK;
+    for (size_t h = 0; h < st->handle_count && !s; h++) {
+        set_clear(set);
+        ffd_error inner = {{0}};
+        s = select_points(t, &st->handles[h].sel, set, &inner);
+        if (s)
+            return ffd_fail(err, s, "move[%zu]: %s", h, inner.message);
+        double *q = ffd_malloc_array(set->count ? set->count : 1, 3 * sizeof(double));
+        if (!q)
+            return ffd_fail(err, FFD_ERR_NOMEM, "out of memory");
+        const double *P = ffd_tsv_control_points(t);
+        handle_targets(&st->handles[h], P, set->ids, set->count, q);
+        for (size_t i = 0; i < set->count && !s; i++) {
+            const double *p = P + 3 * (size_t)set->ids[i];
+            double d[3] = {q[3 * i] - p[0], q[3 * i + 1] - p[1], q[3 * i + 2] - p[2]};
+            s = ffd_tsv_move(t, set->ids[i], d, err);
+        }
+        ffd_free(q);
+    }
+    set_clear(set);
+    return s;
+}
+
+/* Direct manipulation of object vertices through the core solver (Hsu et al. 1992). */
+static ffd_status step_constrain(ffd_tsv *t, const ffd_rig_tsv_step *st, id_set *set,
+                                 const ffd_rig *rig, ffd_rig_report *report, ffd_error *err)
+{
+    ffd_status s = apply_freeze(t, st, set, err);
+    if (s)
+        return s;
+    const size_t k = st->constraint_count, n = ffd_tsv_point_count(t);
+    for (size_t c = 0; c < k; c++)
+        if (st->constraints[c].vertex >= n)
+            return ffd_fail(err, FFD_ERR_RANGE, "targets[%zu].vertex: %u: the mesh has %zu vertices",
+                            c, st->constraints[c].vertex, n);
+    ffd_linear_map map;
+    if ((s = ffd_tsv_linear_map(t, &map, err)))
+        return s;
+    double *x = ffd_malloc_array(n, 3 * sizeof(double));
+    size_t *rows = ffd_malloc_array(k ? k : 1, sizeof(size_t));
+    double *cur = ffd_malloc_array(k ? k : 1, 3 * sizeof(double));
+    double *tgt = ffd_malloc_array(k ? k : 1, 3 * sizeof(double));
+    double *delta = ffd_malloc_array(map.variable_count ? map.variable_count : 1, 3 * sizeof(double));
+    if (!x || !rows || !cur || !tgt || !delta) {
+        s = ffd_fail(err, FFD_ERR_NOMEM, "out of memory");
+        goto done;
+    }
+    if ((s = ffd_tsv_eval(t, x, err)))
+        goto done;
+    for (size_t c = 0; c < k; c++) {
+        rows[c] = st->constraints[c].vertex;
+        memcpy(cur + 3 * c, x + 3 * rows[c], 3 * sizeof(double));
+        memcpy(tgt + 3 * c, st->constraints[c].target, 3 * sizeof(double));
+    }
+    ffd_manip_options mo = {rig->rcond};
+    ffd_manip_result mr;
+    if ((s = ffd_manip_solve(&map, rows, k, cur, tgt, &mo, delta, NULL, &mr, err)))
+        goto done;
+    const size_t nv = ffd_tsv_control_count(t);
+    for (size_t v = 0; v < nv && !s; v++)
+        if (map.tie[v] != FFD_TIE_FIXED)
+            s = ffd_tsv_move(t, (uint32_t)v, delta + 3 * (size_t)map.tie[v], err);
+    if (!s && report) {
+        report->rank = mr.rank;
+        if ((s = ffd_tsv_eval(t, x, err)))
+            goto done;
+        double *reached = ffd_malloc_array(k ? k : 1, 3 * sizeof(double));
+        double *res = ffd_malloc_array(k ? k : 1, sizeof(double));
+        if (!reached || !res) {
+            ffd_free(reached);
+            ffd_free(res);
+            s = ffd_fail(err, FFD_ERR_NOMEM, "out of memory");
+            goto done;
+        }
+        for (size_t c = 0; c < k; c++)
+            memcpy(reached + 3 * c, x + 3 * rows[c], 3 * sizeof(double));
+        ffd_free(report->reached);
+        ffd_free(report->residuals);
+        report->reached = reached;
+        report->residuals = res;
+        report->constraint_count = k;
+        report->max_residual = ffd_rig_residuals(k, reached, tgt, res);
+    }
+done:
+    ffd_free(x);
+    ffd_free(rows);
+    ffd_free(cur);
+    ffd_free(tgt);
+    ffd_free(delta);
+    return s;
+}
+
+/* The lattice's edges and proxy, copied into the report. */
+static ffd_status report_lattice(const ffd_tsv *t, ffd_rig_report *report, ffd_error *err)
+{
+    const size_t nv = ffd_tsv_control_count(t), ne = ffd_tsv_element_count(t, FFD_TSV_EDGE);
+    ffd_tsv_proxy proxy;
+    ffd_tsv_get_proxy(t, &proxy);
+    size_t corners = proxy.face_offsets ? proxy.face_offsets[proxy.face_count] : 0;
+    report->control_points = ffd_malloc_array(nv ? nv : 1, 3 * sizeof(double));
+    report->lattice_edges = ffd_malloc_array(ne ? ne : 1, 2 * sizeof(uint32_t));
+    report->proxy_offsets = ffd_malloc_array(proxy.face_count + 1, sizeof(uint32_t));
+    report->proxy_indices = ffd_malloc_array(corners ? corners : 1, sizeof(uint32_t));
+    if (!report->control_points || !report->lattice_edges || !report->proxy_offsets ||
+        !report->proxy_indices)
+        return ffd_fail(err, FFD_ERR_NOMEM, "out of memory for the report");
+    memcpy(report->control_points, ffd_tsv_control_points(t), nv * 3 * sizeof(double));
+    report->control_count = nv;
+    for (size_t e = 0; e < ne; e++)
+        ffd_tsv_edge(t, (uint32_t)e, report->lattice_edges + 2 * e, NULL, NULL);
+    report->lattice_edge_count = ne;
+    report->proxy_offsets[0] = 0;
+    if (proxy.face_count)
+        memcpy(report->proxy_offsets, proxy.face_offsets, (proxy.face_count + 1) * sizeof(uint32_t));
+    if (corners)
+        memcpy(report->proxy_indices, proxy.face_indices, corners * sizeof(uint32_t));
+    report->proxy_face_count = proxy.face_count;
+    report->proxy_vertex_count = proxy.vertex_count;
+    report->cell_count = ffd_tsv_element_count(t, FFD_TSV_CELL);
+    report->max_weight_deviation = ffd_tsv_max_weight_deviation(t);
+    return FFD_OK;
+}
+
+ffd_status ffd_rig_apply_tspline(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report *report,
+                                 ffd_error *err)
+{
+    const ffd_rig_tspline *rt = &rig->tsv;
+    const char *name = rig->name;
+    const size_t n = ffd_mesh_vertex_count(mesh);
+    ffd_error inner = {{0}};
+    ffd_tsv *t = NULL;
+    double *x = NULL, *jac = NULL;
+    id_set set = {0};
+    ffd_rig_report local;
+    ffd_rig_report *rep = report ? report : &local;
+    memset(rep, 0, sizeof *rep);
+    double t0 = ffd_now();
+    ffd_status s = ffd_tsv_create(ffd_mesh_positions(mesh), n, ffd_mesh_face_offsets(mesh),
+                                  ffd_mesh_face_indices(mesh), ffd_mesh_face_count(mesh),
+                                  rt->resolution, &rt->options, &t, &inner);
+    if (s)
+        return ffd_rig_wrap(err, s, name, "tspline", &inner);
+    double t1 = ffd_now();
+    for (size_t i = 0; i < rt->step_count && !s; i++) {
+        const ffd_rig_tsv_step *st = &rt->steps[i];
+        set.count = 0;
+        ffd_free(set.in);
+        set.in = ffd_calloc(ffd_tsv_control_count(t), 1);
+        if (!set.in) {
+            s = ffd_fail(&inner, FFD_ERR_NOMEM, "out of memory");
+        } else if (st->kind == FFD_RIG_STEP_REFINE) {
+            s = step_refine(t, st, rep, &inner);
+        } else if (st->kind == FFD_RIG_STEP_DEFORM) {
+            s = step_deform(t, st, &set, rep, &inner);
+        } else if (st->kind == FFD_RIG_STEP_MOVE) {
+            s = step_move(t, st, &set, &inner);
+        } else {
+            s = step_constrain(t, st, &set, rig, rep, &inner);
+        }
+        if (s) {
+            static const char *const kinds[] = {"refine", "deform", "move", "constraints"};
+            char context[64];
+            snprintf(context, sizeof context, "steps[%zu].%s", i, kinds[st->kind]);
+            s = ffd_rig_wrap(err, s, name, context, &inner);
+        }
+    }
+    double t2 = ffd_now();
+    if (!s) {
+        x = ffd_malloc_array(n, 3 * sizeof(double));
+        jac = ffd_malloc_array(n, 9 * sizeof(double));
+        if (!x || !jac)
+            s = ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory for %zu vertices", name, n);
+    }
+    if (!s && (s = ffd_tsv_eval(t, x, &inner)) == FFD_OK)
+        s = ffd_tsv_jacobian(t, jac, &inner);
+    if (!s && (s = ffd_tsv_check_folds(t, rt->fold_samples, &rep->folds, &inner)))
+        s = ffd_rig_wrap(err, s, name, "fold check", &inner);
+    double t3 = ffd_now();
+    if (!s && (s = report_lattice(t, rep, &inner)))
+        s = ffd_rig_wrap(err, s, name, "report", &inner);
+    if (!s && (s = ffd_mesh_set_positions(mesh, x, jac, &inner)))
+        s = ffd_rig_wrap(err, s, name, "deformed positions", &inner);
+    if (!s) {
+        rep->tspline = 1;
+        rep->timings.bind = t1 - t0;
+        rep->timings.solve = t2 - t1;
+        rep->timings.evaluate = t3 - t2;
+    }
+    if (s || !report)
+        ffd_rig_report_free(rep);
+    ffd_free(set.ids);
+    ffd_free(set.in);
+    ffd_free(x);
+    ffd_free(jac);
+    ffd_tsv_destroy(t);
+    return s;
+}

@@ -1,0 +1,309 @@
+/* tsv — evaluation of the tailored cubic T-spline volume (Zhang, Zheng &
+ * Cai 2020, eq. 1; design §2): F(s,t,u) = sum_v W_v P_v B_v(s,t,u) with
+ * B_v = N[s_v](s) N[t_v](t) N[u_v](u). The univariate basis is Cox-de Boor on
+ * the kappa values of the five sigma knots; a uniform grid of G^3 bins over
+ * [0,1]^3 lists the vertices whose support meets each bin; the transfer
+ * matrix Phi caches W_v B_v at the object's fixed parameters. */
+#include "tspline/tsv.h"
+
+#include <math.h>
+#include <string.h>
+#ifdef _OPENMP
+#include <omp.h>
+#endif
+
+struct tsv_support {
+    size_t nv;
+    double (*kv)[3][5]; /* kappa values of the local knot vectors */
+    double *W;
+    uint32_t G;
+    size_t *binptr;     /* G^3 + 1 */
+    uint32_t *binv;
+    size_t max;         /* most candidates in a bin */
+};
+
+/* Cox-de Boor on knot values t[0..4] (zero denominators give 0). */
+static double basis_kappa(const double t[5], double x, double *dx)
+{
+    double N[4];
+    if (x < t[0] || x > t[4]) {
+        if (dx)
+            *dx = 0.0;
+        return 0.0;
+    }
+    /* degree 0: right-open indicators, closed at x = 1 (design §2) */
+    for (int i = 0; i < 4; i++)
+        N[i] = ((t[i] <= x && x < t[i + 1]) || (x == 1.0 && t[i + 1] == 1.0 && t[i] < 1.0)) ? 1.0
+                                                                                           : 0.0;
+    for (int p = 1; p <= 2; p++)
+        for (int i = 0; i + p < 4; i++) {
+            double dl = t[i + p] - t[i], dr = t[i + p + 1] - t[i + 1];
+            double l = dl > 0.0 ? (x - t[i]) / dl * N[i] : 0.0;
+            double r = dr > 0.0 ? (t[i + p + 1] - x) / dr * N[i + 1] : 0.0;
+            N[i] = l + r;
+        }
+    double dl = t[3] - t[0], dr = t[4] - t[1];
+    if (dx)
+        *dx = 3.0 * ((dl > 0.0 ? N[0] / dl : 0.0) - (dr > 0.0 ? N[1] / dr : 0.0));
+    return (dl > 0.0 ? (x - t[0]) / dl * N[0] : 0.0) + (dr > 0.0 ? (t[4] - x) / dr * N[1] : 0.0);
+}
+
+double tsv_basis(const double knots[5], double x, double *dx)
+{
+    double t[5];
+    for (int i = 0; i < 5; i++)
+        t[i] = tsv_kappa(knots[i]);
+    return basis_kappa(t, x, dx);
+}
+
+static uint32_t bin1(uint32_t G, double x)
+{
+    if (!(x > 0.0))
+        return 0;
+    uint32_t b = (uint32_t)(x * G);
+    return b >= G ? G - 1 : b;
+}
+
+ffd_status tsv_support_build(const tsv_lattice *L, tsv_support **out, ffd_error *err)
+{
+    *out = NULL;
+    tsv_support *S = ffd_calloc(1, sizeof *S);
+    if (!S)
+        return ffd_fail(err, FFD_ERR_NOMEM, "tsv support: out of memory");
+    S->nv = L->nv;
+    double g = ceil(2.0 * cbrt((double)(L->nv ? L->nv : 1)));
+    S->G = g < 1.0 ? 1u : (g > 64.0 ? 64u : (uint32_t)g);
+    uint32_t G = S->G;
+    size_t nb = (size_t)G * G * G;
+    S->kv = ffd_malloc_array(L->nv ? L->nv : 1, sizeof *S->kv);
+    S->W = ffd_malloc_array(L->nv ? L->nv : 1, sizeof *S->W);
+    S->binptr = ffd_calloc(nb + 1, sizeof *S->binptr);
+    if (!S->kv || !S->W || !S->binptr)
+        goto nomem;
+    for (size_t v = 0; v < L->nv; v++) {
+        double k[3][5];
+        tsv_infer_knots(L, (uint32_t)v, k);
+        for (int d = 0; d < 3; d++)
+            for (int i = 0; i < 5; i++)
+                S->kv[v][d][i] = tsv_kappa(k[d][i]);
+        S->W[v] = L->verts[v].W;
+    }
+    /* two passes: counts, then the CSR lists (ascending vertex ids) */
+    for (int pass = 0; pass < 2; pass++) {
+        for (size_t v = 0; v < L->nv; v++) {
+            uint32_t lo[3], hi[3], b[3];
+            for (int d = 0; d < 3; d++) {
+                lo[d] = bin1(G, S->kv[v][d][0]);
+                hi[d] = bin1(G, S->kv[v][d][4]);
+            }
+            for (b[0] = lo[0]; b[0] <= hi[0]; b[0]++)
+                for (b[1] = lo[1]; b[1] <= hi[1]; b[1]++)
+                    for (b[2] = lo[2]; b[2] <= hi[2]; b[2]++) {
+                        size_t id = ((size_t)b[0] * G + b[1]) * G + b[2];
+                        if (pass == 0)
+                            S->binptr[id + 1]++;
+                        else
+                            S->binv[S->binptr[id]++] = (uint32_t)v;
+                    }
+        }
+        if (pass == 0) {
+            for (size_t i = 0; i < nb; i++) {
+                if (S->binptr[i + 1] > S->max)
+                    S->max = S->binptr[i + 1];
+                S->binptr[i + 1] += S->binptr[i];
+            }
+            S->binv = ffd_malloc_array(S->binptr[nb] ? S->binptr[nb] : 1, sizeof *S->binv);
+            if (!S->binv)
+                goto nomem;
+        } else {
+            /* the fill advanced each start to the next bin's start: shift back */
+            for (size_t i = nb; i > 0; i--)
+                S->binptr[i] = S->binptr[i - 1];
+            S->binptr[0] = 0;
+        }
+    }
+    *out = S;
+    return FFD_OK;
+nomem:
+    tsv_support_destroy(S);
+    return ffd_fail(err, FFD_ERR_NOMEM, "tsv support: out of memory");
+}
+
+void tsv_support_destroy(tsv_support *S)
+{
+    if (!S)
+        return;
+    ffd_free(S->kv);
+    ffd_free(S->W);
+    ffd_free(S->binptr);
+    ffd_free(S->binv);
+    ffd_free(S);
+}
+
+size_t tsv_support_max(const tsv_support *S)
+{
+    return S->max;
+}
+
+/* W_v B_v at x (and its gradient) for one candidate; false when outside the closed support. */
+static bool blend(const tsv_support *S, uint32_t v, const double x[3], double *w, double g[3])
+{
+    double(*k)[5] = S->kv[v];
+    double N[3], dN[3];
+    for (int d = 0; d < 3; d++)
+        if (x[d] < k[d][0] || x[d] > k[d][4])
+            return false;
+    for (int d = 0; d < 3; d++)
+        N[d] = basis_kappa(k[d], x[d], g ? &dN[d] : NULL);
+    double W = S->W[v];
+    *w = W * N[0] * N[1] * N[2];
+    if (g) {
+        g[0] = W * dN[0] * N[1] * N[2];
+        g[1] = W * N[0] * dN[1] * N[2];
+        g[2] = W * N[0] * N[1] * dN[2];
+    }
+    return true;
+}
+
+static const uint32_t *candidates(const tsv_support *S, const double x[3], size_t *n)
+{
+    uint32_t G = S->G;
+    size_t id = ((size_t)bin1(G, x[0]) * G + bin1(G, x[1])) * G + bin1(G, x[2]);
+    *n = S->binptr[id + 1] - S->binptr[id];
+    return S->binv + S->binptr[id];
+}
+
+size_t tsv_support_eval(const tsv_support *S, const double stu[3], uint32_t *ids, double *w,
+                        double *grad)
+{
+    size_t nc, m = 0;
+    const uint32_t *c = candidates(S, stu, &nc);
+    for (size_t i = 0; i < nc; i++) {
+        double val, g[3];
+        if (!blend(S, c[i], stu, &val, grad ? g : NULL))
+            continue;
+        if (val == 0.0 && (!grad || (g[0] == 0.0 && g[1] == 0.0 && g[2] == 0.0)))
+            continue;
+        ids[m] = c[i];
+        w[m] = val;
+        if (grad)
+            memcpy(grad + 3 * m, g, sizeof g);
+        m++;
+    }
+    return m;
+}
+
+void tsv_eval_point(const tsv_lattice *L, const tsv_support *S, int channel, const double stu[3],
+                    double out[3], double *jac)
+{
+    double x[3];
+    for (int d = 0; d < 3; d++)
+        x[d] = stu[d] < 0.0 ? 0.0 : (stu[d] > 1.0 ? 1.0 : stu[d]);
+    out[0] = out[1] = out[2] = 0.0;
+    if (jac)
+        memset(jac, 0, 9 * sizeof *jac);
+    size_t nc;
+    const uint32_t *c = candidates(S, x, &nc);
+    for (size_t i = 0; i < nc; i++) {
+        double val, g[3];
+        if (!blend(S, c[i], x, &val, jac ? g : NULL))
+            continue;
+        const double *P = L->verts[c[i]].P[channel];
+        for (int r = 0; r < 3; r++) {
+            out[r] += val * P[r];
+            if (jac)
+                for (int k = 0; k < 3; k++)
+                    jac[r * 3 + k] += g[k] * P[r];
+        }
+    }
+}
+
+/* ===================================================================
+ * Transfer matrix Phi (design §2)
+ * =================================================================== */
+
+static void clamp01(const double *in, double x[3])
+{
+    for (int d = 0; d < 3; d++)
+        x[d] = in[d] < 0.0 ? 0.0 : (in[d] > 1.0 ? 1.0 : in[d]);
+}
+
+ffd_status tsv_phi_build(const tsv_lattice *L, const tsv_support *S, const double *params,
+                         size_t n, tsv_phi *phi, ffd_error *err)
+{
+    (void)L;
+    memset(phi, 0, sizeof *phi);
+    phi->rows = n;
+    phi->cols = S->nv;
+    phi->rowptr = ffd_calloc(n + 1, sizeof *phi->rowptr);
+    if (!phi->rowptr)
+        return ffd_fail(err, FFD_ERR_NOMEM, "tsv phi: out of memory");
+    /* pass 1: nonzeros per row (independent rows: any thread count) */
+    long long nn = (long long)n;
+#pragma omp parallel for schedule(static)
+    for (long long i = 0; i < nn; i++) {
+        double x[3];
+        clamp01(params + 3 * (size_t)i, x);
+        size_t nc, m = 0;
+        const uint32_t *c = candidates(S, x, &nc);
+        for (size_t k = 0; k < nc; k++) {
+            double val;
+            if (blend(S, c[k], x, &val, NULL) && val != 0.0)
+                m++;
+        }
+        phi->rowptr[i + 1] = m;
+    }
+    for (size_t i = 0; i < n; i++)
+        phi->rowptr[i + 1] += phi->rowptr[i];
+    size_t nnz = phi->rowptr[n];
+    phi->col = ffd_malloc_array(nnz ? nnz : 1, sizeof *phi->col);
+    phi->val = ffd_malloc_array(nnz ? nnz : 1, sizeof *phi->val);
+    if (!phi->col || !phi->val) {
+        tsv_phi_free(phi);
+        return ffd_fail(err, FFD_ERR_NOMEM, "tsv phi: out of memory");
+    }
+#pragma omp parallel for schedule(static)
+    for (long long i = 0; i < nn; i++) {
+        double x[3];
+        clamp01(params + 3 * (size_t)i, x);
+        size_t nc, m = phi->rowptr[i];
+        const uint32_t *c = candidates(S, x, &nc);
+        for (size_t k = 0; k < nc; k++) {
+            double val;
+            if (blend(S, c[k], x, &val, NULL) && val != 0.0) {
+                phi->col[m] = c[k];
+                phi->val[m] = val;
+                m++;
+            }
+        }
+    }
+    return FFD_OK;
+}
+
+void tsv_phi_free(tsv_phi *phi)
+{
+    if (!phi)
+        return;
+    ffd_free(phi->rowptr);
+    ffd_free(phi->col);
+    ffd_free(phi->val);
+    memset(phi, 0, sizeof *phi);
+}
+
+void tsv_phi_apply(const tsv_phi *phi, const tsv_lattice *L, int channel, double *out)
+{
+    long long nn = (long long)phi->rows;
+#pragma omp parallel for schedule(static)
+    for (long long i = 0; i < nn; i++) {
+        double acc[3] = {0.0, 0.0, 0.0};
+        for (size_t k = phi->rowptr[i]; k < phi->rowptr[i + 1]; k++) {
+            const double *P = L->verts[phi->col[k]].P[channel];
+            acc[0] += phi->val[k] * P[0];
+            acc[1] += phi->val[k] * P[1];
+            acc[2] += phi->val[k] * P[2];
+        }
+        out[3 * i] = acc[0];
+        out[3 * i + 1] = acc[1];
+        out[3 * i + 2] = acc[2];
+    }
+}
