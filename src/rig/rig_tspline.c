@@ -77,17 +77,19 @@ static ffd_status select_points(ffd_tsv *t, const ffd_rig_tsv_selection *sel, id
         return set_add(out, arg, err);
     }
     case FFD_RIG_SELECT_BOX: {
-        size_t before = out->count;
+        size_t found = 0; /* inside the box, whether or not already in out */
         for (size_t v = 0; v < nv && !s; v++) {
             const double *p = P + 3 * v;
             int inside = 1;
             for (int a = 0; a < 3; a++)
                 if (p[a] < sel->box_min[a] || p[a] > sel->box_max[a])
                     inside = 0;
-            if (inside)
+            if (inside) {
+                found++;
                 s = set_add(out, (uint32_t)v, err);
+            }
         }
-        if (!s && out->count == before && !sel->id_count) {
+        if (!s && !found) {
             /* an empty box is almost always a mistake in the rig */
             return ffd_fail(err, FFD_ERR_INVALID,
                             "box [%g, %g, %g] - [%g, %g, %g] holds no control point",
@@ -231,23 +233,36 @@ static ffd_status step_deform(ffd_tsv *t, const ffd_rig_tsv_step *st, id_set *se
     const double *P = ffd_tsv_control_points(t);
     double *targets = NULL;
     size_t cap = 0;
+    /* one handle's points, so that a point in two handles (two targets) is caught */
+    id_set one = {0};
+    one.in = ffd_calloc(ffd_tsv_control_count(t) ? ffd_tsv_control_count(t) : 1, 1);
+    if (!one.in)
+        return ffd_fail(err, FFD_ERR_NOMEM, "out of memory");
     set_clear(set);
     for (size_t h = 0; h < st->handle_count && !s; h++) {
         size_t before = set->count;
         ffd_error inner = {{0}};
-        s = select_points(t, &st->handles[h].sel, set, &inner);
+        set_clear(&one);
+        s = select_points(t, &st->handles[h].sel, &one, &inner);
         if (s) {
             s = ffd_fail(err, s, "handles[%zu]: %s", h, inner.message);
             break;
         }
-        for (size_t i = before; i < set->count; i++)
-            if (ffd_tsv_frozen(t, set->ids[i])) {
+        for (size_t i = 0; i < one.count && !s; i++) {
+            uint32_t v = one.ids[i];
+            if (ffd_tsv_frozen(t, v))
                 s = ffd_fail(err, FFD_ERR_INVALID,
                              "handles[%zu]: control point %u is also frozen: a target for a "
                              "frozen point conflicts with keeping it fixed",
-                             h, set->ids[i]);
-                break;
-            }
+                             h, v);
+            else if (set->in[v])
+                s = ffd_fail(err, FFD_ERR_INVALID,
+                             "handles[%zu]: control point %u is given twice (an earlier handle "
+                             "has it too): a point has one target",
+                             h, v);
+            else
+                s = set_add(set, v, err);
+        }
         if (s)
             break;
         if (!ffd_grow((void **)&targets, &cap, 3 * set->count, sizeof(double))) {
@@ -270,6 +285,8 @@ static ffd_status step_deform(ffd_tsv *t, const ffd_rig_tsv_step *st, id_set *se
             report->max_handle_error = ar.max_handle_error;
     }
     set_clear(set);
+    ffd_free(one.ids);
+    ffd_free(one.in);
     ffd_free(targets);
     return s;
 }
