@@ -308,9 +308,11 @@ static ffd_status step_move(ffd_tsv *t, const ffd_rig_tsv_step *st, id_set *set,
         for (size_t i = 0; i < set->count && !s; i++) {
             const double *p = P + 3 * (size_t)set->ids[i];
             double d[3] = {q[3 * i] - p[0], q[3 * i + 1] - p[1], q[3 * i + 2] - p[2]};
-            s = ffd_tsv_move(t, set->ids[i], d, err);
+            s = ffd_tsv_move(t, set->ids[i], d, &inner);
         }
         ffd_free(q);
+        if (s)
+            return ffd_fail(err, s, "move[%zu]: %s", h, inner.message);
     }
     set_clear(set);
     return s;

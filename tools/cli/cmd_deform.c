@@ -2,6 +2,7 @@
 #include "cli.h"
 
 #include <string.h>
+#include <unistd.h>
 
 static const char usage[] =
     "usage: ffd deform IN -o OUT --rig RIG [options]\n"
@@ -165,19 +166,26 @@ int cmd_deform(int argc, char **argv)
         goto done;
     }
     double t2 = cli_now();
-    if (ffd_mesh_write(mesh, out, &options, &err) != FFD_OK) {
-        cli_error(code, "%s", err.message);
-        goto done;
-    }
-    double t3 = cli_now();
+    /* the side outputs first and the mesh last: a failure leaves no output behind */
     if (lattice_out && ffd_rig_report_write_lattice(&report, lattice_out, &err) != FFD_OK) {
         cli_error(code, "%s", err.message);
         goto done;
     }
     if (proxy_out && ffd_rig_report_write_proxy(&report, proxy_out, &err) != FFD_OK) {
         cli_error(code, "%s", err.message);
+        if (lattice_out)
+            unlink(lattice_out);
         goto done;
     }
+    if (ffd_mesh_write(mesh, out, &options, &err) != FFD_OK) {
+        cli_error(code, "%s", err.message);
+        if (lattice_out)
+            unlink(lattice_out);
+        if (proxy_out)
+            unlink(proxy_out);
+        goto done;
+    }
+    double t3 = cli_now();
     if (report.placed && report.placement.note[0])
         fprintf(stderr, "ffd: note: %s\n", report.placement.note);
     if (report.gffd.track.failed_count) {

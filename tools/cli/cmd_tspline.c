@@ -30,6 +30,8 @@ static int parse_resolution(const char *s, unsigned res[3])
 {
     char *end;
     for (int a = 0; a < 3; a++) {
+        if (*s < '0' || *s > '9') /* strtol would take " 6", "+6" */
+            return -1;
         errno = 0;
         long v = strtol(s, &end, 10);
         if (errno || end == s || v < 1 || v > 100000)
@@ -133,8 +135,12 @@ int cmd_tspline(int argc, char **argv)
         cli_error(code, "%s: not a \"tspline\" rig: it has no proxy", rig_path);
         goto done;
     }
-    if (ffd_rig_report_write_proxy(&report, out, &err) != FFD_OK ||
-        (lattice && ffd_rig_report_write_lattice(&report, lattice, &err) != FFD_OK)) {
+    if (ffd_rig_report_write_proxy(&report, out, &err) != FFD_OK) {
+        cli_error(code, "%s", err.message);
+        goto done;
+    }
+    if (lattice && ffd_rig_report_write_lattice(&report, lattice, &err) != FFD_OK) {
+        remove(out); /* on failure nothing is written */
         cli_error(code, "%s", err.message);
         goto done;
     }
