@@ -370,11 +370,11 @@ static void test_parse_malformed(void)
     parse_bad(D("{\"handles\": [{\"points\": [0], \"rotate\": [0,0,1]}]}"), FFD_ERR_PARSE,
               "rig.json: steps[0].deform.handles[0].rotate: expected an object {\"axis\"");
     parse_bad(D("{\"handles\": [{\"points\": [0], \"rotate\": {\"axis\": [0,0,0], \"angle\": 1}}]}"),
-              FFD_ERR_INVALID, "rig.json: steps[0].deform.handles[0].rotate.axis: the zero vector has no direction");
+              FFD_ERR_INVALID, "rig.json: steps[0].deform.handles[0].rotate.axis: the zero vector is no axis");
     parse_bad(D("{\"handles\": [{\"points\": [0], \"rotate\": {\"angle\": 1}}]}"), FFD_ERR_PARSE,
               "rig.json: steps[0].deform.handles[0].rotate.axis: expected an array of 3 finite numbers (missing)");
     parse_bad(D("{\"handles\": [{\"points\": [0], \"rotate\": {\"axis\": [0,0,1]}}]}"), FFD_ERR_PARSE,
-              "rig.json: steps[0].deform.handles[0].rotate.angle: expected a number of radians (missing)");
+              "rig.json: steps[0].deform.handles[0].rotate.angle: expected an angle in radians (missing)");
     parse_bad(D("{\"handles\": [{\"points\": [0], \"rotate\": {\"axis\": [0,0,1], \"angle\": \"1\"}}]}"),
               FFD_ERR_PARSE, "rig.json: steps[0].deform.handles[0].rotate.angle:");
     parse_bad(D("{\"handles\": [{\"points\": [0], \"rotate\": {\"axis\": [0,0,1], \"angle\": 1,"

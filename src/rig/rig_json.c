@@ -321,6 +321,45 @@ static ffd_status read_moves(const parser *p, const cJSON *item, ffd_rig *rig)
     return FFD_OK;
 }
 
+/* {"axis": [x,y,z], "angle": radians} and, when center is not NULL, an
+ * optional "center": [x,y,z] (*has_center says whether it was given). */
+ffd_status rig_read_rotation(const parser *p, const cJSON *item, const char *path,
+                             double axis[3], double *angle, double center[3], int *has_center)
+{
+    static const char *const keys[] = {"axis", "angle", "center", NULL};
+    static const char *const keys_no_center[] = {"axis", "angle", NULL};
+    if (!cJSON_IsObject(item))
+        return rig_expected(p, path, center ? "an object {\"axis\": [x,y,z], \"angle\": radians, "
+                                              "\"center\": [x,y,z] (optional)}"
+                                            : "an object {\"axis\": [x,y,z], \"angle\": radians}");
+    ffd_status s = rig_check_keys(p, item, path, center ? keys : keys_no_center,
+                                  center ? "\"axis\", \"angle\", \"center\"" : "\"axis\", \"angle\"");
+    if (s)
+        return s;
+    char leaf[RIG_PATH_MAX + 64];
+    const cJSON *v = cJSON_GetObjectItemCaseSensitive(item, "axis");
+    snprintf(leaf, sizeof leaf, "%.100s.axis", path);
+    if (!v)
+        return rig_expected(p, leaf, "an array of 3 finite numbers (missing)");
+    if ((s = rig_read_vec3(p, v, leaf, axis)))
+        return s;
+    if (axis[0] == 0 && axis[1] == 0 && axis[2] == 0)
+        return ffd_fail(p->err, FFD_ERR_INVALID, "%s: %s: the zero vector is no axis", p->name,
+                        leaf);
+    v = cJSON_GetObjectItemCaseSensitive(item, "angle");
+    snprintf(leaf, sizeof leaf, "%.100s.angle", path);
+    if (!v)
+        return rig_expected(p, leaf, "an angle in radians (missing)");
+    if ((s = rig_read_number(p, v, leaf, angle)))
+        return s;
+    if (center && (v = cJSON_GetObjectItemCaseSensitive(item, "center"))) {
+        snprintf(leaf, sizeof leaf, "%.100s.center", path);
+        *has_center = 1;
+        return rig_read_vec3(p, v, leaf, center);
+    }
+    return FFD_OK;
+}
+
 ffd_status rig_read_constraints(const parser *p, const cJSON *item, const char *where,
                                 ffd_rig_constraint **out, size_t *count)
 {
@@ -692,25 +731,8 @@ static ffd_status read_pb_edits(const parser *p, const cJSON *item, const char *
         e->scale[0] = e->scale[1] = e->scale[2] = 1;
         e->axis[2] = 1;
         if (rotate) {
-            static const char *const rot_keys[] = {"axis", "angle", NULL};
             snprintf(sub, sizeof sub, "%s.rotate", path);
-            if (!cJSON_IsObject(rotate))
-                return rig_expected(p, sub, "an object {\"axis\": [x,y,z], \"angle\": radians}");
-            if ((s = rig_check_keys(p, rotate, sub, rot_keys, "\"axis\", \"angle\"")))
-                return s;
-            char leaf[RIG_PATH_MAX + 40];
-            snprintf(leaf, sizeof leaf, "%s.axis", sub);
-            if (!(v = cJSON_GetObjectItemCaseSensitive(rotate, "axis")))
-                return rig_expected(p, leaf, "an array of 3 finite numbers (missing)");
-            if ((s = rig_read_vec3(p, v, leaf, e->axis)))
-                return s;
-            if (e->axis[0] == 0 && e->axis[1] == 0 && e->axis[2] == 0)
-                return ffd_fail(p->err, FFD_ERR_INVALID, "%s: %s: the zero vector is no axis",
-                                p->name, leaf);
-            snprintf(leaf, sizeof leaf, "%s.angle", sub);
-            if (!(v = cJSON_GetObjectItemCaseSensitive(rotate, "angle")))
-                return rig_expected(p, leaf, "an angle in radians (missing)");
-            if ((s = rig_read_number(p, v, leaf, &e->angle)))
+            if ((s = rig_read_rotation(p, rotate, sub, e->axis, &e->angle, NULL, NULL)))
                 return s;
         }
         if (scale) {
@@ -1156,29 +1178,9 @@ static ffd_status read_gffd_edit(const parser *p, const cJSON *m, const char *pa
     case 0:
         e->kind = FFD_RIG_EDIT_TRANSLATE;
         return rig_read_vec3(p, v, sub, e->delta);
-    case 1: {
-        static const char *const rot_keys[] = {"axis", "angle", NULL};
+    case 1:
         e->kind = FFD_RIG_EDIT_ROTATE;
-        if (!cJSON_IsObject(v))
-            return rig_expected(p, sub, "an object {\"axis\": [x,y,z], \"angle\": radians}");
-        if ((s = rig_check_keys(p, v, sub, rot_keys, "\"axis\", \"angle\"")))
-            return s;
-        char leaf[RIG_PATH_MAX + 64];
-        const cJSON *a = cJSON_GetObjectItemCaseSensitive(v, "axis");
-        snprintf(leaf, sizeof leaf, "%s.axis", sub);
-        if (!a)
-            return rig_expected(p, leaf, "an array of 3 finite numbers (missing)");
-        if ((s = rig_read_vec3(p, a, leaf, e->axis)))
-            return s;
-        if (e->axis[0] == 0 && e->axis[1] == 0 && e->axis[2] == 0)
-            return ffd_fail(p->err, FFD_ERR_INVALID, "%s: %s: the zero vector is no axis",
-                            p->name, leaf);
-        a = cJSON_GetObjectItemCaseSensitive(v, "angle");
-        snprintf(leaf, sizeof leaf, "%s.angle", sub);
-        if (!a)
-            return rig_expected(p, leaf, "an angle in radians (missing)");
-        return rig_read_number(p, a, leaf, &e->angle);
-    }
+        return rig_read_rotation(p, v, sub, e->axis, &e->angle, NULL, NULL);
     case 2:
         e->kind = FFD_RIG_EDIT_SCALE;
         if (cJSON_IsNumber(v)) {

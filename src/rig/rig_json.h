@@ -35,6 +35,10 @@ ffd_status rig_check_keys(const parser *p, const cJSON *object, const char *path
 ffd_status rig_read_index(const parser *p, const cJSON *item, const char *path, const char *what,
                           uint32_t *out);
 ffd_status rig_read_positive(const parser *p, const cJSON *item, const char *path, double *out);
+/* {"axis": [x,y,z], "angle": radians} and, when center is not NULL, an
+ * optional "center": [x,y,z] (*has_center set when given). */
+ffd_status rig_read_rotation(const parser *p, const cJSON *item, const char *path,
+                             double axis[3], double *angle, double center[3], int *has_center);
 /* An array of {"vertex": id, "target": [x,y,z]} or {"point": [x,y,z], "target": [..]}. */
 ffd_status rig_read_constraints(const parser *p, const cJSON *item, const char *where,
                                 ffd_rig_constraint **out, size_t *count);

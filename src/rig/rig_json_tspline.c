@@ -159,7 +159,6 @@ static ffd_status read_handles(const parser *p, const cJSON *item, const char *p
 {
     static const char *const keys[] = {"points", "near", "box", "edges", "faces", "cells",
                                        "delta",  "rotate", NULL};
-    static const char *const rot_keys[] = {"axis", "angle", "center", NULL};
     if (!cJSON_IsArray(item) || cJSON_GetArraySize(item) == 0)
         return rig_expected(p, path, "a non-empty array of {selection, \"delta\": [x,y,z]} or "
                                      "{selection, \"rotate\": {\"axis\", \"angle\"}}");
@@ -192,35 +191,10 @@ static ffd_status read_handles(const parser *p, const cJSON *item, const char *p
                 return s;
         } else {
             snprintf(k2, sizeof k2, "%.100s.rotate", sub);
-            if (!cJSON_IsObject(rotate))
-                return rig_expected(p, k2, "an object {\"axis\": [x,y,z], \"angle\": radians, "
-                                           "\"center\": [x,y,z] (optional)}");
-            if ((s = rig_check_keys(p, rotate, k2, rot_keys, "\"axis\", \"angle\", \"center\"")))
-                return s;
             h->has_rotate = 1;
-            char k3[RIG_PATH_MAX + 256];
-            const cJSON *axis = cJSON_GetObjectItemCaseSensitive(rotate, "axis");
-            const cJSON *angle = cJSON_GetObjectItemCaseSensitive(rotate, "angle");
-            const cJSON *center = cJSON_GetObjectItemCaseSensitive(rotate, "center");
-            snprintf(k3, sizeof k3, "%.100s.axis", k2);
-            if (!axis)
-                return rig_expected(p, k3, "an array of 3 finite numbers (missing)");
-            if ((s = rig_read_vec3(p, axis, k3, h->axis)))
+            if ((s = rig_read_rotation(p, rotate, k2, h->axis, &h->angle, h->center,
+                                       &h->has_center)))
                 return s;
-            if (h->axis[0] == 0 && h->axis[1] == 0 && h->axis[2] == 0)
-                return ffd_fail(p->err, FFD_ERR_INVALID, "%s: %s: the zero vector has no direction",
-                                p->name, k3);
-            snprintf(k3, sizeof k3, "%.100s.angle", k2);
-            if (!angle)
-                return rig_expected(p, k3, "a number of radians (missing)");
-            if ((s = rig_read_number(p, angle, k3, &h->angle)))
-                return s;
-            if (center) {
-                snprintf(k3, sizeof k3, "%.100s.center", k2);
-                h->has_center = 1;
-                if ((s = rig_read_vec3(p, center, k3, h->center)))
-                    return s;
-            }
         }
         i++;
     }
