@@ -140,6 +140,8 @@ ffd_status tsv_face_ring(const tsv_lattice *L, uint32_t f, uint32_t **ids, size_
 /* Vertex ids on cell c's closed boundary (corners and hanging), ascending. */
 ffd_status tsv_cell_points(const tsv_lattice *L, uint32_t c, uint32_t **ids, size_t *count,
                            ffd_error *err);
+/* max |W_v - 1| over the vertices (design §1.5's diagnostic). */
+double tsv_max_weight_deviation(const tsv_lattice *L);
 /* Checks invariants 1-4 of design §1.2 (tests). FFD_ERR_NUMERIC with the first violation. */
 ffd_status tsv_lattice_validate(const tsv_lattice *L, ffd_error *err);
 
@@ -157,6 +159,11 @@ typedef struct tsv_refine_stats {
  * error the lattice is restored from a snapshot. Updates L->version. */
 ffd_status tsv_refine(tsv_lattice *L, const ffd_tsv_insertion *ins, size_t count,
                       tsv_refine_stats *stats, ffd_error *err);
+/* The same; on success *undo (may be NULL when count == 0) is the lattice as
+ * it was before the edit, for a caller whose own follow-up work can fail
+ * (tsv_lattice_swap_in it back, or tsv_lattice_destroy it). */
+ffd_status tsv_refine_undoable(tsv_lattice *L, const ffd_tsv_insertion *ins, size_t count,
+                               tsv_refine_stats *stats, tsv_lattice **undo, ffd_error *err);
 
 /* ---------------------------------------------------------------------
  * tsv_eval.c

@@ -258,13 +258,7 @@ ffd_status ffd_tsv_knots(const ffd_tsv *t, uint32_t v, double knots[3][5], ffd_e
 
 double ffd_tsv_max_weight_deviation(const ffd_tsv *t)
 {
-    double m = 0;
-    for (size_t v = 0; v < t->L->nv; v++) {
-        double d = fabs(t->L->verts[v].W - 1);
-        if (d > m)
-            m = d;
-    }
-    return m;
+    return tsv_max_weight_deviation(t->L);
 }
 
 ffd_status ffd_tsv_set_control_points(ffd_tsv *t, const double *points, ffd_error *err)
@@ -503,28 +497,21 @@ ffd_status ffd_tsv_refine(ffd_tsv *t, const ffd_tsv_insertion *insertions, size_
 {
     if (report)
         memset(report, 0, sizeof *report);
-    if (count && !insertions)
-        return ffd_fail(err, FFD_ERR_INVALID, "insertions is NULL");
-    for (size_t i = 0; i < count; i++) {
-        ffd_status st = check_element(t, insertions[i].kind, insertions[i].id, err);
-        if (st != FFD_OK)
-            return st;
-    }
     double t0 = ffd_now();
-    tsv_lattice *snapshot = tsv_lattice_clone(t->L);
-    if (!snapshot)
-        return ffd_fail(err, FFD_ERR_NOMEM, "out of memory for the refinement snapshot");
     tsv_refine_stats stats = {0};
-    ffd_status st = tsv_refine(t->L, insertions, count, &stats, err);
-    if (st == FFD_OK)
-        st = rebuild_derived(t, err);
+    tsv_lattice *before = NULL;
+    /* validates the insertions, and rolls the lattice back itself on failure */
+    ffd_status st = tsv_refine_undoable(t->L, insertions, count, &stats, &before, err);
+    if (st != FFD_OK)
+        return st;
+    st = rebuild_derived(t, err);
     if (st != FFD_OK) {
-        tsv_lattice_swap_in(t->L, snapshot);
-        /* the derived data still describe the snapshot when rebuild failed;
-           when tsv_refine failed it restored the lattice itself */
+        /* the derived data still describe the lattice before the edit */
+        if (before)
+            tsv_lattice_swap_in(t->L, before);
         return st;
     }
-    tsv_lattice_destroy(snapshot);
+    tsv_lattice_destroy(before);
     if (report) {
         report->added_points = stats.added_points;
         report->moved_points = stats.moved_points;

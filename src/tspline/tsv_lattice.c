@@ -1386,3 +1386,14 @@ ffd_status tsv_lattice_validate(const tsv_lattice *L, ffd_error *err)
     }
     return FFD_OK;
 }
+
+double tsv_max_weight_deviation(const tsv_lattice *L)
+{
+    double m = 0;
+    for (size_t v = 0; v < L->nv; v++) {
+        double d = fabs(L->verts[v].W - 1);
+        if (d > m)
+            m = d;
+    }
+    return m;
+}

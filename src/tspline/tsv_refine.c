@@ -523,6 +523,14 @@ static ffd_status refine_body(tsv_lattice *L, const ffd_tsv_insertion *ins, size
 ffd_status tsv_refine(tsv_lattice *L, const ffd_tsv_insertion *ins, size_t count,
                       tsv_refine_stats *stats, ffd_error *err)
 {
+    return tsv_refine_undoable(L, ins, count, stats, NULL, err);
+}
+
+ffd_status tsv_refine_undoable(tsv_lattice *L, const ffd_tsv_insertion *ins, size_t count,
+                               tsv_refine_stats *stats, tsv_lattice **undo, ffd_error *err)
+{
+    if (undo)
+        *undo = NULL;
     if (stats)
         memset(stats, 0, sizeof *stats);
     if (count && !ins)
@@ -562,11 +570,11 @@ ffd_status tsv_refine(tsv_lattice *L, const ffd_tsv_insertion *ins, size_t count
         for (size_t v = 0; v < nv0 && old; v++)
             if (memcmp(old + 3 * v, L->verts[v].P[TSV_CURRENT], 3 * sizeof *old) != 0)
                 stats->moved_points++;
-        double dev = 0.0;
-        for (size_t v = 0; v < L->nv; v++)
-            if (fabs(L->verts[v].W - 1.0) > dev)
-                dev = fabs(L->verts[v].W - 1.0);
-        stats->max_weight_deviation = dev;
+        stats->max_weight_deviation = tsv_max_weight_deviation(L);
+    }
+    if (undo) {
+        *undo = snap; /* the lattice before the edit, for the caller's roll-back */
+        snap = NULL;
     }
 done:
     tsv_lattice_destroy(snap);
