@@ -321,6 +321,33 @@ static ffd_status read_moves(const parser *p, const cJSON *item, ffd_rig *rig)
     return FFD_OK;
 }
 
+/* "version", if given, is 1. */
+ffd_status rig_read_version(const parser *p, const cJSON *root)
+{
+    const cJSON *item = cJSON_GetObjectItemCaseSensitive(root, "version");
+    if (item && (!cJSON_IsNumber(item) || item->valuedouble != 1.0))
+        return rig_expected(p, "version", "1 (the only rig version)");
+    return FFD_OK;
+}
+
+/* The top-level keys of a rig of one deformer: each in keys (else "not a
+ * key of "deformer": "NAME" rigs, expected one of TEXT"), none twice; and
+ * the version. */
+ffd_status rig_check_deformer_root(const parser *p, const cJSON *root, const char *deformer,
+                                   const char *const *keys, const char *keys_text)
+{
+    const cJSON *item;
+    cJSON_ArrayForEach(item, root)
+    {
+        if (rig_lookup(item->string, keys) < 0)
+            return ffd_fail(p->err, FFD_ERR_PARSE,
+                            "%s: %.64s: not a key of \"deformer\": \"%s\" rigs, expected one of %s",
+                            p->name, item->string, deformer, keys_text);
+    }
+    ffd_status s = rig_check_keys(p, root, "", keys, "");
+    return s ? s : rig_read_version(p, root);
+}
+
 /* {"axis": [x,y,z], "angle": radians} and, when center is not NULL, an
  * optional "center": [x,y,z] (*has_center says whether it was given). */
 ffd_status rig_read_rotation(const parser *p, const cJSON *item, const char *path,
@@ -1320,23 +1347,13 @@ static ffd_status read_gffd_root(const parser *p, const cJSON *root, ffd_rig *ri
     static const char *const trackings[] = {"gradient", "warp", NULL};
     ffd_rig_gffd *g = &rig->gffd;
     const cJSON *item;
-    cJSON_ArrayForEach(item, root)
-    {
-        if (rig_lookup(item->string, keys) < 0)
-            return ffd_fail(p->err, FFD_ERR_PARSE,
-                            "%s: %.64s: not a key of \"deformer\": \"gffd\" rigs, expected one of "
-                            "\"skeleton\", \"unit\", \"tolerance\", \"max_iterations\", "
-                            "\"tracking\", \"max_samples\", \"edits\", \"replace\", "
-                            "\"correspondences\", \"resample\"",
-                            p->name, item->string);
-    }
-    ffd_status s = rig_check_keys(p, root, "", keys, "");
+    ffd_status s = rig_check_deformer_root(p, root, "gffd", keys,
+                                           "\"skeleton\", \"unit\", \"tolerance\", "
+                                           "\"max_iterations\", \"tracking\", \"max_samples\", "
+                                           "\"edits\", \"replace\", \"correspondences\", "
+                                           "\"resample\"");
     if (s)
         return s;
-    if ((item = cJSON_GetObjectItemCaseSensitive(root, "version"))) {
-        if (!cJSON_IsNumber(item) || item->valuedouble != 1.0)
-            return rig_expected(p, "version", "1 (the only rig version)");
-    }
     if (!(item = cJSON_GetObjectItemCaseSensitive(root, "skeleton")))
         return rig_expected(p, "skeleton", "an array of primitives (missing)");
     if ((s = read_skeleton(p, item, "skeleton", &g->skeleton, &g->skeleton_count)))
@@ -1498,10 +1515,8 @@ static ffd_status read_root(const parser *p, const cJSON *root, ffd_rig *rig)
                               "\"levels\", \"frames\", \"curves\", \"constraint_level\"");
     if (s)
         return s;
-    if ((item = cJSON_GetObjectItemCaseSensitive(root, "version"))) {
-        if (!cJSON_IsNumber(item) || item->valuedouble != 1.0)
-            return rig_expected(p, "version", "1 (the only rig version)");
-    }
+    if ((s = rig_read_version(p, root)))
+        return s;
     if ((item = cJSON_GetObjectItemCaseSensitive(root, "deformer"))) {
         int d = 0;
         if ((s = rig_read_enum(p, item, "deformer", deformers,

@@ -43,6 +43,14 @@ ffd_status rig_read_rotation(const parser *p, const cJSON *item, const char *pat
 ffd_status rig_read_constraints(const parser *p, const cJSON *item, const char *where,
                                 ffd_rig_constraint **out, size_t *count);
 
+/* "version", if given, is 1. */
+ffd_status rig_read_version(const parser *p, const cJSON *root);
+/* The top-level keys of a one-deformer rig: each in keys (else "NAME: KEY: not
+ * a key of "deformer": "DEFORMER" rigs, expected one of KEYS_TEXT"), none
+ * twice; and the version. */
+ffd_status rig_check_deformer_root(const parser *p, const cJSON *root, const char *deformer,
+                                   const char *const *keys, const char *keys_text);
+
 /* The "deformer": "tspline" root (rig_json_tspline.c). */
 ffd_status rig_read_tspline_root(const parser *p, const cJSON *root, ffd_rig *rig);
 

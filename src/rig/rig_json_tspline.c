@@ -444,21 +444,11 @@ ffd_status rig_read_tspline_root(const parser *p, const cJSON *root, ffd_rig *ri
     ffd_rig_tspline *t = &rig->tsv;
     t->resolution[0] = t->resolution[1] = t->resolution[2] = 6;
     const cJSON *item;
-    cJSON_ArrayForEach(item, root)
-    {
-        if (rig_lookup(item->string, keys) < 0)
-            return ffd_fail(p->err, FFD_ERR_PARSE,
-                            "%s: %.64s: not a key of \"deformer\": \"tspline\" rigs, expected one "
-                            "of \"resolution\", \"padding\", \"steps\", \"fold_samples\"",
-                            p->name, item->string);
-    }
-    ffd_status s = rig_check_keys(p, root, "", keys, "");
+    ffd_status s = rig_check_deformer_root(p, root, "tspline", keys,
+                                           "\"resolution\", \"padding\", \"steps\", "
+                                           "\"fold_samples\"");
     if (s)
         return s;
-    if ((item = cJSON_GetObjectItemCaseSensitive(root, "version"))) {
-        if (!cJSON_IsNumber(item) || item->valuedouble != 1.0)
-            return rig_expected(p, "version", "1 (the only rig version)");
-    }
     if ((item = cJSON_GetObjectItemCaseSensitive(root, "resolution"))) {
         if ((s = rig_read_uint3(p, item, "resolution", t->resolution)))
             return s;
