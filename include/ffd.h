@@ -1066,6 +1066,72 @@ ffd_status ffd_rig_write_pbffd_controls(const char *path, const ffd_ebf *control
 ffd_status ffd_rig_apply(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report *report,
                          ffd_error *err);
 
+
+/* ======================================================================
+ * Editing sessions: the editor's model (ffd serve is HTTP around it)
+ * ====================================================================== */
+
+/* A session holds one rest mesh, at most one deformer of any method, the
+ * direct-manipulation pins, an undo/redo history and the drag in progress.
+ * Its state is always expressible as a rig (ffd_session_rig): replaying that
+ * rig with ffd_rig_apply on the same mesh gives the session's positions.
+ * Not thread-safe: callers serialise access (ffd serve holds one lock).
+ * Commands are JSON objects; the operations and their bodies are listed in
+ * docs/editor.md ("The session API"). */
+typedef struct ffd_session ffd_session;
+
+/* Zero means default for every field. */
+typedef struct ffd_session_options {
+    size_t max_undo;           /* undo entries kept; default 200 */
+    size_t max_controls;       /* refuse deformers with more control points; default 2,000,000 */
+} ffd_session_options;
+
+/* Creates a session on mesh, which it takes over on success (destroyed with
+ * the session; untouched on error). name labels the mesh (the file name). */
+ffd_status ffd_session_create(ffd_mesh *mesh, const char *name, const ffd_session_options *options,
+                              ffd_session **out, ffd_error *err);
+void ffd_session_destroy(ffd_session *s);
+/* The rest mesh (positions as loaded) and its label. */
+const ffd_mesh *ffd_session_mesh(const ffd_session *s);
+const char *ffd_session_name(const ffd_session *s);
+
+/* Runs one operation (op: "create", "drag_begin", "drag", "undo", ...) with
+ * its JSON body (may be empty for operations without parameters). On
+ * success *reply (ffd_free) holds *reply_size bytes: a binary frame when
+ * *binary is set (drag steps, influence), else a JSON text. On error the
+ * session is exactly as before the call and err says why: FFD_ERR_PARSE
+ * (malformed JSON, wrong key or type: the message names the key),
+ * FFD_ERR_INVALID (a well-formed request the state refuses: no deformer,
+ * wrong method, no drag in progress), FFD_ERR_RANGE (an id), FFD_ERR_UNSUPPORTED
+ * (unknown op), FFD_ERR_NONFINITE, FFD_ERR_NOMEM. */
+ffd_status ffd_session_command(ffd_session *s, const char *op, const char *body, size_t size,
+                               void **reply, size_t *reply_size, int *binary, ffd_error *err);
+
+/* The state as JSON (mesh, method, parameters, control structure, pins,
+ * undo/redo depth, revision): see docs/editor.md. ffd_free the text. */
+ffd_status ffd_session_state(const ffd_session *s, char **json, size_t *size, ffd_error *err);
+/* The current frame (binary, little-endian, docs/editor.md): deformed vertex
+ * positions, control positions and pin residuals as float32. */
+ffd_status ffd_session_frame(const ffd_session *s, void **data, size_t *size, ffd_error *err);
+/* The rest mesh's triangles (polygons fanned) and rest positions (binary). */
+ffd_status ffd_session_topology(const ffd_session *s, void **data, size_t *size, ffd_error *err);
+/* The session's state as a rig (JSON text, ffd_free): replays with
+ * ffd_rig_apply / ffd deform to the session's positions. FFD_ERR_INVALID
+ * without a deformer. */
+ffd_status ffd_session_rig(const ffd_session *s, char **json, size_t *size, ffd_error *err);
+/* Replaces the deformer by the one a rig builds (an undoable step). name
+ * names the rig in errors; files a GFFD rig refers to are resolved
+ * relative to name's directory and must lie under root (NULL: a rig that
+ * refers to files is refused). On error nothing changes. */
+ffd_status ffd_session_load_rig(ffd_session *s, const char *text, size_t size, const char *name,
+                                const char *root, ffd_error *err);
+/* The deformed mesh in memory, in options->format (FFD_FORMAT_AUTO: the
+ * format it was read in); ffd_free the data. */
+ffd_status ffd_session_export(const ffd_session *s, const ffd_write_options *options,
+                              void **data, size_t *size, ffd_error *err);
+/* The deformed mesh (positions and normals as exported). Borrowed. */
+const ffd_mesh *ffd_session_deformed(const ffd_session *s);
+
 #ifdef __cplusplus
 }
 #endif

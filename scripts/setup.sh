@@ -4,7 +4,8 @@ set -euo pipefail
 PKGS=(build-essential cmake pkg-config
       liblapacke-dev libopenblas-dev libcjson-dev
       clang libclang-rt-14-dev
-      libqhull-dev libsuitesparse-dev)
+      libqhull-dev libsuitesparse-dev
+      libmicrohttpd-dev chromium)
 missing=()
 for p in "${PKGS[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
@@ -15,4 +16,19 @@ if [ ${#missing[@]} -gt 0 ]; then
   echo "setup: installing ${missing[*]}" >&2
   $SUDO apt-get update -qq
   DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+fi
+# Node.js and npm build the editor's page (three.js) and drive its browser tests
+# (playwright-core with Debian's chromium). Debian's nodejs/npm unless a Node.js is already there.
+if ! command -v npm >/dev/null 2>&1; then
+  SUDO=""
+  if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
+  echo "setup: installing nodejs npm" >&2
+  $SUDO apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends nodejs npm >/dev/null
+fi
+root=$(cd "$(dirname "$0")/.." && pwd)
+if [ -f "$root/web/package-lock.json" ] && \
+   { [ ! -d "$root/web/node_modules" ] || [ "$root/web/package-lock.json" -nt "$root/web/node_modules/.package-lock.json" ]; }; then
+  echo "setup: installing the editor's npm packages" >&2
+  (cd "$root/web" && npm ci --no-audit --no-fund --loglevel=error >/dev/null)
 fi
