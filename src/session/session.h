@@ -1,0 +1,127 @@
+/* session — the editor's model (ffd_session, ffd.h): one rest mesh, one
+ * deformer ("method"), pins, undo/redo and the drag in progress. session.c
+ * is generic; each method is one file implementing sess_vtable
+ * (session_lattice.c, session_pbffd.c, session_gffd.c, session_tspline.c).
+ * Invariant: a method's rig (vt->rig) replayed by ffd_rig_apply on the rest
+ * mesh gives the positions vt->eval gives. */
+#ifndef FFD_SESSION_H
+#define FFD_SESSION_H
+
+#include "core/core.h"
+#include "rig/rig_json.h"
+
+#include <cjson/cJSON.h>
+
+/* What a method sees of the session: the rest mesh. */
+typedef struct sess_ctx {
+    const ffd_mesh *mesh;
+    size_t n;                /* vertices */
+    const double *rest;      /* n by 3 */
+    double min[3], max[3];   /* bounding box of the rest mesh */
+    double diag;             /* its diagonal (> 0; 1 for a degenerate mesh) */
+} sess_ctx;
+
+typedef struct sess_method sess_method; /* each method's own struct begins with this */
+typedef struct sess_vtable sess_vtable;
+struct sess_method {
+    const sess_vtable *vt;
+    const sess_ctx *ctx;
+};
+
+/* Errors: messages start with the op ("create: resolution: expected ...").
+ * State conflicts (a request that is well-formed but does not fit the
+ * state) are FFD_ERR_INVALID with a message starting "conflict: " — the
+ * server answers them 409. */
+#define SESS_CONFLICT "conflict: "
+
+enum { SESS_UNDO_NONE = 0, SESS_UNDO_STATE, SESS_UNDO_REBUILD };
+
+struct sess_vtable {
+    const char *name; /* "lattice", "pbffd", "gffd", "tspline" (the rig's "deformer") */
+    void (*destroy)(sess_method *m);
+    /* Deformed vertex positions, ctx->n by 3. */
+    ffd_status (*eval)(sess_method *m, double *out, ffd_error *err);
+    /* The controls shown and dragged (ids 0..count-1) and their current positions. */
+    size_t (*control_count)(const sess_method *m);
+    void (*controls)(const sess_method *m, double *out);
+    /* Adds "params" (the creation parameters) and the method's fields of
+     * "controls" (docs/editor.md: resolution, ebfs, primitives, proxy, ...,
+     * and "edges"; "count" is added by the caller). */
+    ffd_status (*describe)(const sess_method *m, cJSON *params, cJSON *controls, ffd_error *err);
+
+    /* Drags. begin remembers the state; set_controls puts controls ids[0..k)
+     * at targets (k by 3) measured from that state (ARAP for T-spline
+     * handles when arap); set_variables puts the linear map's variables at
+     * begin + dv (map->variable_count by 3); end(commit = 0) restores the
+     * begin state. A method without a linear map (GFFD) has linear_map NULL. */
+    ffd_status (*begin)(sess_method *m, const uint32_t *ids, size_t k, int arap, ffd_error *err);
+    ffd_status (*set_controls)(sess_method *m, const uint32_t *ids, size_t k,
+                               const double *targets, ffd_error *err);
+    ffd_status (*linear_map)(sess_method *m, ffd_linear_map *map, ffd_error *err);
+    ffd_status (*set_variables)(sess_method *m, const double *dv, ffd_error *err);
+    void (*end)(sess_method *m, int commit);
+
+    /* Undo of control edits: an opaque copy of the editable state
+     * (control positions, logs, frames); restore brings it back exactly.
+     * Structural changes (refine, primitive edits, curves) are undone by
+     * rebuilding from the rig instead (ffd_session keeps the rig text). */
+    ffd_status (*snapshot)(const sess_method *m, void **blob, ffd_error *err);
+    ffd_status (*restore)(sess_method *m, const void *blob, ffd_error *err);
+    void (*snapshot_free)(void *blob);
+    /* Every control back at rest (the structure kept). */
+    ffd_status (*reset)(sess_method *m, ffd_error *err);
+
+    /* Writes the rig's keys (after "version" and "deformer") into root. */
+    ffd_status (*rig)(const sess_method *m, cJSON *root, ffd_error *err);
+    /* Per-vertex weight in [0, 1] of controls ids (n floats). */
+    ffd_status (*influence)(sess_method *m, const uint32_t *ids, size_t k, float *w,
+                            ffd_error *err);
+    /* Method-specific ops ("refine", "freeze", "level", "frame", "curve",
+     * "primitive"): FFD_ERR_UNSUPPORTED for an op the method does not know
+     * (the session turns it into a conflict). *undo_kind says what undo
+     * needs: SESS_UNDO_NONE (a view setting), SESS_UNDO_STATE (the snapshot
+     * taken before the op restores it), SESS_UNDO_REBUILD (the structure
+     * changed: undo rebuilds from the rig text taken before the op). The
+     * session takes both before calling. On error nothing changed. */
+    ffd_status (*op)(sess_method *m, const char *op, const cJSON *body, int *undo_kind,
+                     ffd_error *err);
+};
+
+/* Constructors. create: from the body of the "create" op (keys checked,
+ * defaults per docs/editor.md). load: from a parsed rig of this method
+ * (the whole rig replayed; the result must describe the same positions as
+ * ffd_rig_apply of that rig). */
+ffd_status sess_lattice_create(const sess_ctx *ctx, const cJSON *body, sess_method **out,
+                               ffd_error *err);
+ffd_status sess_lattice_load(const sess_ctx *ctx, const ffd_rig *rig, sess_method **out,
+                             ffd_error *err);
+ffd_status sess_pbffd_create(const sess_ctx *ctx, const cJSON *body, sess_method **out,
+                             ffd_error *err);
+ffd_status sess_pbffd_load(const sess_ctx *ctx, const ffd_rig *rig, sess_method **out,
+                           ffd_error *err);
+ffd_status sess_gffd_create(const sess_ctx *ctx, const cJSON *body, sess_method **out,
+                            ffd_error *err);
+ffd_status sess_gffd_load(const sess_ctx *ctx, const ffd_rig *rig, sess_method **out,
+                          ffd_error *err);
+ffd_status sess_tspline_create(const sess_ctx *ctx, const cJSON *body, sess_method **out,
+                               ffd_error *err);
+ffd_status sess_tspline_load(const sess_ctx *ctx, const ffd_rig *rig, sess_method **out,
+                             ffd_error *err);
+
+/* Shared helpers (session_util.c). */
+/* A JSON array of uint32 control ids, each < count, no repeats; *ids is
+ * ffd_malloc'd (NULL when k == 0). */
+ffd_status sess_read_ids(const parser *p, const cJSON *item, const char *path, size_t count,
+                         uint32_t **ids, size_t *k);
+/* cJSON builders that report allocation failure. */
+cJSON *sess_vec3(const double v[3]);
+cJSON *sess_matrix3(const double m[3][3]);
+cJSON *sess_uint_array(const uint32_t *v, size_t n);
+/* Adds [a, b] to an edge array. */
+int sess_add_edge(cJSON *edges, uint32_t a, uint32_t b);
+/* Linear-map influence: per row (vertex) the sum of the weights of the
+ * columns in ids (clamped to [0, 1]). */
+ffd_status sess_map_influence(const ffd_linear_map *map, size_t n, const uint32_t *ids, size_t k,
+                              float *w, ffd_error *err);
+
+#endif

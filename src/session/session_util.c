@@ -1,0 +1,126 @@
+/* session_util — JSON helpers shared by the session's method files. */
+#include "session/session.h"
+
+#include <string.h>
+
+ffd_status sess_read_ids(const parser *p, const cJSON *item, const char *path, size_t count,
+                         uint32_t **ids, size_t *k)
+{
+    *ids = NULL;
+    *k = 0;
+    if (!cJSON_IsArray(item))
+        return rig_expected(p, path, "an array of control ids");
+    size_t m = (size_t)cJSON_GetArraySize(item);
+    if (m == 0)
+        return ffd_fail(p->err, FFD_ERR_INVALID, "%s: %s: expected at least one control id",
+                        p->name, path);
+    uint32_t *out = ffd_malloc_array(m, sizeof *out);
+    unsigned char *seen = count ? ffd_calloc(count, 1) : NULL;
+    if (!out || (count && !seen)) {
+        ffd_free(out);
+        ffd_free(seen);
+        return ffd_fail(p->err, FFD_ERR_NOMEM, "%s: out of memory for %zu ids", p->name, m);
+    }
+    size_t i = 0;
+    const cJSON *v;
+    cJSON_ArrayForEach(v, item)
+    {
+        char where[RIG_PATH_MAX];
+        snprintf(where, sizeof where, "%s[%zu]", path, i);
+        ffd_status s;
+        if (!rig_is_uint32(v))
+            s = rig_expected(p, where, "a control id (a non-negative integer)");
+        else if ((size_t)v->valuedouble >= count)
+            s = ffd_fail(p->err, FFD_ERR_RANGE, "%s: %s: control %.0f out of range (%zu controls)",
+                         p->name, where, v->valuedouble, count);
+        else if (seen[(size_t)v->valuedouble])
+            s = ffd_fail(p->err, FFD_ERR_INVALID, "%s: %s: control %.0f given twice", p->name,
+                         where, v->valuedouble);
+        else
+            s = FFD_OK;
+        if (s) {
+            ffd_free(out);
+            ffd_free(seen);
+            return s;
+        }
+        seen[(size_t)v->valuedouble] = 1;
+        out[i++] = (uint32_t)v->valuedouble;
+    }
+    ffd_free(seen);
+    *ids = out;
+    *k = m;
+    return FFD_OK;
+}
+
+cJSON *sess_vec3(const double v[3])
+{
+    return cJSON_CreateDoubleArray(v, 3);
+}
+
+cJSON *sess_matrix3(const double m[3][3])
+{
+    cJSON *a = cJSON_CreateArray();
+    for (int r = 0; a && r < 3; r++) {
+        cJSON *row = sess_vec3(m[r]);
+        if (!row || !cJSON_AddItemToArray(a, row)) {
+            cJSON_Delete(row);
+            cJSON_Delete(a);
+            return NULL;
+        }
+    }
+    return a;
+}
+
+cJSON *sess_uint_array(const uint32_t *v, size_t n)
+{
+    cJSON *a = cJSON_CreateArray();
+    for (size_t i = 0; a && i < n; i++) {
+        cJSON *x = cJSON_CreateNumber(v[i]);
+        if (!x || !cJSON_AddItemToArray(a, x)) {
+            cJSON_Delete(x);
+            cJSON_Delete(a);
+            return NULL;
+        }
+    }
+    return a;
+}
+
+int sess_add_edge(cJSON *edges, uint32_t a, uint32_t b)
+{
+    uint32_t e[2] = {a, b};
+    cJSON *x = sess_uint_array(e, 2);
+    if (!x || !cJSON_AddItemToArray(edges, x)) {
+        cJSON_Delete(x);
+        return 0;
+    }
+    return 1;
+}
+
+ffd_status sess_map_influence(const ffd_linear_map *map, size_t n, const uint32_t *ids, size_t k,
+                              float *w, ffd_error *err)
+{
+    unsigned char *chosen = ffd_calloc(map->column_count ? map->column_count : 1, 1);
+    uint32_t *cols = ffd_malloc_array(map->max_row_nnz ? map->max_row_nnz : 1, sizeof *cols);
+    double *weights = ffd_malloc_array(map->max_row_nnz ? map->max_row_nnz : 1, sizeof *weights);
+    if (!chosen || !cols || !weights) {
+        ffd_free(chosen);
+        ffd_free(cols);
+        ffd_free(weights);
+        return ffd_fail(err, FFD_ERR_NOMEM, "influence: out of memory");
+    }
+    for (size_t i = 0; i < k; i++)
+        if (ids[i] < map->column_count)
+            chosen[ids[i]] = 1;
+    for (size_t i = 0; i < n && i < map->point_count; i++) {
+        size_t nnz = map->row(map->self, i, cols, weights);
+        double sum = 0;
+        for (size_t e = 0; e < nnz; e++)
+            if (chosen[cols[e]])
+                sum += weights[e];
+        w[i] = (float)(sum < 0 ? 0 : sum > 1 ? 1 : sum);
+    }
+    ffd_free(chosen);
+    ffd_free(cols);
+    ffd_free(weights);
+    return FFD_OK;
+}
