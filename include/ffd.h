@@ -1129,8 +1129,9 @@ ffd_status ffd_session_load_rig(ffd_session *s, const char *text, size_t size, c
  * format it was read in); ffd_free the data. */
 ffd_status ffd_session_export(const ffd_session *s, const ffd_write_options *options,
                               void **data, size_t *size, ffd_error *err);
-/* The deformed mesh (positions and normals as exported). Borrowed. */
-const ffd_mesh *ffd_session_deformed(const ffd_session *s);
+/* The deformed mesh (a new mesh, ffd_mesh_destroy it): the rest mesh with
+ * the session's rig applied, exactly what ffd deform writes. */
+ffd_status ffd_session_deformed(const ffd_session *s, ffd_mesh **out, ffd_error *err);
 
 #ifdef __cplusplus
 }

@@ -239,6 +239,10 @@ void ffd_rig_primitive_free(ffd_rig_primitive *prim);
 ffd_status ffd_rig_apply_tspline(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report *report,
                                  ffd_error *err);
 void ffd_rig_tspline_free(ffd_rig_tspline *t);
+/* A refine step's insertions resolved against the lattice: "near" located,
+ * {"cells": "proxy"} expanded (*out ffd_free'd by the caller). */
+ffd_status ffd_rig_tsv_resolve(ffd_tsv *t, const ffd_rig_tsv_step *st, ffd_tsv_insertion **out,
+                               size_t *out_count, ffd_error *err);
 
 /* A zeroed rig with defaults (bspline, 5x5x5, auto box, margin 0.05). NULL on OOM. */
 ffd_rig *ffd_rig_new(const char *name);

@@ -51,6 +51,9 @@ ffd_status rig_read_version(const parser *p, const cJSON *root);
 ffd_status rig_check_deformer_root(const parser *p, const cJSON *root, const char *deformer,
                                    const char *const *keys, const char *keys_text);
 
+/* A refine step's insertions (rig_json_tspline.c; the editor's "refine" op too). */
+ffd_status rig_read_tsv_refinements(const parser *p, const cJSON *item, const char *path,
+                                    ffd_rig_tsv_step *st);
 /* The "deformer": "tspline" root (rig_json_tspline.c). */
 ffd_status rig_read_tspline_root(const parser *p, const cJSON *root, ffd_rig *rig);
 

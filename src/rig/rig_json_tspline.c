@@ -201,7 +201,7 @@ static ffd_status read_handles(const parser *p, const cJSON *item, const char *p
     return FFD_OK;
 }
 
-static ffd_status read_refinements(const parser *p, const cJSON *item, const char *path,
+ffd_status rig_read_tsv_refinements(const parser *p, const cJSON *item, const char *path,
                                    ffd_rig_tsv_step *st)
 {
     static const char *const keys[] = {"cell", "face", "edge", "cells", "ratio", NULL};
@@ -423,7 +423,7 @@ static ffd_status read_steps(const parser *p, const cJSON *item, ffd_rig_tspline
         snprintf(k2, sizeof k2, "%.100s.%s", sub, body->string);
         st->kind = (ffd_rig_tsv_step_kind)k;
         if (k == 0)
-            s = read_refinements(p, body, k2, st);
+            s = rig_read_tsv_refinements(p, body, k2, st);
         else if (k == 1)
             s = read_deform(p, body, k2, st);
         else if (k == 2)

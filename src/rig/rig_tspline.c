@@ -170,8 +170,8 @@ static ffd_status apply_freeze(ffd_tsv *t, const ffd_rig_tsv_step *st, id_set *s
     return s;
 }
 
-static ffd_status step_refine(ffd_tsv *t, const ffd_rig_tsv_step *st, ffd_rig_report *report,
-                              ffd_error *err)
+ffd_status ffd_rig_tsv_resolve(ffd_tsv *t, const ffd_rig_tsv_step *st, ffd_tsv_insertion **out,
+                               size_t *out_count, ffd_error *err)
 {
     ffd_tsv_insertion *ins = NULL;
     size_t count = 0, cap = 0;
@@ -211,6 +211,21 @@ static ffd_status step_refine(ffd_tsv *t, const ffd_rig_tsv_step *st, ffd_rig_re
         else
             ins[count++] = one;
     }
+    if (s) {
+        ffd_free(ins);
+        return s;
+    }
+    *out = ins;
+    *out_count = count;
+    return FFD_OK;
+}
+
+static ffd_status step_refine(ffd_tsv *t, const ffd_rig_tsv_step *st, ffd_rig_report *report,
+                              ffd_error *err)
+{
+    ffd_tsv_insertion *ins = NULL;
+    size_t count = 0;
+    ffd_status s = ffd_rig_tsv_resolve(t, st, &ins, &count, err);
     if (!s) {
         ffd_tsv_refine_report rr;
         s = ffd_tsv_refine(t, ins, count, &rr, err);

@@ -120,8 +120,16 @@ cJSON *sess_uint_array(const uint32_t *v, size_t n);
 /* Adds [a, b] to an edge array. */
 int sess_add_edge(cJSON *edges, uint32_t a, uint32_t b);
 /* Linear-map influence: per row (vertex) the sum of the weights of the
- * columns in ids (clamped to [0, 1]). */
-ffd_status sess_map_influence(const ffd_linear_map *map, size_t n, const uint32_t *ids, size_t k,
-                              float *w, ffd_error *err);
+ * controls in ids (clamped to [0, 1]); the controls are the map's columns
+ * (by_column) or the variables the columns are tied to (the B-spline
+ * lattice's tripled border). */
+ffd_status sess_map_influence(const ffd_linear_map *map, int by_column, size_t n,
+                              const uint32_t *ids, size_t k, float *w, ffd_error *err);
+
+/* A deep copy of a mesh (through its own format in memory). */
+ffd_status sess_clone_mesh(const ffd_mesh *mesh, ffd_mesh **out, ffd_error *err);
+/* Applies rig to a copy of the rest mesh (the report says what it did). */
+ffd_status sess_apply_rig(const sess_ctx *ctx, const ffd_rig *rig, ffd_rig_report *report,
+                          ffd_error *err);
 
 #endif

@@ -1,6 +1,7 @@
 /* session_util — JSON helpers shared by the session's method files. */
 #include "session/session.h"
 
+#include <stdio.h>
 #include <string.h>
 
 ffd_status sess_read_ids(const parser *p, const cJSON *item, const char *path, size_t count,
@@ -96,10 +97,11 @@ int sess_add_edge(cJSON *edges, uint32_t a, uint32_t b)
     return 1;
 }
 
-ffd_status sess_map_influence(const ffd_linear_map *map, size_t n, const uint32_t *ids, size_t k,
-                              float *w, ffd_error *err)
+ffd_status sess_map_influence(const ffd_linear_map *map, int by_column, size_t n,
+                              const uint32_t *ids, size_t k, float *w, ffd_error *err)
 {
-    unsigned char *chosen = ffd_calloc(map->column_count ? map->column_count : 1, 1);
+    size_t range = by_column ? map->column_count : map->variable_count;
+    unsigned char *chosen = ffd_calloc(range ? range : 1, 1);
     uint32_t *cols = ffd_malloc_array(map->max_row_nnz ? map->max_row_nnz : 1, sizeof *cols);
     double *weights = ffd_malloc_array(map->max_row_nnz ? map->max_row_nnz : 1, sizeof *weights);
     if (!chosen || !cols || !weights) {
@@ -109,18 +111,45 @@ ffd_status sess_map_influence(const ffd_linear_map *map, size_t n, const uint32_
         return ffd_fail(err, FFD_ERR_NOMEM, "influence: out of memory");
     }
     for (size_t i = 0; i < k; i++)
-        if (ids[i] < map->column_count)
+        if (ids[i] < range)
             chosen[ids[i]] = 1;
     for (size_t i = 0; i < n && i < map->point_count; i++) {
         size_t nnz = map->row(map->self, i, cols, weights);
         double sum = 0;
-        for (size_t e = 0; e < nnz; e++)
-            if (chosen[cols[e]])
+        for (size_t e = 0; e < nnz; e++) {
+            uint32_t v = by_column || !map->tie ? cols[e] : map->tie[cols[e]];
+            if (v != FFD_TIE_FIXED && chosen[v])
                 sum += weights[e];
+        }
         w[i] = (float)(sum < 0 ? 0 : sum > 1 ? 1 : sum);
     }
     ffd_free(chosen);
     ffd_free(cols);
     ffd_free(weights);
     return FFD_OK;
+}
+
+ffd_status sess_clone_mesh(const ffd_mesh *mesh, ffd_mesh **out, ffd_error *err)
+{
+    ffd_write_options o = {ffd_mesh_source_format(mesh), FFD_ENCODING_SAME};
+    if (o.format == FFD_FORMAT_AUTO)
+        o.format = FFD_FORMAT_PLY;
+    unsigned char *data = NULL;
+    size_t size = 0;
+    ffd_status st = ffd_mesh_write_memory(mesh, &o, &data, &size, err);
+    if (!st)
+        st = ffd_mesh_read_memory(data, size, o.format, "mesh", out, err);
+    ffd_free(data);
+    return st;
+}
+
+ffd_status sess_apply_rig(const sess_ctx *ctx, const ffd_rig *rig, ffd_rig_report *report,
+                          ffd_error *err)
+{
+    ffd_mesh *copy = NULL;
+    ffd_status st = sess_clone_mesh(ctx->mesh, &copy, err);
+    if (!st)
+        st = ffd_rig_apply(rig, copy, report, err);
+    ffd_mesh_destroy(copy);
+    return st;
 }

@@ -1,0 +1,1304 @@
+/* session — the editor's model (ffd.h "Editing sessions"): the rest mesh,
+ * one method (session.h), pins, the drag in progress, undo/redo, and the
+ * frame / state / rig / export views of it. docs/editor.md lists the ops. */
+#define _XOPEN_SOURCE 700 /* realpath */
+#include "session/session.h"
+
+#include "mesh/mesh.h"
+
+#include <limits.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+enum { UNDO_STATE = 1, UNDO_REBUILD, UNDO_SWAP };
+
+typedef struct pin {
+    uint32_t vertex;
+    double target[3];
+} pin;
+
+typedef struct undo_entry {
+    int kind;
+    void *blob;           /* UNDO_STATE: the method's snapshot */
+    char *rig;            /* UNDO_REBUILD: the rig text */
+    sess_method *method;  /* UNDO_SWAP: the other method (NULL: none) */
+    const sess_vtable *blob_vt;
+    pin *pins;            /* the pins (always) */
+    size_t pin_count;
+    char label[32];
+} undo_entry;
+
+typedef struct undo_stack {
+    undo_entry *items;
+    size_t count, cap;
+} undo_stack;
+
+enum { DRAG_NONE = 0, DRAG_CONTROLS, DRAG_VERTEX };
+enum { MODE_TRANSLATE = 0, MODE_ROTATE, MODE_SCALE };
+
+typedef struct drag_state {
+    int kind;
+    undo_entry before;     /* captured at drag_begin */
+    /* controls */
+    uint32_t *ids;
+    size_t k;
+    double *start;         /* k by 3: positions at begin */
+    int mode;
+    double center[3];
+    /* vertex (direct manipulation): constraints = pins then the vertex */
+    size_t *rows;
+    double *current;       /* constraints by 3, at begin */
+    double *targets;
+    double *delta;         /* variables by 3 */
+    size_t constraints;
+    ffd_linear_map map;
+} drag_state;
+
+struct ffd_session {
+    ffd_mesh *mesh;
+    char *name;
+    sess_ctx ctx;
+    ffd_session_options options;
+    sess_method *method;
+    double *positions;     /* n by 3: the method's current result (rest without one) */
+    pin *pins;
+    size_t pin_count;
+    float *residuals;      /* last direct-manipulation solve: pins (then the dragged vertex) */
+    size_t residual_count;
+    drag_state drag;
+    undo_stack undo, redo;
+    uint32_t revision;
+    double busy_ms;        /* duration of the last command */
+};
+
+/* ---------- small utilities ---------- */
+
+static ffd_status conflict(ffd_error *err, const char *fmt, const char *op)
+{
+    return ffd_fail(err, FFD_ERR_INVALID, SESS_CONFLICT "%s: %s", op, fmt);
+}
+
+static void entry_free(undo_entry *e)
+{
+    if (e->blob && e->blob_vt)
+        e->blob_vt->snapshot_free(e->blob);
+    ffd_free(e->rig);
+    if (e->method)
+        e->method->vt->destroy(e->method);
+    ffd_free(e->pins);
+    memset(e, 0, sizeof *e);
+}
+
+static void stack_clear(undo_stack *st)
+{
+    for (size_t i = 0; i < st->count; i++)
+        entry_free(&st->items[i]);
+    st->count = 0;
+}
+
+static ffd_status stack_push(ffd_session *s, undo_stack *st, undo_entry *e, ffd_error *err)
+{
+    if (st->count == s->options.max_undo) {
+        entry_free(&st->items[0]);
+        memmove(st->items, st->items + 1, (st->count - 1) * sizeof *st->items);
+        st->count--;
+    }
+    if (!ffd_grow((void **)&st->items, &st->cap, st->count + 1, sizeof *st->items)) {
+        entry_free(e);
+        return ffd_fail(err, FFD_ERR_NOMEM, "out of memory for the undo history");
+    }
+    st->items[st->count++] = *e;
+    memset(e, 0, sizeof *e);
+    return FFD_OK;
+}
+
+static ffd_status copy_pins(const ffd_session *s, pin **out, size_t *count, ffd_error *err)
+{
+    *out = NULL;
+    *count = s->pin_count;
+    if (!s->pin_count)
+        return FFD_OK;
+    *out = ffd_malloc_array(s->pin_count, sizeof **out);
+    if (!*out)
+        return ffd_fail(err, FFD_ERR_NOMEM, "out of memory for pins");
+    memcpy(*out, s->pins, s->pin_count * sizeof **out);
+    return FFD_OK;
+}
+
+/* Re-evaluates the method into s->positions. */
+static ffd_status refresh(ffd_session *s, ffd_error *err)
+{
+    s->revision++;
+    if (!s->method) {
+        memcpy(s->positions, s->ctx.rest, s->ctx.n * 3 * sizeof *s->positions);
+        return FFD_OK;
+    }
+    return s->method->vt->eval(s->method, s->positions, err);
+}
+
+/* ---------- rig text and rebuilding ---------- */
+
+static ffd_status method_rig_text(const sess_method *m, char **text, ffd_error *err)
+{
+    cJSON *root = cJSON_CreateObject();
+    if (!root || !cJSON_AddNumberToObject(root, "version", 1) ||
+        !cJSON_AddStringToObject(root, "deformer", m->vt->name)) {
+        cJSON_Delete(root);
+        return ffd_fail(err, FFD_ERR_NOMEM, "rig: out of memory");
+    }
+    ffd_status st = m->vt->rig(m, root, err);
+    if (!st) {
+        char *printed = cJSON_Print(root);
+        *text = printed ? ffd_strdup(printed) : NULL;
+        free(printed);
+        if (!*text)
+            st = ffd_fail(err, FFD_ERR_NOMEM, "rig: out of memory");
+    }
+    cJSON_Delete(root);
+    return st;
+}
+
+static ffd_status method_from_rig(const sess_ctx *ctx, const ffd_rig *rig, sess_method **out,
+                                  ffd_error *err)
+{
+    switch (rig->deformer) {
+    case FFD_RIG_LATTICE: return sess_lattice_load(ctx, rig, out, err);
+    case FFD_RIG_PBFFD: return sess_pbffd_load(ctx, rig, out, err);
+    case FFD_RIG_GFFD: return sess_gffd_load(ctx, rig, out, err);
+    case FFD_RIG_TSPLINE: return sess_tspline_load(ctx, rig, out, err);
+    }
+    return ffd_fail(err, FFD_ERR_INVALID, "rig: unknown deformer");
+}
+
+static ffd_status method_from_text(const sess_ctx *ctx, const char *text, size_t size,
+                                   const char *name, sess_method **out, ffd_error *err)
+{
+    ffd_rig *rig = NULL;
+    ffd_status st = ffd_rig_parse_json(text, size, name, &rig, err);
+    if (!st)
+        st = method_from_rig(ctx, rig, out, err);
+    ffd_rig_destroy(rig);
+    return st;
+}
+
+/* ---------- undo entries ---------- */
+
+/* What undo needs to come back to the present state, for an entry of kind. */
+static ffd_status capture(ffd_session *s, int kind, const char *label, undo_entry *e,
+                          ffd_error *err)
+{
+    memset(e, 0, sizeof *e);
+    e->kind = kind;
+    snprintf(e->label, sizeof e->label, "%s", label);
+    ffd_status st = copy_pins(s, &e->pins, &e->pin_count, err);
+    if (st)
+        return st;
+    if (kind == UNDO_STATE && s->method) {
+        e->blob_vt = s->method->vt;
+        st = s->method->vt->snapshot(s->method, &e->blob, err);
+    } else if (kind == UNDO_REBUILD && s->method) {
+        st = method_rig_text(s->method, &e->rig, err);
+    }
+    if (st)
+        entry_free(e);
+    return st;
+}
+
+/* Brings the session to the state e describes; on success the present
+ * state is in *inverse (same kind) and e is consumed. */
+static ffd_status apply_entry(ffd_session *s, undo_entry *e, undo_entry *inverse, ffd_error *err)
+{
+    ffd_status st;
+    if (e->kind == UNDO_SWAP) {
+        memset(inverse, 0, sizeof *inverse);
+        inverse->kind = UNDO_SWAP;
+        snprintf(inverse->label, sizeof inverse->label, "%s", e->label);
+        if ((st = copy_pins(s, &inverse->pins, &inverse->pin_count, err)))
+            return st;
+        inverse->method = s->method;
+        s->method = e->method;
+        e->method = NULL;
+    } else {
+        if ((st = capture(s, e->kind, e->label, inverse, err)))
+            return st;
+        if (e->kind == UNDO_STATE && s->method) {
+            if (e->blob_vt != s->method->vt)
+                st = ffd_fail(err, FFD_ERR_INVALID, "undo: the history does not match the deformer");
+            else
+                st = s->method->vt->restore(s->method, e->blob, err);
+        } else if (e->kind == UNDO_REBUILD && e->rig) {
+            sess_method *m = NULL;
+            st = method_from_text(&s->ctx, e->rig, strlen(e->rig), "undo", &m, err);
+            if (!st) {
+                if (s->method)
+                    s->method->vt->destroy(s->method);
+                s->method = m;
+            }
+        }
+        if (st) {
+            entry_free(inverse);
+            return st;
+        }
+    }
+    ffd_free(s->pins);
+    s->pins = e->pins;
+    s->pin_count = e->pin_count;
+    e->pins = NULL;
+    s->residual_count = 0;
+    entry_free(e);
+    return FFD_OK;
+}
+
+static ffd_status undo_redo(ffd_session *s, undo_stack *from, undo_stack *to, const char *op,
+                            ffd_error *err)
+{
+    if (!from->count)
+        return conflict(err, "nothing to undo or redo", op);
+    undo_entry inverse;
+    undo_entry *e = &from->items[from->count - 1];
+    ffd_status st = apply_entry(s, e, &inverse, err);
+    if (st)
+        return st;
+    from->count--;
+    if ((st = stack_push(s, to, &inverse, err)))
+        return st;
+    return refresh(s, err);
+}
+
+/* Records a successful change: before goes on the undo stack, redo is cleared. */
+static ffd_status commit(ffd_session *s, undo_entry *before, ffd_error *err)
+{
+    stack_clear(&s->redo);
+    return stack_push(s, &s->undo, before, err);
+}
+
+/* ---------- creating and loading ---------- */
+
+static ffd_status op_create(ffd_session *s, const parser *p, const cJSON *body, ffd_error *err)
+{
+    const cJSON *method = cJSON_GetObjectItemCaseSensitive(body, "method");
+    static const char *const names[] = {"lattice", "pbffd", "gffd", "tspline", NULL};
+    int which = 0;
+    ffd_status st;
+    if (!method)
+        return rig_expected(p, "method", "\"lattice\", \"pbffd\", \"gffd\" or \"tspline\" (missing)");
+    if ((st = rig_read_enum(p, method, "method", names,
+                            "\"lattice\", \"pbffd\", \"gffd\" or \"tspline\"", &which)))
+        return st;
+    sess_method *m = NULL;
+    switch (which) {
+    case 0: st = sess_lattice_create(&s->ctx, body, &m, err); break;
+    case 1: st = sess_pbffd_create(&s->ctx, body, &m, err); break;
+    case 2: st = sess_gffd_create(&s->ctx, body, &m, err); break;
+    default: st = sess_tspline_create(&s->ctx, body, &m, err); break;
+    }
+    if (st)
+        return st;
+    if (m->vt->control_count(m) > s->options.max_controls) {
+        size_t c = m->vt->control_count(m);
+        m->vt->destroy(m);
+        return ffd_fail(err, FFD_ERR_INVALID, "create: %zu control points: more than the limit %zu",
+                        c, s->options.max_controls);
+    }
+    undo_entry before;
+    if ((st = capture(s, UNDO_SWAP, "create", &before, err))) {
+        m->vt->destroy(m);
+        return st;
+    }
+    before.method = s->method;
+    s->method = m;
+    ffd_free(s->pins); /* pins belong to the old deformer */
+    s->pins = NULL;
+    s->pin_count = 0;
+    s->residual_count = 0;
+    if ((st = refresh(s, err))) {
+        s->method = before.method;
+        before.method = NULL;
+        ffd_free(s->pins);
+        s->pins = before.pins;
+        s->pin_count = before.pin_count;
+        before.pins = NULL;
+        entry_free(&before);
+        m->vt->destroy(m);
+        refresh(s, NULL);
+        return st;
+    }
+    return commit(s, &before, err);
+}
+
+/* Every "file" of a GFFD rig's primitives must resolve under root. */
+static ffd_status check_rig_files(const char *text, size_t size, const char *name,
+                                  const char *root, ffd_error *err)
+{
+    cJSON *doc = cJSON_ParseWithLength(text, size);
+    if (!doc)
+        return FFD_OK; /* the rig parser reports the syntax error */
+    ffd_status st = FFD_OK;
+    const char *lists[] = {"skeleton", "replace"};
+    for (int l = 0; l < 2 && !st; l++) {
+        const cJSON *prim;
+        const cJSON *arr = cJSON_GetObjectItemCaseSensitive(doc, lists[l]);
+        if (!cJSON_IsArray(arr))
+            continue;
+        cJSON_ArrayForEach(prim, arr)
+        {
+            const cJSON *file = cJSON_GetObjectItemCaseSensitive(prim, "file");
+            if (!cJSON_IsString(file))
+                continue;
+            if (!root) {
+                st = ffd_fail(err, FFD_ERR_INVALID,
+                              "%s: %s: refers to the file \"%s\": an uploaded rig cannot read "
+                              "files (load it from the server's directory instead)",
+                              name, lists[l], file->valuestring);
+                break;
+            }
+            const char *slash = strrchr(name, '/');
+            size_t dlen = slash ? (size_t)(slash - name) : 1;
+            size_t need = dlen + strlen(file->valuestring) + 2;
+            char *path = ffd_malloc(need);
+            if (!path) {
+                st = ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory", name);
+                break;
+            }
+            if (file->valuestring[0] == '/')
+                snprintf(path, need, "%s", file->valuestring);
+            else
+                snprintf(path, need, "%.*s/%s", (int)dlen, slash ? name : ".", file->valuestring);
+            char *real = realpath(path, NULL);
+            char *real_root = realpath(root, NULL);
+            size_t rl = real_root ? strlen(real_root) : 0;
+            if (real && real_root &&
+                !(strncmp(real, real_root, rl) == 0 && (real[rl] == '/' || real[rl] == 0)))
+                st = ffd_fail(err, FFD_ERR_INVALID, "%s: %s: the file \"%s\" is outside the "
+                              "server's directory", name, lists[l], file->valuestring);
+            free(real);
+            free(real_root);
+            ffd_free(path);
+            if (st)
+                break;
+        }
+    }
+    cJSON_Delete(doc);
+    return st;
+}
+
+ffd_status ffd_session_load_rig(ffd_session *s, const char *text, size_t size, const char *name,
+                                const char *root, ffd_error *err)
+{
+    if (!s || !text)
+        return ffd_fail(err, FFD_ERR_INVALID, "ffd_session_load_rig: NULL argument");
+    if (s->drag.kind)
+        return conflict(err, "a drag is in progress", "rig/load");
+    name = name ? name : "rig";
+    ffd_status st = check_rig_files(text, size, name, root, err);
+    sess_method *m = NULL;
+    if (!st)
+        st = method_from_text(&s->ctx, text, size, name, &m, err);
+    if (st)
+        return st;
+    undo_entry before;
+    if ((st = capture(s, UNDO_SWAP, "load rig", &before, err))) {
+        m->vt->destroy(m);
+        return st;
+    }
+    before.method = s->method;
+    s->method = m;
+    ffd_free(s->pins);
+    s->pins = NULL;
+    s->pin_count = 0;
+    s->residual_count = 0;
+    if ((st = refresh(s, err))) {
+        s->method = before.method;
+        before.method = NULL;
+        s->pins = before.pins;
+        s->pin_count = before.pin_count;
+        before.pins = NULL;
+        entry_free(&before);
+        m->vt->destroy(m);
+        refresh(s, NULL);
+        return st;
+    }
+    return commit(s, &before, err);
+}
+
+/* ---------- direct manipulation ---------- */
+
+static void drag_free(drag_state *d)
+{
+    ffd_free(d->ids);
+    ffd_free(d->start);
+    ffd_free(d->rows);
+    ffd_free(d->current);
+    ffd_free(d->targets);
+    ffd_free(d->delta);
+    entry_free(&d->before);
+    memset(d, 0, sizeof *d);
+}
+
+/* Sets up the constraint rows (pins, then vertex unless it is UINT32_MAX or
+ * pinned already) against the current positions. */
+static ffd_status dm_setup(ffd_session *s, uint32_t vertex, const char *op, ffd_error *err)
+{
+    drag_state *d = &s->drag;
+    sess_method *m = s->method;
+    if (!m->vt->linear_map)
+        return conflict(err, "this method has no direct manipulation of mesh points (drag its "
+                             "skeleton instead)", op);
+    ffd_status st = m->vt->linear_map(m, &d->map, err);
+    if (st)
+        return st;
+    size_t k = s->pin_count + 1;
+    d->rows = ffd_malloc_array(k, sizeof *d->rows);
+    d->current = ffd_malloc_array(k, 3 * sizeof *d->current);
+    d->targets = ffd_malloc_array(k, 3 * sizeof *d->targets);
+    d->delta = ffd_calloc(d->map.variable_count ? d->map.variable_count : 1, 3 * sizeof *d->delta);
+    if (!d->rows || !d->current || !d->targets || !d->delta)
+        return ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory", op);
+    size_t c = 0;
+    for (size_t i = 0; i < s->pin_count; i++) {
+        if (s->pins[i].vertex == vertex)
+            vertex = UINT32_MAX; /* dragging a pin moves its target */
+        d->rows[c] = s->pins[i].vertex;
+        memcpy(d->targets + 3 * c, s->pins[i].target, 3 * sizeof(double));
+        c++;
+    }
+    if (vertex != UINT32_MAX) {
+        d->rows[c] = vertex;
+        memcpy(d->targets + 3 * c, s->positions + 3 * (size_t)vertex, 3 * sizeof(double));
+        c++;
+    }
+    d->constraints = c;
+    for (size_t i = 0; i < c; i++)
+        memcpy(d->current + 3 * i, s->positions + 3 * d->rows[i], 3 * sizeof(double));
+    return FFD_OK;
+}
+
+/* Solves for the targets in d->targets and applies the change (from the begin state). */
+static ffd_status dm_solve(ffd_session *s, ffd_error *err)
+{
+    drag_state *d = &s->drag;
+    double *res = ffd_malloc_array(d->constraints ? d->constraints : 1, sizeof *res);
+    if (!res)
+        return ffd_fail(err, FFD_ERR_NOMEM, "drag: out of memory");
+    ffd_manip_result result;
+    ffd_status st = ffd_manip_solve(&d->map, d->rows, d->constraints, d->current, d->targets,
+                                    NULL, d->delta, res, &result, err);
+    if (!st)
+        st = s->method->vt->set_variables(s->method, d->delta, err);
+    if (!st) {
+        float *r = ffd_realloc_array(s->residuals, d->constraints ? d->constraints : 1,
+                                     sizeof *r);
+        if (!r) {
+            st = ffd_fail(err, FFD_ERR_NOMEM, "drag: out of memory");
+        } else {
+            s->residuals = r;
+            for (size_t i = 0; i < d->constraints; i++)
+                r[i] = (float)res[i];
+            s->residual_count = d->constraints;
+        }
+    }
+    ffd_free(res);
+    return st;
+}
+
+/* ---------- drags ---------- */
+
+static ffd_status need_method(const ffd_session *s, const char *op, ffd_error *err)
+{
+    if (!s->method)
+        return conflict(err, "no deformer: create one first", op);
+    return FFD_OK;
+}
+
+static ffd_status read_mode(const parser *p, const cJSON *body, int *mode)
+{
+    static const char *const modes[] = {"translate", "rotate", "scale", NULL};
+    const cJSON *item = cJSON_GetObjectItemCaseSensitive(body, "mode");
+    *mode = MODE_TRANSLATE;
+    return item ? rig_read_enum(p, item, "mode", modes, "\"translate\", \"rotate\" or \"scale\"",
+                                mode)
+                : FFD_OK;
+}
+
+static ffd_status drag_begin_controls(ffd_session *s, const parser *p, const cJSON *body,
+                                      ffd_error *err)
+{
+    static const char *const keys[] = {"points", "mode", "center", "arap", NULL};
+    ffd_status st = rig_check_keys(p, body, "body", keys, "points, mode, center, arap");
+    drag_state *d = &s->drag;
+    sess_method *m = s->method;
+    size_t count = m->vt->control_count(m);
+    if (!st)
+        st = sess_read_ids(p, cJSON_GetObjectItemCaseSensitive(body, "points"), "points", count,
+                           &d->ids, &d->k);
+    if (!st)
+        st = read_mode(p, body, &d->mode);
+    const cJSON *arap = cJSON_GetObjectItemCaseSensitive(body, "arap");
+    if (!st && arap && !cJSON_IsBool(arap))
+        st = rig_expected(p, "arap", "true or false");
+    if (st)
+        return st;
+    double *all = ffd_malloc_array(count, 3 * sizeof *all);
+    d->start = ffd_malloc_array(d->k, 3 * sizeof *d->start);
+    if (!all || !d->start) {
+        ffd_free(all);
+        return ffd_fail(err, FFD_ERR_NOMEM, "drag_begin: out of memory");
+    }
+    m->vt->controls(m, all);
+    double c[3] = {0, 0, 0};
+    for (size_t i = 0; i < d->k; i++)
+        for (int a = 0; a < 3; a++) {
+            d->start[3 * i + a] = all[3 * (size_t)d->ids[i] + a];
+            c[a] += d->start[3 * i + a] / (double)d->k;
+        }
+    ffd_free(all);
+    const cJSON *center = cJSON_GetObjectItemCaseSensitive(body, "center");
+    if (center && (st = rig_read_vec3(p, center, "center", c)))
+        return st;
+    memcpy(d->center, c, sizeof c);
+    d->kind = DRAG_CONTROLS;
+    return m->vt->begin(m, d->ids, d->k, arap ? cJSON_IsTrue(arap) : 1, err);
+}
+
+static ffd_status op_drag_begin(ffd_session *s, const parser *p, const cJSON *body,
+                                ffd_error *err)
+{
+    ffd_status st = need_method(s, "drag_begin", err);
+    if (st)
+        return st;
+    if (s->drag.kind)
+        return conflict(err, "a drag is in progress: drag_end or drag_cancel first", "drag_begin");
+    drag_state *d = &s->drag;
+    memset(d, 0, sizeof *d);
+    if ((st = capture(s, UNDO_STATE, "drag", &d->before, err)))
+        return st;
+    const cJSON *vertex = cJSON_GetObjectItemCaseSensitive(body, "vertex");
+    if (vertex) {
+        static const char *const keys[] = {"vertex", NULL};
+        uint32_t v = 0;
+        if (!(st = rig_check_keys(p, body, "body", keys, "vertex")) &&
+            !(st = rig_read_index(p, vertex, "vertex", "a vertex id", &v)) && v >= s->ctx.n)
+            st = ffd_fail(err, FFD_ERR_RANGE, "drag_begin: vertex: %u out of range (%zu vertices)",
+                          v, s->ctx.n);
+        if (!st && !(st = s->method->vt->begin(s->method, NULL, 0, 0, err))) {
+            d->kind = DRAG_VERTEX;
+            if ((st = dm_setup(s, v, "drag_begin", err)))
+                s->method->vt->end(s->method, 0);
+        }
+    } else {
+        st = drag_begin_controls(s, p, body, err);
+    }
+    if (st)
+        drag_free(d);
+    return st;
+}
+
+/* Targets of the dragged controls for a drag step's transform. */
+static ffd_status control_targets(ffd_session *s, const parser *p, const cJSON *body,
+                                  double *targets)
+{
+    drag_state *d = &s->drag;
+    double M[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}}, t[3] = {0, 0, 0};
+    ffd_status st;
+    if (d->mode == MODE_TRANSLATE) {
+        static const char *const keys[] = {"delta", NULL};
+        if ((st = rig_check_keys(p, body, "body", keys, "delta")))
+            return st;
+        const cJSON *delta = cJSON_GetObjectItemCaseSensitive(body, "delta");
+        if (!delta)
+            return rig_expected(p, "delta", "an array of 3 finite numbers (missing)");
+        if ((st = rig_read_vec3(p, delta, "delta", t)))
+            return st;
+    } else if (d->mode == MODE_ROTATE) {
+        static const char *const keys[] = {"axis", "angle", NULL};
+        double axis[3], angle = 0;
+        if ((st = rig_check_keys(p, body, "body", keys, "axis, angle")) ||
+            (st = rig_read_rotation(p, body, "body", axis, &angle, NULL, NULL)))
+            return st;
+        for (int c = 0; c < 3; c++) {
+            double e[3] = {c == 0, c == 1, c == 2}, r[3];
+            ffd_rig_rotate(axis, angle, e, r);
+            for (int a = 0; a < 3; a++)
+                M[a][c] = r[a];
+        }
+    } else {
+        static const char *const keys[] = {"scale", NULL};
+        if ((st = rig_check_keys(p, body, "body", keys, "scale")))
+            return st;
+        double sc[3];
+        const cJSON *scale = cJSON_GetObjectItemCaseSensitive(body, "scale");
+        if (!scale)
+            return rig_expected(p, "scale", "an array of 3 finite numbers (missing)");
+        if ((st = rig_read_vec3(p, scale, "scale", sc)))
+            return st;
+        for (int a = 0; a < 3; a++)
+            M[a][a] = sc[a];
+    }
+    for (size_t i = 0; i < d->k; i++) {
+        const double *q = d->start + 3 * i;
+        double r[3] = {q[0] - d->center[0], q[1] - d->center[1], q[2] - d->center[2]};
+        for (int a = 0; a < 3; a++)
+            targets[3 * i + a] =
+                d->center[a] + M[a][0] * r[0] + M[a][1] * r[1] + M[a][2] * r[2] + t[a];
+    }
+    return FFD_OK;
+}
+
+static ffd_status op_drag(ffd_session *s, const parser *p, const cJSON *body, ffd_error *err)
+{
+    drag_state *d = &s->drag;
+    ffd_status st;
+    if (!d->kind)
+        return conflict(err, "no drag in progress: drag_begin first", "drag");
+    if (d->kind == DRAG_VERTEX) {
+        static const char *const keys[] = {"target", NULL};
+        double target[3];
+        const cJSON *t = cJSON_GetObjectItemCaseSensitive(body, "target");
+        if ((st = rig_check_keys(p, body, "body", keys, "target")))
+            return st;
+        if (!t)
+            return rig_expected(p, "target", "an array of 3 finite numbers (missing)");
+        if ((st = rig_read_vec3(p, t, "target", target)))
+            return st;
+        if (d->constraints > s->pin_count)
+            memcpy(d->targets + 3 * (d->constraints - 1), target, sizeof target);
+        else /* dragging a pinned vertex: its pin's target */
+            for (size_t i = 0; i < d->constraints; i++)
+                if (d->rows[i] == d->rows[d->constraints - 1])
+                    memcpy(d->targets + 3 * i, target, sizeof target);
+        st = dm_solve(s, err);
+    } else {
+        double *targets = ffd_malloc_array(d->k, 3 * sizeof *targets);
+        if (!targets)
+            return ffd_fail(err, FFD_ERR_NOMEM, "drag: out of memory");
+        st = control_targets(s, p, body, targets);
+        if (!st)
+            st = s->method->vt->set_controls(s->method, d->ids, d->k, targets, err);
+        ffd_free(targets);
+    }
+    if (!st)
+        st = refresh(s, err);
+    return st;
+}
+
+/* A dragged pinned vertex's pin follows the drag. */
+static void move_dragged_pin(ffd_session *s)
+{
+    drag_state *d = &s->drag;
+    if (d->kind != DRAG_VERTEX || d->constraints == 0 || d->constraints > s->pin_count)
+        return;
+    for (size_t i = 0; i < s->pin_count; i++)
+        memcpy(s->pins[i].target, d->targets + 3 * i, 3 * sizeof(double));
+}
+
+static ffd_status op_drag_end(ffd_session *s, int keep, ffd_error *err)
+{
+    drag_state *d = &s->drag;
+    if (!d->kind)
+        return conflict(err, "no drag in progress", keep ? "drag_end" : "drag_cancel");
+    s->method->vt->end(s->method, keep);
+    ffd_status st = FFD_OK;
+    if (keep) {
+        move_dragged_pin(s);
+        st = commit(s, &d->before, err);
+    } else {
+        s->residual_count = 0;
+    }
+    drag_free(d);
+    if (!st)
+        st = refresh(s, err);
+    return st;
+}
+
+/* ---------- pins ---------- */
+
+static ffd_status op_pin(ffd_session *s, const parser *p, const cJSON *body, ffd_error *err)
+{
+    static const char *const keys[] = {"vertex", "target", NULL};
+    ffd_status st = need_method(s, "pin", err);
+    uint32_t v = 0;
+    double target[3];
+    if (st || (st = rig_check_keys(p, body, "body", keys, "vertex, target")))
+        return st;
+    const cJSON *vertex = cJSON_GetObjectItemCaseSensitive(body, "vertex");
+    if (!vertex)
+        return rig_expected(p, "vertex", "a vertex id (missing)");
+    if ((st = rig_read_index(p, vertex, "vertex", "a vertex id", &v)))
+        return st;
+    if (v >= s->ctx.n)
+        return ffd_fail(err, FFD_ERR_RANGE, "pin: vertex: %u out of range (%zu vertices)", v,
+                        s->ctx.n);
+    const cJSON *t = cJSON_GetObjectItemCaseSensitive(body, "target");
+    memcpy(target, s->positions + 3 * (size_t)v, sizeof target);
+    if (t && (st = rig_read_vec3(p, t, "target", target)))
+        return st;
+    if (!s->method->vt->linear_map)
+        return conflict(err, "this method has no direct manipulation of mesh points", "pin");
+    undo_entry before;
+    if ((st = capture(s, UNDO_STATE, "pin", &before, err)))
+        return st;
+    size_t i = 0;
+    while (i < s->pin_count && s->pins[i].vertex != v)
+        i++;
+    if (i == s->pin_count) {
+        pin *grown = ffd_realloc_array(s->pins, s->pin_count + 1, sizeof *grown);
+        if (!grown) {
+            entry_free(&before);
+            return ffd_fail(err, FFD_ERR_NOMEM, "pin: out of memory");
+        }
+        s->pins = grown;
+        s->pins[s->pin_count++].vertex = v;
+    }
+    memcpy(s->pins[i].target, target, sizeof target);
+    /* Solve the pins together (the paper's eq. 2-7 from the current state). */
+    drag_state *d = &s->drag;
+    memset(d, 0, sizeof *d);
+    if (!(st = s->method->vt->begin(s->method, NULL, 0, 0, err))) {
+        d->kind = DRAG_VERTEX;
+        if (!(st = dm_setup(s, UINT32_MAX, "pin", err)))
+            st = dm_solve(s, err);
+        s->method->vt->end(s->method, st == FFD_OK);
+    }
+    drag_free(d);
+    if (!st)
+        st = refresh(s, err);
+    if (st) {
+        /* put the pins and the deformer back */
+        undo_entry inverse;
+        if (apply_entry(s, &before, &inverse, NULL) == FFD_OK)
+            entry_free(&inverse);
+        else
+            entry_free(&before);
+        refresh(s, NULL);
+        return st;
+    }
+    return commit(s, &before, err);
+}
+
+static ffd_status op_unpin(ffd_session *s, const parser *p, const cJSON *body, ffd_error *err)
+{
+    static const char *const keys[] = {"vertex", "all", NULL};
+    ffd_status st = rig_check_keys(p, body, "body", keys, "vertex, all");
+    if (st)
+        return st;
+    const cJSON *all = cJSON_GetObjectItemCaseSensitive(body, "all");
+    const cJSON *vertex = cJSON_GetObjectItemCaseSensitive(body, "vertex");
+    if ((all != NULL) == (vertex != NULL))
+        return rig_expected(p, "body", "{\"vertex\": id} or {\"all\": true}");
+    if (all && !cJSON_IsTrue(all))
+        return rig_expected(p, "all", "true");
+    uint32_t v = 0;
+    size_t i = 0;
+    if (vertex) {
+        if ((st = rig_read_index(p, vertex, "vertex", "a vertex id", &v)))
+            return st;
+        while (i < s->pin_count && s->pins[i].vertex != v)
+            i++;
+        if (i == s->pin_count)
+            return ffd_fail(err, FFD_ERR_RANGE, "unpin: vertex %u is not pinned", v);
+    }
+    undo_entry before;
+    if ((st = capture(s, UNDO_STATE, "unpin", &before, err)))
+        return st;
+    if (all) {
+        s->pin_count = 0;
+    } else {
+        memmove(s->pins + i, s->pins + i + 1, (s->pin_count - i - 1) * sizeof *s->pins);
+        s->pin_count--;
+    }
+    s->residual_count = 0;
+    s->revision++;
+    return commit(s, &before, err);
+}
+
+/* ---------- other ops ---------- */
+
+static ffd_status op_reset(ffd_session *s, ffd_error *err)
+{
+    ffd_status st = need_method(s, "reset", err);
+    undo_entry before;
+    if (st || (st = capture(s, UNDO_STATE, "reset", &before, err)))
+        return st;
+    if ((st = s->method->vt->reset(s->method, err)) || (st = refresh(s, err))) {
+        undo_entry inverse;
+        if (apply_entry(s, &before, &inverse, NULL) == FFD_OK)
+            entry_free(&inverse);
+        else
+            entry_free(&before);
+        refresh(s, NULL);
+        return st;
+    }
+    ffd_free(s->pins);
+    s->pins = NULL;
+    s->pin_count = 0;
+    s->residual_count = 0;
+    return commit(s, &before, err);
+}
+
+static ffd_status op_influence(ffd_session *s, const parser *p, const cJSON *body, void **reply,
+                               size_t *size, ffd_error *err)
+{
+    static const char *const keys[] = {"points", NULL};
+    ffd_status st = need_method(s, "influence", err);
+    uint32_t *ids = NULL;
+    size_t k = 0;
+    if (st || (st = rig_check_keys(p, body, "body", keys, "points")) ||
+        (st = sess_read_ids(p, cJSON_GetObjectItemCaseSensitive(body, "points"), "points",
+                            s->method->vt->control_count(s->method), &ids, &k)))
+        return st;
+    size_t n = s->ctx.n;
+    unsigned char *buf = ffd_calloc(16 + 4 * n, 1);
+    if (!buf) {
+        ffd_free(ids);
+        return ffd_fail(err, FFD_ERR_NOMEM, "influence: out of memory");
+    }
+    float *w = ffd_calloc(n ? n : 1, sizeof *w);
+    st = w ? s->method->vt->influence(s->method, ids, k, w, err)
+           : ffd_fail(err, FFD_ERR_NOMEM, "influence: out of memory");
+    if (!st) {
+        uint32_t head[4] = {0, s->revision, (uint32_t)n, 0};
+        memcpy(head, "FFDI", 4);
+        memcpy(buf, head, 16);
+        memcpy(buf + 16, w, 4 * n);
+        *reply = buf;
+        *size = 16 + 4 * n;
+    } else {
+        ffd_free(buf);
+    }
+    ffd_free(w);
+    ffd_free(ids);
+    return st;
+}
+
+/* A method-specific op, with the undo entry it asks for. */
+static ffd_status op_method(ffd_session *s, const char *op, const cJSON *body, ffd_error *err)
+{
+    ffd_status st = need_method(s, op, err);
+    if (st)
+        return st;
+    undo_entry state, rebuild;
+    if ((st = capture(s, UNDO_STATE, op, &state, err)))
+        return st;
+    if ((st = capture(s, UNDO_REBUILD, op, &rebuild, err))) {
+        entry_free(&state);
+        return st;
+    }
+    int kind = SESS_UNDO_NONE;
+    st = s->method->vt->op(s->method, op, body, &kind, err);
+    if (st == FFD_ERR_UNSUPPORTED)
+        st = ffd_fail(err, FFD_ERR_INVALID, SESS_CONFLICT "%s: not an operation of the %s method",
+                      op, s->method->vt->name);
+    if (!st && (st = refresh(s, err))) {
+        /* the op succeeded but evaluating failed: go back */
+        undo_entry *back = kind == SESS_UNDO_REBUILD ? &rebuild : &state, inverse;
+        if (apply_entry(s, back, &inverse, NULL) == FFD_OK)
+            entry_free(&inverse);
+        refresh(s, NULL);
+    }
+    if (!st && kind == SESS_UNDO_STATE)
+        st = commit(s, &state, err);
+    else if (!st && kind == SESS_UNDO_REBUILD)
+        st = commit(s, &rebuild, err);
+    entry_free(&state);
+    entry_free(&rebuild);
+    return st;
+}
+
+static ffd_status reply_state(const ffd_session *s, void **reply, size_t *size, ffd_error *err)
+{
+    char *json = NULL;
+    ffd_status st = ffd_session_state(s, &json, size, err);
+    *reply = json;
+    return st;
+}
+
+ffd_status ffd_session_command(ffd_session *s, const char *op, const char *body, size_t size,
+                               void **reply, size_t *reply_size, int *binary, ffd_error *err)
+{
+    if (!s || !op || !reply || !reply_size || !binary)
+        return ffd_fail(err, FFD_ERR_INVALID, "ffd_session_command: NULL argument");
+    *reply = NULL;
+    *reply_size = 0;
+    *binary = 0;
+    double t0 = ffd_now();
+    cJSON *doc = NULL;
+    if (body && size) {
+        const char *end = NULL;
+        doc = cJSON_ParseWithLengthOpts(body, size, &end, 0);
+        if (!doc) {
+            size_t at = end && end >= body ? (size_t)(end - body) : 0;
+            return ffd_fail(err, FFD_ERR_PARSE, "%s: malformed JSON at byte %zu", op, at);
+        }
+    } else {
+        doc = cJSON_CreateObject();
+        if (!doc)
+            return ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory", op);
+    }
+    if (!cJSON_IsObject(doc)) {
+        cJSON_Delete(doc);
+        return ffd_fail(err, FFD_ERR_PARSE, "%s: expected a JSON object", op);
+    }
+    parser p = {op, err};
+    ffd_status st;
+    int is_drag_step = 0;
+    int empty = cJSON_GetArraySize(doc) == 0;
+    if (s->drag.kind && strcmp(op, "drag") && strcmp(op, "drag_end") && strcmp(op, "drag_cancel") &&
+        strcmp(op, "influence"))
+        st = conflict(err, "a drag is in progress: drag_end or drag_cancel first", op);
+    else if (!strcmp(op, "create"))
+        st = op_create(s, &p, doc, err);
+    else if (!strcmp(op, "drag_begin"))
+        st = op_drag_begin(s, &p, doc, err);
+    else if (!strcmp(op, "drag")) {
+        st = op_drag(s, &p, doc, err);
+        is_drag_step = 1;
+    } else if (!strcmp(op, "drag_end") || !strcmp(op, "drag_cancel"))
+        st = empty ? op_drag_end(s, op[5] == 'e', err) : rig_expected(&p, "body", "{}");
+    else if (!strcmp(op, "move")) {
+        /* a whole drag: drag_begin with the points and mode, one step, drag_end */
+        cJSON *begin = cJSON_CreateObject(), *step = cJSON_CreateObject();
+        const cJSON *item;
+        st = begin && step ? FFD_OK : ffd_fail(err, FFD_ERR_NOMEM, "move: out of memory");
+        for (item = st ? NULL : doc->child; item; item = item->next) {
+            int to_begin = !strcmp(item->string, "points") || !strcmp(item->string, "center") ||
+                           !strcmp(item->string, "arap");
+            cJSON *copy = cJSON_Duplicate(item, 1);
+            if (!copy || !cJSON_AddItemToObject(to_begin ? begin : step, item->string, copy)) {
+                cJSON_Delete(copy);
+                st = ffd_fail(err, FFD_ERR_NOMEM, "move: out of memory");
+                break;
+            }
+        }
+        const char *mode = cJSON_GetObjectItemCaseSensitive(doc, "angle")   ? "rotate"
+                           : cJSON_GetObjectItemCaseSensitive(doc, "scale") ? "scale"
+                                                                            : "translate";
+        if (!st && !cJSON_AddStringToObject(begin, "mode", mode))
+            st = ffd_fail(err, FFD_ERR_NOMEM, "move: out of memory");
+        if (!st && !(st = op_drag_begin(s, &p, begin, err))) {
+            if ((st = op_drag(s, &p, step, err)))
+                op_drag_end(s, 0, NULL);
+            else
+                st = op_drag_end(s, 1, err);
+        }
+        cJSON_Delete(begin);
+        cJSON_Delete(step);
+    } else if (!strcmp(op, "pin"))
+        st = op_pin(s, &p, doc, err);
+    else if (!strcmp(op, "unpin"))
+        st = op_unpin(s, &p, doc, err);
+    else if (!strcmp(op, "reset"))
+        st = empty ? op_reset(s, err) : rig_expected(&p, "body", "{}");
+    else if (!strcmp(op, "undo"))
+        st = empty ? undo_redo(s, &s->undo, &s->redo, op, err) : rig_expected(&p, "body", "{}");
+    else if (!strcmp(op, "redo"))
+        st = empty ? undo_redo(s, &s->redo, &s->undo, op, err) : rig_expected(&p, "body", "{}");
+    else if (!strcmp(op, "influence")) {
+        st = op_influence(s, &p, doc, reply, reply_size, err);
+        cJSON_Delete(doc);
+        *binary = !st;
+        return st;
+    } else if (!strcmp(op, "refine") || !strcmp(op, "freeze") || !strcmp(op, "level") ||
+               !strcmp(op, "frame") || !strcmp(op, "curve") || !strcmp(op, "primitive"))
+        st = op_method(s, op, doc, err);
+    else
+        st = ffd_fail(err, FFD_ERR_UNSUPPORTED, "%s: unknown operation", op);
+    cJSON_Delete(doc);
+    s->busy_ms = (ffd_now() - t0) * 1e3;
+    if (st)
+        return st;
+    if (is_drag_step) {
+        *binary = 1;
+        return ffd_session_frame(s, reply, reply_size, err);
+    }
+    return reply_state(s, reply, reply_size, err);
+}
+
+/* ---------- views ---------- */
+
+ffd_status ffd_session_frame(const ffd_session *s, void **data, size_t *size, ffd_error *err)
+{
+    size_t n = s->ctx.n, c = s->method ? s->method->vt->control_count(s->method) : 0;
+    size_t r = s->residual_count;
+    size_t bytes = 20 + 4 * (3 * n + 3 * c + r);
+    unsigned char *buf = ffd_malloc(bytes);
+    double *controls = c ? ffd_malloc_array(c, 3 * sizeof *controls) : NULL;
+    if (!buf || (c && !controls)) {
+        ffd_free(buf);
+        ffd_free(controls);
+        return ffd_fail(err, FFD_ERR_NOMEM, "frame: out of memory");
+    }
+    uint32_t head[5] = {0, s->revision, (uint32_t)n, (uint32_t)c, (uint32_t)r};
+    memcpy(head, "FFDF", 4);
+    memcpy(buf, head, 20);
+    float *f = (float *)(void *)(buf + 20);
+    for (size_t i = 0; i < 3 * n; i++)
+        f[i] = (float)s->positions[i];
+    f += 3 * n;
+    if (c)
+        s->method->vt->controls(s->method, controls);
+    for (size_t i = 0; i < 3 * c; i++)
+        f[i] = (float)controls[i];
+    f += 3 * c;
+    if (r)
+        memcpy(f, s->residuals, 4 * r);
+    ffd_free(controls);
+    *data = buf;
+    *size = bytes;
+    return FFD_OK;
+}
+
+ffd_status ffd_session_topology(const ffd_session *s, void **data, size_t *size, ffd_error *err)
+{
+    const ffd_mesh *mesh = s->mesh;
+    size_t n = s->ctx.n, nf = ffd_mesh_face_count(mesh);
+    const uint32_t *off = ffd_mesh_face_offsets(mesh), *idx = ffd_mesh_face_indices(mesh);
+    size_t t = 0;
+    for (size_t f = 0; f < nf; f++)
+        t += off[f + 1] - off[f] >= 3 ? off[f + 1] - off[f] - 2 : 0;
+    if (t > UINT32_MAX / 3 || n > UINT32_MAX)
+        return ffd_fail(err, FFD_ERR_INVALID, "topology: mesh too large to send");
+    size_t bytes = 16 + 12 * n + 12 * t;
+    unsigned char *buf = ffd_malloc(bytes);
+    if (!buf)
+        return ffd_fail(err, FFD_ERR_NOMEM, "topology: out of memory");
+    uint32_t head[4] = {0, s->revision, (uint32_t)n, (uint32_t)t};
+    memcpy(head, "FFDT", 4);
+    memcpy(buf, head, 16);
+    float *p = (float *)(void *)(buf + 16);
+    for (size_t i = 0; i < 3 * n; i++)
+        p[i] = (float)s->ctx.rest[i];
+    uint32_t *tri = (uint32_t *)(void *)(buf + 16 + 12 * n);
+    for (size_t f = 0, w = 0; f < nf; f++)
+        for (uint32_t c = off[f] + 1; c + 1 < off[f + 1]; c++) {
+            tri[w++] = idx[off[f]];
+            tri[w++] = idx[c];
+            tri[w++] = idx[c + 1];
+        }
+    *data = buf;
+    *size = bytes;
+    return FFD_OK;
+}
+
+static cJSON *pins_json(const ffd_session *s)
+{
+    cJSON *arr = cJSON_CreateArray();
+    for (size_t i = 0; arr && i < s->pin_count; i++) {
+        cJSON *o = cJSON_CreateObject();
+        if (!o || !cJSON_AddItemToArray(arr, o)) {
+            cJSON_Delete(o);
+            cJSON_Delete(arr);
+            return NULL;
+        }
+        const double *x = s->positions + 3 * (size_t)s->pins[i].vertex, *t = s->pins[i].target;
+        double d = sqrt((x[0] - t[0]) * (x[0] - t[0]) + (x[1] - t[1]) * (x[1] - t[1]) +
+                        (x[2] - t[2]) * (x[2] - t[2]));
+        if (!cJSON_AddNumberToObject(o, "vertex", s->pins[i].vertex) ||
+            !cJSON_AddItemToObject(o, "target", sess_vec3(t)) ||
+            !cJSON_AddItemToObject(o, "position", sess_vec3(x)) ||
+            !cJSON_AddNumberToObject(o, "residual", d)) {
+            cJSON_Delete(arr);
+            return NULL;
+        }
+    }
+    return arr;
+}
+
+ffd_status ffd_session_state(const ffd_session *s, char **json, size_t *size, ffd_error *err)
+{
+    cJSON *root = cJSON_CreateObject(), *mesh = cJSON_CreateObject();
+    ffd_status st = FFD_OK;
+    int ok = root && mesh && cJSON_AddItemToObject(root, "mesh", mesh);
+    if (!ok)
+        cJSON_Delete(mesh);
+    ok = ok && cJSON_AddNumberToObject(root, "revision", s->revision) &&
+         cJSON_AddStringToObject(mesh, "name", s->name) &&
+         cJSON_AddNumberToObject(mesh, "vertices", (double)s->ctx.n) &&
+         cJSON_AddNumberToObject(mesh, "faces", (double)ffd_mesh_face_count(s->mesh)) &&
+         cJSON_AddItemToObject(mesh, "min", sess_vec3(s->ctx.min)) &&
+         cJSON_AddItemToObject(mesh, "max", sess_vec3(s->ctx.max));
+    if (ok && s->method) {
+        cJSON *params = cJSON_CreateObject(), *controls = cJSON_CreateObject();
+        ok = params && controls && cJSON_AddItemToObject(root, "params", params);
+        if (!ok)
+            cJSON_Delete(params);
+        ok = ok && cJSON_AddItemToObject(root, "controls", controls);
+        if (!ok)
+            cJSON_Delete(controls);
+        ok = ok && cJSON_AddStringToObject(root, "method", s->method->vt->name) &&
+             cJSON_AddNumberToObject(controls, "count",
+                                     (double)s->method->vt->control_count(s->method));
+        if (ok && (st = s->method->vt->describe(s->method, params, controls, err))) {
+            cJSON_Delete(root);
+            return st;
+        }
+    } else if (ok) {
+        ok = cJSON_AddNullToObject(root, "method") != NULL;
+    }
+    cJSON *drag = NULL;
+    if (ok && s->drag.kind) {
+        drag = cJSON_CreateObject();
+        ok = drag && cJSON_AddItemToObject(root, "drag", drag) &&
+             cJSON_AddStringToObject(drag, "kind", s->drag.kind == DRAG_VERTEX ? "vertex"
+                                                                                : "controls");
+    } else if (ok) {
+        ok = cJSON_AddNullToObject(root, "drag") != NULL;
+    }
+    cJSON *pins = ok ? pins_json(s) : NULL;
+    ok = ok && pins && cJSON_AddItemToObject(root, "pins", pins);
+    ok = ok && cJSON_AddNumberToObject(root, "undo", (double)s->undo.count) &&
+         cJSON_AddNumberToObject(root, "redo", (double)s->redo.count) &&
+         cJSON_AddNumberToObject(root, "busy_ms", s->busy_ms);
+    if (ok && s->undo.count)
+        ok = cJSON_AddStringToObject(root, "undo_label", s->undo.items[s->undo.count - 1].label) != NULL;
+    if (ok && s->redo.count)
+        ok = cJSON_AddStringToObject(root, "redo_label", s->redo.items[s->redo.count - 1].label) != NULL;
+    char *printed = ok ? cJSON_PrintUnformatted(root) : NULL;
+    cJSON_Delete(root);
+    if (!printed)
+        return ffd_fail(err, FFD_ERR_NOMEM, "state: out of memory");
+    *json = ffd_strdup(printed);
+    free(printed);
+    if (!*json)
+        return ffd_fail(err, FFD_ERR_NOMEM, "state: out of memory");
+    *size = strlen(*json);
+    return FFD_OK;
+}
+
+ffd_status ffd_session_rig(const ffd_session *s, char **json, size_t *size, ffd_error *err)
+{
+    if (!s->method)
+        return conflict(err, "no deformer: create one first", "rig");
+    ffd_status st = method_rig_text(s->method, json, err);
+    if (!st)
+        *size = strlen(*json);
+    return st;
+}
+
+ffd_status ffd_session_deformed(const ffd_session *s, ffd_mesh **out, ffd_error *err)
+{
+    *out = NULL;
+    ffd_mesh *copy = NULL;
+    ffd_status st = sess_clone_mesh(s->mesh, &copy, err);
+    if (st || !s->method) {
+        *out = copy;
+        return st;
+    }
+    /* The rig is the deformation's record: replaying it is what ffd deform does. */
+    char *text = NULL;
+    ffd_rig *rig = NULL;
+    if (!(st = method_rig_text(s->method, &text, err)) &&
+        !(st = ffd_rig_parse_json(text, strlen(text), "session", &rig, err)))
+        st = ffd_rig_apply(rig, copy, NULL, err);
+    ffd_rig_destroy(rig);
+    ffd_free(text);
+    if (st)
+        ffd_mesh_destroy(copy);
+    else
+        *out = copy;
+    return st;
+}
+
+ffd_status ffd_session_export(const ffd_session *s, const ffd_write_options *options, void **data,
+                              size_t *size, ffd_error *err)
+{
+    ffd_mesh *mesh = NULL;
+    ffd_status st = ffd_session_deformed(s, &mesh, err);
+    if (st)
+        return st;
+    ffd_write_options o = options ? *options : (ffd_write_options){0};
+    if (o.format == FFD_FORMAT_AUTO)
+        o.format = ffd_mesh_source_format(s->mesh);
+    if (o.format == FFD_FORMAT_AUTO)
+        o.format = FFD_FORMAT_PLY;
+    unsigned char *bytes = NULL;
+    st = ffd_mesh_write_memory(mesh, &o, &bytes, size, err);
+    ffd_mesh_destroy(mesh);
+    *data = bytes;
+    return st;
+}
+
+/* ---------- life cycle ---------- */
+
+ffd_status ffd_session_create(ffd_mesh *mesh, const char *name, const ffd_session_options *options,
+                              ffd_session **out, ffd_error *err)
+{
+    if (!mesh || !out)
+        return ffd_fail(err, FFD_ERR_INVALID, "ffd_session_create: NULL argument");
+    *out = NULL;
+    size_t n = ffd_mesh_vertex_count(mesh);
+    if (n == 0)
+        return ffd_fail(err, FFD_ERR_INVALID, "%s: the mesh has no vertices", name ? name : "mesh");
+    if (n > UINT32_MAX / 4)
+        return ffd_fail(err, FFD_ERR_INVALID, "%s: %zu vertices: too many for the editor",
+                        name ? name : "mesh", n);
+    ffd_session *s = ffd_calloc(1, sizeof *s);
+    if (!s)
+        return ffd_fail(err, FFD_ERR_NOMEM, "out of memory");
+    s->options = options ? *options : (ffd_session_options){0};
+    if (!s->options.max_undo)
+        s->options.max_undo = 200;
+    if (!s->options.max_controls)
+        s->options.max_controls = 2000000;
+    s->name = ffd_strdup(name ? name : "mesh");
+    s->positions = ffd_malloc_array(n, 3 * sizeof *s->positions);
+    if (!s->name || !s->positions) {
+        ffd_free(s->name);
+        ffd_free(s->positions);
+        ffd_free(s);
+        return ffd_fail(err, FFD_ERR_NOMEM, "out of memory for %zu vertices", n);
+    }
+    s->mesh = mesh;
+    s->ctx.mesh = mesh;
+    s->ctx.n = n;
+    s->ctx.rest = ffd_mesh_positions(mesh);
+    for (int a = 0; a < 3; a++) {
+        s->ctx.min[a] = INFINITY;
+        s->ctx.max[a] = -INFINITY;
+    }
+    for (size_t i = 0; i < n; i++)
+        for (int a = 0; a < 3; a++) {
+            double v = s->ctx.rest[3 * i + a];
+            s->ctx.min[a] = v < s->ctx.min[a] ? v : s->ctx.min[a];
+            s->ctx.max[a] = v > s->ctx.max[a] ? v : s->ctx.max[a];
+        }
+    double d2 = 0;
+    for (int a = 0; a < 3; a++)
+        d2 += (s->ctx.max[a] - s->ctx.min[a]) * (s->ctx.max[a] - s->ctx.min[a]);
+    s->ctx.diag = d2 > 0 ? sqrt(d2) : 1;
+    memcpy(s->positions, s->ctx.rest, n * 3 * sizeof *s->positions);
+    *out = s;
+    return FFD_OK;
+}
+
+void ffd_session_destroy(ffd_session *s)
+{
+    if (!s)
+        return;
+    if (s->drag.kind && s->method)
+        s->method->vt->end(s->method, 0);
+    drag_free(&s->drag);
+    stack_clear(&s->undo);
+    stack_clear(&s->redo);
+    ffd_free(s->undo.items);
+    ffd_free(s->redo.items);
+    if (s->method)
+        s->method->vt->destroy(s->method);
+    ffd_mesh_destroy(s->mesh);
+    ffd_free(s->name);
+    ffd_free(s->positions);
+    ffd_free(s->pins);
+    ffd_free(s->residuals);
+    ffd_free(s);
+}
+
+const ffd_mesh *ffd_session_mesh(const ffd_session *s)
+{
+    return s->mesh;
+}
+
+const char *ffd_session_name(const ffd_session *s)
+{
+    return s->name;
+}

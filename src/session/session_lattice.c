@@ -1,0 +1,332 @@
+/* session_lattice — the lattice method of the editor (Sederberg-Parry /
+ * B-spline lattice, Hsu et al. direct manipulation): control points are the
+ * lattice's l*m*n points; its rig is the box made explicit plus one move per
+ * displaced control point (delta = current - rest). */
+#include "session/session.h"
+
+#include <string.h>
+
+typedef struct lattice_method {
+    sess_method base;
+    ffd_lattice *lattice;
+    ffd_lattice_binding *binding;
+    ffd_outside outside;
+    double margin;
+    double *begin;   /* control points at the start of a drag */
+} lattice_method;
+
+static const char *const basis_names[] = {"bspline", "bernstein", NULL};
+static const char *const outside_names[] = {"fixed", "clamp", "extrapolate", NULL};
+
+static lattice_method *as_lattice(const sess_method *m)
+{
+    return (lattice_method *)(void *)m;
+}
+
+static void lat_destroy(sess_method *m)
+{
+    lattice_method *l = as_lattice(m);
+    ffd_lattice_binding_destroy(l->binding);
+    ffd_lattice_destroy(l->lattice);
+    ffd_free(l->begin);
+    ffd_free(l);
+}
+
+static ffd_status lat_eval(sess_method *m, double *out, ffd_error *err)
+{
+    lattice_method *l = as_lattice(m);
+    return ffd_lattice_eval(l->lattice, l->binding, out, err);
+}
+
+static size_t lat_count(const sess_method *m)
+{
+    return ffd_lattice_control_count(as_lattice(m)->lattice);
+}
+
+static void lat_controls(const sess_method *m, double *out)
+{
+    const ffd_lattice *lat = as_lattice(m)->lattice;
+    memcpy(out, ffd_lattice_control_points(lat), lat_count(m) * 3 * sizeof *out);
+}
+
+static ffd_status lat_describe(const sess_method *m, cJSON *params, cJSON *controls,
+                               ffd_error *err)
+{
+    const lattice_method *l = as_lattice(m);
+    uint32_t r[3];
+    ffd_lattice_resolution(l->lattice, r);
+    const char *basis = basis_names[ffd_lattice_basis(l->lattice) == FFD_BASIS_BERNSTEIN];
+    cJSON *edges = cJSON_CreateArray();
+    int ok = edges && cJSON_AddItemToObject(controls, "edges", edges);
+    if (!ok)
+        cJSON_Delete(edges);
+    for (uint32_t i = 0; ok && i < r[0]; i++)
+        for (uint32_t j = 0; ok && j < r[1]; j++)
+            for (uint32_t k = 0; ok && k < r[2]; k++) {
+                uint32_t id = (i * r[1] + j) * r[2] + k;
+                ok = (i + 1 == r[0] || sess_add_edge(edges, id, id + r[1] * r[2])) &&
+                     (j + 1 == r[1] || sess_add_edge(edges, id, id + r[2])) &&
+                     (k + 1 == r[2] || sess_add_edge(edges, id, id + 1));
+            }
+    ok = ok && cJSON_AddItemToObject(params, "resolution", sess_uint_array(r, 3)) &&
+         cJSON_AddStringToObject(params, "basis", basis) &&
+         cJSON_AddNumberToObject(params, "margin", l->margin) &&
+         cJSON_AddStringToObject(params, "outside", outside_names[l->outside]) &&
+         cJSON_AddItemToObject(controls, "resolution", sess_uint_array(r, 3)) &&
+         cJSON_AddStringToObject(controls, "basis", basis);
+    return ok ? FFD_OK : ffd_fail(err, FFD_ERR_NOMEM, "state: out of memory");
+}
+
+static ffd_status lat_begin(sess_method *m, const uint32_t *ids, size_t k, int arap,
+                            ffd_error *err)
+{
+    lattice_method *l = as_lattice(m);
+    size_t c = lat_count(m);
+    ffd_free(l->begin);
+    l->begin = ffd_malloc_array(c, 3 * sizeof *l->begin);
+    if (!l->begin)
+        return ffd_fail(err, FFD_ERR_NOMEM, "drag_begin: out of memory");
+    lat_controls(m, l->begin);
+    return FFD_OK;
+}
+
+/* The drag's start plus a change: controls ids at targets, or every variable + dv. */
+static ffd_status lat_set_from_begin(lattice_method *l, const uint32_t *ids, size_t k,
+                                     const double *targets, const double *dv, ffd_error *err)
+{
+    size_t c = lat_count(&l->base);
+    double *p = ffd_malloc_array(c, 3 * sizeof *p);
+    if (!p)
+        return ffd_fail(err, FFD_ERR_NOMEM, "drag: out of memory");
+    memcpy(p, l->begin, c * 3 * sizeof *p);
+    for (size_t i = 0; i < k; i++)
+        memcpy(p + 3 * (size_t)ids[i], targets + 3 * i, 3 * sizeof *p);
+    for (size_t i = 0; dv && i < 3 * c; i++)
+        p[i] += dv[i];
+    ffd_status st = ffd_lattice_set_control_points(l->lattice, p, err);
+    ffd_free(p);
+    return st;
+}
+
+static ffd_status lat_set_controls(sess_method *m, const uint32_t *ids, size_t k,
+                                   const double *targets, ffd_error *err)
+{
+    return lat_set_from_begin(as_lattice(m), ids, k, targets, NULL, err);
+}
+
+static ffd_status lat_linear_map(sess_method *m, ffd_linear_map *map, ffd_error *err)
+{
+    lattice_method *l = as_lattice(m);
+    ffd_lattice_linear_map(l->lattice, l->binding, map);
+    if (map->variable_count != lat_count(m))
+        return ffd_fail(err, FFD_ERR_UNSUPPORTED, "the lattice exposes %zu variables, expected %zu",
+                        map->variable_count, lat_count(m));
+    return FFD_OK;
+}
+
+static ffd_status lat_set_variables(sess_method *m, const double *dv, ffd_error *err)
+{
+    return lat_set_from_begin(as_lattice(m), NULL, 0, NULL, dv, err);
+}
+
+static void lat_end(sess_method *m, int commit)
+{
+    lattice_method *l = as_lattice(m);
+    if (!commit && l->begin)
+        ffd_lattice_set_control_points(l->lattice, l->begin, NULL);
+    ffd_free(l->begin);
+    l->begin = NULL;
+}
+
+static ffd_status lat_snapshot(const sess_method *m, void **blob, ffd_error *err)
+{
+    size_t c = lat_count(m);
+    double *copy = ffd_malloc_array(c + 1, 3 * sizeof *copy);
+    if (!copy)
+        return ffd_fail(err, FFD_ERR_NOMEM, "out of memory for the undo history");
+    copy[0] = (double)c;
+    lat_controls(m, copy + 3);
+    *blob = copy;
+    return FFD_OK;
+}
+
+static ffd_status lat_restore(sess_method *m, const void *blob, ffd_error *err)
+{
+    const double *copy = blob;
+    if ((size_t)copy[0] != lat_count(m))
+        return ffd_fail(err, FFD_ERR_INVALID, "undo: the history does not match the lattice");
+    return ffd_lattice_set_control_points(as_lattice(m)->lattice, copy + 3, err);
+}
+
+static ffd_status lat_reset(sess_method *m, ffd_error *err)
+{
+    ffd_lattice_reset(as_lattice(m)->lattice);
+    return FFD_OK;
+}
+
+static ffd_status lat_rig(const sess_method *m, cJSON *root, ffd_error *err)
+{
+    const lattice_method *l = as_lattice(m);
+    uint32_t r[3];
+    ffd_box box;
+    ffd_lattice_resolution(l->lattice, r);
+    ffd_lattice_box(l->lattice, &box);
+    const double *p = ffd_lattice_control_points(l->lattice);
+    cJSON *jbox = cJSON_CreateObject(), *moves = cJSON_CreateArray();
+    int ok = jbox && cJSON_AddItemToObject(root, "box", jbox);
+    if (!ok)
+        cJSON_Delete(jbox);
+    ok = ok && moves && cJSON_AddItemToObject(root, "moves", moves);
+    if (!ok && moves && !jbox)
+        cJSON_Delete(moves);
+    ok = ok &&
+         cJSON_AddStringToObject(root, "basis",
+                                 basis_names[ffd_lattice_basis(l->lattice) == FFD_BASIS_BERNSTEIN]) &&
+         cJSON_AddItemToObject(root, "resolution", sess_uint_array(r, 3)) &&
+         cJSON_AddStringToObject(root, "outside", outside_names[l->outside]) &&
+         cJSON_AddItemToObject(jbox, "origin", sess_vec3(box.origin)) &&
+         cJSON_AddItemToObject(jbox, "axes", sess_matrix3((const double(*)[3])box.axes));
+    for (uint32_t i = 0; ok && i < r[0]; i++)
+        for (uint32_t j = 0; ok && j < r[1]; j++)
+            for (uint32_t k = 0; ok && k < r[2]; k++) {
+                double rest[3], d[3];
+                const double *q = p + 3 * ((size_t)(i * r[1] + j) * r[2] + k);
+                ffd_lattice_rest_point(l->lattice, i, j, k, rest);
+                for (int a = 0; a < 3; a++)
+                    d[a] = q[a] - rest[a];
+                if (d[0] == 0 && d[1] == 0 && d[2] == 0)
+                    continue;
+                uint32_t index[3] = {i, j, k};
+                cJSON *move = cJSON_CreateObject();
+                ok = move && cJSON_AddItemToArray(moves, move);
+                if (!ok)
+                    cJSON_Delete(move);
+                ok = ok && cJSON_AddItemToObject(move, "index", sess_uint_array(index, 3)) &&
+                     cJSON_AddItemToObject(move, "delta", sess_vec3(d));
+            }
+    return ok ? FFD_OK : ffd_fail(err, FFD_ERR_NOMEM, "rig: out of memory");
+}
+
+static ffd_status lat_influence(sess_method *m, const uint32_t *ids, size_t k, float *w,
+                                ffd_error *err)
+{
+    ffd_linear_map map;
+    ffd_status st = lat_linear_map(m, &map, err);
+    return st ? st : sess_map_influence(&map, 0, m->ctx->n, ids, k, w, err);
+}
+
+static ffd_status lat_op(sess_method *m, const char *op, const cJSON *body, int *undo_kind,
+                         ffd_error *err)
+{
+    return ffd_fail(err, FFD_ERR_UNSUPPORTED, "%s: not a lattice operation", op);
+}
+
+static const sess_vtable lattice_vtable = {
+    .name = "lattice",
+    .destroy = lat_destroy,
+    .eval = lat_eval,
+    .control_count = lat_count,
+    .controls = lat_controls,
+    .describe = lat_describe,
+    .begin = lat_begin,
+    .set_controls = lat_set_controls,
+    .linear_map = lat_linear_map,
+    .set_variables = lat_set_variables,
+    .end = lat_end,
+    .snapshot = lat_snapshot,
+    .restore = lat_restore,
+    .snapshot_free = ffd_free,
+    .reset = lat_reset,
+    .rig = lat_rig,
+    .influence = lat_influence,
+    .op = lat_op,
+};
+
+/* Builds the lattice and binds the rest mesh. */
+static ffd_status lattice_build(const sess_ctx *ctx, ffd_basis basis, const uint32_t res[3],
+                                const ffd_box *box, ffd_outside outside, double margin,
+                                const char *what, sess_method **out, ffd_error *err)
+{
+    lattice_method *l = ffd_calloc(1, sizeof *l);
+    if (!l)
+        return ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory", what);
+    l->base.vt = &lattice_vtable;
+    l->base.ctx = ctx;
+    l->outside = outside;
+    l->margin = margin;
+    ffd_error inner = {{0}};
+    ffd_status st = ffd_lattice_create(basis, box, res, &l->lattice, &inner);
+    if (!st)
+        st = ffd_lattice_bind(l->lattice, ctx->rest, ctx->n, outside, &l->binding, &inner);
+    if (st) {
+        lat_destroy(&l->base);
+        return ffd_fail(err, st, "%s: %s", what, inner.message);
+    }
+    *out = &l->base;
+    return FFD_OK;
+}
+
+ffd_status sess_lattice_create(const sess_ctx *ctx, const cJSON *body, sess_method **out,
+                               ffd_error *err)
+{
+    static const char *const keys[] = {"method", "resolution", "basis", "margin", "outside", NULL};
+    parser p = {"create", err};
+    ffd_status st = rig_check_keys(&p, body, "body", keys, "method, resolution, basis, margin, outside");
+    uint32_t res[3] = {5, 5, 5};
+    int basis = 0, outside = 0;
+    double margin = 0.05;
+    const cJSON *item;
+    if (!st && (item = cJSON_GetObjectItemCaseSensitive(body, "resolution")))
+        st = rig_read_uint3(&p, item, "resolution", res);
+    if (!st && (item = cJSON_GetObjectItemCaseSensitive(body, "basis")))
+        st = rig_read_enum(&p, item, "basis", basis_names, "\"bspline\" or \"bernstein\"", &basis);
+    if (!st && (item = cJSON_GetObjectItemCaseSensitive(body, "outside")))
+        st = rig_read_enum(&p, item, "outside", outside_names,
+                           "\"fixed\", \"clamp\" or \"extrapolate\"", &outside);
+    if (!st && (item = cJSON_GetObjectItemCaseSensitive(body, "margin"))) {
+        st = rig_read_number(&p, item, "margin", &margin);
+        if (!st && margin < 0)
+            st = ffd_fail(err, FFD_ERR_INVALID, "create: margin: %g: expected >= 0", margin);
+    }
+    for (int a = 0; !st && a < 3; a++)
+        if (res[a] < 2 || res[a] > 1024)
+            st = ffd_fail(err, FFD_ERR_INVALID, "create: resolution[%d]: %u: expected 2..1024", a,
+                          res[a]);
+    ffd_box box;
+    ffd_error inner = {{0}};
+    if (!st && (st = ffd_box_fit(ctx->rest, ctx->n, margin, &box, &inner)))
+        st = ffd_fail(err, st, "create: box: %s", inner.message);
+    if (st)
+        return st;
+    return lattice_build(ctx, basis ? FFD_BASIS_BERNSTEIN : FFD_BASIS_BSPLINE, res, &box,
+                         (ffd_outside)outside, margin, "create", out, err);
+}
+
+ffd_status sess_lattice_load(const sess_ctx *ctx, const ffd_rig *rig, sess_method **out,
+                             ffd_error *err)
+{
+    ffd_box box = rig->box;
+    ffd_error inner = {{0}};
+    ffd_status st;
+    if (rig->box_auto && (st = ffd_box_fit(ctx->rest, ctx->n, rig->margin, &box, &inner)))
+        return ffd_fail(err, st, "%s: box \"auto\": %s", rig->name, inner.message);
+    /* The rig's moves and constraints, as ffd deform applies them. */
+    ffd_rig_report report = {0};
+    if ((st = sess_apply_rig(ctx, rig, &report, err)))
+        return st;
+    sess_method *m = NULL;
+    st = lattice_build(ctx, rig->basis, rig->resolution, &box, rig->outside, rig->margin,
+                       rig->name, &m, err);
+    if (!st && report.control_count != lat_count(m))
+        st = ffd_fail(err, FFD_ERR_INVALID, "%s: the rig's lattice does not match", rig->name);
+    if (!st)
+        st = ffd_lattice_set_control_points(as_lattice(m)->lattice, report.control_points, err);
+    ffd_rig_report_free(&report);
+    if (st) {
+        if (m)
+            lat_destroy(m);
+        return st;
+    }
+    *out = m;
+    return FFD_OK;
+}

@@ -1,0 +1,495 @@
+/* session_tspline — the proxy-driven T-spline method of the editor (Zhang,
+ * Zheng & Cai 2020): controls are the T-lattice's points; dragging them runs
+ * the proxy ARAP solve (§3.4) with the dragged points as handles and the
+ * frozen points fixed; "refine" inserts edges, faces or cells (§3.2-3.3) at
+ * any time. Its rig: the refinement edits in order (ids resolved), then one
+ * "move" step putting every displaced point where it is (refinement is
+ * exact, so refining first and moving afterwards gives the same map). */
+#include "session/session.h"
+
+#include <stdio.h>
+#include <string.h>
+
+typedef struct refine_edit {
+    ffd_tsv_insertion *ins;
+    size_t count;
+} refine_edit;
+
+typedef struct tspline_method {
+    sess_method base;
+    ffd_tsv *t;
+    uint32_t res[3];
+    double padding;
+    refine_edit *edits;
+    size_t edit_count;
+    /* the drag in progress */
+    double *begin;
+    ffd_tsv_arap *arap;
+} tspline_method;
+
+static tspline_method *as_tsv(const sess_method *m)
+{
+    return (tspline_method *)(void *)m;
+}
+
+static void edits_free(refine_edit *edits, size_t count)
+{
+    for (size_t i = 0; i < count; i++)
+        ffd_free(edits[i].ins);
+    ffd_free(edits);
+}
+
+static void tsv_destroy_method(sess_method *m)
+{
+    tspline_method *t = as_tsv(m);
+    ffd_tsv_arap_destroy(t->arap);
+    ffd_tsv_destroy(t->t);
+    edits_free(t->edits, t->edit_count);
+    ffd_free(t->begin);
+    ffd_free(t);
+}
+
+static ffd_status tsv_eval_method(sess_method *m, double *out, ffd_error *err)
+{
+    return ffd_tsv_eval(as_tsv(m)->t, out, err);
+}
+
+static size_t tsv_count(const sess_method *m)
+{
+    return ffd_tsv_control_count(as_tsv(m)->t);
+}
+
+static void tsv_controls(const sess_method *m, double *out)
+{
+    memcpy(out, ffd_tsv_control_points(as_tsv(m)->t), tsv_count(m) * 3 * sizeof *out);
+}
+
+static cJSON *proxy_json(const ffd_tsv *t)
+{
+    ffd_tsv_proxy proxy;
+    ffd_tsv_get_proxy(t, &proxy);
+    cJSON *o = cJSON_CreateObject(), *faces = cJSON_CreateArray();
+    int ok = o && faces && cJSON_AddItemToObject(o, "faces", faces);
+    if (!ok)
+        cJSON_Delete(faces);
+    for (size_t f = 0; ok && f < proxy.face_count; f++) {
+        cJSON *face = sess_uint_array(proxy.face_indices + proxy.face_offsets[f],
+                                      proxy.face_offsets[f + 1] - proxy.face_offsets[f]);
+        ok = face && cJSON_AddItemToArray(faces, face);
+        if (!ok)
+            cJSON_Delete(face);
+    }
+    ok = ok && cJSON_AddItemToObject(o, "points", sess_uint_array(proxy.vertices,
+                                                                  proxy.vertex_count)) &&
+         cJSON_AddNumberToObject(o, "inside_cells", (double)proxy.inside_cells);
+    if (!ok) {
+        cJSON_Delete(o);
+        return NULL;
+    }
+    return o;
+}
+
+static ffd_status tsv_describe(const sess_method *m, cJSON *params, cJSON *controls,
+                               ffd_error *err)
+{
+    const tspline_method *t = as_tsv(m);
+    size_t ne = ffd_tsv_element_count(t->t, FFD_TSV_EDGE), nv = tsv_count(m);
+    cJSON *edges = cJSON_CreateArray(), *frozen = cJSON_CreateArray();
+    int ok = edges && cJSON_AddItemToObject(controls, "edges", edges);
+    if (!ok)
+        cJSON_Delete(edges);
+    ok = ok && frozen && cJSON_AddItemToObject(controls, "frozen", frozen);
+    if (!ok && edges)
+        cJSON_Delete(frozen);
+    for (size_t e = 0; ok && e < ne; e++) {
+        uint32_t ends[2];
+        int axis;
+        ok = ffd_tsv_edge(t->t, (uint32_t)e, ends, &axis, NULL) == FFD_OK &&
+             sess_add_edge(edges, ends[0], ends[1]);
+    }
+    for (size_t v = 0; ok && v < nv; v++) {
+        cJSON *id;
+        if (!ffd_tsv_frozen(t->t, (uint32_t)v))
+            continue;
+        ok = (id = cJSON_CreateNumber((double)v)) && cJSON_AddItemToArray(frozen, id);
+    }
+    cJSON *proxy = ok ? proxy_json(t->t) : NULL;
+    ok = ok && proxy && cJSON_AddItemToObject(controls, "proxy", proxy);
+    if (!ok && proxy)
+        cJSON_Delete(proxy);
+    ok = ok && cJSON_AddNumberToObject(controls, "cells", (double)ffd_tsv_element_count(t->t, FFD_TSV_CELL)) &&
+         cJSON_AddNumberToObject(controls, "faces", (double)ffd_tsv_element_count(t->t, FFD_TSV_FACE)) &&
+         cJSON_AddNumberToObject(controls, "edges_count", (double)ne) &&
+         cJSON_AddNumberToObject(controls, "max_weight_deviation",
+                                 ffd_tsv_max_weight_deviation(t->t)) &&
+         cJSON_AddNumberToObject(controls, "refinements", (double)t->edit_count) &&
+         cJSON_AddItemToObject(params, "resolution", sess_uint_array(t->res, 3)) &&
+         cJSON_AddNumberToObject(params, "padding", t->padding);
+    return ok ? FFD_OK : ffd_fail(err, FFD_ERR_NOMEM, "state: out of memory");
+}
+
+/* A drag: the dragged points are ARAP handles (§3.4) unless arap is 0. */
+static ffd_status tsv_begin(sess_method *m, const uint32_t *ids, size_t k, int arap,
+                            ffd_error *err)
+{
+    tspline_method *t = as_tsv(m);
+    ffd_free(t->begin);
+    t->begin = ffd_malloc_array(tsv_count(m), 3 * sizeof *t->begin);
+    if (!t->begin)
+        return ffd_fail(err, FFD_ERR_NOMEM, "drag_begin: out of memory");
+    tsv_controls(m, t->begin);
+    if (k && arap) {
+        ffd_error inner = {{0}};
+        ffd_status st = ffd_tsv_arap_begin(t->t, ids, k, NULL, &t->arap, &inner);
+        if (st) {
+            ffd_free(t->begin);
+            t->begin = NULL;
+            return ffd_fail(err, st, "drag_begin: %s", inner.message);
+        }
+    }
+    return FFD_OK;
+}
+
+static ffd_status tsv_set_from_begin(tspline_method *t, const uint32_t *ids, size_t k,
+                                     const double *targets, const ffd_linear_map *map,
+                                     const double *dv, ffd_error *err)
+{
+    size_t c = tsv_count(&t->base);
+    double *p = ffd_malloc_array(c, 3 * sizeof *p);
+    if (!p)
+        return ffd_fail(err, FFD_ERR_NOMEM, "drag: out of memory");
+    memcpy(p, t->begin, c * 3 * sizeof *p);
+    for (size_t i = 0; i < k; i++)
+        memcpy(p + 3 * (size_t)ids[i], targets + 3 * i, 3 * sizeof *p);
+    for (size_t v = 0; dv && v < c; v++) {
+        uint32_t x = map->tie ? map->tie[v] : (uint32_t)v;
+        if (x == FFD_TIE_FIXED)
+            continue;
+        for (int a = 0; a < 3; a++)
+            p[3 * v + a] += dv[3 * (size_t)x + a];
+    }
+    ffd_status st = ffd_tsv_set_control_points(t->t, p, err);
+    ffd_free(p);
+    return st;
+}
+
+static ffd_status tsv_set_controls(sess_method *m, const uint32_t *ids, size_t k,
+                                   const double *targets, ffd_error *err)
+{
+    tspline_method *t = as_tsv(m);
+    if (t->arap) {
+        ffd_tsv_arap_report report;
+        return ffd_tsv_arap_solve(t->arap, targets, &report, err);
+    }
+    return tsv_set_from_begin(t, ids, k, targets, NULL, NULL, err);
+}
+
+static ffd_status tsv_linear_map(sess_method *m, ffd_linear_map *map, ffd_error *err)
+{
+    return ffd_tsv_linear_map(as_tsv(m)->t, map, err);
+}
+
+static ffd_status tsv_set_variables(sess_method *m, const double *dv, ffd_error *err)
+{
+    ffd_linear_map map;
+    ffd_status st = tsv_linear_map(m, &map, err);
+    return st ? st : tsv_set_from_begin(as_tsv(m), NULL, 0, NULL, &map, dv, err);
+}
+
+static void tsv_end(sess_method *m, int commit)
+{
+    tspline_method *t = as_tsv(m);
+    if (!commit && t->begin)
+        ffd_tsv_set_control_points(t->t, t->begin, NULL);
+    ffd_tsv_arap_destroy(t->arap);
+    t->arap = NULL;
+    ffd_free(t->begin);
+    t->begin = NULL;
+}
+
+/* Snapshot: [count, points (3 count), frozen flags (count)]. */
+static ffd_status tsv_snapshot(const sess_method *m, void **blob, ffd_error *err)
+{
+    size_t c = tsv_count(m);
+    double *copy = ffd_malloc_array(4 * c + 1, sizeof *copy);
+    if (!copy)
+        return ffd_fail(err, FFD_ERR_NOMEM, "out of memory for the undo history");
+    copy[0] = (double)c;
+    tsv_controls(m, copy + 1);
+    for (size_t v = 0; v < c; v++)
+        copy[1 + 3 * c + v] = ffd_tsv_frozen(as_tsv(m)->t, (uint32_t)v);
+    *blob = copy;
+    return FFD_OK;
+}
+
+static ffd_status tsv_restore(sess_method *m, const void *blob, ffd_error *err)
+{
+    const double *copy = blob;
+    size_t c = tsv_count(m);
+    if ((size_t)copy[0] != c)
+        return ffd_fail(err, FFD_ERR_INVALID, "undo: the history does not match the T-lattice");
+    ffd_status st = ffd_tsv_set_control_points(as_tsv(m)->t, copy + 1, err);
+    for (size_t v = 0; !st && v < c; v++)
+        st = ffd_tsv_set_frozen(as_tsv(m)->t, (uint32_t)v, copy[1 + 3 * c + v] != 0, err);
+    return st;
+}
+
+static ffd_status tsv_reset_method(sess_method *m, ffd_error *err)
+{
+    ffd_tsv_reset(as_tsv(m)->t);
+    return FFD_OK;
+}
+
+static int add_insertion(cJSON *list, const ffd_tsv_insertion *in)
+{
+    static const char *const kinds[] = {"edge", "face", "cell"};
+    cJSON *o = cJSON_CreateObject();
+    if (!o || !cJSON_AddItemToArray(list, o)) {
+        cJSON_Delete(o);
+        return 0;
+    }
+    return cJSON_AddNumberToObject(o, kinds[in->kind], in->id) &&
+           (in->kind != FFD_TSV_EDGE || in->ratio == 0 ||
+            cJSON_AddNumberToObject(o, "ratio", in->ratio));
+}
+
+static ffd_status tsv_rig(const sess_method *m, cJSON *root, ffd_error *err)
+{
+    const tspline_method *t = as_tsv(m);
+    cJSON *steps = cJSON_CreateArray();
+    int ok = steps && cJSON_AddItemToObject(root, "steps", steps);
+    if (!ok)
+        cJSON_Delete(steps);
+    ok = ok && cJSON_AddItemToObject(root, "resolution", sess_uint_array(t->res, 3)) &&
+         cJSON_AddNumberToObject(root, "padding", t->padding);
+    for (size_t e = 0; ok && e < t->edit_count; e++) {
+        cJSON *step = cJSON_CreateObject(), *list = cJSON_CreateArray();
+        ok = step && cJSON_AddItemToArray(steps, step);
+        if (!ok)
+            cJSON_Delete(step);
+        ok = ok && list && cJSON_AddItemToObject(step, "refine", list);
+        if (!ok && step)
+            cJSON_Delete(list);
+        for (size_t i = 0; ok && i < t->edits[e].count; i++)
+            ok = add_insertion(list, &t->edits[e].ins[i]);
+    }
+    cJSON *moves = NULL;
+    const double *P = ffd_tsv_control_points(t->t);
+    for (size_t v = 0; ok && v < tsv_count(m); v++) {
+        double rest[3], d[3];
+        ok = ffd_tsv_rest_point(t->t, (uint32_t)v, rest, NULL) == FFD_OK;
+        for (int a = 0; a < 3; a++)
+            d[a] = P[3 * v + a] - rest[a];
+        if (!ok || (d[0] == 0 && d[1] == 0 && d[2] == 0))
+            continue;
+        if (!moves) {
+            cJSON *step = cJSON_CreateObject();
+            ok = step && cJSON_AddItemToArray(steps, step);
+            if (!ok)
+                cJSON_Delete(step);
+            ok = ok && (moves = cJSON_AddArrayToObject(step, "move")) != NULL;
+        }
+        uint32_t id = (uint32_t)v;
+        cJSON *h = ok ? cJSON_CreateObject() : NULL;
+        ok = h && cJSON_AddItemToArray(moves, h);
+        if (!ok)
+            cJSON_Delete(h);
+        ok = ok && cJSON_AddItemToObject(h, "points", sess_uint_array(&id, 1)) &&
+             cJSON_AddItemToObject(h, "delta", sess_vec3(d));
+    }
+    return ok ? FFD_OK : ffd_fail(err, FFD_ERR_NOMEM, "rig: out of memory");
+}
+
+static ffd_status tsv_influence(sess_method *m, const uint32_t *ids, size_t k, float *w,
+                                ffd_error *err)
+{
+    ffd_linear_map map;
+    ffd_status st = tsv_linear_map(m, &map, err);
+    return st ? st : sess_map_influence(&map, 1, m->ctx->n, ids, k, w, err);
+}
+
+/* One refinement edit (§3.2-3.3): insertions resolved, applied, logged. */
+static ffd_status refine_apply(tspline_method *t, const ffd_rig_tsv_step *step, const char *what,
+                               ffd_error *err)
+{
+    ffd_tsv_insertion *ins = NULL;
+    size_t count = 0;
+    ffd_error inner = {{0}};
+    ffd_status st = ffd_rig_tsv_resolve(t->t, step, &ins, &count, &inner);
+    refine_edit *grown = NULL;
+    if (!st && count == 0)
+        st = ffd_fail(&inner, FFD_ERR_INVALID, "nothing to refine (no cell inside the proxy)");
+    if (!st && !(grown = ffd_realloc_array(t->edits, t->edit_count + 1, sizeof *grown)))
+        st = ffd_fail(&inner, FFD_ERR_NOMEM, "out of memory");
+    if (!st) {
+        t->edits = grown;
+        ffd_tsv_refine_report report;
+        st = ffd_tsv_refine(t->t, ins, count, &report, &inner);
+    }
+    if (st) {
+        ffd_free(ins);
+        return ffd_fail(err, st, "%s: %s", what, inner.message);
+    }
+    t->edits[t->edit_count++] = (refine_edit){ins, count};
+    return FFD_OK;
+}
+
+static ffd_status op_refine(tspline_method *t, const cJSON *body, ffd_error *err)
+{
+    static const char *const keys[] = {"insertions", NULL};
+    parser p = {"refine", err};
+    ffd_status st = rig_check_keys(&p, body, "body", keys, "insertions");
+    const cJSON *list = cJSON_GetObjectItemCaseSensitive(body, "insertions");
+    if (!st && !list)
+        st = rig_expected(&p, "insertions", "an array of insertions (missing)");
+    ffd_rig_tsv_step step = {0};
+    if (!st)
+        st = rig_read_tsv_refinements(&p, list, "insertions", &step);
+    if (!st)
+        st = refine_apply(t, &step, "refine", err);
+    ffd_free(step.refinements);
+    return st;
+}
+
+static ffd_status op_freeze(tspline_method *t, const cJSON *body, ffd_error *err)
+{
+    static const char *const keys[] = {"points", "frozen", NULL};
+    parser p = {"freeze", err};
+    uint32_t *ids = NULL;
+    size_t k = 0;
+    ffd_status st = rig_check_keys(&p, body, "body", keys, "points, frozen");
+    const cJSON *frozen = cJSON_GetObjectItemCaseSensitive(body, "frozen");
+    if (!st && frozen && !cJSON_IsBool(frozen))
+        st = rig_expected(&p, "frozen", "true or false");
+    if (!st)
+        st = sess_read_ids(&p, cJSON_GetObjectItemCaseSensitive(body, "points"), "points",
+                           tsv_count(&t->base), &ids, &k);
+    for (size_t i = 0; !st && i < k; i++)
+        st = ffd_tsv_set_frozen(t->t, ids[i], !frozen || cJSON_IsTrue(frozen), err);
+    ffd_free(ids);
+    return st;
+}
+
+static ffd_status tsv_op(sess_method *m, const char *op, const cJSON *body, int *undo_kind,
+                         ffd_error *err)
+{
+    tspline_method *t = as_tsv(m);
+    if (!strcmp(op, "refine")) {
+        *undo_kind = SESS_UNDO_REBUILD;
+        return op_refine(t, body, err);
+    }
+    if (!strcmp(op, "freeze")) {
+        *undo_kind = SESS_UNDO_STATE;
+        /* all or nothing: validate first, then apply */
+        void *blob = NULL;
+        ffd_status st = tsv_snapshot(m, &blob, err);
+        if (!st && (st = op_freeze(t, body, err)))
+            tsv_restore(m, blob, NULL);
+        ffd_free(blob);
+        return st;
+    }
+    return ffd_fail(err, FFD_ERR_UNSUPPORTED, "%s: not a T-spline operation", op);
+}
+
+static const sess_vtable tspline_vtable = {
+    .name = "tspline",
+    .destroy = tsv_destroy_method,
+    .eval = tsv_eval_method,
+    .control_count = tsv_count,
+    .controls = tsv_controls,
+    .describe = tsv_describe,
+    .begin = tsv_begin,
+    .set_controls = tsv_set_controls,
+    .linear_map = tsv_linear_map,
+    .set_variables = tsv_set_variables,
+    .end = tsv_end,
+    .snapshot = tsv_snapshot,
+    .restore = tsv_restore,
+    .snapshot_free = ffd_free,
+    .reset = tsv_reset_method,
+    .rig = tsv_rig,
+    .influence = tsv_influence,
+    .op = tsv_op,
+};
+
+static ffd_status tspline_build(const sess_ctx *ctx, const uint32_t res[3], double padding,
+                                const char *what, tspline_method **out, ffd_error *err)
+{
+    tspline_method *t = ffd_calloc(1, sizeof *t);
+    if (!t)
+        return ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory", what);
+    t->base.vt = &tspline_vtable;
+    t->base.ctx = ctx;
+    memcpy(t->res, res, sizeof t->res);
+    t->padding = padding;
+    ffd_tsv_options options = {padding};
+    ffd_error inner = {{0}};
+    ffd_status st = ffd_tsv_create(ctx->rest, ctx->n, ffd_mesh_face_offsets(ctx->mesh),
+                                   ffd_mesh_face_indices(ctx->mesh),
+                                   ffd_mesh_face_count(ctx->mesh), res, &options, &t->t, &inner);
+    if (st) {
+        tsv_destroy_method(&t->base);
+        return ffd_fail(err, st, "%s: %s", what, inner.message);
+    }
+    *out = t;
+    return FFD_OK;
+}
+
+ffd_status sess_tspline_create(const sess_ctx *ctx, const cJSON *body, sess_method **out,
+                               ffd_error *err)
+{
+    static const char *const keys[] = {"method", "resolution", "padding", NULL};
+    parser p = {"create", err};
+    ffd_status st = rig_check_keys(&p, body, "body", keys, "method, resolution, padding");
+    uint32_t res[3] = {6, 6, 6};
+    double padding = 0;
+    const cJSON *item;
+    if (!st && (item = cJSON_GetObjectItemCaseSensitive(body, "resolution")))
+        st = rig_read_uint3(&p, item, "resolution", res);
+    if (!st && (item = cJSON_GetObjectItemCaseSensitive(body, "padding"))) {
+        st = rig_read_number(&p, item, "padding", &padding);
+        if (!st && (padding < 0 || padding > 100))
+            st = ffd_fail(err, FFD_ERR_INVALID, "create: padding: %g: expected 0..100", padding);
+    }
+    for (int a = 0; !st && a < 3; a++)
+        if (res[a] < 4 || res[a] > 256)
+            st = ffd_fail(err, FFD_ERR_INVALID, "create: resolution[%d]: %u: expected 4..256", a,
+                          res[a]);
+    tspline_method *t = NULL;
+    if (!st)
+        st = tspline_build(ctx, res, padding, "create", &t, err);
+    if (!st)
+        *out = &t->base;
+    return st;
+}
+
+ffd_status sess_tspline_load(const sess_ctx *ctx, const ffd_rig *rig, sess_method **out,
+                             ffd_error *err)
+{
+    const ffd_rig_tspline *rt = &rig->tsv;
+    tspline_method *t = NULL;
+    ffd_status st = tspline_build(ctx, rt->resolution, rt->options.padding, rig->name, &t, err);
+    /* the rig's refinements, in order (the other steps only move points) */
+    for (size_t i = 0; !st && i < rt->step_count; i++)
+        if (rt->steps[i].kind == FFD_RIG_STEP_REFINE) {
+            char what[64];
+            snprintf(what, sizeof what, "%s: steps[%zu].refine", rig->name, i);
+            st = refine_apply(t, &rt->steps[i], what, err);
+        }
+    /* where its deform, move and constraints steps leave the points */
+    ffd_rig_report report = {0};
+    if (!st)
+        st = sess_apply_rig(ctx, rig, &report, err);
+    if (!st && report.control_count != tsv_count(&t->base))
+        st = ffd_fail(err, FFD_ERR_INVALID, "%s: the rig's T-lattice does not match", rig->name);
+    if (!st)
+        st = ffd_tsv_set_control_points(t->t, report.control_points, err);
+    ffd_rig_report_free(&report);
+    if (st) {
+        if (t)
+            tsv_destroy_method(&t->base);
+        return st;
+    }
+    *out = &t->base;
+    return FFD_OK;
+}

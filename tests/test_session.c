@@ -1,0 +1,394 @@
+/* The editor session (ffd_session): every op through ffd_session_command,
+ * with the lattice and T-spline methods: drags, direct manipulation with
+ * pins, undo/redo, and the central property: the session's rig replayed by
+ * ffd_rig_apply (what `ffd deform` does) gives the session's positions. */
+#include "check.h"
+#include "ffd.h"
+
+#include <stdint.h>
+
+#define BUNNY FFD_SOURCE_DIR "/examples/lattice/bunny.obj"
+#define COW FFD_SOURCE_DIR "/examples/tspline/cow.off"
+
+static ffd_session *open_session(const char *path)
+{
+    ffd_mesh *mesh = NULL;
+    ffd_session *s = NULL;
+    CHECK_OK(ffd_mesh_read(path, &mesh, NULL));
+    if (!mesh)
+        return NULL;
+    CHECK_OK(ffd_session_create(mesh, "mesh", NULL, &s, NULL));
+    return s;
+}
+
+/* Runs op; returns its status, the reply freed (err kept for messages). */
+static ffd_status run(ffd_session *s, const char *op, const char *body, ffd_error *err)
+{
+    void *reply = NULL;
+    size_t size = 0;
+    int binary = 0;
+    ffd_error local = {{0}};
+    ffd_status st = ffd_session_command(s, op, body, body ? strlen(body) : 0, &reply, &size,
+                                        &binary, err ? err : &local);
+    if (st && !err)
+        fprintf(stderr, "  %s %s: %s\n", op, body ? body : "", local.message);
+    ffd_free(reply);
+    return st;
+}
+
+/* The frame's deformed positions (V by 3 floats) and header fields. */
+static float *frame_positions(ffd_session *s, uint32_t head[5])
+{
+    void *data = NULL;
+    size_t size = 0;
+    if (ffd_session_frame(s, &data, &size, NULL) != FFD_OK)
+        return NULL;
+    memcpy(head, data, 20);
+    float *p = malloc(12 * (size_t)head[2]);
+    memcpy(p, (char *)data + 20, 12 * (size_t)head[2]);
+    ffd_free(data);
+    return p;
+}
+
+/* max |session positions - replay of the session's rig on the file| */
+static double replay_difference(ffd_session *s, const char *path)
+{
+    char *text = NULL;
+    size_t size = 0;
+    ffd_rig *rig = NULL;
+    ffd_mesh *mesh = NULL;
+    uint32_t head[5];
+    double worst = INFINITY;
+    float *p = frame_positions(s, head);
+    if (ffd_session_rig(s, &text, &size, NULL) == FFD_OK &&
+        ffd_rig_parse_json(text, size, "session.json", &rig, NULL) == FFD_OK &&
+        ffd_mesh_read(path, &mesh, NULL) == FFD_OK && ffd_rig_apply(rig, mesh, NULL, NULL) == FFD_OK) {
+        const double *x = ffd_mesh_positions(mesh);
+        worst = 0;
+        for (size_t i = 0; i < 3 * (size_t)head[2]; i++) {
+            double d = fabs(x[i] - p[i]);
+            worst = d > worst ? d : worst;
+        }
+    }
+    free(p);
+    ffd_mesh_destroy(mesh);
+    ffd_rig_destroy(rig);
+    ffd_free(text);
+    return worst;
+}
+
+static double max_change(const float *a, const float *b, size_t n)
+{
+    double worst = 0;
+    for (size_t i = 0; i < 3 * n; i++)
+        worst = fabs(a[i] - b[i]) > worst ? fabs(a[i] - b[i]) : worst;
+    return worst;
+}
+
+static void test_identity_and_create(void)
+{
+    ffd_session *s = open_session(BUNNY);
+    uint32_t head[5];
+    float *rest = frame_positions(s, head);
+    CHECK(head[3] == 0 && head[4] == 0);
+    CHECK(run(s, "create", "{\"method\":\"lattice\",\"resolution\":[4,5,6]}", NULL) == FFD_OK);
+    float *now = frame_positions(s, head);
+    CHECK(head[3] == 120);
+    CHECK(max_change(rest, now, head[2]) < 1e-5); /* identity at rest (float32) */
+    char *state = NULL;
+    size_t size;
+    CHECK_OK(ffd_session_state(s, &state, &size, NULL));
+    CHECK(state && strstr(state, "\"method\":\"lattice\"") && strstr(state, "\"count\":120"));
+    ffd_free(state);
+    free(rest);
+    free(now);
+    ffd_session_destroy(s);
+}
+
+static void test_lattice_drag_replays(void)
+{
+    ffd_session *s = open_session(BUNNY);
+    CHECK(run(s, "create", "{\"method\":\"lattice\",\"resolution\":[5,5,5]}", NULL) == FFD_OK);
+    CHECK(run(s, "drag_begin", "{\"points\":[62,63,67]}", NULL) == FFD_OK);
+    CHECK(run(s, "drag", "{\"delta\":[0.5,1,0]}", NULL) == FFD_OK);
+    CHECK(run(s, "drag", "{\"delta\":[1.5,2,-1]}", NULL) == FFD_OK); /* total, not added */
+    CHECK(run(s, "drag_end", "{}", NULL) == FFD_OK);
+    CHECK(run(s, "move", "{\"points\":[100,101],\"axis\":[0,0,1],\"angle\":0.4}", NULL) == FFD_OK);
+    CHECK(run(s, "move", "{\"points\":[24],\"scale\":[2,1,1],\"center\":[0,0,0]}", NULL) == FFD_OK);
+    double d = replay_difference(s, BUNNY);
+    CHECK(d < 1e-5); /* float32 frame vs double replay */
+    /* the drag's total: control 62 moved by exactly (1.5, 2, -1) */
+    void *data;
+    size_t size;
+    uint32_t head[5];
+    CHECK_OK(ffd_session_frame(s, &data, &size, NULL));
+    memcpy(head, data, 20);
+    CHECK(size == 20 + 12 * ((size_t)head[2] + head[3]) + 4 * head[4]);
+    ffd_free(data);
+    ffd_session_destroy(s);
+}
+
+static void test_undo_redo(void)
+{
+    ffd_session *s = open_session(BUNNY);
+    uint32_t head[5];
+    float *rest = frame_positions(s, head);
+    CHECK(run(s, "undo", NULL, &(ffd_error){{0}}) == FFD_ERR_INVALID); /* nothing yet */
+    CHECK(run(s, "create", "{\"method\":\"lattice\"}", NULL) == FFD_OK);
+    CHECK(run(s, "move", "{\"points\":[62],\"delta\":[0,3,0]}", NULL) == FFD_OK);
+    float *a = frame_positions(s, head);
+    CHECK(run(s, "move", "{\"points\":[12],\"delta\":[1,0,0]}", NULL) == FFD_OK);
+    float *b = frame_positions(s, head);
+    CHECK(max_change(a, b, head[2]) > 0.01);
+    CHECK(run(s, "undo", NULL, NULL) == FFD_OK);
+    float *c = frame_positions(s, head);
+    CHECK(max_change(a, c, head[2]) == 0);
+    CHECK(run(s, "redo", NULL, NULL) == FFD_OK);
+    float *d = frame_positions(s, head);
+    CHECK(max_change(b, d, head[2]) == 0);
+    /* switching method is undoable, back to the same lattice state */
+    CHECK(run(s, "create", "{\"method\":\"tspline\",\"resolution\":[5,5,5]}", NULL) == FFD_OK);
+    CHECK(run(s, "undo", NULL, NULL) == FFD_OK);
+    float *e = frame_positions(s, head);
+    CHECK(max_change(b, e, head[2]) == 0);
+    CHECK(run(s, "undo", NULL, NULL) == FFD_OK);
+    CHECK(run(s, "undo", NULL, NULL) == FFD_OK);
+    CHECK(run(s, "undo", NULL, NULL) == FFD_OK); /* before "create": no deformer */
+    float *f = frame_positions(s, head);
+    CHECK(head[3] == 0 && max_change(rest, f, head[2]) == 0);
+    /* a new change clears redo */
+    CHECK(run(s, "create", "{\"method\":\"lattice\"}", NULL) == FFD_OK);
+    CHECK(run(s, "redo", NULL, &(ffd_error){{0}}) == FFD_ERR_INVALID);
+    free(rest), free(a), free(b), free(c), free(d), free(e), free(f);
+    ffd_session_destroy(s);
+}
+
+static void test_direct_manipulation_and_pins(void)
+{
+    ffd_session *s = open_session(BUNNY);
+    CHECK(run(s, "create", "{\"method\":\"lattice\",\"resolution\":[6,6,6]}", NULL) == FFD_OK);
+    CHECK(run(s, "pin", "{\"vertex\":1791}", NULL) == FFD_OK);
+    CHECK(run(s, "pin", "{\"vertex\":1043}", NULL) == FFD_OK);
+    uint32_t head[5];
+    float *before = frame_positions(s, head);
+    CHECK(run(s, "drag_begin", "{\"vertex\":553}", NULL) == FFD_OK);
+    void *reply = NULL;
+    size_t size = 0;
+    int binary = 0;
+    const char *step = "{\"target\":[2.0,8.4,-1.0]}";
+    CHECK_OK(ffd_session_command(s, "drag", step, strlen(step), &reply, &size, &binary, NULL));
+    CHECK(binary == 1 && reply && size > 20);
+    if (reply) {
+        uint32_t h[5];
+        memcpy(h, reply, 20);
+        CHECK(h[4] == 3); /* two pins and the dragged vertex */
+        const float *x = (const float *)((char *)reply + 20);
+        const float *res = x + 3 * ((size_t)h[2] + h[3]);
+        CHECK_NEAR(x[3 * 553], 2.0, 1e-4); /* the target is reached */
+        CHECK_NEAR(x[3 * 553 + 1], 8.4, 1e-4);
+        CHECK(res[0] < 1e-6 && res[1] < 1e-6 && res[2] < 1e-6);
+        CHECK_NEAR(x[3 * 1791], before[3 * 1791], 1e-5); /* pins hold */
+        CHECK_NEAR(x[3 * 1043 + 1], before[3 * 1043 + 1], 1e-5);
+    }
+    ffd_free(reply);
+    CHECK(run(s, "drag_end", "{}", NULL) == FFD_OK);
+    CHECK(replay_difference(s, BUNNY) < 1e-5);
+    /* over-constrained: two pins on nearly the same spot pulled apart leave a residual */
+    CHECK(run(s, "pin", "{\"vertex\":553,\"target\":[30,8.4,-1]}", NULL) == FFD_OK);
+    char *state = NULL;
+    CHECK_OK(ffd_session_state(s, &state, &size, NULL));
+    CHECK(state && strstr(state, "\"pins\":[{\"vertex\":1791"));
+    ffd_free(state);
+    CHECK(run(s, "unpin", "{\"all\":true}", NULL) == FFD_OK);
+    CHECK(run(s, "unpin", "{\"vertex\":5}", &(ffd_error){{0}}) == FFD_ERR_RANGE);
+    free(before);
+    ffd_session_destroy(s);
+}
+
+static void test_cancel_restores(void)
+{
+    ffd_session *s = open_session(BUNNY);
+    CHECK(run(s, "create", "{\"method\":\"lattice\"}", NULL) == FFD_OK);
+    uint32_t head[5];
+    float *a = frame_positions(s, head);
+    CHECK(run(s, "drag_begin", "{\"points\":[62]}", NULL) == FFD_OK);
+    CHECK(run(s, "drag", "{\"delta\":[1,1,1]}", NULL) == FFD_OK);
+    ffd_error err = {{0}};
+    CHECK(run(s, "create", "{\"method\":\"lattice\"}", &err) == FFD_ERR_INVALID);
+    CHECK(strstr(err.message, "conflict: ") == err.message);
+    CHECK(run(s, "drag_cancel", "{}", NULL) == FFD_OK);
+    float *b = frame_positions(s, head);
+    CHECK(max_change(a, b, head[2]) == 0);
+    free(a);
+    free(b);
+    ffd_session_destroy(s);
+}
+
+static void test_tspline_session(void)
+{
+    ffd_session *s = open_session(COW);
+    uint32_t head[5];
+    float *rest = frame_positions(s, head);
+    CHECK(run(s, "create", "{\"method\":\"tspline\",\"resolution\":[5,5,5]}", NULL) == FFD_OK);
+    /* ARAP drag of two proxy points, then a refinement: the shape must not change */
+    CHECK(run(s, "freeze", "{\"points\":[0,1,2,3,4]}", NULL) == FFD_OK);
+    CHECK(run(s, "drag_begin", "{\"points\":[124]}", NULL) == FFD_OK);
+    CHECK(run(s, "drag", "{\"delta\":[0.1,0.2,0]}", NULL) == FFD_OK);
+    CHECK(run(s, "drag_end", "{}", NULL) == FFD_OK);
+    float *a = frame_positions(s, head);
+    CHECK(max_change(rest, a, head[2]) > 0.01);
+    uint32_t before_count = head[3];
+    CHECK(run(s, "refine", "{\"insertions\":[{\"cell\":10},{\"face\":{\"near\":[0,0,0]}}]}", NULL) ==
+          FFD_OK);
+    float *b = frame_positions(s, head);
+    CHECK(head[3] > before_count);
+    CHECK(max_change(a, b, head[2]) < 1e-5); /* refinement invariance */
+    CHECK(run(s, "move", "{\"points\":[3],\"delta\":[0,0,0.3],\"arap\":false}", NULL) == FFD_OK);
+    CHECK(run(s, "drag_begin", "{\"vertex\":100}", NULL) == FFD_OK);
+    CHECK(run(s, "drag", "{\"target\":[0.5,0.5,0.5]}", NULL) == FFD_OK);
+    CHECK(run(s, "drag_end", "{}", NULL) == FFD_OK);
+    CHECK(replay_difference(s, COW) < 1e-5);
+    /* undo the refinement: back to the lattice before it, same shape as a */
+    CHECK(run(s, "undo", NULL, NULL) == FFD_OK);
+    CHECK(run(s, "undo", NULL, NULL) == FFD_OK);
+    CHECK(run(s, "undo", NULL, NULL) == FFD_OK);
+    float *c = frame_positions(s, head);
+    CHECK(head[3] == before_count);
+    CHECK(max_change(a, c, head[2]) < 1e-6);
+    CHECK(run(s, "redo", NULL, NULL) == FFD_OK);
+    float *d = frame_positions(s, head);
+    CHECK(head[3] > before_count && max_change(b, d, head[2]) < 1e-6);
+    /* a loaded rig reproduces the session */
+    char *text = NULL;
+    size_t size;
+    CHECK_OK(ffd_session_rig(s, &text, &size, NULL));
+    ffd_session *t = open_session(COW);
+    CHECK_OK(ffd_session_load_rig(t, text, size, "r.json", NULL, NULL));
+    float *e = frame_positions(t, head);
+    CHECK(max_change(d, e, head[2]) < 1e-6);
+    ffd_free(text);
+    free(rest), free(a), free(b), free(c), free(d), free(e);
+    ffd_session_destroy(t);
+    ffd_session_destroy(s);
+}
+
+static void test_influence(void)
+{
+    ffd_session *s = open_session(BUNNY);
+    CHECK(run(s, "create", "{\"method\":\"lattice\",\"resolution\":[4,4,4]}", NULL) == FFD_OK);
+    void *reply = NULL;
+    size_t size = 0;
+    int binary = 0;
+    /* all controls: partition of unity, weight 1 everywhere */
+    char body[1024] = "{\"points\":[";
+    for (int i = 0; i < 64; i++)
+        snprintf(body + strlen(body), sizeof body - strlen(body), "%s%d", i ? "," : "", i);
+    strcat(body, "]}");
+    CHECK_OK(ffd_session_command(s, "influence", body, strlen(body), &reply, &size, &binary, NULL));
+    CHECK(binary && size == 16 + 4 * 1839);
+    const float *w = (const float *)((char *)reply + 16);
+    double lo = 1;
+    for (size_t i = 0; i < 1839; i++)
+        lo = w[i] < lo ? w[i] : lo;
+    CHECK(lo > 1 - 1e-5);
+    ffd_free(reply);
+    ffd_session_destroy(s);
+}
+
+static void test_bad_requests(void)
+{
+    ffd_session *s = open_session(BUNNY);
+    ffd_error err = {{0}};
+    CHECK(run(s, "create", "{\"method\":", &err) == FFD_ERR_PARSE);
+    CHECK(strstr(err.message, "byte"));
+    CHECK(run(s, "create", "[1]", &err) == FFD_ERR_PARSE);
+    CHECK(run(s, "create", "{\"method\":\"blob\"}", &err) == FFD_ERR_PARSE);
+    CHECK(run(s, "create", "{\"method\":\"lattice\",\"resolution\":[1,5,5]}", &err) == FFD_ERR_INVALID);
+    CHECK(strstr(err.message, "resolution[0]"));
+    CHECK(run(s, "create", "{\"method\":\"lattice\",\"colour\":1}", &err) == FFD_ERR_PARSE);
+    CHECK(strstr(err.message, "colour"));
+    CHECK(run(s, "drag_begin", "{\"points\":[0]}", &err) == FFD_ERR_INVALID); /* no deformer */
+    CHECK(strstr(err.message, "conflict: ") == err.message);
+    CHECK(run(s, "frobnicate", "{}", &err) == FFD_ERR_UNSUPPORTED);
+    CHECK(run(s, "create", "{\"method\":\"lattice\"}", NULL) == FFD_OK);
+    CHECK(run(s, "drag_begin", "{\"points\":[125]}", &err) == FFD_ERR_RANGE);
+    CHECK(run(s, "drag_begin", "{\"points\":[1,1]}", &err) == FFD_ERR_INVALID);
+    CHECK(run(s, "drag", "{\"delta\":[1,1,1]}", &err) == FFD_ERR_INVALID); /* no drag */
+    CHECK(run(s, "drag_begin", "{\"points\":[1]}", NULL) == FFD_OK);
+    CHECK(run(s, "drag", "{\"delta\":[1e999,1,1]}", &err) == FFD_ERR_NONFINITE);
+    CHECK(run(s, "drag", "{\"angle\":1}", &err) == FFD_ERR_PARSE);
+    CHECK(run(s, "drag_end", "{}", NULL) == FFD_OK);
+    CHECK(run(s, "refine", "{\"insertions\":[{\"cell\":0}]}", &err) == FFD_ERR_INVALID);
+    CHECK(strstr(err.message, "conflict: ") == err.message);
+    CHECK(run(s, "pin", "{\"vertex\":99999}", &err) == FFD_ERR_RANGE);
+    CHECK_OK(ffd_session_load_rig(s, "{\"deformer\":\"gffd\",\"skeleton\":[{\"type\":\"polyline\","
+                                     "\"file\":\"x.obj\",\"radius\":1}]}", 80, "up.json", NULL, &err) ==
+             FFD_ERR_INVALID ? FFD_OK : FFD_ERR_IO);
+    /* after all that the session is intact: the one move-free lattice */
+    CHECK(replay_difference(s, BUNNY) < 1e-5);
+    ffd_session_destroy(s);
+}
+
+static void test_export_is_the_replay(void)
+{
+    ffd_session *s = open_session(BUNNY);
+    CHECK(run(s, "create", "{\"method\":\"lattice\"}", NULL) == FFD_OK);
+    CHECK(run(s, "move", "{\"points\":[62],\"delta\":[0,3,0]}", NULL) == FFD_OK);
+    void *data = NULL;
+    size_t size = 0;
+    ffd_write_options o = {FFD_FORMAT_PLY, FFD_ENCODING_BINARY_LE};
+    CHECK_OK(ffd_session_export(s, &o, &data, &size, NULL));
+    ffd_mesh *m = NULL;
+    CHECK_OK(ffd_mesh_read_memory(data, size, FFD_FORMAT_PLY, "x.ply", &m, NULL));
+    uint32_t head[5];
+    float *p = frame_positions(s, head);
+    double worst = 0;
+    for (size_t i = 0; m && i < 3 * (size_t)head[2]; i++)
+        worst = fmax(worst, fabs(ffd_mesh_positions(m)[i] - p[i]));
+    CHECK(m && worst < 1e-5);
+    free(p);
+    ffd_mesh_destroy(m);
+    ffd_free(data);
+    ffd_session_destroy(s);
+}
+
+static void test_allocation_failures(void)
+{
+    /* every allocation of a create + drag + undo sequence may fail: clean errors, no leaks */
+    for (size_t k = 0; k < 4000; k += 7) {
+        ffd_session *s = open_session(BUNNY);
+        fail_alloc fa = {k, 0};
+        ffd_allocator a = {fa_malloc, fa_realloc, fa_free, &fa};
+        ffd_set_allocator(&a);
+        ffd_error err;
+        ffd_status st = run(s, "create", "{\"method\":\"lattice\",\"resolution\":[4,4,4]}", &err);
+        if (!st)
+            st = run(s, "move", "{\"points\":[5],\"delta\":[0,1,0]}", &err);
+        if (!st)
+            st = run(s, "pin", "{\"vertex\":4}", &err);
+        if (!st)
+            st = run(s, "undo", NULL, &err);
+        ffd_set_allocator(NULL);
+        CHECK(st == FFD_OK || st == FFD_ERR_NOMEM);
+        ffd_session_destroy(s);
+        if (st == FFD_OK)
+            break;
+    }
+}
+
+int main(int argc, char **argv)
+{
+    static const check_test tests[] = {
+        {"identity_and_create", test_identity_and_create},
+        {"lattice_drag_replays", test_lattice_drag_replays},
+        {"undo_redo", test_undo_redo},
+        {"direct_manipulation_and_pins", test_direct_manipulation_and_pins},
+        {"cancel_restores", test_cancel_restores},
+        {"tspline_session", test_tspline_session},
+        {"influence", test_influence},
+        {"bad_requests", test_bad_requests},
+        {"export_is_the_replay", test_export_is_the_replay},
+        {"allocation_failures", test_allocation_failures},
+    };
+    return check_run(tests, sizeof tests / sizeof *tests, argc, argv);
+}
