@@ -62,5 +62,6 @@ int cmd_convert(int argc, char **argv);
 int cmd_deform(int argc, char **argv);
 int cmd_pbffd(int argc, char **argv);
 int cmd_tspline(int argc, char **argv);
+int cmd_serve(int argc, char **argv);
 
 #endif

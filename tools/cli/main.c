@@ -24,6 +24,8 @@ static const char usage[] =
     "                                         place PB-FFD control points, write them as a rig\n"
     "  tspline proxy MESH -o PROXY.obj [--resolution L,M,N] [--rig RIG] [--lattice F]\n"
     "                                         write the T-spline proxy (and T-lattice) of a mesh\n"
+    "  serve [MESH] [--port N] [--host ADDR] [--root DIR] [--web DIR] [--max-upload MB]\n"
+    "        [--verbose]                      the editor: a local web server, deform in a browser\n"
     "\n"
     "Run 'ffd COMMAND --help' for a command's options.\n"
     "Exit status: 0 success, 1 bad or unreadable input (or a failed write), 2 usage error.\n";
@@ -162,7 +164,7 @@ void cli_json_number(FILE *f, double v)
 int main(int argc, char **argv)
 {
     if (argc < 2)
-        return cli_usage_error(NULL, "missing command (info, convert, deform, pbffd, tspline)");
+        return cli_usage_error(NULL, "missing command (info, convert, deform, pbffd, tspline, serve)");
     const char *command = argv[1];
     if (cli_is_help(command)) {
         fputs(usage, stdout);
@@ -182,8 +184,10 @@ int main(int argc, char **argv)
         return cmd_pbffd(argc - 1, argv + 1);
     if (strcmp(command, "tspline") == 0)
         return cmd_tspline(argc - 1, argv + 1);
+    if (strcmp(command, "serve") == 0)
+        return cmd_serve(argc - 1, argv + 1);
     if (command[0] == '-')
         return cli_usage_error(NULL, "unknown option '%s'", command);
-    return cli_usage_error(NULL, "unknown command '%s' (expected info, convert, deform, pbffd or tspline)",
+    return cli_usage_error(NULL, "unknown command '%s' (expected info, convert, deform, pbffd, tspline or serve)",
                            command);
 }

@@ -1,0 +1,398 @@
+#!/usr/bin/env bash
+# `ffd serve` over HTTP with curl (docs/editor.md): the printed URL, the API's
+# replies and content types, every refusal of "Safety" and "Errors" with its
+# HTTP code and JSON message (paths leaving --root by "..", absolute paths and
+# symbolic links; bodies over the limits; unknown formats, ops, URLs and
+# methods; malformed JSON; missing files), the server still answering with an
+# unchanged state after each, concurrent requests, the page's files, atomic
+# saves under the root, the --host warning, a taken port, a clean stop on
+# SIGTERM; the opened mesh is never modified.
+# The "session" part (a lattice, a drag, undo, rig and mesh round trips) needs
+# the real editing session; set FFD_SERVE_STUB=1 to skip it when the library
+# is built with a stub session.
+# usage: bash test_serve.sh PATH_TO_ffd SOURCE_DIR
+set -u
+source "$(dirname "$0")/lib.sh" "$@"
+case $FFD in /*) ;; *) FFD=$(cd "$(dirname "$FFD")" && pwd)/$(basename "$FFD") ;; esac
+command -v curl >/dev/null || { echo "FAIL: curl is not installed (scripts/setup.sh)"; exit 1; }
+
+PIDS=()
+cleanup() {
+    for p in "${PIDS[@]}"; do kill "$p" 2>/dev/null; done
+    rm -rf "$T"
+}
+trap cleanup EXIT
+
+sanitizer_clean() { # sanitizer_clean FILE NAME
+    grep -q -e 'Sanitizer' -e 'runtime error' -e 'LeakSanitizer' "$1" && fail "$2: $(cat "$1")"
+}
+
+# start NAME ARGS...: runs `ffd serve ARGS` in the background, waits for its
+# URL line; sets URL and PID (stdout in $T/NAME.out, stderr in $T/NAME.err).
+start() {
+    local name=$1
+    shift
+    "$FFD" serve "$@" >"$T/$name.out" 2>"$T/$name.err" &
+    PID=$!
+    PIDS+=("$PID")
+    URL=
+    for _ in $(seq 1 200); do
+        URL=$(sed -n 's/^ffd serve: \(http:.*\)$/\1/p' "$T/$name.out")
+        URL=${URL%/} # paths below start with '/'
+        [ -n "$URL" ] && return 0
+        kill -0 "$PID" 2>/dev/null || break
+        sleep 0.05
+    done
+    fail "ffd serve $* did not print its URL: $(cat "$T/$name.out" "$T/$name.err")"
+    return 1
+}
+# stop NAME: SIGTERM, exit status 0, no sanitizer report.
+stop() {
+    kill -TERM "$PID"
+    wait "$PID"
+    local rc=$?
+    [ "$rc" -eq 0 ] || fail "$1: ffd serve exited $rc after SIGTERM: $(cat "$T/$1.err")"
+    sanitizer_clean "$T/$1.err" "$1"
+}
+
+# req METHOD PATH [CURL ARGS...]: the reply's body in $T/body, headers in
+# $T/headers, status in $CODE.
+req() {
+    local method=$1 path=$2
+    shift 2
+    CODE=$(curl -s --max-time 60 -X "$method" -o "$T/body" -D "$T/headers" -w '%{http_code}' \
+        "$@" "$URL$path")
+}
+# expect CODE WORD METHOD PATH [CURL ARGS...]: an error reply with that HTTP
+# code and {"error": "...", "status": WORD}.
+expect() {
+    local code=$1 word=$2 method=$3 path=$4
+    shift 4
+    req "$method" "$path" "$@"
+    if [ "$CODE" != "$code" ]; then
+        fail "$method $path $*: HTTP $CODE, expected $code: $(show)"
+    elif ! grep -q "^{\"error\":\"[^\"]" "$T/body" || ! grep -qF "\"status\":\"$word\"" "$T/body"; then
+        fail "$method $path $*: not an error of status $word: $(show)"
+    fi
+}
+post_json() { # post_json CODE WORD PATH JSON
+    expect "$1" "$2" POST "$3" -H 'Content-Type: application/json' --data-binary "$4"
+}
+show() { head -c 300 "$T/body" | tr -c '[:print:]\n' '.'; } # the reply, printable
+has_body() { grep -qF -- "$1" "$T/body" || fail "reply lacks '$1': $(show)"; }
+# has_key KEY VALUE: the reply holds "KEY": VALUE (any spacing; VALUE a regex)
+has_key() { grep -qE "\"$1\" *: *$2" "$T/body" || fail "reply lacks \"$1\": $2: $(show)"; }
+# bbox_close A B: the bounding boxes in two `ffd info --json` outputs agree to 1e-9
+bbox_close() {
+    paste <(sed 's/.*"bbox"//' "$1" | grep -oE '[-0-9.e+]+') <(sed 's/.*"bbox"//' "$2" | grep -oE '[-0-9.e+]+') |
+        awk 'BEGIN { bad = 0; n = 0 } { n++; d = $1 - $2; if (d < 0) d = -d; m = $1 < 0 ? -$1 : $1;
+             if (m < 1) m = 1; if (d > 1e-9 * m) bad = 1 } END { exit bad || n != 6 }'
+}
+has_header() { grep -qiF -- "$1" "$T/headers" || fail "headers lack '$1': $(cat "$T/headers")"; }
+
+# same_state FILE: FILE holds the state saved in $T/state0 (busy_ms aside: a timing)
+same_state() {
+    local strip='s/"busy_ms" *: *[-0-9.eE+]*//'
+    [ "$(sed "$strip" "$1")" = "$(sed "$strip" "$T/state0")" ]
+}
+# state_same WHAT: after WHAT, the server answers with the state saved in $T/state0.
+state_same() {
+    req GET /api/state
+    [ "$CODE" = 200 ] || { fail "after $1: GET /api/state answered $CODE"; return; }
+    same_state "$T/body" || fail "after $1: the state changed: $(cat "$T/body")"
+}
+
+# ---- the command line ----
+ok serve --help
+has stdout "usage: ffd serve"
+bad 2 serve --port 70000
+bad 2 serve --port abc
+bad 2 serve --host not-an-address
+bad 2 serve --max-upload 0
+bad 2 serve --bogus
+bad 2 serve a.obj b.obj
+bad 1 serve "$T/missing.obj" --port 0
+has stderr "missing.obj"
+
+# ---- fixtures: a root with a mesh, a rig, subdirectories, links out ----
+ROOT=$T/root
+OUT=$T/outside
+mkdir -p "$ROOT/sub/deeper/deepest" "$ROOT/.hidden" "$ROOT/node_modules" "$OUT" "$T/web/assets"
+cp "$SRC/examples/lattice/bunny.obj" "$ROOT/bunny.obj"
+cp "$SRC/examples/lattice/bend.json" "$ROOT/bend.json"
+cp "$SRC/examples/lattice/bunny.obj" "$ROOT/sub/copy.obj"
+cp "$SRC/examples/lattice/bunny.obj" "$ROOT/sub/deeper/two.obj"
+cp "$SRC/examples/lattice/bunny.obj" "$ROOT/sub/deeper/deepest/three.obj"
+cp "$SRC/examples/lattice/bunny.obj" "$ROOT/.hidden/h.obj"
+cp "$SRC/examples/lattice/bunny.obj" "$ROOT/node_modules/n.obj"
+cp "$SRC/examples/lattice/bunny.obj" "$OUT/secret.obj"
+printf '{"version": 1}\n' >"$OUT/secret.json"
+printf '<!doctype html><title>outside</title>\n' >"$OUT/secret.html"
+ln -s "$OUT" "$ROOT/out"
+ln -s "$OUT/secret.obj" "$ROOT/link.obj"
+ln -s "$OUT/secret.json" "$ROOT/link.json"
+ln -s "$ROOT/sub/copy.obj" "$ROOT/inside.obj"
+printf '<!doctype html><title>ffd</title>\n' >"$T/web/index.html"
+printf 'console.log(1);\n' >"$T/web/assets/app.js"
+printf 'not served\n' >"$T/web/notes.txt"
+ln -s "$OUT/secret.html" "$T/web/leak.html"
+BUNNY_SUM=$(cksum <"$ROOT/bunny.obj")
+OUT_SUM=$(cd "$OUT" && cat secret.obj secret.json secret.html | cksum)
+
+start main "$ROOT/bunny.obj" --port 0 --root "$ROOT" --web "$T/web" || exit 1
+MAIN_PID=$PID
+MAIN_URL=$URL
+PORT=${URL##*:}
+[ "$(wc -l <"$T/main.out")" -eq 1 ] || fail "stdout is not one line: $(cat "$T/main.out")"
+grep -qE '^ffd serve: http://127\.0\.0\.1:[0-9]+/$' "$T/main.out" ||
+    fail "URL line: $(cat "$T/main.out")"
+[ "$PORT" -gt 0 ] 2>/dev/null || fail "--port 0: no port in $URL"
+[ -s "$T/main.err" ] && fail "a quiet server printed on stderr: $(cat "$T/main.err")"
+
+# ---- reading ----
+req GET /api/state
+[ "$CODE" = 200 ] || fail "GET /api/state: $CODE"
+has_header 'Content-Type: application/json'
+has_header 'Cache-Control: no-store'
+has_body '"revision":'
+has_body '"bunny.obj"'
+cp "$T/body" "$T/state0"
+req GET /api/frame
+[ "$CODE" = 200 ] || fail "GET /api/frame: $CODE"
+has_header 'Content-Type: application/octet-stream'
+[ "$(head -c 4 "$T/body")" = FFDF ] || fail "GET /api/frame: no FFDF magic"
+[ "$(stat -c %s "$T/body")" -ge $((20 + 12 * 1839)) ] || fail "GET /api/frame: short frame"
+req GET /api/topology
+[ "$CODE" = 200 ] || fail "GET /api/topology: $CODE"
+[ "$(head -c 4 "$T/body")" = FFDT ] || fail "GET /api/topology: no FFDT magic"
+req GET '/api/export?format=ply&encoding=binary'
+[ "$CODE" = 200 ] || fail "GET /api/export ply: $CODE $(head -c 200 "$T/body")"
+has_header 'Content-Disposition: attachment; filename="bunny-deformed.ply"'
+[ "$(head -c 4 "$T/body")" = "$(printf 'ply\n')" ] || fail "GET /api/export ply: not a PLY file"
+grep -qaF 'format binary_little_endian' "$T/body" || fail "GET /api/export ply: not binary"
+req GET /api/export
+[ "$CODE" = 200 ] || fail "GET /api/export: $CODE"
+has_header 'filename="bunny-deformed.obj"'
+expect 400 invalid GET '/api/export?format=xyz'
+expect 400 invalid GET '/api/export?format=stl&encoding=ebcdic'
+req GET /api/files
+[ "$CODE" = 200 ] || fail "GET /api/files: $CODE"
+has_body "\"root\":\"$(cd "$ROOT" && pwd -P)/\""
+has_body '"meshes":["bunny.obj","inside.obj","sub/copy.obj","sub/deeper/two.obj"]'
+has_body '"rigs":["bend.json"]'
+for hidden in h.obj n.obj three.obj secret link.obj link.json; do
+    grep -qF "$hidden" "$T/body" && fail "GET /api/files lists $hidden: $(cat "$T/body")"
+done
+
+# ---- the page's files ----
+req GET /
+[ "$CODE" = 200 ] || fail "GET /: $CODE"
+has_header 'Content-Type: text/html'
+has_header 'Cache-Control: no-store'
+has_body '<title>ffd</title>'
+req GET /assets/app.js
+[ "$CODE" = 200 ] || fail "GET /assets/app.js: $CODE"
+has_header 'Content-Type: text/javascript'
+expect 404 not_found GET /notes.txt
+expect 404 not_found GET /missing.html
+expect 403 forbidden GET /leak.html
+expect 403 forbidden GET /../outside/secret.html --path-as-is
+expect 403 forbidden GET /%2e%2e/outside/secret.html --path-as-is
+expect 403 forbidden GET /assets/%2e%2e/%2e%2e/outside/secret.html --path-as-is
+expect 403 forbidden GET /%2e%2e%2foutside%2fsecret.html --path-as-is
+expect 403 forbidden GET /.hidden --path-as-is
+expect 405 method_not_allowed POST / --data-binary x
+has_header 'Allow: GET, HEAD'
+state_same "the page's files"
+
+# ---- refusals: each leaves the server answering and the state unchanged ----
+post_json 403 forbidden /api/open '{"path": "../outside/secret.obj"}'
+post_json 403 forbidden /api/open '{"path": "sub/../../outside/secret.obj"}'
+post_json 403 forbidden /api/open '{"path": "sub/../bunny.obj"}'
+post_json 403 forbidden /api/open "{\"path\": \"$OUT/secret.obj\"}"
+post_json 403 forbidden /api/open '{"path": "out/secret.obj"}'
+post_json 403 forbidden /api/open '{"path": "link.obj"}'
+post_json 403 forbidden /api/open '{"path": ".hidden/h.obj"}'
+post_json 403 forbidden /api/open '{"path": "sub\\copy.obj"}'
+post_json 404 not_found /api/open '{"path": "missing.obj"}'
+post_json 404 not_found /api/open '{"path": "nodir/missing.obj"}'
+has_body 'nodir/missing.obj'
+post_json 400 parse /api/open '{"path": "bunny.obj"'
+has_body 'malformed JSON at byte'
+post_json 400 parse /api/open '{"path": 3}'
+post_json 400 parse /api/open '{"file": "bunny.obj"}'
+post_json 400 parse /api/open '["bunny.obj"]'
+post_json 400 parse /api/open '{"path": "bunny.obj", "path": "sub/copy.obj"}'
+post_json 400 parse /api/open '{"path": "bunny.obj"} trailing'
+post_json 400 parse /api/open ''
+post_json 415 unsupported_format /api/open '{"path": "bend.json"}'
+state_same "refused opens"
+
+post_json 403 forbidden /api/rig/load '{"path": "../outside/secret.json"}'
+post_json 403 forbidden /api/rig/load '{"path": "link.json"}'
+post_json 403 forbidden /api/rig/load '{"path": "out/secret.json"}'
+post_json 403 forbidden /api/rig/load "{\"path\": \"$OUT/secret.json\"}"
+post_json 404 not_found /api/rig/load '{"path": "missing.json"}'
+post_json 400 parse /api/rig/load '{"path": "bend.json",}'
+post_json 403 forbidden /api/rig/save '{"path": "../outside/edit.json"}'
+post_json 403 forbidden /api/rig/save '{"path": "out/edit.json"}'
+post_json 403 forbidden /api/rig/save '{"path": "link.json"}'
+post_json 403 forbidden /api/rig/save "{\"path\": \"$OUT/edit.json\"}"
+post_json 400 invalid /api/rig/save '{"path": "edit.obj"}'
+post_json 400 parse /api/rig/save '{"path": "edit.json"'
+post_json 403 forbidden /api/export/save '{"path": "../outside/out.obj"}'
+post_json 403 forbidden /api/export/save '{"path": "out/out.obj"}'
+post_json 403 forbidden /api/export/save '{"path": "link.obj"}'
+post_json 403 forbidden /api/export/save "{\"path\": \"$OUT/out.obj\"}"
+post_json 400 invalid /api/export/save '{"path": "out.txt"}'
+post_json 400 invalid /api/export/save '{"path": "out.ply", "encoding": "ebcdic"}'
+post_json 400 parse /api/export/save '{"path": "out.ply", "extra": 1}'
+post_json 409 conflict /api/export/save '{"path": "bunny.obj"}'
+post_json 404 not_found /api/export/save '{"path": "nodir/out.obj"}'
+[ "$(cd "$OUT" && ls | sort | tr '\n' ' ')" = "secret.html secret.json secret.obj " ] ||
+    fail "a refused save wrote outside the root: $(ls -a "$OUT")"
+[ -e "$ROOT/out.txt" ] || [ -e "$ROOT/out.ply" ] && fail "a refused export wrote a file"
+state_same "refused rig and export requests"
+
+head -c $((1024 * 1024 + 1)) /dev/zero | tr '\0' ' ' >"$T/big.json"
+expect 413 too_large POST /api/create --data-binary @"$T/big.json"
+expect 413 too_large POST /api/create -H 'Transfer-Encoding: chunked' --data-binary @"$T/big.json"
+expect 413 too_large POST /api/open -H 'Expect:' --data-binary @"$T/big.json"
+expect 413 too_large POST /api/rig/upload?name=r.json --data-binary @"$T/big.json" -H 'Expect:' \
+    -H 'Content-Length: 999999999999'
+expect 415 unsupported_format POST '/api/upload?name=model.xyz' --data-binary @"$ROOT/bunny.obj"
+expect 415 unsupported_format POST '/api/rig/upload?name=rig.txt' --data-binary @"$ROOT/bend.json"
+expect 400 invalid POST '/api/upload' --data-binary @"$ROOT/bunny.obj"
+expect 400 parse POST '/api/upload?name=broken.obj' --data-binary 'v 1 x 3'
+expect 400 parse POST '/api/upload?name=broken.ply' --data-binary 'ply'
+expect 404 unsupported POST /api/no_such_op --data-binary '{}'
+expect 404 not_found POST /api/Bad-Op --data-binary '{}'
+expect 404 not_found POST /api/a_very_long_operation_name_that_is_too_long --data-binary '{}'
+expect 404 not_found GET /api/no/such/thing
+expect 404 not_found GET /api/no_such_op
+expect 405 method_not_allowed GET /api/undo
+has_header 'Allow: POST'
+expect 405 method_not_allowed POST /api/state --data-binary '{}'
+has_header 'Allow: GET, HEAD'
+expect 405 method_not_allowed DELETE /api/state
+expect 405 method_not_allowed PUT /api/files --data-binary x
+expect 405 method_not_allowed GET /api/rig/save
+state_same "refused requests"
+
+# ---- concurrent requests are all answered ----
+CURLS=()
+for i in $(seq 1 20); do
+    curl -s --max-time 60 -o "$T/c$i.state" -w '%{http_code}\n' "$URL/api/state" >"$T/c$i.code" &
+    CURLS+=($!)
+    curl -s --max-time 60 -o "$T/c$i.frame" -w '%{http_code}\n' "$URL/api/frame" >"$T/c$i.fcode" &
+    CURLS+=($!)
+    curl -s --max-time 60 -o /dev/null -w '%{http_code}\n' -X POST --data-binary '{' \
+        "$URL/api/open" >"$T/c$i.bcode" &
+    CURLS+=($!)
+done
+wait "${CURLS[@]}"
+for i in $(seq 1 20); do
+    [ "$(cat "$T/c$i.code")" = 200 ] && same_state "$T/c$i.state" ||
+        fail "concurrent GET /api/state $i: $(cat "$T/c$i.code") $(head -c 200 "$T/c$i.state")"
+    [ "$(cat "$T/c$i.fcode")" = 200 ] || fail "concurrent GET /api/frame $i: $(cat "$T/c$i.fcode")"
+    [ "$(cat "$T/c$i.bcode")" = 400 ] || fail "concurrent bad open $i: $(cat "$T/c$i.bcode")"
+done
+state_same "concurrent requests"
+
+# ---- uploads and opens replace the session ----
+expect_ok() { # expect_ok METHOD PATH [CURL ARGS]: HTTP 200
+    req "$@"
+    [ "$CODE" = 200 ] || fail "$1 $2: HTTP $CODE: $(show)"
+}
+expect_ok POST '/api/upload?name=up%2Fmodel.obj' --data-binary @"$ROOT/sub/copy.obj"
+has_body '"model.obj"'
+expect_ok POST /api/open --data-binary '{"path": "inside.obj"}'
+has_body '"inside.obj"'
+expect_ok POST /api/open --data-binary '{"path": "bunny.obj"}'
+has_body '"bunny.obj"'
+
+# ---- a second server: --max-upload 1 ----
+start small "$ROOT/bunny.obj" --port 0 --root "$ROOT" --max-upload 1 || exit 1
+head -c $((1024 * 1024 + 1)) /dev/zero >"$T/big.stl"
+expect 413 too_large POST '/api/upload?name=big.stl' --data-binary @"$T/big.stl"
+expect 413 too_large POST '/api/upload?name=big.stl' -H 'Transfer-Encoding: chunked' \
+    --data-binary @"$T/big.stl"
+expect 413 too_large POST '/api/rig/upload?name=big.json' --data-binary @"$T/big.stl"
+expect_ok POST '/api/upload?name=small.obj' --data-binary @"$ROOT/bunny.obj"
+has_body '"small.obj"'
+req GET /
+[ "$CODE" = 404 ] || fail "GET / without a page: HTTP $CODE"
+stop small
+
+# ---- a taken port; a non-loopback host ----
+bad 1 serve "$ROOT/bunny.obj" --port "$PORT" --root "$ROOT"
+has stderr "ffd: serve: cannot listen on 127.0.0.1:$PORT: Address already in use"
+start any "$ROOT/bunny.obj" --port 0 --host 0.0.0.0 --root "$ROOT" || exit 1
+grep -qF "ffd: warning: listening on 0.0.0.0: the editor has no authentication; anyone who can reach this port can read and write files under $(cd "$ROOT" && pwd -P)" "$T/any.err" ||
+    fail "--host 0.0.0.0: no warning: $(cat "$T/any.err")"
+grep -qE '^ffd serve: http://0\.0\.0\.0:[0-9]+/$' "$T/any.out" || fail "--host 0.0.0.0: $(cat "$T/any.out")"
+stop any
+start local "$ROOT/bunny.obj" --port 0 --host localhost --root "$ROOT" --verbose || exit 1
+grep -q warning "$T/local.err" && fail "--host localhost warned: $(cat "$T/local.err")"
+req GET /api/state
+grep -qF 'GET /api/state 200' "$T/local.err" || fail "--verbose: no request line: $(cat "$T/local.err")"
+stop local
+
+# ---- the session: needs the real editing session (src/session/) ----
+PID=$MAIN_PID
+URL=$MAIN_URL
+if [ "${FFD_SERVE_STUB:-0}" != 1 ]; then
+    req GET /api/state
+    has_key method null
+    expect 409 conflict GET /api/rig
+    post_json 409 conflict /api/rig/save '{"path": "edit.json"}'
+    expect 409 conflict POST /api/drag --data-binary '{"delta": [1, 0, 0]}'
+    expect 400 parse POST /api/create --data-binary '{"method": "lattice"'
+    expect 400 parse POST /api/create --data-binary '{"method": "lattice", "resolution": "5"}'
+    expect 400 invalid POST /api/create --data-binary '{"method": "lattice", "resolution": [1, 1, 1]}'
+    req GET /api/state
+    cp "$T/body" "$T/state0"
+    expect_ok POST /api/create --data-binary '{"method": "lattice", "resolution": [4, 4, 4]}'
+    has_key method '"lattice"'
+    has_key count 64
+    expect 400 range POST /api/drag_begin --data-binary '{"points": [64]}'
+    expect_ok POST /api/drag_begin --data-binary '{"points": [63]}'
+    expect_ok POST /api/drag --data-binary '{"delta": [0.5, 0, 0]}'
+    has_header 'Content-Type: application/octet-stream'
+    [ "$(head -c 4 "$T/body")" = FFDF ] || fail "drag: not a frame"
+    expect_ok POST /api/drag_end --data-binary '{}'
+    expect_ok GET /api/rig
+    has_header 'Content-Disposition: attachment; filename="bunny-rig.json"'
+    cp "$T/body" "$T/rig.json"
+    expect_ok POST /api/rig/save --data-binary '{"path": "sub/edit.json"}'
+    cmp -s "$T/rig.json" "$ROOT/sub/edit.json" || fail "rig/save: the file differs from GET /api/rig"
+    expect_ok POST /api/export/save --data-binary '{"path": "sub/out.ply", "encoding": "binary"}'
+    grep -qaF 'format binary_little_endian' "$ROOT/sub/out.ply" || fail "export/save: not binary PLY"
+    # the saved rig replays to the saved mesh
+    ok deform "$ROOT/bunny.obj" -o "$T/replay.ply" --rig "$ROOT/sub/edit.json" --binary
+    ok info --json "$ROOT/sub/out.ply"
+    cp "$T/stdout" "$T/info-saved"
+    ok info --json "$T/replay.ply"
+    bbox_close "$T/stdout" "$T/info-saved" ||
+        fail "the saved rig does not replay to the saved mesh: $(cat "$T/stdout" "$T/info-saved")"
+    ls -a "$ROOT" "$ROOT/sub" | grep -q '\.tmp' && fail "a save left a temporary file: $(ls -a "$ROOT" "$ROOT/sub")"
+    expect_ok POST /api/undo --data-binary '{}'
+    expect_ok POST /api/undo --data-binary '{}'
+    has_key method null
+    expect_ok POST /api/rig/load --data-binary '{"path": "bend.json"}'
+    has_key method '"lattice"'
+    expect_ok POST '/api/rig/upload?name=bend.json' --data-binary @"$ROOT/bend.json"
+    expect_ok POST /api/influence --data-binary '{"points": [0]}'
+    [ "$(head -c 4 "$T/body")" = FFDI ] || fail "influence: no FFDI magic"
+fi
+
+stop main
+[ "$(cksum <"$ROOT/bunny.obj")" = "$BUNNY_SUM" ] || fail "the opened mesh was modified"
+[ "$(cd "$OUT" && cat secret.obj secret.json secret.html | cksum)" = "$OUT_SUM" ] ||
+    fail "files outside the root were modified"
+
+if [ "$failures" -ne 0 ]; then
+    echo "$failures failure(s)"
+    exit 1
+fi
+echo "all serve tests passed"

@@ -1,0 +1,1330 @@
+/* serve_http — the HTTP server of `ffd serve` on libmicrohttpd: routes the
+ * editor's API (docs/editor.md) to one editing session under one lock,
+ * serves the page's files, and opens and saves files under one root
+ * directory. It parses requests, calls the session and the library, and
+ * passes their replies through: no deformation logic lives here. */
+#ifndef _XOPEN_SOURCE
+#define _XOPEN_SOURCE 700 /* realpath */
+#endif
+#include "serve_http.h"
+
+#include "cli.h"
+#include "core/core.h"
+
+/* microhttpd.h needs these first */
+#include <stdint.h>
+#include <sys/socket.h>
+#include <sys/types.h>
+
+#include <microhttpd.h>
+
+#include <arpa/inet.h>
+#include <cjson/cJSON.h>
+#include <dirent.h>
+#include <errno.h>
+#include <fcntl.h>
+#include <netinet/in.h>
+#include <pthread.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <strings.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#define JSON_LIMIT ((size_t)1 << 20)       /* JSON request bodies */
+#define RIG_FILE_LIMIT ((size_t)16 << 20)  /* rigs read from the root */
+#define PATH_LEN 4096
+#define CLIENT_PATH_LEN 1024
+#define LIST_LIMIT 500    /* meshes and rigs listed, each */
+#define LIST_VISITS 20000 /* directory entries looked at by one listing */
+#define MSG_LEN 1400
+
+struct serve_server {
+    struct MHD_Daemon *daemon;
+    pthread_mutex_t lock; /* every API request runs under it: the session is not thread-safe */
+    ffd_session *session;
+    char *mesh_path;      /* resolved file the session was opened from (never overwritten); NULL after an upload */
+    char root[PATH_LEN];  /* resolved, no trailing slash unless "/" */
+    char web[PATH_LEN];   /* resolved, "" when the page is missing */
+    char host[INET_ADDRSTRLEN];
+    size_t max_upload;
+    unsigned port;
+    int verbose;
+};
+
+typedef enum route {
+    ROUTE_NONE = 0,
+    ROUTE_STATIC,
+    ROUTE_STATE,
+    ROUTE_FRAME,
+    ROUTE_TOPOLOGY,
+    ROUTE_RIG,
+    ROUTE_EXPORT,
+    ROUTE_FILES,
+    ROUTE_OPEN,
+    ROUTE_UPLOAD,
+    ROUTE_RIG_LOAD,
+    ROUTE_RIG_UPLOAD,
+    ROUTE_RIG_SAVE,
+    ROUTE_EXPORT_SAVE,
+    ROUTE_OP
+} route;
+
+/* One request's state between MHD's calls (its con_cls). */
+typedef struct request {
+    route route;
+    char op[33];
+    const char *method, *url; /* MHD's, valid until the request completes */
+    char *body;               /* NUL-terminated */
+    size_t size, cap, limit;
+    int answered;  /* a response is queued: the rest of the body is dropped */
+    int too_large; /* the body passed limit: dropped, answered 413 at its end */
+    int no_memory;
+    double start;
+} request;
+
+/* The API's fixed URLs; every other /api/NAME with NAME in [a-z_]{1,32} is a session op. */
+static const struct api_route {
+    const char *path;
+    route get, post;
+    const char *allow;
+} api_routes[] = {
+    {"/api/state", ROUTE_STATE, ROUTE_NONE, "GET, HEAD"},
+    {"/api/frame", ROUTE_FRAME, ROUTE_OP, "GET, HEAD, POST"}, /* POST: PB-FFD's "frame" op */
+    {"/api/topology", ROUTE_TOPOLOGY, ROUTE_NONE, "GET, HEAD"},
+    {"/api/rig", ROUTE_RIG, ROUTE_NONE, "GET, HEAD"},
+    {"/api/export", ROUTE_EXPORT, ROUTE_NONE, "GET, HEAD"},
+    {"/api/files", ROUTE_FILES, ROUTE_NONE, "GET, HEAD"},
+    {"/api/open", ROUTE_NONE, ROUTE_OPEN, "POST"},
+    {"/api/upload", ROUTE_NONE, ROUTE_UPLOAD, "POST"},
+    {"/api/rig/load", ROUTE_NONE, ROUTE_RIG_LOAD, "POST"},
+    {"/api/rig/upload", ROUTE_NONE, ROUTE_RIG_UPLOAD, "POST"},
+    {"/api/rig/save", ROUTE_NONE, ROUTE_RIG_SAVE, "POST"},
+    {"/api/export/save", ROUTE_NONE, ROUTE_EXPORT_SAVE, "POST"},
+};
+
+/* The session's ops (docs/editor.md): a GET of one is a 405, of another name a 404. */
+static const char *const known_ops[] = {
+    "create", "drag_begin", "drag",  "drag_end", "drag_cancel", "move",      "pin",
+    "unpin",  "influence",  "refine", "freeze",  "level",       "curve",     "primitive",
+    "reset",  "undo",       "redo"};
+
+/* ======================================================================
+ * Replies
+ * ====================================================================== */
+
+static void free_cjson(void *p)
+{
+    cJSON_free(p);
+}
+
+static void free_ffd(void *p)
+{
+    ffd_free(p);
+}
+
+/* Adds the common headers, queues resp with code, logs the request. Takes resp. */
+static enum MHD_Result answer(const serve_server *srv, struct MHD_Connection *c, request *r,
+                              unsigned code, struct MHD_Response *resp, const char *type,
+                              size_t size)
+{
+    if (!resp)
+        return MHD_NO; /* out of memory: MHD closes the connection */
+    if (type)
+        MHD_add_response_header(resp, MHD_HTTP_HEADER_CONTENT_TYPE, type);
+    MHD_add_response_header(resp, MHD_HTTP_HEADER_CACHE_CONTROL, "no-store");
+    MHD_add_response_header(resp, "X-Content-Type-Options", "nosniff");
+    enum MHD_Result ret = MHD_queue_response(c, code, resp);
+    MHD_destroy_response(resp);
+    r->answered = 1;
+    if (srv->verbose)
+        fprintf(stderr, "ffd serve: %s %s %u (%zu bytes, %.1f ms)\n", r->method, r->url, code, size,
+                1e3 * (cli_now() - r->start));
+    return ret;
+}
+
+/* Bytes the library allocated (ffd_free'd by MHD once sent). */
+static enum MHD_Result answer_data(const serve_server *srv, struct MHD_Connection *c, request *r,
+                                   void *data, size_t size, const char *type,
+                                   const char *disposition)
+{
+    struct MHD_Response *resp = MHD_create_response_from_buffer_with_free_callback(
+        size, data, free_ffd);
+    if (!resp) {
+        ffd_free(data);
+        return MHD_NO;
+    }
+    if (disposition)
+        MHD_add_response_header(resp, MHD_HTTP_HEADER_CONTENT_DISPOSITION, disposition);
+    return answer(srv, c, r, MHD_HTTP_OK, resp, type, size);
+}
+
+/* A cJSON document as the reply (deleted here). */
+static enum MHD_Result answer_json(const serve_server *srv, struct MHD_Connection *c, request *r,
+                                   unsigned code, cJSON *doc, const char *allow)
+{
+    char *text = doc ? cJSON_PrintUnformatted(doc) : NULL;
+    cJSON_Delete(doc);
+    struct MHD_Response *resp;
+    size_t size;
+    if (text) {
+        size = strlen(text);
+        resp = MHD_create_response_from_buffer_with_free_callback(size, text, free_cjson);
+        if (!resp)
+            cJSON_free(text);
+    } else {
+        static const char nomem[] = "{\"error\":\"out of memory\",\"status\":\"nomem\"}";
+        code = MHD_HTTP_INTERNAL_SERVER_ERROR;
+        allow = NULL;
+        size = sizeof nomem - 1;
+        resp = MHD_create_response_from_buffer(size, (void *)nomem, MHD_RESPMEM_PERSISTENT);
+    }
+    if (resp && allow)
+        MHD_add_response_header(resp, MHD_HTTP_HEADER_ALLOW, allow);
+    return answer(srv, c, r, code, resp, "application/json", size);
+}
+
+static enum MHD_Result answer_error_v(const serve_server *srv, struct MHD_Connection *c,
+                                      request *r, unsigned code, const char *word,
+                                      const char *allow, const char *fmt, va_list ap)
+{
+    char msg[MSG_LEN];
+    vsnprintf(msg, sizeof msg, fmt, ap);
+    cJSON *doc = cJSON_CreateObject();
+    if (doc && (!cJSON_AddStringToObject(doc, "error", msg) ||
+                !cJSON_AddStringToObject(doc, "status", word))) {
+        cJSON_Delete(doc);
+        doc = NULL;
+    }
+    return answer_json(srv, c, r, code, doc, allow);
+}
+
+/* {"error": message, "status": word} with HTTP code. */
+static enum MHD_Result answer_error(const serve_server *srv, struct MHD_Connection *c, request *r,
+                                    unsigned code, const char *word, const char *fmt, ...)
+    CLI_PRINTF(6, 7);
+static enum MHD_Result answer_error(const serve_server *srv, struct MHD_Connection *c, request *r,
+                                    unsigned code, const char *word, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    enum MHD_Result ret = answer_error_v(srv, c, r, code, word, NULL, fmt, ap);
+    va_end(ap);
+    return ret;
+}
+
+static enum MHD_Result answer_405(const serve_server *srv, struct MHD_Connection *c, request *r,
+                                  const char *allow)
+{
+    cJSON *doc = cJSON_CreateObject();
+    char msg[MSG_LEN];
+    snprintf(msg, sizeof msg, "%s %s: method not allowed (allowed: %s)", r->method, r->url, allow);
+    if (doc && (!cJSON_AddStringToObject(doc, "error", msg) ||
+                !cJSON_AddStringToObject(doc, "status", "method_not_allowed"))) {
+        cJSON_Delete(doc);
+        doc = NULL;
+    }
+    return answer_json(srv, c, r, MHD_HTTP_METHOD_NOT_ALLOWED, doc, allow);
+}
+
+/* A library failure: the HTTP code and word for its status. The session marks
+ * requests its state refuses with a "conflict: " prefix (409, prefix dropped). */
+static enum MHD_Result answer_status(const serve_server *srv, struct MHD_Connection *c,
+                                     request *r, ffd_status status, const char *message)
+{
+    static const char conflict[] = "conflict: ";
+    if (strncmp(message, conflict, sizeof conflict - 1) == 0)
+        return answer_error(srv, c, r, MHD_HTTP_CONFLICT, "conflict", "%s",
+                            message + sizeof conflict - 1);
+    unsigned code = MHD_HTTP_INTERNAL_SERVER_ERROR;
+    const char *word = "error";
+    switch (status) {
+    case FFD_OK: break;
+    case FFD_ERR_PARSE: code = MHD_HTTP_BAD_REQUEST, word = "parse"; break;
+    case FFD_ERR_INVALID: code = MHD_HTTP_BAD_REQUEST, word = "invalid"; break;
+    case FFD_ERR_RANGE: code = MHD_HTTP_BAD_REQUEST, word = "range"; break;
+    case FFD_ERR_NONFINITE: code = MHD_HTTP_BAD_REQUEST, word = "nonfinite"; break;
+    case FFD_ERR_UNSUPPORTED: code = MHD_HTTP_NOT_FOUND, word = "unsupported"; break;
+    case FFD_ERR_IO:
+        /* paths are checked before the library opens them: a missing file here raced a delete */
+        if (strstr(message, strerror(ENOENT)))
+            code = MHD_HTTP_NOT_FOUND, word = "not_found";
+        else
+            word = "io";
+        break;
+    case FFD_ERR_NOMEM: word = "nomem"; break;
+    case FFD_ERR_NUMERIC: word = "numeric"; break;
+    }
+    return answer_error(srv, c, r, code, word, "%s", message);
+}
+
+/* ======================================================================
+ * Paths: everything a client names lies under the root (or the page's directory)
+ * ====================================================================== */
+
+static int under(const char *dir, const char *path)
+{
+    if (strcmp(dir, "/") == 0)
+        return path[0] == '/';
+    size_t n = strlen(dir);
+    return strncmp(path, dir, n) == 0 && (path[n] == 0 || path[n] == '/');
+}
+
+static int ends_with(const char *s, const char *suffix)
+{
+    size_t n = strlen(s), k = strlen(suffix);
+    return n >= k && strcasecmp(s + n - k, suffix) == 0;
+}
+
+/* A relative path's shape: no absolute path, backslash, control character,
+ * "..", hidden or empty component. Returns 0 or the HTTP code (msg says why). */
+static unsigned check_relative(const char *rel, char *msg, size_t size)
+{
+    if (!*rel) {
+        snprintf(msg, size, "empty path");
+        return MHD_HTTP_BAD_REQUEST;
+    }
+    if (strlen(rel) >= CLIENT_PATH_LEN) {
+        snprintf(msg, size, "path longer than %d bytes", CLIENT_PATH_LEN - 1);
+        return MHD_HTTP_BAD_REQUEST;
+    }
+    if (rel[0] == '/') {
+        snprintf(msg, size, "%s: absolute paths are refused (paths are relative to the root)", rel);
+        return MHD_HTTP_FORBIDDEN;
+    }
+    for (const unsigned char *p = (const unsigned char *)rel; *p; p++) {
+        if (*p == '\\' || *p < 0x20 || *p == 0x7f) {
+            snprintf(msg, size, "%s: backslashes and control characters are refused", rel);
+            return MHD_HTTP_FORBIDDEN;
+        }
+    }
+    for (const char *p = rel;;) {
+        const char *end = strchr(p, '/');
+        size_t len = end ? (size_t)(end - p) : strlen(p);
+        if (len == 0) {
+            snprintf(msg, size, "%s: empty path component", rel);
+            return MHD_HTTP_BAD_REQUEST;
+        }
+        if (p[0] == '.') {
+            snprintf(msg, size, "%s: '..' and components starting with '.' are refused", rel);
+            return MHD_HTTP_FORBIDDEN;
+        }
+        if (!end)
+            return 0;
+        p = end + 1;
+    }
+}
+
+/* Resolves a client's path under the root into out: its directory must exist
+ * and lie under the root after symbolic links, and so must the file when it
+ * is a link. for_write: the file may be missing (not a directory). Returns 0
+ * or the HTTP code (403 outside, 404 missing, 400 bad shape); *word and msg say why. */
+static unsigned resolve(const serve_server *srv, const char *rel, int for_write,
+                        char out[PATH_LEN], const char **word, char *msg, size_t size)
+{
+    *word = "forbidden";
+    unsigned code = check_relative(rel, msg, size);
+    if (code) {
+        if (code != MHD_HTTP_FORBIDDEN)
+            *word = "invalid";
+        return code;
+    }
+    char dir[PATH_LEN];
+    const char *slash = strrchr(rel, '/');
+    const char *base = slash ? slash + 1 : rel;
+    int n = snprintf(dir, sizeof dir, "%s/%.*s", srv->root, slash ? (int)(slash - rel) : 0, rel);
+    if (n < 0 || (size_t)n >= sizeof dir) {
+        *word = "invalid";
+        snprintf(msg, size, "%s: path too long", rel);
+        return MHD_HTTP_BAD_REQUEST;
+    }
+    char *real = realpath(dir, NULL);
+    if (!real) {
+        int e = errno;
+        if (e == ENOENT || e == ENOTDIR) {
+            *word = "not_found";
+            snprintf(msg, size, "%s: no such directory", rel);
+            return MHD_HTTP_NOT_FOUND;
+        }
+        if (e == EACCES) {
+            snprintf(msg, size, "%s: %s", rel, strerror(e));
+            return MHD_HTTP_FORBIDDEN;
+        }
+        *word = "io";
+        snprintf(msg, size, "%s: %s", rel, strerror(e));
+        return MHD_HTTP_INTERNAL_SERVER_ERROR;
+    }
+    int inside = under(srv->root, real);
+    n = snprintf(out, PATH_LEN, "%s/%s", strcmp(real, "/") == 0 ? "" : real, base);
+    free(real);
+    if (!inside) {
+        snprintf(msg, size, "%s: outside the root directory (through a symbolic link)", rel);
+        return MHD_HTTP_FORBIDDEN;
+    }
+    if (n < 0 || n >= PATH_LEN) {
+        *word = "invalid";
+        snprintf(msg, size, "%s: path too long", rel);
+        return MHD_HTTP_BAD_REQUEST;
+    }
+    struct stat st;
+    if (lstat(out, &st) != 0) {
+        if (errno == ENOENT && for_write)
+            return 0;
+        *word = errno == ENOENT ? "not_found" : "io";
+        snprintf(msg, size, "%s: %s", rel, strerror(errno));
+        return errno == ENOENT ? MHD_HTTP_NOT_FOUND : MHD_HTTP_INTERNAL_SERVER_ERROR;
+    }
+    if (S_ISLNK(st.st_mode)) {
+        real = realpath(out, NULL);
+        if (!real || !under(srv->root, real) || strlen(real) >= PATH_LEN) {
+            snprintf(msg, size, "%s: a symbolic link %s", rel,
+                     real ? "leaving the root directory" : "to nothing");
+            free(real);
+            return MHD_HTTP_FORBIDDEN;
+        }
+        strcpy(out, real);
+        free(real);
+        if (stat(out, &st) != 0) {
+            *word = "io";
+            snprintf(msg, size, "%s: %s", rel, strerror(errno));
+            return MHD_HTTP_INTERNAL_SERVER_ERROR;
+        }
+    }
+    if (S_ISDIR(st.st_mode) || (!for_write && !S_ISREG(st.st_mode))) {
+        *word = "invalid";
+        snprintf(msg, size, "%s: not a regular file", rel);
+        return MHD_HTTP_BAD_REQUEST;
+    }
+    return 0;
+}
+
+/* The file name part of a client's name, for labels and downloads. */
+static const char *base_name(const char *path)
+{
+    const char *slash = strrchr(path, '/');
+    return slash ? slash + 1 : path;
+}
+
+/* "<stem><suffix>" for Content-Disposition: the session's mesh name without
+ * its extension, reduced to [A-Za-z0-9._-]. */
+static void attachment(const ffd_session *s, const char *suffix, char *out, size_t size)
+{
+    char stem[96];
+    const char *name = ffd_session_name(s) ? base_name(ffd_session_name(s)) : "mesh";
+    size_t n = 0;
+    for (const char *p = name; *p && n + 1 < sizeof stem; p++) {
+        char ch = *p;
+        int ok = (ch >= 'a' && ch <= 'z') || (ch >= 'A' && ch <= 'Z') || (ch >= '0' && ch <= '9') ||
+                 ch == '.' || ch == '_' || ch == '-';
+        stem[n++] = ok ? ch : '_';
+    }
+    stem[n] = 0;
+    char *dot = strrchr(stem, '.');
+    if (dot && dot != stem)
+        *dot = 0;
+    if (!stem[0] || stem[0] == '.')
+        snprintf(stem, sizeof stem, "mesh");
+    snprintf(out, size, "attachment; filename=\"%s%s\"", stem, suffix);
+}
+
+/* ======================================================================
+ * Request bodies of the server's own routes
+ * ====================================================================== */
+
+/* Parses the body as a JSON object whose keys are among keys (n of them), all
+ * strings: values[i] borrows from *doc. Returns 0 or 400 (msg says why).
+ * Runs under the lock: cJSON records parse errors in a global. */
+static unsigned parse_body(const request *r, const char *const *keys, size_t n,
+                           const char **values, cJSON **doc, char *msg, size_t size)
+{
+    *doc = NULL;
+    for (size_t i = 0; i < n; i++)
+        values[i] = NULL;
+    if (r->size == 0) {
+        snprintf(msg, size, "empty body: expected a JSON object");
+        return MHD_HTTP_BAD_REQUEST;
+    }
+    /* body[size] is its NUL: cJSON wants the terminator inside the length */
+    const char *end = NULL;
+    cJSON *j = cJSON_ParseWithLengthOpts(r->body, r->size + 1, &end, 1);
+    if (!j) {
+        size_t at = end && end >= r->body ? (size_t)(end - r->body) : 0;
+        snprintf(msg, size, "malformed JSON at byte %zu", at);
+        return MHD_HTTP_BAD_REQUEST;
+    }
+    if (!cJSON_IsObject(j)) {
+        cJSON_Delete(j);
+        snprintf(msg, size, "expected a JSON object");
+        return MHD_HTTP_BAD_REQUEST;
+    }
+    for (const cJSON *item = j->child; item; item = item->next) {
+        size_t k = 0;
+        while (k < n && strcmp(item->string, keys[k]) != 0)
+            k++;
+        if (k == n) {
+            snprintf(msg, size, "unknown key \"%.64s\"", item->string);
+            cJSON_Delete(j);
+            return MHD_HTTP_BAD_REQUEST;
+        }
+        if (values[k]) {
+            snprintf(msg, size, "\"%s\" given twice", keys[k]);
+            cJSON_Delete(j);
+            return MHD_HTTP_BAD_REQUEST;
+        }
+        if (!cJSON_IsString(item)) {
+            snprintf(msg, size, "\"%s\": expected a string", keys[k]);
+            cJSON_Delete(j);
+            return MHD_HTTP_BAD_REQUEST;
+        }
+        values[k] = item->valuestring;
+    }
+    if (!values[0]) {
+        snprintf(msg, size, "missing \"%s\"", keys[0]);
+        cJSON_Delete(j);
+        return MHD_HTTP_BAD_REQUEST;
+    }
+    *doc = j;
+    return 0;
+}
+
+/* "ascii" | "binary" | "binary-be" (NULL: as the source). -1 when unknown. */
+static int parse_encoding(const char *s, ffd_encoding *out)
+{
+    if (!s || !*s)
+        *out = FFD_ENCODING_SAME;
+    else if (strcmp(s, "ascii") == 0)
+        *out = FFD_ENCODING_ASCII;
+    else if (strcmp(s, "binary") == 0)
+        *out = FFD_ENCODING_BINARY_LE;
+    else if (strcmp(s, "binary-be") == 0)
+        *out = FFD_ENCODING_BINARY_BE;
+    else
+        return -1;
+    return 0;
+}
+
+/* ======================================================================
+ * The API (all under srv->lock)
+ * ====================================================================== */
+
+static enum MHD_Result reply_state(const serve_server *srv, struct MHD_Connection *c, request *r)
+{
+    ffd_error err = {{0}};
+    char *json = NULL;
+    size_t size = 0;
+    ffd_status st = ffd_session_state(srv->session, &json, &size, &err);
+    if (st != FFD_OK)
+        return answer_status(srv, c, r, st, err.message);
+    return answer_data(srv, c, r, json, size, "application/json", NULL);
+}
+
+static enum MHD_Result get_binary(const serve_server *srv, struct MHD_Connection *c, request *r)
+{
+    ffd_error err = {{0}};
+    void *data = NULL;
+    size_t size = 0;
+    ffd_status st = r->route == ROUTE_FRAME
+                        ? ffd_session_frame(srv->session, &data, &size, &err)
+                        : ffd_session_topology(srv->session, &data, &size, &err);
+    if (st != FFD_OK)
+        return answer_status(srv, c, r, st, err.message);
+    return answer_data(srv, c, r, data, size, "application/octet-stream", NULL);
+}
+
+static enum MHD_Result get_rig(const serve_server *srv, struct MHD_Connection *c, request *r)
+{
+    ffd_error err = {{0}};
+    char *json = NULL;
+    size_t size = 0;
+    ffd_status st = ffd_session_rig(srv->session, &json, &size, &err);
+    if (st != FFD_OK)
+        return answer_status(srv, c, r, st, err.message);
+    char disposition[160];
+    attachment(srv->session, "-rig.json", disposition, sizeof disposition);
+    return answer_data(srv, c, r, json, size, "application/json", disposition);
+}
+
+static const char *const format_names[] = {"", "obj", "ply", "off", "stl"};
+
+static enum MHD_Result get_export(const serve_server *srv, struct MHD_Connection *c, request *r)
+{
+    const char *format = MHD_lookup_connection_value(c, MHD_GET_ARGUMENT_KIND, "format");
+    const char *encoding = MHD_lookup_connection_value(c, MHD_GET_ARGUMENT_KIND, "encoding");
+    ffd_write_options options = {FFD_FORMAT_AUTO, FFD_ENCODING_SAME};
+    if (format && *format) {
+        int f = FFD_FORMAT_OBJ;
+        while (f <= FFD_FORMAT_STL && strcmp(format, format_names[f]) != 0)
+            f++;
+        if (f > FFD_FORMAT_STL)
+            return answer_error(srv, c, r, MHD_HTTP_BAD_REQUEST, "invalid",
+                                "format '%.32s': expected obj, ply, off or stl", format);
+        options.format = (ffd_format)f;
+    }
+    if (parse_encoding(encoding, &options.encoding) != 0)
+        return answer_error(srv, c, r, MHD_HTTP_BAD_REQUEST, "invalid",
+                            "encoding '%.32s': expected ascii, binary or binary-be", encoding);
+    ffd_format shown = options.format;
+    if (shown == FFD_FORMAT_AUTO)
+        shown = ffd_mesh_source_format(ffd_session_mesh(srv->session));
+    if (shown < FFD_FORMAT_OBJ || shown > FFD_FORMAT_STL)
+        shown = FFD_FORMAT_OBJ;
+    ffd_error err = {{0}};
+    void *data = NULL;
+    size_t size = 0;
+    ffd_status st = ffd_session_export(srv->session, &options, &data, &size, &err);
+    if (st != FFD_OK)
+        return answer_status(srv, c, r, st, err.message);
+    char suffix[32], disposition[160];
+    snprintf(suffix, sizeof suffix, "-deformed.%s", format_names[shown]);
+    attachment(srv->session, suffix, disposition, sizeof disposition);
+    return answer_data(srv, c, r, data, size, "application/octet-stream", disposition);
+}
+
+static enum MHD_Result post_op(const serve_server *srv, struct MHD_Connection *c, request *r)
+{
+    ffd_error err = {{0}};
+    void *reply = NULL;
+    size_t size = 0;
+    int binary = 0;
+    ffd_status st = ffd_session_command(srv->session, r->op, r->body ? r->body : "", r->size,
+                                        &reply, &size, &binary, &err);
+    if (st != FFD_OK)
+        return answer_status(srv, c, r, st, err.message);
+    return answer_data(srv, c, r, reply, size,
+                       binary ? "application/octet-stream" : "application/json", NULL);
+}
+
+/* Makes a session of mesh (taken over) and puts it in place of the old one. */
+static enum MHD_Result replace_session(serve_server *srv, struct MHD_Connection *c, request *r,
+                                       ffd_mesh *mesh, const char *name, const char *path)
+{
+    ffd_error err = {{0}};
+    ffd_session *s = NULL;
+    char *copy = NULL;
+    if (path && !(copy = ffd_strdup(path))) {
+        ffd_mesh_destroy(mesh);
+        return answer_error(srv, c, r, MHD_HTTP_INTERNAL_SERVER_ERROR, "nomem", "out of memory");
+    }
+    ffd_status st = ffd_session_create(mesh, name, NULL, &s, &err);
+    if (st != FFD_OK) {
+        ffd_mesh_destroy(mesh);
+        ffd_free(copy);
+        return answer_status(srv, c, r, st, err.message);
+    }
+    ffd_session_destroy(srv->session);
+    srv->session = s;
+    ffd_free(srv->mesh_path);
+    srv->mesh_path = copy;
+    return reply_state(srv, c, r);
+}
+
+static enum MHD_Result post_open(serve_server *srv, struct MHD_Connection *c, request *r)
+{
+    static const char *const keys[] = {"path"};
+    const char *path;
+    cJSON *doc;
+    char msg[MSG_LEN], abs[PATH_LEN];
+    const char *word;
+    unsigned code = parse_body(r, keys, 1, &path, &doc, msg, sizeof msg);
+    if (code)
+        return answer_error(srv, c, r, code, "parse", "%s", msg);
+    if ((code = resolve(srv, path, 0, abs, &word, msg, sizeof msg)) != 0) {
+        cJSON_Delete(doc);
+        return answer_error(srv, c, r, code, word, "%s", msg);
+    }
+    if (ffd_format_from_path(abs) == FFD_FORMAT_AUTO) {
+        enum MHD_Result ret = answer_error(srv, c, r, MHD_HTTP_UNSUPPORTED_MEDIA_TYPE,
+                                           "unsupported_format",
+                                           "%s: unknown mesh format (expected .obj, .ply, .off or .stl)",
+                                           path);
+        cJSON_Delete(doc);
+        return ret;
+    }
+    ffd_error err = {{0}};
+    ffd_mesh *mesh = NULL;
+    ffd_status st = ffd_mesh_read(abs, &mesh, &err);
+    if (st != FFD_OK) {
+        cJSON_Delete(doc);
+        return answer_status(srv, c, r, st, err.message);
+    }
+    enum MHD_Result ret = replace_session(srv, c, r, mesh, base_name(path), abs);
+    cJSON_Delete(doc);
+    return ret;
+}
+
+static enum MHD_Result post_upload(serve_server *srv, struct MHD_Connection *c, request *r)
+{
+    const char *name = base_name(MHD_lookup_connection_value(c, MHD_GET_ARGUMENT_KIND, "name"));
+    ffd_error err = {{0}};
+    ffd_mesh *mesh = NULL;
+    ffd_status st = ffd_mesh_read_memory(r->body ? r->body : "", r->size,
+                                         ffd_format_from_path(name), name, &mesh, &err);
+    if (st != FFD_OK)
+        return answer_status(srv, c, r, st, err.message);
+    return replace_session(srv, c, r, mesh, name, NULL);
+}
+
+static enum MHD_Result post_rig_load(serve_server *srv, struct MHD_Connection *c, request *r)
+{
+    static const char *const keys[] = {"path"};
+    const char *path;
+    cJSON *doc;
+    char msg[MSG_LEN], abs[PATH_LEN];
+    const char *word;
+    unsigned code = parse_body(r, keys, 1, &path, &doc, msg, sizeof msg);
+    if (code)
+        return answer_error(srv, c, r, code, "parse", "%s", msg);
+    enum MHD_Result ret;
+    struct stat st;
+    if ((code = resolve(srv, path, 0, abs, &word, msg, sizeof msg)) != 0) {
+        ret = answer_error(srv, c, r, code, word, "%s", msg);
+    } else if (stat(abs, &st) == 0 && (uintmax_t)st.st_size > RIG_FILE_LIMIT) {
+        ret = answer_error(srv, c, r, MHD_HTTP_CONTENT_TOO_LARGE, "too_large",
+                           "%s: a rig larger than 16 MiB", path);
+    } else {
+        ffd_error err = {{0}};
+        unsigned char *text = NULL;
+        size_t size = 0;
+        ffd_status s = ffd_read_file(abs, &text, &size, &err);
+        if (s == FFD_OK)
+            s = ffd_session_load_rig(srv->session, (const char *)text, size, abs, srv->root, &err);
+        ffd_free(text);
+        ret = s == FFD_OK ? reply_state(srv, c, r) : answer_status(srv, c, r, s, err.message);
+    }
+    cJSON_Delete(doc);
+    return ret;
+}
+
+static enum MHD_Result post_rig_upload(serve_server *srv, struct MHD_Connection *c, request *r)
+{
+    const char *name = base_name(MHD_lookup_connection_value(c, MHD_GET_ARGUMENT_KIND, "name"));
+    ffd_error err = {{0}};
+    ffd_status st = ffd_session_load_rig(srv->session, r->body ? r->body : "", r->size, name,
+                                         NULL, &err);
+    if (st != FFD_OK)
+        return answer_status(srv, c, r, st, err.message);
+    return reply_state(srv, c, r);
+}
+
+/* {"path": rel, "bytes": n}: what a save wrote. */
+static enum MHD_Result answer_saved(const serve_server *srv, struct MHD_Connection *c,
+                                    request *r, const char *rel, const char *abs)
+{
+    struct stat st;
+    double bytes = stat(abs, &st) == 0 ? (double)st.st_size : 0;
+    cJSON *doc = cJSON_CreateObject();
+    if (doc && (!cJSON_AddStringToObject(doc, "path", rel) ||
+                !cJSON_AddNumberToObject(doc, "bytes", bytes))) {
+        cJSON_Delete(doc);
+        doc = NULL;
+    }
+    return answer_json(srv, c, r, MHD_HTTP_OK, doc, NULL);
+}
+
+static enum MHD_Result post_rig_save(serve_server *srv, struct MHD_Connection *c, request *r)
+{
+    static const char *const keys[] = {"path"};
+    const char *path;
+    cJSON *doc;
+    char msg[MSG_LEN], abs[PATH_LEN];
+    const char *word;
+    unsigned code = parse_body(r, keys, 1, &path, &doc, msg, sizeof msg);
+    if (code)
+        return answer_error(srv, c, r, code, "parse", "%s", msg);
+    enum MHD_Result ret;
+    if (!ends_with(path, ".json")) {
+        ret = answer_error(srv, c, r, MHD_HTTP_BAD_REQUEST, "invalid",
+                           "%s: a rig is saved as .json", path);
+    } else if ((code = resolve(srv, path, 1, abs, &word, msg, sizeof msg)) != 0) {
+        ret = answer_error(srv, c, r, code, word, "%s", msg);
+    } else {
+        ffd_error err = {{0}};
+        char *json = NULL;
+        size_t size = 0;
+        ffd_status st = ffd_session_rig(srv->session, &json, &size, &err);
+        if (st == FFD_OK)
+            st = ffd_write_file_atomic(abs, json, size, &err);
+        ffd_free(json);
+        ret = st == FFD_OK ? answer_saved(srv, c, r, path, abs)
+                           : answer_status(srv, c, r, st, err.message);
+    }
+    cJSON_Delete(doc);
+    return ret;
+}
+
+static enum MHD_Result post_export_save(serve_server *srv, struct MHD_Connection *c, request *r)
+{
+    static const char *const keys[] = {"path", "encoding"};
+    const char *values[2];
+    cJSON *doc;
+    char msg[MSG_LEN], abs[PATH_LEN];
+    const char *word;
+    unsigned code = parse_body(r, keys, 2, values, &doc, msg, sizeof msg);
+    if (code)
+        return answer_error(srv, c, r, code, "parse", "%s", msg);
+    const char *path = values[0];
+    ffd_write_options options = {FFD_FORMAT_AUTO, FFD_ENCODING_SAME};
+    enum MHD_Result ret;
+    if (parse_encoding(values[1], &options.encoding) != 0) {
+        ret = answer_error(srv, c, r, MHD_HTTP_BAD_REQUEST, "invalid",
+                           "encoding '%.32s': expected ascii, binary or binary-be", values[1]);
+    } else if (ffd_format_from_path(path) == FFD_FORMAT_AUTO) {
+        ret = answer_error(srv, c, r, MHD_HTTP_BAD_REQUEST, "invalid",
+                           "%s: unknown mesh format (expected .obj, .ply, .off or .stl)", path);
+    } else if ((code = resolve(srv, path, 1, abs, &word, msg, sizeof msg)) != 0) {
+        ret = answer_error(srv, c, r, code, word, "%s", msg);
+    } else if (srv->mesh_path && cli_same_file(abs, srv->mesh_path)) {
+        ret = answer_error(srv, c, r, MHD_HTTP_CONFLICT, "conflict",
+                           "%s: is the opened mesh: save the deformed mesh under another name",
+                           path);
+    } else {
+        ffd_error err = {{0}};
+        ffd_mesh *deformed = NULL;
+        ffd_status st = ffd_session_deformed(srv->session, &deformed, &err);
+        if (st == FFD_OK)
+            st = ffd_mesh_write(deformed, abs, &options, &err);
+        ffd_mesh_destroy(deformed);
+        ret = st == FFD_OK ? answer_saved(srv, c, r, path, abs)
+                           : answer_status(srv, c, r, st, err.message);
+    }
+    cJSON_Delete(doc);
+    return ret;
+}
+
+static enum MHD_Result api(serve_server *srv, struct MHD_Connection *c, request *r)
+{
+    switch (r->route) {
+    case ROUTE_STATE: return reply_state(srv, c, r);
+    case ROUTE_FRAME:
+    case ROUTE_TOPOLOGY: return get_binary(srv, c, r);
+    case ROUTE_RIG: return get_rig(srv, c, r);
+    case ROUTE_EXPORT: return get_export(srv, c, r);
+    case ROUTE_OP: return post_op(srv, c, r);
+    case ROUTE_OPEN: return post_open(srv, c, r);
+    case ROUTE_UPLOAD: return post_upload(srv, c, r);
+    case ROUTE_RIG_LOAD: return post_rig_load(srv, c, r);
+    case ROUTE_RIG_UPLOAD: return post_rig_upload(srv, c, r);
+    case ROUTE_RIG_SAVE: return post_rig_save(srv, c, r);
+    case ROUTE_EXPORT_SAVE: return post_export_save(srv, c, r);
+    default: break;
+    }
+    return answer_error(srv, c, r, MHD_HTTP_INTERNAL_SERVER_ERROR, "error", "unrouted request");
+}
+
+/* ======================================================================
+ * Listing the root's files (no lock: the session is not involved)
+ * ====================================================================== */
+
+typedef struct name_list {
+    char **v;
+    size_t n, cap;
+    int truncated;
+} name_list;
+
+static int push_name(name_list *l, const char *name)
+{
+    if (l->n == LIST_LIMIT) {
+        l->truncated = 1;
+        return 0;
+    }
+    if (l->n == l->cap) {
+        size_t cap = l->cap ? 2 * l->cap : 32;
+        char **v = realloc(l->v, cap * sizeof *v);
+        if (!v)
+            return -1;
+        l->v = v;
+        l->cap = cap;
+    }
+    if (!(l->v[l->n] = ffd_strdup(name)))
+        return -1;
+    l->n++;
+    return 0;
+}
+
+static void free_names(name_list *l)
+{
+    for (size_t i = 0; i < l->n; i++)
+        ffd_free(l->v[i]);
+    free(l->v);
+}
+
+static int compare_names(const void *a, const void *b)
+{
+    return strcmp(*(char *const *)a, *(char *const *)b);
+}
+
+/* Files under dir (rel: its path under the root, "" or ending in '/'), two
+ * directory levels down, skipping hidden entries, node_modules and links that
+ * leave the root or name directories. -1 on allocation failure. */
+static int scan(const serve_server *srv, const char *dir, const char *rel, int depth,
+                name_list *meshes, name_list *rigs, size_t *visits)
+{
+    DIR *d = opendir(dir);
+    if (!d)
+        return 0; /* unreadable directories are left out */
+    int result = 0;
+    struct dirent *e;
+    while (result == 0 && (e = readdir(d)) != NULL) {
+        if (e->d_name[0] == '.' || strcmp(e->d_name, "node_modules") == 0)
+            continue;
+        if (++*visits > LIST_VISITS) {
+            meshes->truncated = rigs->truncated = 1;
+            break;
+        }
+        char path[PATH_LEN], name[PATH_LEN];
+        int n1 = snprintf(path, sizeof path, "%s/%s", dir, e->d_name);
+        int n2 = snprintf(name, sizeof name, "%s%s", rel, e->d_name);
+        if (n1 < 0 || n2 < 0 || (size_t)n1 >= sizeof path || (size_t)n2 >= CLIENT_PATH_LEN)
+            continue;
+        struct stat st;
+        if (lstat(path, &st) != 0)
+            continue;
+        if (S_ISLNK(st.st_mode)) {
+            char *real = realpath(path, NULL);
+            int ok = real && under(srv->root, real) && stat(real, &st) == 0 && S_ISREG(st.st_mode);
+            free(real);
+            if (!ok)
+                continue;
+        }
+        if (S_ISDIR(st.st_mode)) {
+            if (depth < 2 && (size_t)n2 + 1 < CLIENT_PATH_LEN) {
+                strcat(name, "/");
+                result = scan(srv, path, name, depth + 1, meshes, rigs, visits);
+            }
+        } else if (S_ISREG(st.st_mode)) {
+            if (ffd_format_from_path(name) != FFD_FORMAT_AUTO)
+                result = push_name(meshes, name);
+            else if (ends_with(name, ".json") || ends_with(name, ".prm"))
+                result = push_name(rigs, name);
+        }
+    }
+    closedir(d);
+    return result;
+}
+
+static cJSON *name_array(name_list *l)
+{
+    qsort(l->v, l->n, sizeof *l->v, compare_names);
+    cJSON *a = cJSON_CreateArray();
+    for (size_t i = 0; a && i < l->n; i++) {
+        cJSON *s = cJSON_CreateString(l->v[i]);
+        if (!s || !cJSON_AddItemToArray(a, s)) {
+            cJSON_Delete(s);
+            cJSON_Delete(a);
+            return NULL;
+        }
+    }
+    return a;
+}
+
+static enum MHD_Result get_files(const serve_server *srv, struct MHD_Connection *c, request *r)
+{
+    name_list meshes = {0}, rigs = {0};
+    size_t visits = 0;
+    char root[PATH_LEN + 1];
+    snprintf(root, sizeof root, "%s%s", srv->root, strcmp(srv->root, "/") == 0 ? "" : "/");
+    cJSON *doc = NULL;
+    if (scan(srv, srv->root, "", 0, &meshes, &rigs, &visits) == 0 &&
+        (doc = cJSON_CreateObject()) != NULL) {
+        cJSON *m = name_array(&meshes), *g = m ? name_array(&rigs) : NULL;
+        if (!g || !cJSON_AddStringToObject(doc, "root", root) ||
+            !cJSON_AddItemToObject(doc, "meshes", m) || (m = NULL, 0) ||
+            !cJSON_AddItemToObject(doc, "rigs", g) || (g = NULL, 0) ||
+            !cJSON_AddBoolToObject(doc, "truncated", meshes.truncated || rigs.truncated)) {
+            cJSON_Delete(m);
+            cJSON_Delete(g);
+            cJSON_Delete(doc);
+            doc = NULL;
+        }
+    }
+    free_names(&meshes);
+    free_names(&rigs);
+    return answer_json(srv, c, r, MHD_HTTP_OK, doc, NULL);
+}
+
+/* ======================================================================
+ * The page's files
+ * ====================================================================== */
+
+static const char *content_type(const char *path)
+{
+    static const char *const types[][2] = {
+        {".html", "text/html; charset=utf-8"},
+        {".js", "text/javascript; charset=utf-8"},
+        {".css", "text/css; charset=utf-8"},
+        {".map", "application/json"},
+        {".png", "image/png"},
+        {".svg", "image/svg+xml"},
+        {".json", "application/json"},
+        {".wasm", "application/wasm"},
+    };
+    for (size_t i = 0; i < sizeof types / sizeof *types; i++)
+        if (ends_with(path, types[i][0]))
+            return types[i][1];
+    return NULL;
+}
+
+static enum MHD_Result get_static(const serve_server *srv, struct MHD_Connection *c, request *r)
+{
+    const char *rel = r->url[0] == '/' ? r->url + 1 : r->url;
+    if (!*rel)
+        rel = "index.html";
+    char msg[MSG_LEN];
+    unsigned code = check_relative(rel, msg, sizeof msg);
+    if (code == MHD_HTTP_FORBIDDEN)
+        return answer_error(srv, c, r, code, "forbidden", "%s", msg);
+    char path[PATH_LEN];
+    int n = snprintf(path, sizeof path, "%s/%s", srv->web, rel);
+    char *real = NULL;
+    const char *type = NULL;
+    if (code == 0 && srv->web[0] && n > 0 && (size_t)n < sizeof path &&
+        (real = realpath(path, NULL)) != NULL) {
+        if (!under(srv->web, real)) {
+            free(real);
+            return answer_error(srv, c, r, MHD_HTTP_FORBIDDEN, "forbidden",
+                                "%s: outside the page's directory", rel);
+        }
+        type = content_type(real);
+    }
+    int fd = type ? open(real, O_RDONLY) : -1;
+    free(real);
+    struct stat st;
+    if (fd < 0 || fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
+        if (fd >= 0)
+            close(fd);
+        if (!srv->web[0] && strcmp(rel, "index.html") == 0)
+            return answer_error(srv, c, r, MHD_HTTP_NOT_FOUND, "not_found",
+                                "the page is not built (see docs/editor.md); the API works");
+        return answer_error(srv, c, r, MHD_HTTP_NOT_FOUND, "not_found", "%s: not found", r->url);
+    }
+    fcntl(fd, F_SETFD, FD_CLOEXEC);
+    struct MHD_Response *resp = MHD_create_response_from_fd((uint64_t)st.st_size, fd);
+    if (!resp) {
+        close(fd);
+        return MHD_NO;
+    }
+    return answer(srv, c, r, MHD_HTTP_OK, resp, type, (size_t)st.st_size);
+}
+
+/* ======================================================================
+ * Requests
+ * ====================================================================== */
+
+static int is_op_name(const char *s)
+{
+    size_t n = 0;
+    for (; s[n]; n++)
+        if (!((s[n] >= 'a' && s[n] <= 'z') || s[n] == '_') || n >= 32)
+            return 0;
+    return n > 0;
+}
+
+/* Sets r->route (and r->op) from the URL and method. Returns 0, 404 or 405 (*allow set). */
+static unsigned classify(request *r, int get, int post, const char **allow)
+{
+    const char *url = r->url;
+    if (strncmp(url, "/api/", 5) != 0 && strcmp(url, "/api") != 0) {
+        *allow = "GET, HEAD";
+        if (!get)
+            return MHD_HTTP_METHOD_NOT_ALLOWED;
+        r->route = ROUTE_STATIC;
+        return 0;
+    }
+    for (size_t i = 0; i < sizeof api_routes / sizeof *api_routes; i++) {
+        const struct api_route *a = &api_routes[i];
+        if (strcmp(url, a->path) != 0)
+            continue;
+        *allow = a->allow;
+        r->route = get ? a->get : post ? a->post : ROUTE_NONE;
+        if (r->route == ROUTE_OP)
+            snprintf(r->op, sizeof r->op, "%s", url + 5);
+        return r->route == ROUTE_NONE ? MHD_HTTP_METHOD_NOT_ALLOWED : 0;
+    }
+    const char *op = url + 5;
+    if (strncmp(url, "/api/", 5) != 0 || !is_op_name(op))
+        return MHD_HTTP_NOT_FOUND;
+    *allow = "POST";
+    if (post) {
+        r->route = ROUTE_OP;
+        snprintf(r->op, sizeof r->op, "%s", op);
+        return 0;
+    }
+    if (!get)
+        return MHD_HTTP_METHOD_NOT_ALLOWED;
+    for (size_t i = 0; i < sizeof known_ops / sizeof *known_ops; i++)
+        if (strcmp(op, known_ops[i]) == 0)
+            return MHD_HTTP_METHOD_NOT_ALLOWED;
+    return MHD_HTTP_NOT_FOUND;
+}
+
+/* The first call for a request: route it and refuse what can be refused
+ * before its body is read (wrong URL or method, a declared size over the
+ * limit, an upload's unknown format). */
+static enum MHD_Result begin(serve_server *srv, struct MHD_Connection *c, request *r)
+{
+    int get = strcmp(r->method, MHD_HTTP_METHOD_GET) == 0 ||
+              strcmp(r->method, MHD_HTTP_METHOD_HEAD) == 0;
+    int post = strcmp(r->method, MHD_HTTP_METHOD_POST) == 0;
+    const char *allow = NULL;
+    unsigned code = classify(r, get, post, &allow);
+    if (code == MHD_HTTP_NOT_FOUND)
+        return answer_error(srv, c, r, code, "not_found", "%s: no such resource", r->url);
+    if (code == MHD_HTTP_METHOD_NOT_ALLOWED)
+        return answer_405(srv, c, r, allow);
+    int upload = r->route == ROUTE_UPLOAD || r->route == ROUTE_RIG_UPLOAD;
+    r->limit = upload ? srv->max_upload : JSON_LIMIT;
+    if (upload) {
+        const char *name = MHD_lookup_connection_value(c, MHD_GET_ARGUMENT_KIND, "name");
+        if (!name || !*base_name(name))
+            return answer_error(srv, c, r, MHD_HTTP_BAD_REQUEST, "invalid",
+                                "missing ?name=FILE (its extension gives the format)");
+        int known = r->route == ROUTE_UPLOAD
+                        ? ffd_format_from_path(name) != FFD_FORMAT_AUTO
+                        : ends_with(name, ".json") || ends_with(name, ".prm");
+        if (!known)
+            return answer_error(srv, c, r, MHD_HTTP_UNSUPPORTED_MEDIA_TYPE, "unsupported_format",
+                                "%.200s: unknown %s", name,
+                                r->route == ROUTE_UPLOAD
+                                    ? "mesh format (expected .obj, .ply, .off or .stl)"
+                                    : "rig format (expected .json or .prm)");
+    }
+    const char *length = MHD_lookup_connection_value(c, MHD_HEADER_KIND,
+                                                     MHD_HTTP_HEADER_CONTENT_LENGTH);
+    if (length) {
+        char *end;
+        errno = 0;
+        unsigned long long declared = strtoull(length, &end, 10);
+        if (errno || end == length || declared > r->limit)
+            return answer_error(srv, c, r, MHD_HTTP_CONTENT_TOO_LARGE, "too_large",
+                                "body of %s bytes: larger than the limit of %zu bytes", length,
+                                r->limit);
+        /* one allocation for the declared size, up to 16 MiB: a client that
+         * declares more and sends nothing does not hold more memory */
+        size_t cap = declared < RIG_FILE_LIMIT ? (size_t)declared + 1 : RIG_FILE_LIMIT;
+        if (declared > 0) {
+            r->body = malloc(cap);
+            if (!r->body)
+                return answer_error(srv, c, r, MHD_HTTP_INTERNAL_SERVER_ERROR, "nomem",
+                                    "out of memory for a body of %s bytes", length);
+            r->cap = cap;
+        }
+    }
+    return MHD_YES;
+}
+
+/* Appends a piece of the body; past the limit, drops it all (answered 413 at the end). */
+static void take(request *r, const char *data, size_t size)
+{
+    if (r->too_large || r->no_memory)
+        return;
+    if (size > r->limit - r->size) {
+        r->too_large = 1;
+    } else if (r->size + size + 1 > r->cap) {
+        size_t cap = r->cap ? r->cap : 4096;
+        while (cap < r->size + size + 1)
+            cap = cap > r->limit / 2 ? r->limit + 1 : 2 * cap;
+        char *body = realloc(r->body, cap);
+        if (!body) {
+            r->no_memory = 1;
+        } else {
+            r->body = body;
+            r->cap = cap;
+        }
+    }
+    if (r->too_large || r->no_memory) {
+        free(r->body);
+        r->body = NULL;
+        r->size = r->cap = 0;
+        return;
+    }
+    memcpy(r->body + r->size, data, size);
+    r->size += size;
+    r->body[r->size] = 0;
+}
+
+static enum MHD_Result handle(void *cls, struct MHD_Connection *c, const char *url,
+                              const char *method, const char *version, const char *upload_data,
+                              size_t *upload_data_size, void **con_cls)
+{
+    serve_server *srv = cls;
+    request *r = *con_cls;
+    if (!r) {
+        if (!(r = calloc(1, sizeof *r)))
+            return MHD_NO;
+        *con_cls = r;
+        r->method = method;
+        r->url = url;
+        r->start = cli_now();
+        return begin(srv, c, r);
+    }
+    if (*upload_data_size > 0) {
+        if (!r->answered)
+            take(r, upload_data, *upload_data_size);
+        *upload_data_size = 0;
+        return MHD_YES;
+    }
+    if (r->answered)
+        return MHD_YES;
+    if (r->too_large)
+        return answer_error(srv, c, r, MHD_HTTP_CONTENT_TOO_LARGE, "too_large",
+                            "body larger than the limit of %zu bytes", r->limit);
+    if (r->no_memory)
+        return answer_error(srv, c, r, MHD_HTTP_INTERNAL_SERVER_ERROR, "nomem",
+                            "out of memory reading the body");
+    if (r->route == ROUTE_STATIC)
+        return get_static(srv, c, r);
+    if (r->route == ROUTE_FILES)
+        return get_files(srv, c, r);
+    pthread_mutex_lock(&srv->lock);
+    enum MHD_Result ret = api(srv, c, r);
+    pthread_mutex_unlock(&srv->lock);
+    return ret;
+}
+
+static void completed(void *cls, struct MHD_Connection *c, void **con_cls,
+                      enum MHD_RequestTerminationCode toe)
+{
+    request *r = *con_cls;
+    if (r) {
+        free(r->body);
+        free(r);
+        *con_cls = NULL;
+    }
+}
+
+/* ======================================================================
+ * Starting and stopping
+ * ====================================================================== */
+
+static int parse_host(const char *host, struct in_addr *addr)
+{
+    if (strcmp(host, "localhost") == 0)
+        host = "127.0.0.1";
+    return inet_pton(AF_INET, host, addr) == 1;
+}
+
+int serve_is_loopback(const char *host)
+{
+    struct in_addr addr;
+    if (!parse_host(host, &addr))
+        return -1;
+    return (ntohl(addr.s_addr) >> 24) == 127;
+}
+
+/* realpath into a PATH_LEN buffer. */
+static int resolve_dir(const char *path, char out[PATH_LEN])
+{
+    char *real = realpath(path, NULL);
+    if (!real)
+        return -1;
+    struct stat st;
+    int ok = strlen(real) < PATH_LEN && stat(real, &st) == 0 && S_ISDIR(st.st_mode);
+    if (ok)
+        strcpy(out, real);
+    else
+        errno = ENOTDIR;
+    free(real);
+    return ok ? 0 : -1;
+}
+
+int serve_start(ffd_session *session, const serve_options *o, serve_server **out, char *msg,
+                size_t msg_size)
+{
+    *out = NULL;
+    serve_server *srv = calloc(1, sizeof *srv);
+    if (!srv) {
+        snprintf(msg, msg_size, "out of memory");
+        return -1;
+    }
+    int fd = -1;
+    struct in_addr addr;
+    if (!parse_host(o->host, &addr)) {
+        snprintf(msg, msg_size, "--host %s: expected an IPv4 address or localhost", o->host);
+        goto fail;
+    }
+    inet_ntop(AF_INET, &addr, srv->host, sizeof srv->host);
+    if (resolve_dir(o->root, srv->root) != 0) {
+        snprintf(msg, msg_size, "--root %s: %s", o->root, strerror(errno));
+        goto fail;
+    }
+    if (!o->web || resolve_dir(o->web, srv->web) != 0)
+        srv->web[0] = 0;
+    if (o->mesh_path) {
+        char *real = realpath(o->mesh_path, NULL);
+        srv->mesh_path = real ? ffd_strdup(real) : NULL;
+        free(real);
+    }
+    srv->max_upload = o->max_upload;
+    srv->verbose = o->verbose;
+
+    /* our own socket: bind's errno says why listening failed */
+    fd = socket(AF_INET, SOCK_STREAM, 0);
+    int one = 1;
+    struct sockaddr_in sa;
+    memset(&sa, 0, sizeof sa);
+    sa.sin_family = AF_INET;
+    sa.sin_port = htons((uint16_t)o->port);
+    sa.sin_addr = addr;
+    socklen_t len = sizeof sa;
+    if (fd < 0 || fcntl(fd, F_SETFD, FD_CLOEXEC) != 0 ||
+        setsockopt(fd, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one) != 0 ||
+        bind(fd, (struct sockaddr *)&sa, sizeof sa) != 0 || listen(fd, 64) != 0 ||
+        getsockname(fd, (struct sockaddr *)&sa, &len) != 0) {
+        snprintf(msg, msg_size, "cannot listen on %s:%u: %s", srv->host, o->port, strerror(errno));
+        goto fail;
+    }
+    srv->port = ntohs(sa.sin_port);
+    if (pthread_mutex_init(&srv->lock, NULL) != 0) {
+        snprintf(msg, msg_size, "cannot create a lock");
+        goto fail;
+    }
+    srv->session = session;
+    /* no MHD_USE_ERROR_LOG: MHD never prints on its own */
+    srv->daemon = MHD_start_daemon(MHD_USE_INTERNAL_POLLING_THREAD | MHD_USE_THREAD_PER_CONNECTION,
+                                   0, NULL, NULL, handle, srv, MHD_OPTION_LISTEN_SOCKET, fd,
+                                   MHD_OPTION_NOTIFY_COMPLETED, completed, srv,
+                                   MHD_OPTION_CONNECTION_TIMEOUT, (unsigned)120,
+                                   MHD_OPTION_CONNECTION_LIMIT, (unsigned)256, MHD_OPTION_END);
+    if (!srv->daemon) {
+        srv->session = NULL;
+        pthread_mutex_destroy(&srv->lock);
+        snprintf(msg, msg_size, "cannot start the HTTP server on %s:%u", srv->host, srv->port);
+        goto fail;
+    }
+    *out = srv;
+    return 0;
+fail:
+    if (fd >= 0)
+        close(fd);
+    ffd_free(srv->mesh_path);
+    free(srv);
+    return -1;
+}
+
+unsigned serve_port(const serve_server *srv)
+{
+    return srv->port;
+}
+
+const char *serve_root(const serve_server *srv)
+{
+    return srv->root;
+}
+
+const char *serve_host(const serve_server *srv)
+{
+    return srv->host;
+}
+
+void serve_stop(serve_server *srv)
+{
+    if (!srv)
+        return;
+    MHD_stop_daemon(srv->daemon); /* waits for the connections' threads, closes the socket */
+    ffd_session_destroy(srv->session);
+    pthread_mutex_destroy(&srv->lock);
+    ffd_free(srv->mesh_path);
+    free(srv);
+}
