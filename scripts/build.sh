@@ -6,3 +6,7 @@ dir=${1:-"$root/build"}
 shift || true
 cmake -S "$root" -B "$dir" -DCMAKE_BUILD_TYPE=Release "$@" >/dev/null
 cmake --build "$dir" -j"$(nproc)" >/dev/null
+# The editor's page (three.js, bundled by esbuild) when its npm packages are installed.
+if [ -d "$root/web/node_modules" ]; then
+  (cd "$root/web" && npm run --silent build >/dev/null)
+fi

@@ -1,0 +1,152 @@
+// HTTP API of `ffd serve` (docs/editor.md): JSON operations and the binary
+// frame / topology / influence replies.
+
+export class ApiError extends Error {
+  constructor(message, httpStatus, status) {
+    super(message);
+    this.name = 'ApiError';
+    this.httpStatus = httpStatus;
+    this.status = status || '';
+  }
+}
+
+// --- pending-request tracking (busy overlay, last request time) ------------
+
+const listeners = new Set();
+const pending = new Map(); // id -> {start, label}
+let nextId = 1;
+export const stats = { lastMs: 0, lastOp: '' };
+
+export function onActivity(fn) { listeners.add(fn); }
+function notify() { for (const fn of listeners) fn(); }
+
+/** Time (ms) the oldest pending request has been waiting, 0 when none. */
+export function oldestPendingMs() {
+  let oldest = Infinity;
+  for (const p of pending.values()) if (p.start < oldest) oldest = p.start;
+  return oldest === Infinity ? 0 : performance.now() - oldest;
+}
+export function pendingLabel() {
+  let best = null;
+  for (const p of pending.values()) if (!best || p.start < best.start) best = p;
+  return best ? best.label : '';
+}
+
+async function request(method, path, { json, body, binary = false, label } = {}) {
+  const id = nextId++;
+  const start = performance.now();
+  pending.set(id, { start, label: label || path });
+  notify();
+  try {
+    const init = { method, headers: {} };
+    if (json !== undefined) {
+      init.headers['Content-Type'] = 'application/json';
+      init.body = JSON.stringify(json);
+    } else if (body !== undefined) {
+      init.headers['Content-Type'] = 'application/octet-stream';
+      init.body = body;
+    }
+    let res;
+    try {
+      res = await fetch(path, init);
+    } catch (e) {
+      throw new ApiError(`cannot reach the server (${e.message})`, 0, 'network');
+    }
+    if (!res.ok) {
+      let msg = `${res.status} ${res.statusText}`;
+      let status = '';
+      try {
+        const text = await res.text();
+        try {
+          const j = JSON.parse(text);
+          if (j && j.error) { msg = j.error; status = j.status || ''; }
+        } catch { if (text) msg += `: ${text.slice(0, 200)}`; }
+      } catch { /* ignore */ }
+      throw new ApiError(msg, res.status, status);
+    }
+    if (binary === 'blob') {
+      const cd = res.headers.get('Content-Disposition') || '';
+      const m = cd.match(/filename\*?=(?:UTF-8'')?"?([^";]+)"?/i);
+      return { data: await res.blob(), name: m ? decodeURIComponent(m[1]) : '' };
+    }
+    if (binary) return await res.arrayBuffer();
+    const ct = res.headers.get('Content-Type') || '';
+    if (ct.includes('json')) return await res.json();
+    const text = await res.text();
+    try { return JSON.parse(text); } catch { return text; }
+  } finally {
+    pending.delete(id);
+    stats.lastMs = performance.now() - start;
+    stats.lastOp = label || path;
+    notify();
+  }
+}
+
+// --- binary parsing ---------------------------------------------------------
+
+function magic(view) {
+  return String.fromCharCode(view.getUint8(0), view.getUint8(1), view.getUint8(2), view.getUint8(3));
+}
+
+/** Frame: FFDF, rev, V, C, R, positions V*3, controls C*3, residuals R. */
+export function parseFrame(buf) {
+  const dv = new DataView(buf);
+  if (buf.byteLength < 20 || magic(dv) !== 'FFDF') throw new ApiError('bad frame from the server', 0, 'parse');
+  const revision = dv.getUint32(4, true);
+  const V = dv.getUint32(8, true);
+  const C = dv.getUint32(12, true);
+  const R = dv.getUint32(16, true);
+  const need = 20 + 4 * (3 * V + 3 * C + R);
+  if (buf.byteLength < need) throw new ApiError(`short frame (${buf.byteLength} < ${need} bytes)`, 0, 'parse');
+  let off = 20;
+  const positions = new Float32Array(buf, off, 3 * V); off += 12 * V;
+  const controls = new Float32Array(buf, off, 3 * C); off += 12 * C;
+  const residuals = new Float32Array(buf, off, R);
+  return { revision, V, C, R, positions, controls, residuals };
+}
+
+/** Topology: FFDT, rev, V, T, rest positions V*3, triangles T*3 (uint32). */
+export function parseTopology(buf) {
+  const dv = new DataView(buf);
+  if (buf.byteLength < 16 || magic(dv) !== 'FFDT') throw new ApiError('bad topology from the server', 0, 'parse');
+  const revision = dv.getUint32(4, true);
+  const V = dv.getUint32(8, true);
+  const T = dv.getUint32(12, true);
+  const need = 16 + 12 * V + 12 * T;
+  if (buf.byteLength < need) throw new ApiError(`short topology (${buf.byteLength} < ${need} bytes)`, 0, 'parse');
+  const rest = new Float32Array(buf, 16, 3 * V);
+  const triangles = new Uint32Array(buf, 16 + 12 * V, 3 * T);
+  return { revision, V, T, rest, triangles };
+}
+
+/** Influence: FFDI, rev, V, 0, weights V. */
+export function parseInfluence(buf) {
+  const dv = new DataView(buf);
+  if (buf.byteLength < 16 || magic(dv) !== 'FFDI') throw new ApiError('bad influence from the server', 0, 'parse');
+  const revision = dv.getUint32(4, true);
+  const V = dv.getUint32(8, true);
+  if (buf.byteLength < 16 + 4 * V) throw new ApiError('short influence reply', 0, 'parse');
+  return { revision, V, weights: new Float32Array(buf, 16, V) };
+}
+
+// --- endpoints --------------------------------------------------------------
+
+export const api = {
+  state: () => request('GET', '/api/state', { label: 'state' }),
+  frame: async () => parseFrame(await request('GET', '/api/frame', { binary: true, label: 'frame' })),
+  topology: async () => parseTopology(await request('GET', '/api/topology', { binary: true, label: 'topology' })),
+  files: () => request('GET', '/api/files', { label: 'files' }),
+  /** A JSON operation replying with the new state. */
+  op: (name, body = {}) => request('POST', `/api/${name}`, { json: body, label: name }),
+  /** One drag step: replies with a frame. */
+  dragStep: async (body) => parseFrame(await request('POST', '/api/drag', { json: body, binary: true, label: 'drag' })),
+  influence: async (points) =>
+    parseInfluence(await request('POST', '/api/influence', { json: { points }, binary: true, label: 'influence' })),
+  upload: (name, data) =>
+    request('POST', `/api/upload?name=${encodeURIComponent(name)}`, { body: data, label: 'upload mesh' }),
+  uploadRig: (name, data) =>
+    request('POST', `/api/rig/upload?name=${encodeURIComponent(name)}`, { body: data, label: 'upload rig' }),
+  post: (path, json, label) => request('POST', path, { json, label }),
+  /** A GET download: {data: Blob, name: from Content-Disposition}. */
+  blob: (path, label) => request('GET', path, { binary: 'blob', label }),
+};
