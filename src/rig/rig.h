@@ -226,6 +226,29 @@ double ffd_rig_residuals(size_t k, const double *reached, const double *targets,
 ffd_status ffd_rig_apply_pbffd(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report *report,
                                ffd_error *err);
 
+/* The PB-FFD rig's steps, shared with the editor session (rig_pbffd.c). */
+/* The frame edit e asks for, from the control's current frame. */
+void ffd_rig_pb_edited_frame(const ffd_rig_pb_edit *e, const double current[3][3],
+                             double out[3][3]);
+/* The control edit e (entry i of the list key) names: its index, or the
+ * enabled control of its level whose current centre is nearest to its
+ * "near" point (ties: lowest index). FFD_ERR_RANGE, FFD_ERR_INVALID. */
+ffd_status ffd_rig_pb_edit_target(const ffd_rig *rig, const ffd_pbffd *pb, const char *key,
+                                  size_t i, const ffd_rig_pb_edit *e, size_t *index,
+                                  ffd_error *err);
+/* Applies the rig's moves in file order, then its frame edits (step 3).
+ * resolved (may be NULL) receives the control index each move and then each
+ * frame edit used (move_count + frame_count entries); frames (may be NULL)
+ * the frame each frame edit set (frame_count). */
+ffd_status ffd_rig_pb_apply_edits(const ffd_rig *rig, ffd_pbffd *pb, size_t *resolved,
+                                  double (*frames)[3][3], ffd_error *err);
+/* The minimum-norm change of the controls of constraint_level (delta: their
+ * count by 3) that brings the constraints' bound points rows[c] from current
+ * (all bound points) to their targets (§3.3); nothing is moved. */
+ffd_status ffd_rig_pb_constraint_delta(const ffd_rig *rig, ffd_pbffd *pb, const size_t *rows,
+                                       const double *current, double *delta,
+                                       ffd_manip_result *result, ffd_error *err);
+
 /* GFFD application (rig_gffd.c). */
 ffd_status ffd_rig_apply_gffd(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report *report,
                               ffd_error *err);
@@ -234,6 +257,9 @@ ffd_status ffd_rig_apply_gffd(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report
  * patch or polyhedron from a mesh file (OBJ, PLY, OFF). */
 ffd_status ffd_rig_load_primitive(const char *path, ffd_rig_primitive *prim, ffd_error *err);
 void ffd_rig_primitive_free(ffd_rig_primitive *prim);
+/* Applies edit i of the rig to the current skeleton of g (step 2), through
+ * ffd_gffd_set_vertices for each primitive it touches. */
+ffd_status ffd_rig_gffd_apply_edit(const ffd_rig *rig, ffd_gffd *g, size_t i, ffd_error *err);
 
 /* T-spline application (rig_tspline.c). */
 ffd_status ffd_rig_apply_tspline(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report *report,

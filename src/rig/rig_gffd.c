@@ -208,7 +208,7 @@ static ffd_gffd_primitive *public_skeleton(const ffd_rig_primitive *r, size_t n)
 
 /* One edit on the current skeleton: the new vertices of each primitive it
  * touches, through ffd_gffd_set_vertices. */
-static ffd_status apply_edit(const ffd_rig *rig, ffd_gffd *g, size_t i, ffd_error *err)
+ffd_status ffd_rig_gffd_apply_edit(const ffd_rig *rig, ffd_gffd *g, size_t i, ffd_error *err)
 {
     const ffd_rig_gffd_edit *e = &rig->gffd.edits[i];
     size_t first = e->all ? 0 : e->primitive, last = e->all ? ffd_gffd_primitive_count(g) : first + 1;
@@ -318,7 +318,7 @@ ffd_status ffd_rig_apply_gffd(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report
     }
     double t1 = ffd_now();
     for (size_t i = 0; i < rg->edit_count; i++)
-        if ((st = apply_edit(rig, g, i, err)) != FFD_OK)
+        if ((st = ffd_rig_gffd_apply_edit(rig, g, i, err)) != FFD_OK)
             goto done;
     if (rg->replace) {
         if (!(prims = public_skeleton(rg->replace, rg->replace_count))) {

@@ -1036,8 +1036,8 @@ static ffd_status read_faces(const parser *p, const cJSON *item, const char *pat
     return FFD_OK;
 }
 
-static ffd_status read_primitive(const parser *p, const cJSON *item, const char *path,
-                                 ffd_rig_primitive *prim)
+ffd_status rig_read_primitive(const parser *p, const cJSON *item, const char *path,
+                              ffd_rig_primitive *prim)
 {
     static const char *const keys[] = {"type", "radius", "position", "vertices", "faces", "file",
                                        "name", NULL};
@@ -1129,8 +1129,8 @@ static ffd_status read_primitive(const parser *p, const cJSON *item, const char 
     return read_faces(p, faces, sub, prim);
 }
 
-static ffd_status read_skeleton(const parser *p, const cJSON *item, const char *key,
-                                ffd_rig_primitive **out, size_t *count)
+ffd_status rig_read_skeleton(const parser *p, const cJSON *item, const char *key,
+                             ffd_rig_primitive **out, size_t *count)
 {
     if (!cJSON_IsArray(item) || cJSON_GetArraySize(item) < 1)
         return rig_expected(p, key, "an array of at least one primitive {\"type\": ..., \"radius\": "
@@ -1145,7 +1145,7 @@ static ffd_status read_skeleton(const parser *p, const cJSON *item, const char *
     {
         char path[RIG_PATH_MAX];
         snprintf(path, sizeof path, "%s[%zu]", key, i);
-        ffd_status s = read_primitive(p, c, path, &(*out)[i]);
+        ffd_status s = rig_read_primitive(p, c, path, &(*out)[i]);
         if (s)
             return s;
         i++;
@@ -1356,7 +1356,7 @@ static ffd_status read_gffd_root(const parser *p, const cJSON *root, ffd_rig *ri
         return s;
     if (!(item = cJSON_GetObjectItemCaseSensitive(root, "skeleton")))
         return rig_expected(p, "skeleton", "an array of primitives (missing)");
-    if ((s = read_skeleton(p, item, "skeleton", &g->skeleton, &g->skeleton_count)))
+    if ((s = rig_read_skeleton(p, item, "skeleton", &g->skeleton, &g->skeleton_count)))
         return s;
     ffd_gffd_options *o = &g->options;
     if ((item = cJSON_GetObjectItemCaseSensitive(root, "unit"))) {
@@ -1401,7 +1401,7 @@ static ffd_status read_gffd_root(const parser *p, const cJSON *root, ffd_rig *ri
                         p->name);
     if (edits && (s = read_gffd_edits(p, edits, g)))
         return s;
-    if (replace && (s = read_skeleton(p, replace, "replace", &g->replace, &g->replace_count)))
+    if (replace && (s = rig_read_skeleton(p, replace, "replace", &g->replace, &g->replace_count)))
         return s;
     if ((item = cJSON_GetObjectItemCaseSensitive(root, "correspondences")) &&
         (s = read_correspondences(p, item, g)))

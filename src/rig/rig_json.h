@@ -43,6 +43,16 @@ ffd_status rig_read_rotation(const parser *p, const cJSON *item, const char *pat
 ffd_status rig_read_constraints(const parser *p, const cJSON *item, const char *where,
                                 ffd_rig_constraint **out, size_t *count);
 
+/* A GFFD skeleton primitive (docs/rig.md "GFFD rigs"); a "file" is read
+ * relative to p->name's directory. On error prim may hold partial arrays
+ * (ffd_rig_primitive_free). */
+ffd_status rig_read_primitive(const parser *p, const cJSON *item, const char *path,
+                              ffd_rig_primitive *prim);
+/* An array of at least one primitive; *count is set as soon as *out is
+ * allocated, so that the caller frees what was read even on error. */
+ffd_status rig_read_skeleton(const parser *p, const cJSON *item, const char *key,
+                             ffd_rig_primitive **out, size_t *count);
+
 /* "version", if given, is 1. */
 ffd_status rig_read_version(const parser *p, const cJSON *root);
 /* The top-level keys of a one-deformer rig: each in keys (else "NAME: KEY: not

@@ -11,8 +11,8 @@
 #include <string.h>
 
 
-/* The frame an edit asks for, from the control's current frame. */
-static void edited_frame(const ffd_rig_pb_edit *e, const double current[3][3], double out[3][3])
+void ffd_rig_pb_edited_frame(const ffd_rig_pb_edit *e, const double current[3][3],
+                             double out[3][3])
 {
     if (e->frame_kind == 1) {
         memcpy(out, e->frame, sizeof e->frame);
@@ -27,10 +27,9 @@ static void edited_frame(const ffd_rig_pb_edit *e, const double current[3][3], d
     }
 }
 
-/* The control an edit names: its index, or the enabled control of its level
- * whose current centre is nearest to its "near" point (ties: lowest index). */
-static ffd_status edit_target(const ffd_rig *rig, const ffd_pbffd *pb, const char *key, size_t i,
-                              const ffd_rig_pb_edit *e, size_t *index, ffd_error *err)
+ffd_status ffd_rig_pb_edit_target(const ffd_rig *rig, const ffd_pbffd *pb, const char *key,
+                                  size_t i, const ffd_rig_pb_edit *e, size_t *index,
+                                  ffd_error *err)
 {
     size_t count = ffd_pbffd_control_count(pb, e->level);
     if (!e->by_near) {
@@ -60,8 +59,8 @@ static ffd_status edit_target(const ffd_rig *rig, const ffd_pbffd *pb, const cha
     return FFD_OK;
 }
 
-/* Applies moves and frame edits in file order within each list: moves first. */
-static ffd_status apply_edits(const ffd_rig *rig, ffd_pbffd *pb, ffd_error *err)
+ffd_status ffd_rig_pb_apply_edits(const ffd_rig *rig, ffd_pbffd *pb, size_t *resolved,
+                                  double (*frames)[3][3], ffd_error *err)
 {
     const ffd_rig_pbffd *r = &rig->pb;
     ffd_error inner = {{0}};
@@ -70,37 +69,41 @@ static ffd_status apply_edits(const ffd_rig *rig, ffd_pbffd *pb, ffd_error *err)
     for (size_t i = 0; i < r->move_count; i++) {
         const ffd_rig_pb_edit *e = &r->moves[i];
         size_t j = 0;
-        if ((s = edit_target(rig, pb, "moves", i, e, &j, err)))
+        if ((s = ffd_rig_pb_edit_target(rig, pb, "moves", i, e, &j, err)))
             return s;
         if ((s = ffd_pbffd_move(pb, e->level, j, e->delta, &inner))) {
             snprintf(context, sizeof context, "moves[%zu]", i);
             return ffd_rig_wrap(err, s, rig->name, context, &inner);
         }
+        if (resolved)
+            resolved[i] = j;
     }
     for (size_t i = 0; i < r->frame_count; i++) {
         const ffd_rig_pb_edit *e = &r->frames[i];
         size_t j = 0;
-        if ((s = edit_target(rig, pb, "frames", i, e, &j, err)))
+        if ((s = ffd_rig_pb_edit_target(rig, pb, "frames", i, e, &j, err)))
             return s;
         ffd_ebf ebf;
         double frame[3][3];
         if ((s = ffd_pbffd_control(pb, e->level, j, &ebf, &inner)) == FFD_OK) {
-            edited_frame(e, (const double(*)[3])ebf.frame, frame);
+            ffd_rig_pb_edited_frame(e, (const double(*)[3])ebf.frame, frame);
             s = ffd_pbffd_set_frame(pb, e->level, j, (const double(*)[3])frame, &inner);
         }
         if (s) {
             snprintf(context, sizeof context, "frames[%zu]", i);
             return ffd_rig_wrap(err, s, rig->name, context, &inner);
         }
+        if (resolved)
+            resolved[r->move_count + i] = j;
+        if (frames)
+            memcpy(frames[i], frame, sizeof frame);
     }
     return FFD_OK;
 }
 
-/* Direct manipulation (§3.3) at rig->pb.constraint_level. rows[c] is the bound
- * point of constraint c; current (all bound points) is updated on success. */
-static ffd_status solve_constraints(const ffd_rig *rig, ffd_pbffd *pb, const size_t *rows,
-                                    double *current, double *reached, double *residuals,
-                                    ffd_manip_result *result, ffd_error *err)
+ffd_status ffd_rig_pb_constraint_delta(const ffd_rig *rig, ffd_pbffd *pb, const size_t *rows,
+                                      const double *current, double *delta,
+                                      ffd_manip_result *result, ffd_error *err)
 {
     const size_t k = rig->constraint_count, level = rig->pb.constraint_level;
     ffd_error inner = {{0}};
@@ -115,10 +118,9 @@ static ffd_status solve_constraints(const ffd_rig *rig, ffd_pbffd *pb, const siz
                         map.variable_count, controls);
     uint32_t *cols = ffd_malloc_array(map.max_row_nnz ? map.max_row_nnz : 1, sizeof *cols);
     double *w = ffd_malloc_array(map.max_row_nnz ? map.max_row_nnz : 1, sizeof *w);
-    double *now = ffd_malloc_array(k, 3 * sizeof *now);
-    double *targets = ffd_malloc_array(k, 3 * sizeof *targets);
-    double *delta = ffd_calloc(controls, 3 * sizeof *delta);
-    if (!cols || !w || !now || !targets || !delta) {
+    double *now = ffd_malloc_array(k ? k : 1, 3 * sizeof *now);
+    double *targets = ffd_malloc_array(k ? k : 1, 3 * sizeof *targets);
+    if (!cols || !w || !now || !targets) {
         s = ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory for the constraints", rig->name);
         goto done;
     }
@@ -148,32 +150,52 @@ static ffd_status solve_constraints(const ffd_rig *rig, ffd_pbffd *pb, const siz
     }
     ffd_manip_options options = {rig->rcond};
     if ((s = ffd_manip_solve(&map, rows, k, now, targets, &options, delta, NULL, result,
-                             &inner))) {
+                             &inner)))
         s = ffd_rig_wrap(err, s, rig->name, "constraints", &inner);
-        goto done;
-    }
-    for (size_t j = 0; j < controls; j++) {
-        const double *d = delta + 3 * j;
-        if (d[0] == 0 && d[1] == 0 && d[2] == 0)
-            continue;
-        if ((s = ffd_pbffd_move(pb, level, j, d, &inner))) {
-            s = ffd_rig_wrap(err, s, rig->name, "constraints", &inner);
-            goto done;
-        }
-    }
-    /* Report what the deformation really does at the constrained points. */
-    if ((s = ffd_pbffd_eval(pb, current, &inner))) {
-        s = ffd_rig_wrap(err, s, rig->name, "constraints", &inner);
-        goto done;
-    }
-    for (size_t c = 0; c < k; c++)
-        memcpy(reached + 3 * c, current + 3 * rows[c], 3 * sizeof *reached);
-    result->max_residual = ffd_rig_residuals(k, reached, targets, residuals);
 done:
     ffd_free(cols);
     ffd_free(w);
     ffd_free(now);
     ffd_free(targets);
+    return s;
+}
+
+/* Direct manipulation (§3.3) at rig->pb.constraint_level. rows[c] is the bound
+ * point of constraint c; current (all bound points) is updated on success. */
+static ffd_status solve_constraints(const ffd_rig *rig, ffd_pbffd *pb, const size_t *rows,
+                                    double *current, double *reached, double *residuals,
+                                    ffd_manip_result *result, ffd_error *err)
+{
+    const size_t k = rig->constraint_count, level = rig->pb.constraint_level;
+    const size_t controls = ffd_pbffd_control_count(pb, level);
+    ffd_error inner = {{0}};
+    double *delta = ffd_calloc(controls ? controls : 1, 3 * sizeof *delta);
+    if (!delta)
+        return ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory for the constraints", rig->name);
+    ffd_status s = ffd_rig_pb_constraint_delta(rig, pb, rows, current, delta, result, err);
+    for (size_t j = 0; !s && j < controls; j++) {
+        const double *d = delta + 3 * j;
+        if (d[0] == 0 && d[1] == 0 && d[2] == 0)
+            continue;
+        if ((s = ffd_pbffd_move(pb, level, j, d, &inner)))
+            s = ffd_rig_wrap(err, s, rig->name, "constraints", &inner);
+    }
+    /* Report what the deformation really does at the constrained points. */
+    if (!s && (s = ffd_pbffd_eval(pb, current, &inner)))
+        s = ffd_rig_wrap(err, s, rig->name, "constraints", &inner);
+    if (!s) {
+        for (size_t c = 0; c < k; c++)
+            memcpy(reached + 3 * c, current + 3 * rows[c], 3 * sizeof *reached);
+        double *targets = ffd_malloc_array(k ? k : 1, 3 * sizeof *targets);
+        if (!targets) {
+            s = ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory for the constraints", rig->name);
+        } else {
+            for (size_t c = 0; c < k; c++)
+                memcpy(targets + 3 * c, rig->constraints[c].target, 3 * sizeof *targets);
+            result->max_residual = ffd_rig_residuals(k, reached, targets, residuals);
+            ffd_free(targets);
+        }
+    }
     ffd_free(delta);
     return s;
 }
@@ -272,7 +294,7 @@ ffd_status ffd_rig_apply_pbffd(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_repor
     double t1 = ffd_now();
     timings.bind = t1 - t0;
 
-    if ((s = apply_edits(rig, pb, err)))
+    if ((s = ffd_rig_pb_apply_edits(rig, pb, NULL, NULL, err)))
         goto fail;
     if ((s = ffd_pbffd_eval(pb, current, &inner))) {
         s = ffd_rig_wrap(err, s, name, "evaluating", &inner);

@@ -113,7 +113,10 @@ ffd_status sess_tspline_load(const sess_ctx *ctx, const ffd_rig *rig, sess_metho
  * ffd_malloc'd (NULL when k == 0). */
 ffd_status sess_read_ids(const parser *p, const cJSON *item, const char *path, size_t count,
                          uint32_t **ids, size_t *k);
-/* cJSON builders that report allocation failure. */
+/* cJSON builders that report allocation failure (NULL). Numbers are exact
+ * (17 digits, raw items: print them, do not read them back). */
+cJSON *sess_number(double v);
+cJSON *sess_array(const double *v, size_t n);
 cJSON *sess_vec3(const double v[3]);
 cJSON *sess_matrix3(const double m[3][3]);
 cJSON *sess_uint_array(const uint32_t *v, size_t n);

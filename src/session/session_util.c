@@ -53,9 +53,34 @@ ffd_status sess_read_ids(const parser *p, const cJSON *item, const char *path, s
     return FFD_OK;
 }
 
+/* cJSON prints a double with 15 digits whenever they read back within an
+ * epsilon, which is not always the same double; a rig must replay to the
+ * same positions (a straight PB-FFD curve's frames turn with the last bit of
+ * its points), so numbers are printed with 17 digits. */
+cJSON *sess_number(double v)
+{
+    char text[40];
+    snprintf(text, sizeof text, "%.17g", v);
+    return cJSON_CreateRaw(text);
+}
+
+cJSON *sess_array(const double *v, size_t n)
+{
+    cJSON *a = cJSON_CreateArray();
+    for (size_t i = 0; a && i < n; i++) {
+        cJSON *x = sess_number(v[i]);
+        if (!x || !cJSON_AddItemToArray(a, x)) {
+            cJSON_Delete(x);
+            cJSON_Delete(a);
+            return NULL;
+        }
+    }
+    return a;
+}
+
 cJSON *sess_vec3(const double v[3])
 {
-    return cJSON_CreateDoubleArray(v, 3);
+    return sess_array(v, 3);
 }
 
 cJSON *sess_matrix3(const double m[3][3])

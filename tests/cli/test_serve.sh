@@ -312,7 +312,7 @@ expect_ok POST /api/open --data-binary '{"path": "bunny.obj"}'
 has_body '"bunny.obj"'
 
 # ---- a second server: --max-upload 1 ----
-start small "$ROOT/bunny.obj" --port 0 --root "$ROOT" --max-upload 1 || exit 1
+start small "$ROOT/bunny.obj" --port 0 --root "$ROOT" --max-upload 1 --web "$T/no-page" || exit 1
 head -c $((1024 * 1024 + 1)) /dev/zero >"$T/big.stl"
 expect 413 too_large POST '/api/upload?name=big.stl' --data-binary @"$T/big.stl"
 expect 413 too_large POST '/api/upload?name=big.stl' -H 'Transfer-Encoding: chunked' \

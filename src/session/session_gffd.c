@@ -1,0 +1,886 @@
+/* session_gffd — the editor's GFFD method (Qin, Hua, Fang, Bao, Peng, "GFFD:
+ * Generalized free-form deformation with scalar fields", 2003): a skeleton
+ * of primitives whose vertices are the controls; the mesh tracks the
+ * edited skeleton's field (§3, Fig. 5).
+ *
+ * The state is the rest skeleton and the current position of every skeleton
+ * vertex. The deformer always holds its canonical replay, what
+ * ffd_rig_apply does with the rig this method writes (docs/rig.md "GFFD
+ * rigs"): the rest skeleton bound, then one "vertices" edit per primitive
+ * that moved, in primitive order, each from the rest fit
+ * (ffd_gffd_set_vertices refits or moves a field depending on where it was
+ * fitted, so only this replay, not the drag's history, reproduces the rig).
+ *
+ * Skeleton editing (op "primitive") changes the rest skeleton: the mesh is
+ * re-bound at rest to the new rest skeleton (its field values e_0 change
+ * where the edited primitive reaches), and every other primitive keeps its
+ * current vertices as its edit from its rest. An added primitive starts
+ * unedited (its rest is where it is given); a primitive whose radius
+ * changes keeps its rest geometry and its edit. The distance unit u is
+ * fixed when the method is created (the automatic one resolved then), so
+ * that the kept primitives' fields do not change scale. User
+ * correspondences of a loaded rig refer to the old skeleton and are dropped. */
+#include "gffd/gffd.h"
+#include "session/session.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define DEFAULT_SPAN 0.8   /* the default polyline spans 80 % of the longest extent */
+#define DEFAULT_RADIUS 0.3 /* its radius, times the diagonal */
+#define DEFAULT_VERTICES 5
+
+typedef struct gf_method {
+    sess_method base;
+    ffd_rig_primitive *rest; /* the rest skeleton (owned) */
+    size_t count;
+    size_t *offset;              /* count + 1: primitive i's vertices are controls offset[i].. */
+    double *cur;                 /* offset[count] by 3: the current skeleton */
+    ffd_gffd_options opt;        /* unit resolved */
+    double *corr_from, *corr_to; /* a loaded rig's correspondences (eq. 4) */
+    size_t corr_count;
+    ffd_gffd *g;
+    int synced;               /* g holds the canonical replay of cur */
+    double *begin;            /* drag: cur at begin */
+    ffd_gffd_skeleton *field; /* rest fields for influence (lazy) */
+} gf_method;
+
+static const sess_vtable gffd_vtable;
+static const char *const kind_names[] = {"point", "polyline", "patch", "polyhedron", NULL};
+
+/* ---- skeletons ------------------------------------------------------- */
+
+static void as_public(const ffd_rig_primitive *r, ffd_gffd_primitive *p)
+{
+    memset(p, 0, sizeof *p);
+    p->kind = r->kind;
+    p->vertices = r->vertices;
+    p->vertex_count = r->vertex_count;
+    p->face_offsets = r->face_offsets;
+    p->face_indices = r->face_indices;
+    p->face_count = r->face_count;
+    p->radius = r->radius;
+}
+
+static void skeleton_free(ffd_rig_primitive *s, size_t count)
+{
+    for (size_t i = 0; s && i < count; i++)
+        ffd_rig_primitive_free(&s[i]);
+    ffd_free(s);
+}
+
+static int primitive_copy(ffd_rig_primitive *dst, const ffd_rig_primitive *src)
+{
+    *dst = *src;
+    dst->vertices = ffd_malloc_array(src->vertex_count, 3 * sizeof(double));
+    dst->face_offsets =
+        src->face_count ? ffd_malloc_array(src->face_count + 1, sizeof(uint32_t)) : NULL;
+    size_t corners = src->face_count ? src->face_offsets[src->face_count] : 0;
+    dst->face_indices = corners ? ffd_malloc_array(corners, sizeof(uint32_t)) : NULL;
+    if (!dst->vertices || (src->face_count && !dst->face_offsets) ||
+        (corners && !dst->face_indices)) {
+        ffd_rig_primitive_free(dst);
+        return 0;
+    }
+    memcpy(dst->vertices, src->vertices, src->vertex_count * 3 * sizeof(double));
+    if (src->face_count) {
+        memcpy(dst->face_offsets, src->face_offsets, (src->face_count + 1) * sizeof(uint32_t));
+        memcpy(dst->face_indices, src->face_indices, corners * sizeof(uint32_t));
+    }
+    return 1;
+}
+
+static ffd_status gffd_bind(const sess_ctx *ctx, const ffd_rig_primitive *rest, size_t count,
+                            const ffd_gffd_options *opt, const char *what, ffd_gffd **g,
+                            ffd_error *err)
+{
+    ffd_gffd_primitive *p = ffd_malloc_array(count, sizeof *p);
+    if (!p)
+        return ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory", what);
+    for (size_t i = 0; i < count; i++)
+        as_public(&rest[i], &p[i]);
+    ffd_error inner = {{0}};
+    /* the fields (§2) and e_0 = E(P) of every vertex at rest (§3) */
+    ffd_status s = ffd_gffd_create(p, count, ctx->rest, ctx->n, opt, g, &inner);
+    ffd_free(p);
+    return s ? ffd_fail(err, s, "%s: %s", what, inner.message) : FFD_OK;
+}
+
+/* The canonical replay of cur on g: rest, then one edit per moved primitive. */
+static ffd_status replay_skeleton(gf_method *m, ffd_error *err)
+{
+    ffd_error inner = {{0}};
+    m->synced = 0;
+    ffd_status s = ffd_gffd_reset(m->g, &inner);
+    for (size_t i = 0; !s && i < m->count; i++) {
+        const double *v = m->cur + 3 * m->offset[i];
+        if (memcmp(v, m->rest[i].vertices, m->rest[i].vertex_count * 3 * sizeof *v) != 0)
+            s = ffd_gffd_set_vertices(m->g, i, v, &inner);
+    }
+    if (!s && m->corr_count)
+        s = ffd_gffd_set_correspondences(m->g, m->corr_from, m->corr_to, m->corr_count, &inner);
+    if (s)
+        return ffd_fail(err, s, "skeleton: %s", inner.message);
+    m->synced = 1;
+    return FFD_OK;
+}
+
+static void gf_destroy(sess_method *base)
+{
+    gf_method *m = (gf_method *)base;
+    if (!m)
+        return;
+    skeleton_free(m->rest, m->count);
+    ffd_free(m->offset);
+    ffd_free(m->cur);
+    ffd_free(m->corr_from);
+    ffd_free(m->corr_to);
+    ffd_gffd_destroy(m->g);
+    ffd_free(m->begin);
+    ffd_gffd_skeleton_destroy(m->field);
+    ffd_free(m);
+}
+
+/* A method around a bound deformer; takes rest and g (freed on error). cur
+ * starts as g's current skeleton. */
+static ffd_status gf_new(const sess_ctx *ctx, ffd_rig_primitive *rest, size_t count,
+                         const ffd_gffd_options *opt, ffd_gffd *g, gf_method **out, ffd_error *err)
+{
+    gf_method *m = ffd_calloc(1, sizeof *m);
+    size_t *offset = ffd_malloc_array(count + 1, sizeof *offset);
+    double *cur = NULL;
+    if (offset) {
+        offset[0] = 0;
+        for (size_t i = 0; i < count; i++)
+            offset[i + 1] = offset[i] + rest[i].vertex_count;
+        cur = ffd_malloc_array(offset[count] ? offset[count] : 1, 3 * sizeof *cur);
+    }
+    if (!m || !offset || !cur) {
+        ffd_free(m);
+        ffd_free(offset);
+        ffd_free(cur);
+        skeleton_free(rest, count);
+        ffd_gffd_destroy(g);
+        return ffd_fail(err, FFD_ERR_NOMEM, "gffd: out of memory");
+    }
+    for (size_t i = 0; i < count; i++) {
+        ffd_gffd_primitive p;
+        ffd_gffd_get_primitive(g, i, &p, NULL);
+        memcpy(cur + 3 * offset[i], p.vertices, p.vertex_count * 3 * sizeof *cur);
+    }
+    m->base.vt = &gffd_vtable;
+    m->base.ctx = ctx;
+    m->rest = rest;
+    m->count = count;
+    m->offset = offset;
+    m->cur = cur;
+    m->opt = *opt;
+    m->opt.unit = ffd_gffd_unit(g);
+    m->g = g;
+    m->synced = 1;
+    *out = m;
+    return FFD_OK;
+}
+
+/* ---- create and load ------------------------------------------------- */
+
+/* One polyline along the mesh's longest axis through its box centre. */
+static ffd_status default_skeleton(const sess_ctx *ctx, ffd_rig_primitive **out, ffd_error *err)
+{
+    int axis = 0;
+    for (int a = 1; a < 3; a++)
+        if (ctx->max[a] - ctx->min[a] > ctx->max[axis] - ctx->min[axis])
+            axis = a;
+    ffd_rig_primitive *p = ffd_calloc(1, sizeof *p);
+    double *v = ffd_malloc_array(DEFAULT_VERTICES, 3 * sizeof *v);
+    if (!p || !v) {
+        ffd_free(p);
+        ffd_free(v);
+        return ffd_fail(err, FFD_ERR_NOMEM, "create: out of memory");
+    }
+    const double extent = ctx->max[axis] - ctx->min[axis];
+    for (int i = 0; i < DEFAULT_VERTICES; i++)
+        for (int a = 0; a < 3; a++) {
+            double c = 0.5 * (ctx->min[a] + ctx->max[a]);
+            double t = (double)i / (DEFAULT_VERTICES - 1) - 0.5;
+            v[3 * i + a] = a == axis ? c + DEFAULT_SPAN * extent * t : c;
+        }
+    p->kind = FFD_GFFD_POLYLINE;
+    p->vertices = v;
+    p->vertex_count = DEFAULT_VERTICES;
+    p->radius = DEFAULT_RADIUS * ctx->diag;
+    *out = p;
+    return FFD_OK;
+}
+
+/* The body's skeleton: primitives as in rigs, geometry inline only. */
+static ffd_status read_body_skeleton(const parser *p, const cJSON *item, ffd_rig_primitive **out,
+                                     size_t *count)
+{
+    const cJSON *c;
+    size_t i = 0;
+    if (cJSON_IsArray(item))
+        cJSON_ArrayForEach(c, item)
+        {
+            if (cJSON_IsObject(c) && cJSON_GetObjectItemCaseSensitive(c, "file"))
+                return ffd_fail(p->err, FFD_ERR_PARSE,
+                                "%s: skeleton[%zu].file: files are not read here; give the "
+                                "geometry inline (\"vertices\", \"faces\")",
+                                p->name, i);
+            i++;
+        }
+    return rig_read_skeleton(p, item, "skeleton", out, count);
+}
+
+static ffd_status read_tracking(const parser *p, const cJSON *item, ffd_gffd_options *opt)
+{
+    static const char *const trackings[] = {"gradient", "warp", NULL};
+    int t = 0;
+    ffd_status s = rig_read_enum(p, item, "tracking", trackings, "\"gradient\" or \"warp\"", &t);
+    opt->tracking = t ? FFD_GFFD_TRACK_WARP : FFD_GFFD_TRACK_GRADIENT;
+    return s;
+}
+
+ffd_status sess_gffd_create(const sess_ctx *ctx, const cJSON *body, sess_method **out,
+                            ffd_error *err)
+{
+    static const char *const keys[] = {"method", "skeleton", "unit", "tracking", "resample", NULL};
+    *out = NULL;
+    parser p = {"create", err};
+    ffd_gffd_options opt;
+    memset(&opt, 0, sizeof opt);
+    ffd_rig_primitive *rest = NULL;
+    size_t count = 0;
+    const cJSON *v;
+    ffd_status s = body && !cJSON_IsObject(body) ? rig_expected(&p, "body", "a JSON object")
+                   : body                        ? rig_check_keys(&p, body, "", keys,
+                                                                  "\"method\", \"skeleton\", \"unit\", \"tracking\"")
+                                                 : FFD_OK;
+    if (!s && body && cJSON_GetObjectItemCaseSensitive(body, "resample"))
+        s = ffd_fail(err, FFD_ERR_INVALID,
+                     "create: resample: adaptive resampling adds vertices, which an editing "
+                     "session cannot; use ffd deform with a rig for that");
+    if (!s && body && (v = cJSON_GetObjectItemCaseSensitive(body, "unit")))
+        s = rig_read_positive(&p, v, "unit", &opt.unit);
+    if (!s && body && (v = cJSON_GetObjectItemCaseSensitive(body, "tracking")))
+        s = read_tracking(&p, v, &opt);
+    if (!s && body && (v = cJSON_GetObjectItemCaseSensitive(body, "skeleton")))
+        s = read_body_skeleton(&p, v, &rest, &count);
+    else if (!s && (s = default_skeleton(ctx, &rest, err)) == FFD_OK)
+        count = 1;
+    ffd_gffd *g = NULL;
+    if (!s)
+        s = gffd_bind(ctx, rest, count, &opt, "create", &g, err);
+    if (s) {
+        skeleton_free(rest, count);
+        return s;
+    }
+    gf_method *m = NULL;
+    if ((s = gf_new(ctx, rest, count, &opt, g, &m, err)))
+        return s;
+    *out = &m->base;
+    return FFD_OK;
+}
+
+static ffd_status copy_correspondences(gf_method *m, const ffd_rig_gffd *r, ffd_error *err)
+{
+    if (!r->corr_count)
+        return FFD_OK;
+    m->corr_from = ffd_malloc_array(r->corr_count, 3 * sizeof(double));
+    m->corr_to = ffd_malloc_array(r->corr_count, 3 * sizeof(double));
+    if (!m->corr_from || !m->corr_to)
+        return ffd_fail(err, FFD_ERR_NOMEM, "load: out of memory");
+    memcpy(m->corr_from, r->corr_from, r->corr_count * 3 * sizeof(double));
+    memcpy(m->corr_to, r->corr_to, r->corr_count * 3 * sizeof(double));
+    m->corr_count = r->corr_count;
+    return FFD_OK;
+}
+
+ffd_status sess_gffd_load(const sess_ctx *ctx, const ffd_rig *rig, sess_method **out,
+                          ffd_error *err)
+{
+    *out = NULL;
+    const ffd_rig_gffd *r = &rig->gffd;
+    if (rig->deformer != FFD_RIG_GFFD)
+        return ffd_fail(err, FFD_ERR_INVALID, "%s: not a \"gffd\" rig", rig->name);
+    if (r->replace)
+        return ffd_fail(err, FFD_ERR_INVALID,
+                        "%s: replace: the editor edits a skeleton, it does not replace it; use "
+                        "ffd deform for a rig with \"replace\"",
+                        rig->name);
+    if (r->resample)
+        return ffd_fail(err, FFD_ERR_INVALID,
+                        "%s: resample: adaptive resampling adds vertices, which an editing "
+                        "session cannot; use ffd deform for a rig with \"resample\"",
+                        rig->name);
+    ffd_rig_primitive *rest = ffd_calloc(r->skeleton_count, sizeof *rest);
+    size_t count = 0;
+    while (rest && count < r->skeleton_count && primitive_copy(&rest[count], &r->skeleton[count]))
+        count++;
+    if (count < r->skeleton_count) {
+        skeleton_free(rest, count);
+        return ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory", rig->name);
+    }
+    ffd_gffd *g = NULL;
+    ffd_status s = gffd_bind(ctx, rest, count, &r->options, rig->name, &g, err);
+    /* the rig's edits in file order give the current skeleton (§5) */
+    for (size_t i = 0; !s && i < r->edit_count; i++)
+        s = ffd_rig_gffd_apply_edit(rig, g, i, err);
+    if (s) {
+        ffd_gffd_destroy(g);
+        skeleton_free(rest, count);
+        return s;
+    }
+    gf_method *m = NULL;
+    if ((s = gf_new(ctx, rest, count, &r->options, g, &m, err)))
+        return s;
+    if ((s = copy_correspondences(m, r, err)) || (s = replay_skeleton(m, err))) {
+        gf_destroy(&m->base);
+        return s;
+    }
+    *out = &m->base;
+    return FFD_OK;
+}
+
+/* ---- evaluation and controls ----------------------------------------- */
+
+static ffd_status gf_eval(sess_method *base, double *out, ffd_error *err)
+{
+    gf_method *m = (gf_method *)base;
+    ffd_status s = m->synced ? FFD_OK : replay_skeleton(m, err);
+    ffd_error inner = {{0}};
+    /* tracking (Fig. 5): every influenced vertex back to its value e_0 */
+    if (!s && (s = ffd_gffd_track(m->g, out, NULL, &inner)))
+        s = ffd_fail(err, s, "tracking: %s", inner.message);
+    return s;
+}
+
+static size_t gf_control_count(const sess_method *base)
+{
+    const gf_method *m = (const gf_method *)base;
+    return m->offset[m->count];
+}
+
+static void gf_controls(const sess_method *base, double *out)
+{
+    const gf_method *m = (const gf_method *)base;
+    memcpy(out, m->cur, m->offset[m->count] * 3 * sizeof *out);
+}
+
+static int add_item(cJSON *o, const char *key, cJSON *item)
+{
+    if (!item || !cJSON_AddItemToObject(o, key, item)) {
+        cJSON_Delete(item);
+        return 0;
+    }
+    return 1;
+}
+
+static int add_to_array(cJSON *a, cJSON *item)
+{
+    if (!item || !cJSON_AddItemToArray(a, item)) {
+        cJSON_Delete(item);
+        return 0;
+    }
+    return 1;
+}
+
+static int cmp_edge(const void *a, const void *b)
+{
+    const uint32_t *x = a, *y = b;
+    return x[0] != y[0] ? (x[0] > y[0]) - (x[0] < y[0]) : (x[1] > y[1]) - (x[1] < y[1]);
+}
+
+/* Polyline segments and face sides (shared sides once), as control ids. */
+static int add_edges(const gf_method *m, cJSON *edges)
+{
+    size_t total = 0;
+    for (size_t i = 0; i < m->count; i++)
+        total += m->rest[i].face_count ? m->rest[i].face_offsets[m->rest[i].face_count]
+                                       : m->rest[i].vertex_count;
+    uint32_t *e = ffd_malloc_array(total ? total : 1, 2 * sizeof *e);
+    if (!e)
+        return 0;
+    size_t k = 0;
+    for (size_t i = 0; i < m->count; i++) {
+        const ffd_rig_primitive *p = &m->rest[i];
+        const uint32_t o = (uint32_t)m->offset[i];
+        for (size_t v = 0; !p->face_count && v + 1 < p->vertex_count; v++, k++) {
+            e[2 * k] = o + (uint32_t)v;
+            e[2 * k + 1] = o + (uint32_t)v + 1;
+        }
+        for (size_t f = 0; f < p->face_count; f++) {
+            uint32_t b = p->face_offsets[f], n = p->face_offsets[f + 1] - b;
+            for (uint32_t c = 0; c < n; c++, k++) {
+                uint32_t x = o + p->face_indices[b + c], y = o + p->face_indices[b + (c + 1) % n];
+                e[2 * k] = x < y ? x : y;
+                e[2 * k + 1] = x < y ? y : x;
+            }
+        }
+    }
+    qsort(e, k, 2 * sizeof *e, cmp_edge);
+    int ok = 1;
+    for (size_t j = 0; ok && j < k; j++)
+        if (j == 0 || cmp_edge(e + 2 * j, e + 2 * (j - 1)) != 0)
+            ok = sess_add_edge(edges, e[2 * j], e[2 * j + 1]);
+    ffd_free(e);
+    return ok;
+}
+
+static cJSON *faces_json(const ffd_rig_primitive *p, size_t offset)
+{
+    cJSON *a = cJSON_CreateArray();
+    for (size_t f = 0; a && f < p->face_count; f++) {
+        cJSON *face = cJSON_CreateArray();
+        int ok = add_to_array(a, face);
+        for (uint32_t c = p->face_offsets[f]; ok && c < p->face_offsets[f + 1]; c++)
+            ok = add_to_array(face, cJSON_CreateNumber((double)(offset + p->face_indices[c])));
+        if (!ok) {
+            cJSON_Delete(a);
+            return NULL;
+        }
+    }
+    return a;
+}
+
+static ffd_status gf_describe(const sess_method *base, cJSON *params, cJSON *controls,
+                              ffd_error *err)
+{
+    const gf_method *m = (const gf_method *)base;
+    cJSON *prims = NULL, *edges = NULL;
+    int ok =
+        cJSON_AddNumberToObject(params, "unit", m->opt.unit) &&
+        cJSON_AddStringToObject(params, "tracking",
+                                m->opt.tracking == FFD_GFFD_TRACK_WARP ? "warp" : "gradient") &&
+        (prims = cJSON_AddArrayToObject(controls, "primitives")) &&
+        (edges = cJSON_AddArrayToObject(controls, "edges")) &&
+        cJSON_AddNumberToObject(controls, "influenced", (double)ffd_gffd_influenced_count(m->g)) &&
+        add_edges(m, edges);
+    for (size_t i = 0; ok && i < m->count; i++) {
+        const ffd_rig_primitive *p = &m->rest[i];
+        cJSON *o = cJSON_CreateObject();
+        ok = add_to_array(prims, o) && cJSON_AddStringToObject(o, "type", kind_names[p->kind]) &&
+             cJSON_AddNumberToObject(o, "radius", p->radius) &&
+             cJSON_AddNumberToObject(o, "offset", (double)m->offset[i]) &&
+             cJSON_AddNumberToObject(o, "count", (double)p->vertex_count) &&
+             add_item(o, "faces", faces_json(p, m->offset[i]));
+    }
+    return ok ? FFD_OK : ffd_fail(err, FFD_ERR_NOMEM, "state: out of memory");
+}
+
+/* ---- drags, snapshots, reset ----------------------------------------- */
+
+static ffd_status gf_begin(sess_method *base, const uint32_t *ids, size_t k, int arap,
+                           ffd_error *err)
+{
+    gf_method *m = (gf_method *)base;
+    size_t n = m->offset[m->count];
+    ffd_free(m->begin);
+    if (!(m->begin = ffd_malloc_array(n ? n : 1, 3 * sizeof *m->begin)))
+        return ffd_fail(err, FFD_ERR_NOMEM, "drag_begin: out of memory");
+    memcpy(m->begin, m->cur, n * 3 * sizeof *m->cur);
+    return FFD_OK;
+}
+
+/* cur becomes next (copied) and the deformer replays it; on error cur and
+ * the deformer stay as they were. */
+static ffd_status set_skeleton(gf_method *m, const double *next, ffd_error *err)
+{
+    size_t n = m->offset[m->count];
+    double *old = ffd_malloc_array(n ? n : 1, 3 * sizeof *old);
+    if (!old)
+        return ffd_fail(err, FFD_ERR_NOMEM, "skeleton: out of memory");
+    memcpy(old, m->cur, n * 3 * sizeof *old);
+    memmove(m->cur, next, n * 3 * sizeof *old);
+    ffd_status s = replay_skeleton(m, err);
+    if (s) {
+        memcpy(m->cur, old, n * 3 * sizeof *old);
+        replay_skeleton(m, NULL); /* a failure leaves synced = 0: eval retries */
+    }
+    ffd_free(old);
+    return s;
+}
+
+static ffd_status gf_set_controls(sess_method *base, const uint32_t *ids, size_t k,
+                                  const double *targets, ffd_error *err)
+{
+    gf_method *m = (gf_method *)base;
+    const size_t n = m->offset[m->count];
+    for (size_t i = 0; i < k; i++) {
+        if (ids[i] >= n)
+            return ffd_fail(err, FFD_ERR_RANGE, "drag: control %u out of range (%zu controls)",
+                            ids[i], n);
+        for (int a = 0; a < 3; a++)
+            if (!isfinite(targets[3 * i + a]))
+                return ffd_fail(err, FFD_ERR_NONFINITE, "drag: targets[%zu]: not finite", i);
+    }
+    double *next = ffd_malloc_array(n ? n : 1, 3 * sizeof *next);
+    if (!next)
+        return ffd_fail(err, FFD_ERR_NOMEM, "drag: out of memory");
+    memcpy(next, m->cur, n * 3 * sizeof *next);
+    for (size_t i = 0; i < k; i++)
+        memcpy(next + 3 * ids[i], targets + 3 * i, 3 * sizeof *next);
+    /* the skeleton edit (§5, first way), then tracking at eval */
+    ffd_status s = set_skeleton(m, next, err);
+    ffd_free(next);
+    return s;
+}
+
+static void gf_end(sess_method *base, int commit)
+{
+    gf_method *m = (gf_method *)base;
+    if (!m->begin)
+        return;
+    if (!commit && memcmp(m->begin, m->cur, m->offset[m->count] * 3 * sizeof *m->cur) != 0) {
+        memcpy(m->cur, m->begin, m->offset[m->count] * 3 * sizeof *m->cur);
+        replay_skeleton(m, NULL);
+    }
+    ffd_free(m->begin);
+    m->begin = NULL;
+}
+
+typedef struct gf_snapshot {
+    size_t n;
+    double *cur;
+} gf_snapshot;
+
+static void gf_snapshot_free(void *blob)
+{
+    gf_snapshot *b = blob;
+    if (b)
+        ffd_free(b->cur);
+    ffd_free(b);
+}
+
+static ffd_status gf_snapshot_take(const sess_method *base, void **blob, ffd_error *err)
+{
+    const gf_method *m = (const gf_method *)base;
+    gf_snapshot *b = ffd_calloc(1, sizeof *b);
+    *blob = NULL;
+    if (b) {
+        b->n = m->offset[m->count];
+        b->cur = ffd_malloc_array(b->n ? b->n : 1, 3 * sizeof *b->cur);
+    }
+    if (!b || !b->cur) {
+        gf_snapshot_free(b);
+        return ffd_fail(err, FFD_ERR_NOMEM, "snapshot: out of memory");
+    }
+    memcpy(b->cur, m->cur, b->n * 3 * sizeof *b->cur);
+    *blob = b;
+    return FFD_OK;
+}
+
+static ffd_status gf_restore(sess_method *base, const void *blob, ffd_error *err)
+{
+    gf_method *m = (gf_method *)base;
+    const gf_snapshot *b = blob;
+    if (b->n != m->offset[m->count])
+        return ffd_fail(err, FFD_ERR_INVALID,
+                        "restore: the snapshot has %zu skeleton vertices, the method %zu", b->n,
+                        m->offset[m->count]);
+    return set_skeleton(m, b->cur, err);
+}
+
+static ffd_status gf_reset(sess_method *base, ffd_error *err)
+{
+    gf_method *m = (gf_method *)base;
+    size_t n = m->offset[m->count];
+    double *rest = ffd_malloc_array(n ? n : 1, 3 * sizeof *rest);
+    if (!rest)
+        return ffd_fail(err, FFD_ERR_NOMEM, "reset: out of memory");
+    for (size_t i = 0; i < m->count; i++)
+        memcpy(rest + 3 * m->offset[i], m->rest[i].vertices,
+               m->rest[i].vertex_count * 3 * sizeof *rest);
+    ffd_status s = set_skeleton(m, rest, err);
+    ffd_free(rest);
+    return s;
+}
+
+/* ---- the rig --------------------------------------------------------- */
+
+static cJSON *points_json(const double *v, size_t n)
+{
+    cJSON *a = cJSON_CreateArray();
+    for (size_t i = 0; a && i < n; i++)
+        if (!add_to_array(a, sess_array(v + 3 * i, 3))) {
+            cJSON_Delete(a);
+            return NULL;
+        }
+    return a;
+}
+
+static cJSON *primitive_json(const ffd_rig_primitive *p)
+{
+    cJSON *o = cJSON_CreateObject();
+    int ok = o && cJSON_AddStringToObject(o, "type", kind_names[p->kind]) &&
+             add_item(o, "radius", sess_number(p->radius));
+    if (ok && p->kind == FFD_GFFD_POINT)
+        ok = add_item(o, "position", sess_array(p->vertices, 3));
+    else if (ok)
+        ok = add_item(o, "vertices", points_json(p->vertices, p->vertex_count)) &&
+             (!p->face_count || add_item(o, "faces", faces_json(p, 0)));
+    if (!ok) {
+        cJSON_Delete(o);
+        return NULL;
+    }
+    return o;
+}
+
+static int add_options(cJSON *root, const ffd_gffd_options *o)
+{
+    return add_item(root, "unit", sess_number(o->unit)) &&
+           cJSON_AddStringToObject(root, "tracking",
+                                   o->tracking == FFD_GFFD_TRACK_WARP ? "warp" : "gradient") &&
+           (!(o->tolerance > 0) || add_item(root, "tolerance", sess_number(o->tolerance))) &&
+           (!o->max_iterations ||
+            cJSON_AddNumberToObject(root, "max_iterations", o->max_iterations)) &&
+           (!o->max_samples ||
+            cJSON_AddNumberToObject(root, "max_samples", (double)o->max_samples));
+}
+
+static cJSON *correspondences_json(const gf_method *m)
+{
+    cJSON *a = cJSON_CreateArray();
+    for (size_t i = 0; a && i < m->corr_count; i++) {
+        cJSON *o = cJSON_CreateObject();
+        if (!add_to_array(a, o) || !add_item(o, "from", sess_array(m->corr_from + 3 * i, 3)) ||
+            !add_item(o, "to", sess_array(m->corr_to + 3 * i, 3))) {
+            cJSON_Delete(a);
+            return NULL;
+        }
+    }
+    return a;
+}
+
+static ffd_status gf_rig(const sess_method *base, cJSON *root, ffd_error *err)
+{
+    const gf_method *m = (const gf_method *)base;
+    cJSON *skeleton = NULL, *edits = NULL;
+    int ok = (skeleton = cJSON_AddArrayToObject(root, "skeleton")) && add_options(root, &m->opt) &&
+             (edits = cJSON_AddArrayToObject(root, "edits")) &&
+             (!m->corr_count || add_item(root, "correspondences", correspondences_json(m)));
+    for (size_t i = 0; ok && i < m->count; i++) {
+        const ffd_rig_primitive *p = &m->rest[i];
+        const double *v = m->cur + 3 * m->offset[i];
+        ok = add_to_array(skeleton, primitive_json(p));
+        if (!ok || memcmp(v, p->vertices, p->vertex_count * 3 * sizeof *v) == 0)
+            continue;
+        cJSON *e = cJSON_CreateObject();
+        ok = add_to_array(edits, e) && cJSON_AddNumberToObject(e, "primitive", (double)i) &&
+             add_item(e, "vertices", points_json(v, p->vertex_count));
+    }
+    return ok ? FFD_OK : ffd_fail(err, FFD_ERR_NOMEM, "rig: out of memory");
+}
+
+/* ---- influence: the primitives' share of the merged field ------------ */
+
+static ffd_status rest_fields(gf_method *m, ffd_error *err)
+{
+    if (m->field)
+        return FFD_OK;
+    ffd_gffd_primitive *p = ffd_malloc_array(m->count, sizeof *p);
+    if (!p)
+        return ffd_fail(err, FFD_ERR_NOMEM, "influence: out of memory");
+    for (size_t i = 0; i < m->count; i++)
+        as_public(&m->rest[i], &p[i]);
+    ffd_error inner = {{0}};
+    ffd_status s = ffd_gffd_skeleton_create(
+        p, m->count, m->opt.max_samples ? m->opt.max_samples : 4000, &m->field, &inner);
+    ffd_free(p);
+    if (s)
+        return ffd_fail(err, s, "influence: %s", inner.message);
+    ffd_gffd_skeleton_set_unit(m->field, m->opt.unit);
+    return FFD_OK;
+}
+
+/* Per vertex at rest: sum of E_i over the chosen primitives over E (eq. 1-2).
+ */
+static ffd_status gf_influence(sess_method *base, const uint32_t *ids, size_t k, float *w,
+                               ffd_error *err)
+{
+    gf_method *m = (gf_method *)base;
+    const sess_ctx *ctx = m->base.ctx;
+    unsigned char *chosen = ffd_calloc(m->count, 1);
+    if (!chosen)
+        return ffd_fail(err, FFD_ERR_NOMEM, "influence: out of memory");
+    for (size_t i = 0; i < k; i++)
+        for (size_t j = 0; j < m->count; j++)
+            if (ids[i] >= m->offset[j] && ids[i] < m->offset[j + 1])
+                chosen[j] = 1;
+    ffd_status s = rest_fields(m, err);
+    const ffd_gffd_skeleton *field = m->field;
+    long long n = s ? 0 : (long long)ctx->n;
+#pragma omp parallel for schedule(static)
+    for (long long v = 0; v < n; v++) {
+        const double *x = ctx->rest + 3 * v;
+        double e = ffd_gffd_skeleton_field(field, x, NULL), share = 0;
+        for (size_t j = 0; e > 0 && j < field->count; j++) {
+            if (!chosen[j])
+                continue;
+            ffd_gffd_skeleton one = *field; /* primitive j alone: E_j */
+            one.count = 1;
+            one.parts = &field->parts[j];
+            share += ffd_gffd_skeleton_field(&one, x, NULL);
+        }
+        double r = e > 0 ? share / e : 0;
+        w[v] = (float)(r < 0 ? 0 : r > 1 ? 1 : r);
+    }
+    ffd_free(chosen);
+    return s;
+}
+
+/* ---- op primitive: skeleton editing ------------------------------------ */
+
+/* The new rest skeleton (rest with one change) and the current vertices it
+ * keeps; replaces m's contents on success. */
+static ffd_status rebuild(gf_method *m, ffd_rig_primitive *rest, size_t count, const double *cur,
+                          ffd_error *err)
+{
+    ffd_gffd *g = NULL;
+    gf_method *n = NULL;
+    ffd_status s = gffd_bind(m->base.ctx, rest, count, &m->opt, "primitive", &g, err);
+    if (s) {
+        skeleton_free(rest, count);
+        return s;
+    }
+    if ((s = gf_new(m->base.ctx, rest, count, &m->opt, g, &n, err)))
+        return s;
+    memcpy(n->cur, cur, n->offset[count] * 3 * sizeof *cur);
+    if ((s = replay_skeleton(n, err))) {
+        gf_destroy(&n->base);
+        return s;
+    }
+    gf_method old = *m;
+    *m = *n;
+    *n = old;
+    gf_destroy(&n->base);
+    return FFD_OK;
+}
+
+static ffd_status primitive_op(gf_method *m, const ffd_rig_primitive *add, size_t index,
+                               double radius, int remove, ffd_error *err)
+{
+    size_t count = m->count + (add ? 1 : 0) - (remove ? 1 : 0);
+    ffd_rig_primitive *rest = ffd_calloc(count, sizeof *rest);
+    double *cur =
+        ffd_malloc_array(m->offset[m->count] + (add ? add->vertex_count : 0) + 1, 3 * sizeof *cur);
+    size_t k = 0, v = 0;
+    int ok = rest && cur;
+    for (size_t i = 0; ok && i < m->count; i++) {
+        if (remove && i == index)
+            continue;
+        ok = primitive_copy(&rest[k], &m->rest[i]);
+        if (ok && !add && !remove && i == index)
+            rest[k].radius = radius;
+        memcpy(cur + 3 * v, m->cur + 3 * m->offset[i], m->rest[i].vertex_count * 3 * sizeof *cur);
+        v += m->rest[i].vertex_count;
+        k += ok;
+    }
+    if (ok && add) {
+        ok = primitive_copy(&rest[k], add);
+        memcpy(cur + 3 * v, add->vertices, add->vertex_count * 3 * sizeof *cur);
+        k += ok;
+    }
+    if (!ok) {
+        skeleton_free(rest, k);
+        ffd_free(cur);
+        return ffd_fail(err, FFD_ERR_NOMEM, "primitive: out of memory");
+    }
+    ffd_status s = rebuild(m, rest, count, cur, err);
+    ffd_free(cur);
+    return s;
+}
+
+static ffd_status read_index(const parser *p, const cJSON *body, const char *key, size_t count,
+                             size_t *index)
+{
+    uint32_t i = 0;
+    ffd_status s = rig_read_index(p, cJSON_GetObjectItemCaseSensitive(body, key), key,
+                                  "a primitive index", &i);
+    if (!s && i >= count)
+        s = ffd_fail(p->err, FFD_ERR_RANGE, "%s: %s: %u out of range (%zu primitives)", p->name,
+                     key, i, count);
+    *index = i;
+    return s;
+}
+
+static ffd_status op_primitive(gf_method *m, const cJSON *body, int *undo, ffd_error *err)
+{
+    static const char *const keys[] = {"add", "index", "radius", "remove", NULL};
+    parser p = {"primitive", err};
+    const cJSON *add = cJSON_GetObjectItemCaseSensitive(body, "add");
+    const cJSON *index = cJSON_GetObjectItemCaseSensitive(body, "index");
+    const cJSON *radius = cJSON_GetObjectItemCaseSensitive(body, "radius");
+    const cJSON *remove = cJSON_GetObjectItemCaseSensitive(body, "remove");
+    ffd_status s = rig_check_keys(&p, body, "", keys, "\"add\", \"index\", \"radius\", \"remove\"");
+    if (s)
+        return s;
+    if ((add != NULL) + (remove != NULL) + (index != NULL || radius != NULL) != 1)
+        return rig_expected(&p, "body",
+                            "one of {\"add\": primitive}, {\"index\": i, "
+                            "\"radius\": r} or {\"remove\": i}");
+    size_t i = 0;
+    double r = 0;
+    if (add) {
+        if (cJSON_IsObject(add) && cJSON_GetObjectItemCaseSensitive(add, "file"))
+            return ffd_fail(err, FFD_ERR_PARSE,
+                            "primitive: add.file: files are not read "
+                            "here; give the geometry inline (\"vertices\", \"faces\")");
+        ffd_rig_primitive prim;
+        memset(&prim, 0, sizeof prim);
+        if (!(s = rig_read_primitive(&p, add, "add", &prim)))
+            s = primitive_op(m, &prim, 0, 0, 0, err);
+        ffd_rig_primitive_free(&prim);
+    } else if (remove) {
+        if (!(s = read_index(&p, body, "remove", m->count, &i)) && m->count == 1)
+            s = ffd_fail(err, FFD_ERR_INVALID,
+                         SESS_CONFLICT "primitive: remove: the skeleton's only primitive cannot "
+                                       "be removed");
+        if (!s)
+            s = primitive_op(m, NULL, i, 0, 1, err);
+    } else {
+        if (!index)
+            return rig_expected(&p, "index", "a primitive index (missing)");
+        if (!radius)
+            return rig_expected(&p, "radius", "the influence radius r_s > 0 (missing)");
+        if (!(s = read_index(&p, body, "index", m->count, &i)) &&
+            !(s = rig_read_positive(&p, radius, "radius", &r)))
+            s = primitive_op(m, NULL, i, r, 0, err);
+    }
+    if (!s)
+        *undo = SESS_UNDO_REBUILD;
+    return s;
+}
+
+static ffd_status gf_op(sess_method *base, const char *op, const cJSON *body, int *undo,
+                        ffd_error *err)
+{
+    gf_method *m = (gf_method *)base;
+    if (strcmp(op, "primitive") != 0)
+        return ffd_fail(err, FFD_ERR_UNSUPPORTED, "%s: not an operation of the gffd method", op);
+    if (!cJSON_IsObject(body))
+        return ffd_fail(err, FFD_ERR_PARSE, "primitive: expected a JSON object");
+    return op_primitive(m, body, undo, err);
+}
+
+static const sess_vtable gffd_vtable = {
+    .name = "gffd",
+    .destroy = gf_destroy,
+    .eval = gf_eval,
+    .control_count = gf_control_count,
+    .controls = gf_controls,
+    .describe = gf_describe,
+    .begin = gf_begin,
+    .set_controls = gf_set_controls,
+    .linear_map = NULL, /* GFFD is not linear in its controls */
+    .set_variables = NULL,
+    .end = gf_end,
+    .snapshot = gf_snapshot_take,
+    .restore = gf_restore,
+    .snapshot_free = gf_snapshot_free,
+    .reset = gf_reset,
+    .rig = gf_rig,
+    .influence = gf_influence,
+    .op = gf_op,
+};
