@@ -134,6 +134,8 @@ int main(int argc, char **argv)
     bad |= measure(s, "PB-FFD 120 EBFs, 1 control point",
                    "{\"method\":\"pbffd\",\"interior\":60,\"exterior\":60}", "{\"points\":[3]}", 0,
                    steps);
+    bad |= measure(s, "GFFD default polyline skeleton, 1 vertex (re-tracking)",
+                   "{\"method\":\"gffd\"}", "{\"points\":[2]}", 0, 10);
     ffd_session_destroy(s);
     return bad;
 }
