@@ -544,6 +544,57 @@ function busyText(label) {
   return names[label] || (label && !label.startsWith('/') ? label : 'Working…');
 }
 
+/**
+ * Benchmark (bench/editor_drag.mjs): drags the selected controls through the
+ * same path as a gizmo or point drag (DragSession: drag_begin, `drag` steps with
+ * one request in flight and the latest queued step winning, each frame applied
+ * to the geometry with its normals, drawn by the render loop, drag_end), fed
+ * with a new step every 4 ms so that the pipeline never waits for input. Resolves
+ * to {steps, ms, updatesPerSecond, framesDrawn, drawnPerSecond, requestMs[],
+ * applyMs[]} (per-frame samples: the request's round trip, the mesh update).
+ */
+async function benchDrag(n = 100, { amplitude = 0.05 } = {}) {
+  if (!editor.selection.length) throw new Error('benchDrag: select controls first');
+  const s = editor.beginControlDrag('translate');
+  if (!s) throw new Error('benchDrag: a drag is already running');
+  let drawn = 0;
+  const count = () => { drawn++; };
+  editor.vp.onBeforeRender.push(count);
+  const requestMs = [], applyMs = [];
+  const d = amplitude * editor.vp.diag;
+  let i = 0;
+  const next = () => { i++; s.update({ delta: [d * Math.sin(i / 7), 0.5 * d * (1 - Math.cos(i / 7)), 0] }); };
+  let done;
+  const finished = new Promise((r) => { done = r; });
+  editor.onDragFrame = (frame, ms) => {
+    Editor.prototype.onDragFrame.call(editor, frame, ms);
+    requestMs.push(ms);
+    applyMs.push(editor.lastApplyMs);
+    if (s.steps >= n) done();
+  };
+  if (!(await s.begun)) { delete editor.onDragFrame; throw new Error('benchDrag: drag_begin failed'); }
+  const t0 = performance.now();
+  const drawn0 = drawn;
+  // pointer moves every 4 ms (a mouse gives one per display frame): a step is
+  // always queued when a frame arrives, so the server never waits for input
+  next();
+  const input = setInterval(() => { if (s.failed) done(); else next(); }, 4);
+  await finished;
+  clearInterval(input);
+  delete editor.onDragFrame;
+  const ms = performance.now() - t0;
+  // let the render loop draw the last frame
+  await new Promise((r) => requestAnimationFrame(() => requestAnimationFrame(r)));
+  const framesDrawn = drawn - drawn0;
+  editor.vp.onBeforeRender.splice(editor.vp.onBeforeRender.indexOf(count), 1);
+  await editor.endControlDrag(s);
+  if (s.failed) throw new Error('benchDrag: a drag step failed');
+  return {
+    steps: s.steps, ms, updatesPerSecond: (1000 * s.steps) / ms,
+    framesDrawn, drawnPerSecond: (1000 * framesDrawn) / ms, requestMs, applyMs,
+  };
+}
+
 const editor = new Editor();
 window.ffdEditor = {
   get state() { return editor.state; },
@@ -564,6 +615,7 @@ window.ffdEditor = {
   setRenderEnabled(on) { editor.vp.renderDisabled = !on; editor.vp.requestRender(); },
   setGizmoMode(mode) { editor.gizmo.setMode(mode); },
   gizmoCenter() { return editor.screenOf(editor.gizmo.pivot.position); },
+  benchDrag(n, opts) { return benchDrag(n, opts); },
   editor,
 };
 editor.boot();

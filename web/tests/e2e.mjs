@@ -1,0 +1,650 @@
+#!/usr/bin/env node
+// End-to-end test of the editor: the real `ffd serve` and the page in headless
+// Chromium (Debian's chromium driven by playwright-core). Drags happen through
+// real mouse events; every result is checked against the library through the
+// API and by replaying the session's rig with `ffd deform`.
+//
+//   node web/tests/e2e.mjs --ffd build/ffd --out DIR [--chromium PATH]
+//                          [--methods lattice,tspline,pbffd,gffd] [--keep]
+//
+// Stages: (a) lattice: create via the panel, click-select a control, drag it
+// with the gizmo's translate arrow; (b) mesh tool: pin two vertices (Alt+click)
+// and drag a third; (c) Ctrl+Z / Ctrl+Shift+Z; (d) rig save + replay;
+// (e) cow.off from the file list, T-spline: ARAP drag of a proxy point, refine
+// by clicking the mesh, undo; (f) PB-FFD: drag an EBF; GFFD: drag a skeleton
+// vertex; (g) help overlay, influence map, an error toast. Screenshots of each
+// stage go to DIR. Prints "ok"/"FAIL" lines; exits 1 on a failed check or a
+// console error of the page.
+
+import { chromium } from 'playwright-core';
+import { spawn, execFile } from 'node:child_process';
+import { mkdir, mkdtemp, copyFile, writeFile, readFile, rm } from 'node:fs/promises';
+import { existsSync } from 'node:fs';
+import { tmpdir } from 'node:os';
+import path from 'node:path';
+import { fileURLToPath } from 'node:url';
+
+const T_START = Date.now();
+const REPO = path.resolve(path.dirname(fileURLToPath(import.meta.url)), '..', '..');
+const argv = process.argv.slice(2);
+const opt = (name, dflt) => { const i = argv.indexOf(`--${name}`); return i >= 0 ? argv[i + 1] : dflt; };
+const FFD = path.resolve(opt('ffd', path.join(REPO, 'build', 'ffd')));
+const OUT = path.resolve(opt('out', path.join(tmpdir(), 'ffd-e2e')));
+const EXE = opt('chromium', ['/usr/bin/chromium', '/usr/bin/chromium-browser', '/usr/bin/google-chrome'].find(existsSync));
+const METHODS = opt('methods', 'lattice,tspline,pbffd,gffd').split(',');
+const KEEP = argv.includes('--keep');
+const WEB = path.join(REPO, 'web', 'dist');
+const LIMIT_S = Number(opt('limit', 170));
+
+let failures = 0;
+const elapsed = () => ((Date.now() - T_START) / 1000).toFixed(1);
+const check = (ok, what) => { console.log(`${ok ? 'ok  ' : 'FAIL'} ${what}`); if (!ok) failures++; return ok; };
+const note = (msg) => console.log(`     ${msg}`);
+class Fatal extends Error {}
+const must = (ok, what) => { if (!check(ok, what)) throw new Fatal(what); };
+
+// --- server --------------------------------------------------------------------
+
+let server = null;
+let serverErr = '';
+let BASE = '';
+
+function startServer(mesh, root) {
+  return new Promise((resolve, reject) => {
+    const p = spawn(FFD, ['serve', mesh, '--port', '0', '--root', root, '--web', WEB], { stdio: ['ignore', 'pipe', 'pipe'] });
+    server = p;
+    let out = '';
+    const timer = setTimeout(() => reject(new Error(`ffd serve printed no URL in 20 s: ${out} ${serverErr}`)), 20000);
+    p.stderr.on('data', (d) => { serverErr += d; });
+    p.stdout.on('data', (d) => {
+      out += d;
+      const nl = out.indexOf('\n');
+      if (nl >= 0 && !BASE) {
+        const m = out.slice(0, nl).match(/^ffd serve: (http:\/\/\S+?)\/?$/);
+        clearTimeout(timer);
+        if (!m) { reject(new Error(`unexpected first line: ${out.slice(0, nl)}`)); return; }
+        BASE = m[1];
+        resolve(BASE);
+      }
+    });
+    p.on('exit', (code, sig) => { clearTimeout(timer); if (!BASE) reject(new Error(`ffd serve exited (${code ?? sig}): ${serverErr}`)); });
+    p.on('error', (e) => { clearTimeout(timer); reject(e); });
+  });
+}
+
+async function api(method, p, body) {
+  const init = { method };
+  if (body !== undefined) { init.body = JSON.stringify(body); init.headers = { 'Content-Type': 'application/json' }; }
+  const res = await fetch(BASE + p, init);
+  const ct = res.headers.get('Content-Type') || '';
+  const data = ct.includes('json') ? await res.json() : Buffer.from(await res.arrayBuffer());
+  if (!res.ok) throw new Error(`${method} ${p}: HTTP ${res.status} ${JSON.stringify(data)}`);
+  return data;
+}
+const state = () => api('GET', '/api/state');
+
+/** GET /api/frame, parsed (docs/editor.md: FFDF, rev, V, C, R, float32 data). */
+async function frame() {
+  const buf = await api('GET', '/api/frame');
+  if (buf.toString('latin1', 0, 4) !== 'FFDF') throw new Error('not a frame');
+  const revision = buf.readUInt32LE(4), V = buf.readUInt32LE(8), C = buf.readUInt32LE(12), R = buf.readUInt32LE(16);
+  if (buf.length !== 20 + 4 * (3 * V + 3 * C + R)) throw new Error(`frame of ${buf.length} bytes for V ${V} C ${C} R ${R}`);
+  const f = new Float32Array(buf.buffer.slice(buf.byteOffset + 20, buf.byteOffset + buf.length));
+  return { revision, V, C, R, positions: f.subarray(0, 3 * V), controls: f.subarray(3 * V, 3 * V + 3 * C), residuals: f.subarray(3 * V + 3 * C) };
+}
+
+const maxAbsDiff = (a, b) => {
+  if (a.length !== b.length) return Infinity;
+  let m = 0;
+  for (let i = 0; i < a.length; i++) { const d = Math.abs(a[i] - b[i]); if (!(d <= m)) m = d; }
+  return m;
+};
+const pointDist = (a, i, b, j = i) => Math.hypot(a[3 * i] - b[3 * j], a[3 * i + 1] - b[3 * j + 1], a[3 * i + 2] - b[3 * j + 2]);
+const maxDisplacement = (a, b) => { let m = 0; for (let i = 0; i < a.length / 3; i++) m = Math.max(m, pointDist(a, i, b)); return m; };
+
+function run(cmd, args) {
+  return new Promise((resolve, reject) => {
+    execFile(cmd, args, { maxBuffer: 64 << 20 }, (err, stdout, stderr) => {
+      if (err) reject(new Error(`${cmd} ${args.join(' ')}: ${err.message} ${stderr}`)); else resolve(stdout);
+    });
+  });
+}
+
+async function readObjVertices(file) {
+  const text = await readFile(file, 'utf8');
+  const v = [];
+  for (const line of text.split('\n')) {
+    if (line.startsWith('v ')) { const p = line.trim().split(/\s+/); v.push(+p[1], +p[2], +p[3]); }
+  }
+  return Float64Array.from(v);
+}
+
+let replays = 0;
+/**
+ * Replays a rig with `ffd deform` on the mesh TMP/meshName and compares the
+ * result with the server's current frame. rigFile: a rig already under TMP,
+ * else GET /api/rig is written first.
+ */
+async function replay(meshName, tol, what, rigFile = null) {
+  const n = ++replays;
+  if (!rigFile) {
+    const rig = await api('GET', '/api/rig');
+    rigFile = path.join(TMP, `rig-${n}.json`);
+    await writeFile(rigFile, JSON.stringify(rig, null, 1));
+  }
+  const out = path.join(TMP, `replay-${n}.obj`);
+  const f = await frame();
+  await run(FFD, ['deform', path.join(TMP, meshName), '-o', out, '--rig', rigFile]);
+  const v = await readObjVertices(out);
+  const d = maxAbsDiff(v, f.positions);
+  check(d < tol, `${what}: ffd deform --rig ${path.basename(rigFile)} replays the frame (max |diff| ${d.toExponential(2)} < ${tol.toExponential(1)})`);
+  return d;
+}
+
+// --- browser -------------------------------------------------------------------
+
+let browser = null;
+let page = null;
+const consoleErrors = [];
+let expectHttpErrors = false;
+
+const ed = (fn, arg) => page.evaluate(fn, arg);
+const shot = async (name, wait = 200) => {
+  await page.waitForTimeout(wait);
+  const file = path.join(OUT, `${name}.png`);
+  await page.screenshot({ path: file });
+  note(`screenshot ${file}`);
+};
+/** Waits for the page to be idle: no drag, the state's revision drawn. */
+const settle = async () => {
+  await page.waitForFunction(() => !window.ffdEditor.dragging, null, { timeout: 20000 });
+  await page.waitForFunction(() => window.ffdEditor.state && window.ffdEditor.lastFrameRevision === window.ffdEditor.state.revision, null, { timeout: 20000 });
+  const rev = (await state()).revision;
+  await page.waitForFunction((r) => window.ffdEditor.state.revision === r && window.ffdEditor.lastFrameRevision === r, rev, { timeout: 20000 });
+  await page.waitForTimeout(60);
+};
+/** A real mouse drag in small steps. */
+async function mouseDrag(from, to, steps = 12, mods = []) {
+  for (const m of mods) await page.keyboard.down(m);
+  await page.mouse.move(from.x, from.y);
+  await page.mouse.down();
+  for (let i = 1; i <= steps; i++) {
+    await page.mouse.move(from.x + (to.x - from.x) * i / steps, from.y + (to.y - from.y) * i / steps);
+    await page.waitForTimeout(20);
+  }
+  await page.mouse.up();
+  for (const m of mods) await page.keyboard.up(m);
+  await settle();
+}
+async function click(p, mods = []) {
+  for (const m of mods) await page.keyboard.down(m);
+  await page.mouse.click(p.x, p.y);
+  for (const m of mods) await page.keyboard.up(m);
+}
+
+/** Creates a deformer through the panel: method, form fields, the Create button. */
+async function createViaPanel(method, fill = {}) {
+  await page.selectOption('select[name=method]', method);
+  for (const [k, v] of Object.entries(fill)) {
+    await page.fill(`[name="${k}"]`, String(v));
+    await page.dispatchEvent(`[name="${k}"]`, 'change');
+  }
+  const rev = (await state()).revision;
+  await ed(() => document.querySelectorAll('#toasts .toast').forEach((t) => t.remove()));
+  await page.click('#panel button.primary');
+  // the new deformer, or the server's refusal as an error toast
+  await page.waitForFunction(([m, r]) => (window.ffdEditor.state && window.ffdEditor.state.method === m && window.ffdEditor.state.revision > r)
+    || document.querySelector('#toasts .toast.error'), [method, rev], { timeout: 60000 });
+  const err = await ed(() => { const t = document.querySelector('#toasts .toast.error .msg'); return t ? t.textContent : null; });
+  if (err) {
+    check(false, `create ${method} via the panel: the server refused: ${err}`);
+    throw new Fatal(err);
+  }
+  await settle();
+  return state();
+}
+
+/** Control ids (of the given candidates) whose on-screen spot picks exactly that control. */
+async function pickableControls(ids) {
+  return ed((cands) => {
+    const e = window.ffdEditor.editor;
+    const r = e.vp.renderer.domElement.getBoundingClientRect();
+    const out = [];
+    for (const id of cands) {
+      if (!e.controlsView.isVisible(id)) continue;
+      const s = window.ffdEditor.screenOfControl(id);
+      if (s.x < r.left + 30 || s.x > r.right - 30 || s.y < r.top + 30 || s.y > r.bottom - 30) continue;
+      if (e.selector.pick({ clientX: s.x, clientY: s.y }) !== id) continue;
+      // keep clear of the other points: 12 px
+      let near = false;
+      for (const o of e.controlsView.visibleIds) {
+        if (o === id) continue;
+        const t = window.ffdEditor.screenOfControl(o);
+        if (Math.hypot(t.x - s.x, t.y - s.y) < 12) { near = true; break; }
+      }
+      if (!near) out.push({ id, x: s.x, y: s.y });
+    }
+    return out;
+  }, ids);
+}
+
+/**
+ * Mesh vertices on the visible side: a grid of screen points is ray-picked,
+ * and a vertex counts when a pick at its own screen position returns it.
+ */
+async function visibleVertices() {
+  return ed(() => {
+    const e = window.ffdEditor.editor;
+    const r = e.vp.renderer.domElement.getBoundingClientRect();
+    const out = [];
+    const seen = new Set();
+    for (let fy = 0.2; fy <= 0.8; fy += 0.05) {
+      for (let fx = 0.25; fx <= 0.75; fx += 0.05) {
+        const h = e.vp.pickMesh({ clientX: r.left + r.width * fx, clientY: r.top + r.height * fy });
+        if (!h || seen.has(h.vertex)) continue;
+        seen.add(h.vertex);
+        const s = window.ffdEditor.screenOfVertex(h.vertex);
+        if (s.x < r.left + 40 || s.x > r.right - 40 || s.y < r.top + 40 || s.y > r.bottom - 40) continue;
+        const h2 = e.vp.pickMesh({ clientX: s.x, clientY: s.y });
+        if (h2 && h2.vertex === h.vertex) out.push({ v: h.vertex, x: s.x, y: s.y });
+      }
+    }
+    return out;
+  });
+}
+
+/**
+ * A point on the gizmo's translate arrow `axis` ('X'|'Y'|'Z'): walks outwards
+ * from the pivot along the axis' screen direction and asks TransformControls
+ * which handle is under each spot. Returns {from, dir} (dir: unit screen vector).
+ */
+async function gizmoArrow(axis) {
+  return ed((ax) => {
+    const e = window.ffdEditor.editor;
+    const g = e.gizmo;
+    const c = window.ffdEditor.gizmoCenter();
+    const w = g.pivot.position.clone();
+    w.setComponent('XYZ'.indexOf(ax), w.getComponent('XYZ'.indexOf(ax)) + 0.05 * e.vp.diag);
+    const s = e.screenOf(w);
+    let dx = s.x - c.x, dy = s.y - c.y;
+    const l = Math.hypot(dx, dy) || 1;
+    dx /= l; dy /= l;
+    const hits = [];
+    for (let d = 6; d < 260; d += 2) {
+      const p = { clientX: c.x + dx * d, clientY: c.y + dy * d, button: 0 };
+      if (g.hitTest(p) && g.tc.axis === ax) hits.push(d);
+    }
+    g.tc.axis = null;
+    if (!hits.length) return null;
+    const d = hits[Math.floor(hits.length * 0.6)];
+    return { from: { x: c.x + dx * d, y: c.y + dy * d }, dir: { x: dx, y: dy }, screenLen: l, hits: hits.length };
+  }, axis);
+}
+
+// --- the test ------------------------------------------------------------------
+
+let TMP = '';
+
+async function main() {
+  await mkdir(OUT, { recursive: true });
+  TMP = await mkdtemp(path.join(tmpdir(), 'ffd-e2e-'));
+  await copyFile(path.join(REPO, 'examples/lattice/bunny.obj'), path.join(TMP, 'bunny.obj'));
+  await copyFile(path.join(REPO, 'examples/tspline/cow.off'), path.join(TMP, 'cow.off'));
+  must(existsSync(FFD), `ffd binary ${FFD}`);
+  must(existsSync(path.join(WEB, 'index.html')), `built page ${WEB} (cd web && npm run build)`);
+  await startServer(path.join(TMP, 'bunny.obj'), TMP);
+  check(true, `ffd serve listening at ${BASE}/`);
+
+  browser = await chromium.launch({
+    executablePath: EXE, headless: true,
+    args: ['--no-sandbox', '--use-gl=angle', '--use-angle=swiftshader', '--enable-unsafe-swiftshader', '--ignore-gpu-blocklist'],
+  });
+  page = await browser.newPage({ viewport: { width: 1280, height: 800 } });
+  page.on('console', (m) => {
+    if (m.type() !== 'error') return;
+    const t = m.text();
+    if (expectHttpErrors && /status of 4\d\d/.test(t)) return;
+    consoleErrors.push(t);
+    console.log(`     console error: ${t}`);
+  });
+  page.on('pageerror', (e) => { consoleErrors.push(String(e)); console.log(`     page error: ${e}`); });
+  page.on('dialog', (d) => d.dismiss());
+
+  await page.goto(`${BASE}/`);
+  await page.waitForSelector('body[data-ready="1"]', { timeout: 30000 });
+  check(true, 'page ready (body[data-ready="1"])');
+  const st0 = await ed(() => window.ffdEditor.state);
+  check(st0.mesh.name === 'bunny.obj' && st0.method === null, `page shows ${st0.mesh.name}, ${st0.mesh.vertices} vertices, no deformer`);
+  const rest = (await frame()).positions.slice();
+  const diag = Math.hypot(...st0.mesh.max.map((x, i) => x - st0.mesh.min[i]));
+  await shot('01-start');
+
+  if (METHODS.includes('lattice')) await latticeStages(rest, diag);
+  if (METHODS.includes('tspline')) await tsplineStage();
+  if (METHODS.includes('pbffd')) await guarded('pbffd', pbffdStage);
+  if (METHODS.includes('gffd')) await guarded('gffd', gffdStage);
+  await uiStage();
+}
+
+/** Runs a stage; a failure inside it is reported and the test goes on. */
+async function guarded(name, fn) {
+  try { await fn(); } catch (e) {
+    if (!(e instanceof Fatal)) check(false, `${name}: ${e.message.split('\n')[0]}`);
+    await shot(`${name}-failed`).catch(() => {});
+    await page.evaluate(() => window.ffdEditor.editor.cancelDrag()).catch(() => {});
+  }
+}
+
+async function latticeStages(rest, diag) {
+  // (a) lattice through the panel, click-select a control, drag the gizmo's arrow
+  const st = await createViaPanel('lattice', { 'res-lattice-0': 5, 'res-lattice-1': 5, 'res-lattice-2': 5 });
+  check(st.method === 'lattice' && st.controls.count === 125, `(a) lattice 5x5x5 created via the panel (${st.controls.count} controls)`);
+  await shot('02-lattice');
+  // an upper interior control (i, j=3, k) that the mouse can pick alone
+  const cands = [];
+  for (const i of [2, 1, 3]) for (const k of [2, 1, 3, 4, 0]) cands.push((i * 5 + 3) * 5 + k);
+  const pickable = await pickableControls(cands);
+  must(pickable.length > 0, `(a) a pickable control among ${cands.length} candidates (${pickable.length})`);
+  const ctl = pickable[0];
+  await click(ctl);
+  await page.waitForTimeout(150);
+  const sel = await ed(() => window.ffdEditor.selection);
+  check(sel.length === 1 && sel[0] === ctl.id, `(a) clicking control ${ctl.id} selects it (selection ${JSON.stringify(sel)})`);
+  await page.waitForTimeout(200); // the gizmo is drawn (its pickers placed) on the next frame
+  const arrow = await gizmoArrow('X');
+  must(!!arrow, '(a) the gizmo\'s X arrow found on screen');
+  const f0 = await frame();
+  const rev0 = (await state()).revision;
+  await mouseDrag(arrow.from, { x: arrow.from.x + arrow.dir.x * 90, y: arrow.from.y + arrow.dir.y * 90 }, 15);
+  const st1 = await state();
+  const f1 = await frame();
+  check(st1.revision > rev0 && st1.undo >= 2 && st1.drag === null, `(a) gizmo drag ended with an undo entry (rev ${rev0} -> ${st1.revision}, undo ${st1.undo})`);
+  const cm = [0, 1, 2].map((k) => f1.controls[3 * ctl.id + k] - f0.controls[3 * ctl.id + k]);
+  check(Math.abs(cm[0]) > 1e-3 && Math.abs(cm[1]) < 1e-6 && Math.abs(cm[2]) < 1e-6,
+    `(a) control ${ctl.id} moved along X only (${cm.map((x) => x.toFixed(4)).join(', ')})`);
+  let others = 0;
+  for (let c = 0; c < f1.C; c++) if (c !== ctl.id && pointDist(f1.controls, c, f0.controls) > 1e-7) others++;
+  check(others === 0, `(a) no other control moved (${others})`);
+  const md = maxDisplacement(f1.positions, rest);
+  check(md > 1e-3, `(a) the mesh moved (max displacement ${md.toFixed(4)})`);
+  const shown = await ed(() => Array.from(window.ffdEditor.editor.vp.geometry.attributes.position.array));
+  check(maxAbsDiff(shown, f1.positions) === 0, '(a) the page draws the server\'s frame');
+  await replay('bunny.obj', 1e-4, '(a) lattice control drag');
+  await shot('03-lattice-gizmo-drag');
+
+  // (b) mesh tool: pin two vertices, drag a third
+  await page.click('[data-tool=mesh]');
+  check((await ed(() => window.ffdEditor.tool)) === 'mesh', '(b) mesh tool on');
+  const verts = await visibleVertices();
+  must(verts.length >= 3, `(b) ${verts.length} pickable vertices on the visible side`);
+  // the dragged vertex near the centre of the picks, pins far from it
+  const cx = verts.reduce((a, v) => a + v.x, 0) / verts.length, cy = verts.reduce((a, v) => a + v.y, 0) / verts.length;
+  verts.sort((p, q) => Math.hypot(p.x - cx, p.y - cy) - Math.hypot(q.x - cx, q.y - cy));
+  const a = verts[0];
+  const far = verts.slice(1).sort((p, q) => Math.hypot(q.x - a.x, q.y - a.y) - Math.hypot(p.x - a.x, p.y - a.y));
+  const b = far[0];
+  const c = far.find((v) => Math.hypot(v.x - b.x, v.y - b.y) > 60 && Math.hypot(v.x - a.x, v.y - a.y) > 60) || far[1];
+  note(`vertices: drag ${a.v}, pins ${b.v}, ${c.v}`);
+  for (const p of [b, c]) { await click(p, ['Alt']); await settle(); }
+  let sp = await state();
+  check(sp.pins.length === 2 && sp.pins.some((p) => p.vertex === b.v) && sp.pins.some((p) => p.vertex === c.v),
+    `(b) Alt+click pinned vertices ${b.v} and ${c.v} (state pins ${JSON.stringify(sp.pins.map((p) => p.vertex))})`);
+  const fPre = await frame();
+  const sPre = await state();
+  const as = await ed((v) => window.ffdEditor.screenOfVertex(v), a.v);
+  await mouseDrag(as, { x: as.x + 70, y: as.y - 50 }, 15);
+  const fDm = await frame();
+  sp = await state();
+  const moved = pointDist(fDm.positions, a.v, fPre.positions);
+  check(moved > 1e-3 * diag, `(b) dragged vertex ${a.v} moved ${moved.toFixed(4)} (diag ${diag.toFixed(2)})`);
+  check(sp.undo === sPre.undo + 1 && sp.pins.length === 2, `(b) the drag is one undo entry (undo ${sPre.undo} -> ${sp.undo}), pins kept`);
+  check(fDm.R === 3 && [...fDm.residuals].every((r) => Number.isFinite(r) && r >= 0),
+    `(b) frame residuals: R ${fDm.R} (2 pins + the dragged point): ${[...fDm.residuals].map((r) => r.toExponential(1)).join(', ')}`);
+  const pinMove = Math.max(pointDist(fDm.positions, b.v, fPre.positions), pointDist(fDm.positions, c.v, fPre.positions));
+  check(pinMove < 1e-3, `(b) pinned vertices held (moved ${pinMove.toExponential(2)}), state residuals ${sp.pins.map((p) => (+p.residual).toExponential(1)).join(', ')}`);
+  await replay('bunny.obj', 1e-4, '(b) direct manipulation with pins');
+  await shot('04-direct-manipulation');
+
+  // (c) undo / redo from the keyboard
+  await page.mouse.move(5, 400); // off the canvas; keys go to the window
+  await page.keyboard.press('Control+z');
+  await settle();
+  const su = await state();
+  const fu = await frame();
+  check(su.undo === sp.undo - 1 && su.redo === sp.redo + 1 && su.revision > sp.revision,
+    `(c) Ctrl+Z: undo ${sp.undo} -> ${su.undo}, redo ${sp.redo} -> ${su.redo}, revision ${sp.revision} -> ${su.revision}`);
+  check(maxAbsDiff(fu.positions, fPre.positions) < 1e-6, `(c) positions back to before the drag (max |diff| ${maxAbsDiff(fu.positions, fPre.positions).toExponential(2)})`);
+  const pageRev = await ed(() => window.ffdEditor.lastFrameRevision);
+  check(pageRev === su.revision, `(c) the page drew the undone frame (rev ${pageRev})`);
+  await shot('05-undo');
+  await page.keyboard.press('Control+Shift+z');
+  await settle();
+  const sr = await state();
+  const fr = await frame();
+  check(sr.undo === sp.undo && sr.redo === sp.redo, `(c) Ctrl+Shift+Z: undo ${sr.undo}, redo ${sr.redo}`);
+  check(maxAbsDiff(fr.positions, fDm.positions) < 1e-6, `(c) redo restores the dragged positions (max |diff| ${maxAbsDiff(fr.positions, fDm.positions).toExponential(2)})`);
+
+  // (d) save the rig on the server and replay it
+  await api('POST', '/api/rig/save', { path: 'edit.json' });
+  check(existsSync(path.join(TMP, 'edit.json')), '(d) POST /api/rig/save wrote edit.json under the root');
+  await replay('bunny.obj', 1e-4, '(d) saved rig', path.join(TMP, 'edit.json'));
+  await page.click('text=Unpin all');
+  await settle();
+  check((await state()).pins.length === 0, '(d) Unpin all');
+  await page.click('[data-tool=controls]');
+}
+
+async function tsplineStage() {
+  // (e) cow.off from the panel's file list, T-spline, ARAP drag, refine, undo
+  await page.click('#panel button[title="Refresh the file list"]');
+  await page.waitForFunction(() => [...document.querySelectorAll('select[name=mesh-file] option')].some((o) => o.value === 'cow.off'), null, { timeout: 10000 });
+  await page.selectOption('select[name=mesh-file]', 'cow.off');
+  await page.click('#panel button:text-is("Open")');
+  await page.waitForFunction(() => window.ffdEditor.state && window.ffdEditor.state.mesh.name === 'cow.off', null, { timeout: 20000 });
+  await settle();
+  const sc = await state();
+  check(sc.mesh.name === 'cow.off' && sc.method === null && sc.undo === 0, `(e) opened cow.off from the file list (${sc.mesh.vertices} vertices, a new session)`);
+  const cowRest = (await frame()).positions.slice();
+  const st = await createViaPanel('tspline', { 'res-tspline-0': 5, 'res-tspline-1': 5, 'res-tspline-2': 5 });
+  check(st.method === 'tspline' && st.controls.proxy && st.controls.proxy.points.length > 0,
+    `(e) T-spline 5x5x5 created via the panel (${st.controls.count} points, ${st.controls.proxy.points.length} proxy points)`);
+  await shot('06-tspline');
+  // anchor the bottom layer of the proxy (the panel's Freeze button): one handle
+  // alone would only translate everything rigidly
+  const fr = await frame();
+  const ys = st.controls.proxy.points.map((id) => fr.controls[3 * id + 1]);
+  const ymin = Math.min(...ys), ymax = Math.max(...ys);
+  const bottom = st.controls.proxy.points.filter((id, i) => ys[i] < ymin + 0.1 * (ymax - ymin));
+  await ed((ids) => window.ffdEditor.select(ids), bottom);
+  await page.click('#panel button:text-is("❄ Freeze")');
+  await page.waitForFunction((n) => (window.ffdEditor.state.controls.frozen || []).length === n, bottom.length, { timeout: 10000 }).catch(() => {});
+  await settle();
+  const stf = await state();
+  check((stf.controls.frozen || []).length === bottom.length, `(e) froze the proxy's bottom layer via the panel (${(stf.controls.frozen || []).length} of ${bottom.length})`);
+  const top = st.controls.proxy.points.filter((id, i) => ys[i] > ymax - 0.1 * (ymax - ymin));
+  const pickable = await pickableControls(top);
+  must(pickable.length > 0, `(e) a pickable proxy point on top (${pickable.length} of ${top.length})`);
+  pickable.sort((p, q) => p.x - q.x);
+  const pp = pickable[Math.floor(pickable.length / 2)];
+  const f0 = await frame();
+  const rev0 = stf.revision;
+  await mouseDrag(pp, { x: pp.x + 60, y: pp.y - 40 }, 12);
+  const st1 = await state();
+  const f1 = await frame();
+  check(st1.revision > rev0 && st1.undo === stf.undo + 1, `(e) ARAP drag of proxy point ${pp.id} by the mouse (undo ${stf.undo} -> ${st1.undo})`);
+  const hm = pointDist(f1.controls, pp.id, f0.controls);
+  let others = 0;
+  for (let c = 0; c < f1.C; c++) if (c !== pp.id && pointDist(f1.controls, c, f0.controls) > 1e-6) others++;
+  const frozenMove = Math.max(...bottom.map((id) => pointDist(f1.controls, id, f0.controls)));
+  let dmin = Infinity, dmax = 0;
+  for (let v = 0; v < f1.V; v++) { const d = pointDist(f1.positions, v, cowRest); dmin = Math.min(dmin, d); dmax = Math.max(dmax, d); }
+  check(hm > 1e-3 && others > 0, `(e) the handle moved ${hm.toFixed(4)}, ARAP moved ${others} other points`);
+  check(frozenMove < 1e-9, `(e) frozen points stayed (${frozenMove.toExponential(1)})`);
+  check(dmax > 1e-3 && dmin < 0.5 * dmax, `(e) the mesh bent, not just translated (displacement ${dmin.toFixed(4)} .. ${dmax.toFixed(4)})`);
+  await replay('cow.off', 1e-4, '(e) T-spline ARAP drag');
+  await shot('07-tspline-arap');
+
+  // refine: the panel's "Refine at a mesh point" tool, then a click on the mesh
+  await page.click('#panel button:text-is("Refine at a mesh point")');
+  check((await ed(() => window.ffdEditor.tool)) === 'refine', '(e) refine tool on');
+  const verts = await visibleVertices();
+  must(verts.length > 0, '(e) a point of the mesh to click');
+  const target = verts[Math.floor(verts.length / 2)];
+  const before = await frame();
+  const nBefore = st1.controls.count;
+  await click(target);
+  await page.waitForFunction((r) => window.ffdEditor.state.controls.refinements > r, st1.controls.refinements || 0, { timeout: 20000 });
+  await settle();
+  const st2 = await state();
+  const f2 = await frame();
+  check(st2.controls.count > nBefore && st2.controls.refinements === (st1.controls.refinements || 0) + 1,
+    `(e) refinement by clicking the mesh: ${nBefore} -> ${st2.controls.count} points, refinements ${st2.controls.refinements}`);
+  const inv = maxAbsDiff(f2.positions, before.positions);
+  check(inv < 1e-4, `(e) refinement leaves the shape unchanged (max |diff| ${inv.toExponential(2)})`);
+  check(f2.C === st2.controls.count, `(e) the frame carries the new control count (${f2.C})`);
+  await replay('cow.off', 1e-4, '(e) refined T-spline');
+  await shot('08-tspline-refined');
+  await page.keyboard.press('Escape'); // back to the controls tool
+  await page.mouse.move(5, 400);
+  await page.keyboard.press('Control+z');
+  await page.waitForFunction((n) => window.ffdEditor.state.controls.count === n, nBefore, { timeout: 20000 }).catch(() => {});
+  await settle();
+  const st3 = await state();
+  const f3 = await frame();
+  check(st3.controls.count === nBefore && st3.redo === 1, `(e) Ctrl+Z undoes the refinement (${st3.controls.count} points, redo ${st3.redo})`);
+  check(maxAbsDiff(f3.positions, before.positions) < 1e-4, '(e) positions unchanged by the undo');
+  await replay('cow.off', 1e-4, '(e) T-spline after undo');
+}
+
+async function openBunny() {
+  const s = await state();
+  if (s.mesh.name === 'bunny.obj') return;
+  await page.selectOption('select[name=mesh-file]', 'bunny.obj');
+  await page.click('#panel button:text-is("Open")');
+  await page.waitForFunction(() => window.ffdEditor.state && window.ffdEditor.state.mesh.name === 'bunny.obj', null, { timeout: 20000 });
+  await settle();
+}
+
+/** Drags control `id` by pressing on it and moving the mouse; returns frames before/after. */
+async function dragControl(id, dx, dy) {
+  const [p] = await pickableControls([id]);
+  if (!p) return null;
+  const f0 = await frame();
+  const s0 = await state();
+  await mouseDrag(p, { x: p.x + dx, y: p.y + dy }, 12);
+  const s1 = await state();
+  return { f0, f1: await frame(), s0, s1 };
+}
+
+async function pbffdStage() {
+  await openBunny();
+  const st = await createViaPanel('pbffd', { 'pbffd-interior': 20, 'pbffd-exterior': 20, 'pbffd-levels': 1 });
+  check(st.method === 'pbffd' && st.controls.count > 0 && (st.controls.ebfs || []).length > 0, `(f) PB-FFD created via the panel (${st.controls.count} EBFs)`);
+  const rest = (await frame()).positions.slice();
+  await shot('09-pbffd');
+  const ids = (await pickableControls([...Array(st.controls.count).keys()]));
+  must(ids.length > 0, `(f) a pickable EBF (${ids.length})`);
+  // the EBF whose drag moves the mesh the most is not known; take one near the middle of the view
+  ids.sort((p, q) => Math.hypot(p.x - 640, p.y - 400) - Math.hypot(q.x - 640, q.y - 400));
+  const r = await dragControl(ids[0].id, 50, -40);
+  must(!!r, '(f) EBF drag');
+  check(r.s1.undo === r.s0.undo + 1 && pointDist(r.f1.controls, ids[0].id, r.f0.controls) > 1e-3, `(f) EBF ${ids[0].id} dragged (undo ${r.s1.undo})`);
+  check(maxDisplacement(r.f1.positions, rest) > 1e-3, `(f) PB-FFD moved the mesh (max ${maxDisplacement(r.f1.positions, rest).toFixed(4)})`);
+  await replay('bunny.obj', 1e-4, '(f) PB-FFD');
+  await shot('10-pbffd-dragged');
+}
+
+async function gffdStage() {
+  await openBunny();
+  const st = await createViaPanel('gffd');
+  const prims = st.controls.primitives || [];
+  check(st.method === 'gffd' && prims.length === 1 && prims[0].count === 5, `(f) GFFD created via the panel with the default skeleton (${prims.map((p) => `${p.type} ${p.count}`).join(', ')})`);
+  const diag = Math.hypot(...st.mesh.max.map((x, i) => x - st.mesh.min[i]));
+  const rest = (await frame()).positions.slice();
+  await shot('11-gffd');
+  const o = prims[0].offset;
+  const ids = await pickableControls([o + 3, o + 1, o + 4, o + 0, o + 2]);
+  must(ids.length > 0, `(f) a pickable skeleton vertex (${ids.length})`);
+  const r = await dragControl(ids[0].id, 60, -30);
+  must(!!r, '(f) skeleton drag');
+  check(r.s1.undo === r.s0.undo + 1 && pointDist(r.f1.controls, ids[0].id, r.f0.controls) > 1e-3, `(f) skeleton vertex ${ids[0].id} dragged (undo ${r.s1.undo})`);
+  check(maxDisplacement(r.f1.positions, rest) > 1e-3, `(f) GFFD moved the mesh (max ${maxDisplacement(r.f1.positions, rest).toFixed(4)})`);
+  await replay('bunny.obj', 1e-3 * diag, '(f) GFFD (tracking tolerance 1e-3 x diagonal)');
+  await shot('12-gffd-dragged');
+}
+
+async function uiStage() {
+  // (g) help overlay, influence map, a server error as a red toast
+  await page.mouse.move(5, 400);
+  await page.keyboard.press('Escape');
+  await page.keyboard.press('h');
+  const helpShown = await page.waitForSelector('#help:not([hidden])', { timeout: 3000 }).then(() => true, () => false);
+  check(helpShown, '(g) H opens the help overlay');
+  await shot('13-help');
+  await page.keyboard.press('Escape');
+  check(await page.locator('#help').isHidden(), '(g) Escape closes it');
+
+  const s = await state();
+  if (s.method) {
+    const ids = await ed(() => [...window.ffdEditor.editor.controlsView.visibleIds]);
+    await ed((i) => window.ffdEditor.select([i]), ids[Math.floor(ids.length / 2)]);
+    await page.keyboard.press('i');
+    const on = await page.waitForFunction(() => window.ffdEditor.editor.opts.influence && window.ffdEditor.editor.vp.material.vertexColors, null, { timeout: 10000 })
+      .then(() => true, () => false);
+    const legend = await page.locator('#influence-legend').isVisible().catch(() => false);
+    check(on && legend, `(g) I turns the influence map on (colours ${on}, legend ${legend})`);
+    await shot('14-influence');
+    await page.keyboard.press('i');
+    const off = await page.waitForFunction(() => !window.ffdEditor.editor.opts.influence && !window.ffdEditor.editor.vp.material.vertexColors, null, { timeout: 5000 })
+      .then(() => true, () => false);
+    check(off, '(g) I again turns it off');
+  }
+
+  // a malformed rig through the panel's upload input: the server's 400 becomes a red toast
+  const before = await state();
+  expectHttpErrors = true;
+  await page.setInputFiles('#panel input[type=file][accept=".json,.prm"]', { name: 'broken.json', mimeType: 'application/json', buffer: Buffer.from('{"version": 1, "deformer": ') });
+  const toast = await page.waitForSelector('.toast.error', { timeout: 10000 }).then((el) => el.textContent(), () => null);
+  check(!!toast, `(g) malformed rig upload shows a red toast: ${JSON.stringify(toast && toast.replace(/×$/, ''))}`);
+  const color = toast ? await page.locator('.toast.error').first().evaluate((el) => getComputedStyle(el).borderColor + ' ' + getComputedStyle(el).backgroundColor) : '';
+  note(`toast colours: ${color}`);
+  await shot('15-error-toast');
+  expectHttpErrors = false;
+  const after = await state();
+  check(after.revision === before.revision && after.method === before.method, '(g) the session is unchanged by the failed upload');
+}
+
+// --- run with cleanup --------------------------------------------------------------
+
+const watchdog = setTimeout(() => {
+  console.log(`FAIL time limit: ${LIMIT_S} s`);
+  failures++;
+  cleanup().finally(() => process.exit(1));
+}, LIMIT_S * 1000);
+
+let cleaned = false;
+async function cleanup() {
+  if (cleaned) return;
+  cleaned = true;
+  if (browser) await browser.close().catch(() => {});
+  if (server && server.exitCode === null) {
+    server.kill('SIGTERM');
+    await new Promise((r) => { const t = setTimeout(() => { server.kill('SIGKILL'); r(); }, 3000); server.on('exit', () => { clearTimeout(t); r(); }); });
+  }
+  if (TMP && !KEEP) await rm(TMP, { recursive: true, force: true }).catch(() => {});
+  else if (TMP) note(`kept ${TMP}`);
+}
+
+try {
+  await main();
+} catch (e) {
+  if (!(e instanceof Fatal)) { failures++; console.log(`FAIL ${e.stack || e}`); }
+  if (page) await shot('zz-failure').catch(() => {});
+} finally {
+  if (page) check(consoleErrors.length === 0, `no console errors on the page${consoleErrors.length ? `: ${consoleErrors.join(' | ')}` : ''}`);
+  await cleanup();
+  clearTimeout(watchdog);
+  if (/Sanitizer|runtime error/.test(serverErr)) check(false, `server stderr: ${serverErr}`);
+  console.log(`${failures ? 'FAIL' : 'ok  '} e2e: ${failures} failure(s) in ${elapsed()} s; screenshots in ${OUT}`);
+}
+process.exit(failures ? 1 : 0);
