@@ -7,6 +7,7 @@
 #include "ffd.h"
 
 #include <stdint.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -79,6 +80,23 @@ static inline void bench_subdivided(const ffd_mesh *m, size_t limit, double **P,
         *nf = kept;
         *nv = limit;
     }
+}
+
+/* dir/refined_elephant.off subdivided and cut (bench_subdivided); 0 on success. */
+static inline int bench_elephant(const char *dir, size_t limit, double **P, size_t *nv,
+                                 uint32_t **off, uint32_t **idx, size_t *nf)
+{
+    char path[1024];
+    snprintf(path, sizeof path, "%s/refined_elephant.off", dir);
+    ffd_mesh *m = NULL;
+    ffd_error err = {{0}};
+    if (ffd_mesh_read(path, &m, &err) != FFD_OK) {
+        fprintf(stderr, "%s\n", err.message);
+        return 1;
+    }
+    bench_subdivided(m, limit, P, nv, off, idx, nf);
+    ffd_mesh_destroy(m);
+    return 0;
 }
 
 #endif

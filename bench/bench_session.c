@@ -85,19 +85,12 @@ int main(int argc, char **argv)
     }
     if (steps < 10)
         steps = 10;
-    char path[1024];
-    snprintf(path, sizeof path, "%s/refined_elephant.off", dir);
-    ffd_mesh *m = NULL;
-    ffd_error err = {{0}};
-    if (ffd_mesh_read(path, &m, &err) != FFD_OK) {
-        fprintf(stderr, "%s\n", err.message);
-        return 1;
-    }
     double *P;
     uint32_t *off, *idx;
     size_t nv, nf;
-    bench_subdivided(m, 100000, &P, &nv, &off, &idx, &nf);
-    ffd_mesh_destroy(m);
+    ffd_error err = {{0}};
+    if (bench_elephant(dir, 100000, &P, &nv, &off, &idx, &nf))
+        return 1;
     ffd_mesh *big = NULL;
     if (ffd_mesh_create(P, nv, off, idx, nf, &big, &err) != FFD_OK) {
         fprintf(stderr, "%s\n", err.message);

@@ -146,19 +146,12 @@ static int example(const char *dir, const char *file, uint32_t a, uint32_t b, ui
 
 static int drag(const char *dir, size_t limit)
 {
-    char path[1024];
-    snprintf(path, sizeof path, "%s/refined_elephant.off", dir);
-    ffd_mesh *m = NULL;
-    ffd_error err = {{0}};
-    if (ffd_mesh_read(path, &m, &err) != FFD_OK) {
-        fprintf(stderr, "%s\n", err.message);
-        return 1;
-    }
     double *P;
     uint32_t *off, *idx;
     size_t nv, nf;
-    bench_subdivided(m, limit, &P, &nv, &off, &idx, &nf);
-    ffd_mesh_destroy(m);
+    ffd_error err = {{0}};
+    if (bench_elephant(dir, limit, &P, &nv, &off, &idx, &nf))
+        return 1;
     uint32_t res[3] = {12, 12, 12};
     ffd_tsv *t = NULL;
     double t0 = now();

@@ -257,6 +257,8 @@ ffd_status ffd_rig_apply_gffd(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report
  * patch or polyhedron from a mesh file (OBJ, PLY, OFF). */
 ffd_status ffd_rig_load_primitive(const char *path, ffd_rig_primitive *prim, ffd_error *err);
 void ffd_rig_primitive_free(ffd_rig_primitive *prim);
+/* The primitive as the library's ffd_gffd_primitive (borrowing its arrays). */
+void ffd_rig_primitive_public(const ffd_rig_primitive *r, ffd_gffd_primitive *p);
 /* Applies edit i of the rig to the current skeleton of g (step 2), through
  * ffd_gffd_set_vertices for each primitive it touches. */
 ffd_status ffd_rig_gffd_apply_edit(const ffd_rig *rig, ffd_gffd *g, size_t i, ffd_error *err);

@@ -184,7 +184,7 @@ ffd_status ffd_rig_load_primitive(const char *path, ffd_rig_primitive *prim, ffd
 
 /* ---- application ---- */
 
-static void as_public(const ffd_rig_primitive *r, ffd_gffd_primitive *p)
+void ffd_rig_primitive_public(const ffd_rig_primitive *r, ffd_gffd_primitive *p)
 {
     memset(p, 0, sizeof *p);
     p->kind = r->kind;
@@ -201,7 +201,7 @@ static ffd_gffd_primitive *public_skeleton(const ffd_rig_primitive *r, size_t n)
     ffd_gffd_primitive *p = ffd_malloc_array(n, sizeof *p);
     if (p)
         for (size_t i = 0; i < n; i++)
-            as_public(&r[i], &p[i]);
+            ffd_rig_primitive_public(&r[i], &p[i]);
     return p;
 }
 

@@ -276,6 +276,38 @@ static ffd_status commit(ffd_session *s, undo_entry *before, ffd_error *err)
 
 /* ---------- creating and loading ---------- */
 
+/* Makes m (taken over) the session's method, the old one kept for undo;
+ * pins belong to the old deformer and go with it. On error m is destroyed
+ * and nothing changes. */
+static ffd_status install(ffd_session *s, sess_method *m, const char *label, ffd_error *err)
+{
+    undo_entry before;
+    ffd_status st = capture(s, UNDO_SWAP, label, &before, err);
+    if (st) {
+        m->vt->destroy(m);
+        return st;
+    }
+    before.method = s->method;
+    s->method = m;
+    ffd_free(s->pins);
+    s->pins = NULL;
+    s->pin_count = 0;
+    s->residual_count = 0;
+    if ((st = refresh(s, err))) {
+        s->method = before.method;
+        before.method = NULL;
+        s->pins = before.pins;
+        s->pin_count = before.pin_count;
+        before.pins = NULL;
+        entry_free(&before);
+        m->vt->destroy(m);
+        refresh(s, NULL);
+        return st;
+    }
+    return commit(s, &before, err);
+}
+
+
 static ffd_status op_create(ffd_session *s, const parser *p, const cJSON *body, ffd_error *err)
 {
     const cJSON *method = cJSON_GetObjectItemCaseSensitive(body, "method");
@@ -302,30 +334,7 @@ static ffd_status op_create(ffd_session *s, const parser *p, const cJSON *body, 
         return ffd_fail(err, FFD_ERR_INVALID, "create: %zu control points: more than the limit %zu",
                         c, s->options.max_controls);
     }
-    undo_entry before;
-    if ((st = capture(s, UNDO_SWAP, "create", &before, err))) {
-        m->vt->destroy(m);
-        return st;
-    }
-    before.method = s->method;
-    s->method = m;
-    ffd_free(s->pins); /* pins belong to the old deformer */
-    s->pins = NULL;
-    s->pin_count = 0;
-    s->residual_count = 0;
-    if ((st = refresh(s, err))) {
-        s->method = before.method;
-        before.method = NULL;
-        ffd_free(s->pins);
-        s->pins = before.pins;
-        s->pin_count = before.pin_count;
-        before.pins = NULL;
-        entry_free(&before);
-        m->vt->destroy(m);
-        refresh(s, NULL);
-        return st;
-    }
-    return commit(s, &before, err);
+    return install(s, m, "create", err);
 }
 
 /* Every "file" of a GFFD rig's primitives must resolve under root. */
@@ -398,29 +407,7 @@ ffd_status ffd_session_load_rig(ffd_session *s, const char *text, size_t size, c
         st = method_from_text(&s->ctx, text, size, name, &m, err);
     if (st)
         return st;
-    undo_entry before;
-    if ((st = capture(s, UNDO_SWAP, "load rig", &before, err))) {
-        m->vt->destroy(m);
-        return st;
-    }
-    before.method = s->method;
-    s->method = m;
-    ffd_free(s->pins);
-    s->pins = NULL;
-    s->pin_count = 0;
-    s->residual_count = 0;
-    if ((st = refresh(s, err))) {
-        s->method = before.method;
-        before.method = NULL;
-        s->pins = before.pins;
-        s->pin_count = before.pin_count;
-        before.pins = NULL;
-        entry_free(&before);
-        m->vt->destroy(m);
-        refresh(s, NULL);
-        return st;
-    }
-    return commit(s, &before, err);
+    return install(s, m, "load rig", err);
 }
 
 /* ---------- direct manipulation ---------- */

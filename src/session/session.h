@@ -120,6 +120,10 @@ cJSON *sess_array(const double *v, size_t n);
 cJSON *sess_vec3(const double v[3]);
 cJSON *sess_matrix3(const double m[3][3]);
 cJSON *sess_uint_array(const uint32_t *v, size_t n);
+/* Adds item (which may be NULL: an allocation failed) to an object or an
+ * array; on failure deletes it and returns 0. */
+int sess_add_item(cJSON *object, const char *key, cJSON *item);
+int sess_add_to_array(cJSON *array, cJSON *item);
 /* Adds [a, b] to an edge array. */
 int sess_add_edge(cJSON *edges, uint32_t a, uint32_t b);
 /* Linear-map influence: per row (vertex) the sum of the weights of the

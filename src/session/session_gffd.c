@@ -51,18 +51,6 @@ static const char *const kind_names[] = {"point", "polyline", "patch", "polyhedr
 
 /* ---- skeletons ------------------------------------------------------- */
 
-static void as_public(const ffd_rig_primitive *r, ffd_gffd_primitive *p)
-{
-    memset(p, 0, sizeof *p);
-    p->kind = r->kind;
-    p->vertices = r->vertices;
-    p->vertex_count = r->vertex_count;
-    p->face_offsets = r->face_offsets;
-    p->face_indices = r->face_indices;
-    p->face_count = r->face_count;
-    p->radius = r->radius;
-}
-
 static void skeleton_free(ffd_rig_primitive *s, size_t count)
 {
     for (size_t i = 0; s && i < count; i++)
@@ -99,7 +87,7 @@ static ffd_status gffd_bind(const sess_ctx *ctx, const ffd_rig_primitive *rest, 
     if (!p)
         return ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory", what);
     for (size_t i = 0; i < count; i++)
-        as_public(&rest[i], &p[i]);
+        ffd_rig_primitive_public(&rest[i], &p[i]);
     ffd_error inner = {{0}};
     /* the fields (§2) and e_0 = E(P) of every vertex at rest (§3) */
     ffd_status s = ffd_gffd_create(p, count, ctx->rest, ctx->n, opt, g, &inner);
@@ -368,24 +356,6 @@ static void gf_controls(const sess_method *base, double *out)
     memcpy(out, m->cur, m->offset[m->count] * 3 * sizeof *out);
 }
 
-static int add_item(cJSON *o, const char *key, cJSON *item)
-{
-    if (!item || !cJSON_AddItemToObject(o, key, item)) {
-        cJSON_Delete(item);
-        return 0;
-    }
-    return 1;
-}
-
-static int add_to_array(cJSON *a, cJSON *item)
-{
-    if (!item || !cJSON_AddItemToArray(a, item)) {
-        cJSON_Delete(item);
-        return 0;
-    }
-    return 1;
-}
-
 static int cmp_edge(const void *a, const void *b)
 {
     const uint32_t *x = a, *y = b;
@@ -433,9 +403,9 @@ static cJSON *faces_json(const ffd_rig_primitive *p, size_t offset)
     cJSON *a = cJSON_CreateArray();
     for (size_t f = 0; a && f < p->face_count; f++) {
         cJSON *face = cJSON_CreateArray();
-        int ok = add_to_array(a, face);
+        int ok = sess_add_to_array(a, face);
         for (uint32_t c = p->face_offsets[f]; ok && c < p->face_offsets[f + 1]; c++)
-            ok = add_to_array(face, cJSON_CreateNumber((double)(offset + p->face_indices[c])));
+            ok = sess_add_to_array(face, cJSON_CreateNumber((double)(offset + p->face_indices[c])));
         if (!ok) {
             cJSON_Delete(a);
             return NULL;
@@ -460,11 +430,11 @@ static ffd_status gf_describe(const sess_method *base, cJSON *params, cJSON *con
     for (size_t i = 0; ok && i < m->count; i++) {
         const ffd_rig_primitive *p = &m->rest[i];
         cJSON *o = cJSON_CreateObject();
-        ok = add_to_array(prims, o) && cJSON_AddStringToObject(o, "type", kind_names[p->kind]) &&
+        ok = sess_add_to_array(prims, o) && cJSON_AddStringToObject(o, "type", kind_names[p->kind]) &&
              cJSON_AddNumberToObject(o, "radius", p->radius) &&
              cJSON_AddNumberToObject(o, "offset", (double)m->offset[i]) &&
              cJSON_AddNumberToObject(o, "count", (double)p->vertex_count) &&
-             add_item(o, "faces", faces_json(p, m->offset[i]));
+             sess_add_item(o, "faces", faces_json(p, m->offset[i]));
     }
     return ok ? FFD_OK : ffd_fail(err, FFD_ERR_NOMEM, "state: out of memory");
 }
@@ -603,7 +573,7 @@ static cJSON *points_json(const double *v, size_t n)
 {
     cJSON *a = cJSON_CreateArray();
     for (size_t i = 0; a && i < n; i++)
-        if (!add_to_array(a, sess_array(v + 3 * i, 3))) {
+        if (!sess_add_to_array(a, sess_array(v + 3 * i, 3))) {
             cJSON_Delete(a);
             return NULL;
         }
@@ -614,12 +584,12 @@ static cJSON *primitive_json(const ffd_rig_primitive *p)
 {
     cJSON *o = cJSON_CreateObject();
     int ok = o && cJSON_AddStringToObject(o, "type", kind_names[p->kind]) &&
-             add_item(o, "radius", sess_number(p->radius));
+             sess_add_item(o, "radius", sess_number(p->radius));
     if (ok && p->kind == FFD_GFFD_POINT)
-        ok = add_item(o, "position", sess_array(p->vertices, 3));
+        ok = sess_add_item(o, "position", sess_array(p->vertices, 3));
     else if (ok)
-        ok = add_item(o, "vertices", points_json(p->vertices, p->vertex_count)) &&
-             (!p->face_count || add_item(o, "faces", faces_json(p, 0)));
+        ok = sess_add_item(o, "vertices", points_json(p->vertices, p->vertex_count)) &&
+             (!p->face_count || sess_add_item(o, "faces", faces_json(p, 0)));
     if (!ok) {
         cJSON_Delete(o);
         return NULL;
@@ -629,10 +599,10 @@ static cJSON *primitive_json(const ffd_rig_primitive *p)
 
 static int add_options(cJSON *root, const ffd_gffd_options *o)
 {
-    return add_item(root, "unit", sess_number(o->unit)) &&
+    return sess_add_item(root, "unit", sess_number(o->unit)) &&
            cJSON_AddStringToObject(root, "tracking",
                                    o->tracking == FFD_GFFD_TRACK_WARP ? "warp" : "gradient") &&
-           (!(o->tolerance > 0) || add_item(root, "tolerance", sess_number(o->tolerance))) &&
+           (!(o->tolerance > 0) || sess_add_item(root, "tolerance", sess_number(o->tolerance))) &&
            (!o->max_iterations ||
             cJSON_AddNumberToObject(root, "max_iterations", o->max_iterations)) &&
            (!o->max_samples ||
@@ -644,8 +614,8 @@ static cJSON *correspondences_json(const gf_method *m)
     cJSON *a = cJSON_CreateArray();
     for (size_t i = 0; a && i < m->corr_count; i++) {
         cJSON *o = cJSON_CreateObject();
-        if (!add_to_array(a, o) || !add_item(o, "from", sess_array(m->corr_from + 3 * i, 3)) ||
-            !add_item(o, "to", sess_array(m->corr_to + 3 * i, 3))) {
+        if (!sess_add_to_array(a, o) || !sess_add_item(o, "from", sess_array(m->corr_from + 3 * i, 3)) ||
+            !sess_add_item(o, "to", sess_array(m->corr_to + 3 * i, 3))) {
             cJSON_Delete(a);
             return NULL;
         }
@@ -659,16 +629,16 @@ static ffd_status gf_rig(const sess_method *base, cJSON *root, ffd_error *err)
     cJSON *skeleton = NULL, *edits = NULL;
     int ok = (skeleton = cJSON_AddArrayToObject(root, "skeleton")) && add_options(root, &m->opt) &&
              (edits = cJSON_AddArrayToObject(root, "edits")) &&
-             (!m->corr_count || add_item(root, "correspondences", correspondences_json(m)));
+             (!m->corr_count || sess_add_item(root, "correspondences", correspondences_json(m)));
     for (size_t i = 0; ok && i < m->count; i++) {
         const ffd_rig_primitive *p = &m->rest[i];
         const double *v = m->cur + 3 * m->offset[i];
-        ok = add_to_array(skeleton, primitive_json(p));
+        ok = sess_add_to_array(skeleton, primitive_json(p));
         if (!ok || memcmp(v, p->vertices, p->vertex_count * 3 * sizeof *v) == 0)
             continue;
         cJSON *e = cJSON_CreateObject();
-        ok = add_to_array(edits, e) && cJSON_AddNumberToObject(e, "primitive", (double)i) &&
-             add_item(e, "vertices", points_json(v, p->vertex_count));
+        ok = sess_add_to_array(edits, e) && cJSON_AddNumberToObject(e, "primitive", (double)i) &&
+             sess_add_item(e, "vertices", points_json(v, p->vertex_count));
     }
     return ok ? FFD_OK : ffd_fail(err, FFD_ERR_NOMEM, "rig: out of memory");
 }
@@ -683,7 +653,7 @@ static ffd_status rest_fields(gf_method *m, ffd_error *err)
     if (!p)
         return ffd_fail(err, FFD_ERR_NOMEM, "influence: out of memory");
     for (size_t i = 0; i < m->count; i++)
-        as_public(&m->rest[i], &p[i]);
+        ffd_rig_primitive_public(&m->rest[i], &p[i]);
     ffd_error inner = {{0}};
     ffd_status s = ffd_gffd_skeleton_create(
         p, m->count, m->opt.max_samples ? m->opt.max_samples : 4000, &m->field, &inner);

@@ -610,24 +610,6 @@ static void pb_controls(const sess_method *base, double *out)
 
 /* ---- describe -------------------------------------------------------- */
 
-static int add_item(cJSON *o, const char *key, cJSON *item)
-{
-    if (!item || !cJSON_AddItemToObject(o, key, item)) {
-        cJSON_Delete(item);
-        return 0;
-    }
-    return 1;
-}
-
-static int add_to_array(cJSON *a, cJSON *item)
-{
-    if (!item || !cJSON_AddItemToArray(a, item)) {
-        cJSON_Delete(item);
-        return 0;
-    }
-    return 1;
-}
-
 /* One EBF: the rig's explicit control (with its centre), or the state's
  * (unit frame directions and "enabled"). */
 static cJSON *ebf_json(const ffd_ebf *e, int rig)
@@ -641,9 +623,9 @@ static cJSON *ebf_json(const ffd_ebf *e, int rig)
     }
     cJSON *o = cJSON_CreateObject();
     const double(*f)[3] = (const double(*)[3])frame;
-    int ok = o && (!rig || add_item(o, "center", sess_array(e->center, 3))) &&
-             add_item(o, "radius", rig ? sess_array(e->radius, 3) : sess_vec3(e->radius)) &&
-             add_item(o, "frame", rig ? sess_matrix3(f) : sess_matrix3(f)) &&
+    int ok = o && (!rig || sess_add_item(o, "center", sess_array(e->center, 3))) &&
+             sess_add_item(o, "radius", rig ? sess_array(e->radius, 3) : sess_vec3(e->radius)) &&
+             sess_add_item(o, "frame", rig ? sess_matrix3(f) : sess_matrix3(f)) &&
              ((rig && !e->disabled) || cJSON_AddBoolToObject(o, "enabled", !e->disabled));
     if (!ok) {
         cJSON_Delete(o);
@@ -659,7 +641,7 @@ static cJSON *curves_json(const pb_method *m, cJSON *edges)
     for (size_t c = 0; a && c < m->curve_count; c++) {
         const pb_curve *cv = &m->curves[c];
         cJSON *o = cJSON_CreateObject();
-        if (!add_to_array(a, o) || !cJSON_AddNumberToObject(o, "offset", (double)off) ||
+        if (!sess_add_to_array(a, o) || !cJSON_AddNumberToObject(o, "offset", (double)off) ||
             !cJSON_AddNumberToObject(o, "count", (double)cv->count) ||
             !cJSON_AddNumberToObject(o, "radius", cv->radius)) {
             cJSON_Delete(a);
@@ -689,15 +671,15 @@ static ffd_status pb_describe(const sess_method *base, cJSON *params, cJSON *con
              cJSON_AddNumberToObject(controls, "level", (double)m->level) &&
              cJSON_AddNumberToObject(controls, "levels", (double)levels);
     cJSON *ebfs = ok ? cJSON_CreateArray() : NULL;
-    ok = ok && add_item(controls, "ebfs", ebfs);
+    ok = ok && sess_add_item(controls, "ebfs", ebfs);
     for (size_t j = 0; ok && j < k; j++) {
         ffd_ebf e;
         ok = ffd_pbffd_control(m->pb, m->level, j, &e, NULL) == FFD_OK &&
-             add_to_array(ebfs, ebf_json(&e, 0));
+             sess_add_to_array(ebfs, ebf_json(&e, 0));
     }
     cJSON *edges = ok ? cJSON_CreateArray() : NULL;
-    ok = ok && add_item(controls, "edges", edges);
-    ok = ok && add_item(controls, "curves", curves_json(m, edges));
+    ok = ok && sess_add_item(controls, "edges", edges);
+    ok = ok && sess_add_item(controls, "curves", curves_json(m, edges));
     return ok ? FFD_OK : ffd_fail(err, FFD_ERR_NOMEM, "state: out of memory");
 }
 
@@ -1010,7 +992,7 @@ static cJSON *controls_json(const pb_method *m)
 {
     cJSON *a = cJSON_CreateArray();
     for (size_t j = 0; a && j < m->control_count; j++)
-        if (!add_to_array(a, ebf_json(&m->controls[j], 1))) {
+        if (!sess_add_to_array(a, ebf_json(&m->controls[j], 1))) {
             cJSON_Delete(a);
             return NULL;
         }
@@ -1023,9 +1005,9 @@ static cJSON *moves_json(const pb_method *m)
     for (size_t i = 0; a && i < m->move_count; i++) {
         const pb_move *e = &m->moves[i];
         cJSON *o = cJSON_CreateObject();
-        if (!add_to_array(a, o) || !cJSON_AddNumberToObject(o, "control", e->index) ||
+        if (!sess_add_to_array(a, o) || !cJSON_AddNumberToObject(o, "control", e->index) ||
             !cJSON_AddNumberToObject(o, "level", e->level) ||
-            !add_item(o, "delta", sess_array(e->delta, 3))) {
+            !sess_add_item(o, "delta", sess_array(e->delta, 3))) {
             cJSON_Delete(a);
             return NULL;
         }
@@ -1039,9 +1021,9 @@ static cJSON *frames_json(const pb_method *m)
     for (size_t i = 0; a && i < m->frame_count; i++) {
         const pb_frame *f = &m->frames[i];
         cJSON *o = cJSON_CreateObject();
-        if (!add_to_array(a, o) || !cJSON_AddNumberToObject(o, "control", f->index) ||
+        if (!sess_add_to_array(a, o) || !cJSON_AddNumberToObject(o, "control", f->index) ||
             !cJSON_AddNumberToObject(o, "level", f->level) ||
-            !add_item(o, "frame", sess_matrix3((const double(*)[3])f->frame))) {
+            !sess_add_item(o, "frame", sess_matrix3((const double(*)[3])f->frame))) {
             cJSON_Delete(a);
             return NULL;
         }
@@ -1053,14 +1035,14 @@ static cJSON *curve_json(const pb_curve *cv)
 {
     cJSON *o = cJSON_CreateObject();
     cJSON *pts = cJSON_AddArrayToObject(o, "points"), *mv = cJSON_AddArrayToObject(o, "moves");
-    int ok = pts && mv && add_item(o, "radius", sess_number(cv->radius)) &&
+    int ok = pts && mv && sess_add_item(o, "radius", sess_number(cv->radius)) &&
              (!cv->samples || cJSON_AddNumberToObject(o, "samples", cv->samples));
     for (size_t i = 0; ok && i < cv->count; i++)
-        ok = add_to_array(pts, sess_array(cv->points + 3 * i, 3));
+        ok = sess_add_to_array(pts, sess_array(cv->points + 3 * i, 3));
     for (size_t k = 0; ok && k < cv->move_count; k++) {
         cJSON *e = cJSON_CreateObject();
-        ok = add_to_array(mv, e) && cJSON_AddNumberToObject(e, "index", cv->moves[k].index) &&
-             add_item(e, "delta", sess_array(cv->moves[k].delta, 3));
+        ok = sess_add_to_array(mv, e) && cJSON_AddNumberToObject(e, "index", cv->moves[k].index) &&
+             sess_add_item(e, "delta", sess_array(cv->moves[k].delta, 3));
     }
     if (!ok) {
         cJSON_Delete(o);
@@ -1071,7 +1053,7 @@ static cJSON *curve_json(const pb_curve *cv)
 
 static int add_options(cJSON *root, const ffd_pbffd_options *o)
 {
-    if (o->sigma > 0 && !add_item(root, "sigma", sess_number(o->sigma)))
+    if (o->sigma > 0 && !sess_add_item(root, "sigma", sess_number(o->sigma)))
         return 0;
     if (o->levels > 1 && !cJSON_AddNumberToObject(root, "levels", o->levels))
         return 0;
@@ -1079,9 +1061,9 @@ static int add_options(cJSON *root, const ffd_pbffd_options *o)
         return cJSON_AddFalseToObject(root, "master") != NULL;
     if (o->master_radius > 0 || o->master_weight > 0) {
         cJSON *ms = cJSON_CreateObject();
-        return add_item(root, "master", ms) &&
-               (!(o->master_radius > 0) || add_item(ms, "radius", sess_number(o->master_radius))) &&
-               (!(o->master_weight > 0) || add_item(ms, "weight", sess_number(o->master_weight)));
+        return sess_add_item(root, "master", ms) &&
+               (!(o->master_radius > 0) || sess_add_item(ms, "radius", sess_number(o->master_radius))) &&
+               (!(o->master_weight > 0) || sess_add_item(ms, "weight", sess_number(o->master_weight)));
     }
     return 1;
 }
@@ -1090,11 +1072,11 @@ static ffd_status pb_rig(const sess_method *base, cJSON *root, ffd_error *err)
 {
     const pb_method *m = (const pb_method *)base;
     cJSON *curves = NULL;
-    int ok = add_item(root, "controls", controls_json(m)) && add_options(root, &m->opt) &&
-             add_item(root, "moves", moves_json(m)) && add_item(root, "frames", frames_json(m)) &&
+    int ok = sess_add_item(root, "controls", controls_json(m)) && add_options(root, &m->opt) &&
+             sess_add_item(root, "moves", moves_json(m)) && sess_add_item(root, "frames", frames_json(m)) &&
              (curves = cJSON_AddArrayToObject(root, "curves")) != NULL;
     for (size_t c = 0; ok && c < m->curve_count; c++)
-        ok = add_to_array(curves, curve_json(&m->curves[c]));
+        ok = sess_add_to_array(curves, curve_json(&m->curves[c]));
     return ok ? FFD_OK : ffd_fail(err, FFD_ERR_NOMEM, "rig: out of memory");
 }
 

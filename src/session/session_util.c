@@ -178,3 +178,21 @@ ffd_status sess_apply_rig(const sess_ctx *ctx, const ffd_rig *rig, ffd_rig_repor
     ffd_mesh_destroy(copy);
     return st;
 }
+
+int sess_add_item(cJSON *object, const char *key, cJSON *item)
+{
+    if (!item || !cJSON_AddItemToObject(object, key, item)) {
+        cJSON_Delete(item);
+        return 0;
+    }
+    return 1;
+}
+
+int sess_add_to_array(cJSON *array, cJSON *item)
+{
+    if (!item || !cJSON_AddItemToArray(array, item)) {
+        cJSON_Delete(item);
+        return 0;
+    }
+    return 1;
+}
