@@ -906,7 +906,8 @@ static int scan(const serve_server *srv, const char *dir, const char *rel, int d
 
 static cJSON *name_array(name_list *l)
 {
-    qsort(l->v, l->n, sizeof *l->v, compare_names);
+    if (l->n)
+        qsort(l->v, l->n, sizeof *l->v, compare_names);
     cJSON *a = cJSON_CreateArray();
     for (size_t i = 0; a && i < l->n; i++) {
         cJSON *s = cJSON_CreateString(l->v[i]);
