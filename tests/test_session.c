@@ -324,6 +324,35 @@ static void test_bad_requests(void)
     CHECK_OK(ffd_session_load_rig(s, "{\"deformer\":\"gffd\",\"skeleton\":[{\"type\":\"polyline\","
                                      "\"file\":\"x.obj\",\"radius\":1}]}", 80, "up.json", NULL, &err) ==
              FFD_ERR_INVALID ? FFD_OK : FFD_ERR_IO);
+    CHECK(run(s, "reset", "{\"method\":1} {\"x\":1}", &err) == FFD_ERR_PARSE); /* trailing text */
+    CHECK(strstr(err.message, "after the value"));
+    CHECK(run(s, "move", "{\"points\":[0],\"delta\":[1e300,0,0]}", &err) == FFD_ERR_NONFINITE);
+    CHECK(run(s, "pin", "{\"vertex\":0,\"target\":[1e300,0,0]}", &err) == FFD_ERR_NONFINITE);
+    CHECK(run(s, "move", "{\"points\":[0],\"axis\":[0,0,1],\"angle\":1,\"center\":[1e300,0,0]}",
+              &err) == FFD_ERR_NONFINITE);
+    CHECK(run(s, "unpin", "{\"all\":true}", &err) == FFD_ERR_INVALID); /* no pins */
+    char *before = NULL;
+    size_t size = 0;
+    CHECK_OK(ffd_session_state(s, &before, &size, NULL));
+    CHECK(run(s, "move", "{\"points\":[0]}", &err) == FFD_ERR_PARSE); /* no delta */
+    char *after = NULL;
+    CHECK_OK(ffd_session_state(s, &after, &size, NULL));
+    /* the failed move changed nothing, not even the revision (busy_ms aside) */
+    if (before && after) {
+        *strstr(before, ",\"busy_ms\"") = 0;
+        *strstr(after, ",\"busy_ms\"") = 0;
+        CHECK(strcmp(before, after) == 0);
+    }
+    ffd_free(before);
+    ffd_free(after);
+    /* a deformer over the control limit is refused before it is built */
+    CHECK(run(s, "create", "{\"method\":\"lattice\",\"resolution\":[1024,1024,1024]}", &err) ==
+          FFD_ERR_INVALID);
+    CHECK(strstr(err.message, "limit"));
+    CHECK(run(s, "create", "{\"method\":\"tspline\",\"resolution\":[256,256,256]}", &err) ==
+          FFD_ERR_INVALID);
+    CHECK_OK(ffd_session_load_rig(s, "{\"resolution\":[512,512,512]}", 28, "big.json", NULL,
+                                  &err) == FFD_ERR_INVALID ? FFD_OK : FFD_ERR_IO);
     /* after all that the session is intact: the one move-free lattice */
     CHECK(replay_difference(s, BUNNY) < 1e-5);
     ffd_session_destroy(s);

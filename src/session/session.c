@@ -80,6 +80,18 @@ static ffd_status conflict(ffd_error *err, const char *fmt, const char *op)
     return ffd_fail(err, FFD_ERR_INVALID, SESS_CONFLICT "%s: %s", op, fmt);
 }
 
+/* Positions a request asks for stay within SESS_COORD_MAX (the float32
+ * frame must stay finite). */
+static ffd_status check_coords(const double *v, size_t count, const char *op, const char *what,
+                               ffd_error *err)
+{
+    for (size_t i = 0; i < 3 * count; i++)
+        if (!(fabs(v[i]) <= SESS_COORD_MAX))
+            return ffd_fail(err, FFD_ERR_NONFINITE, "%s: %s: coordinate %g beyond %g", op, what,
+                            v[i], SESS_COORD_MAX);
+    return FFD_OK;
+}
+
 static void entry_free(undo_entry *e)
 {
     if (e->blob && e->blob_vt)
@@ -328,12 +340,6 @@ static ffd_status op_create(ffd_session *s, const parser *p, const cJSON *body, 
     }
     if (st)
         return st;
-    if (m->vt->control_count(m) > s->options.max_controls) {
-        size_t c = m->vt->control_count(m);
-        m->vt->destroy(m);
-        return ffd_fail(err, FFD_ERR_INVALID, "create: %zu control points: more than the limit %zu",
-                        c, s->options.max_controls);
-    }
     return install(s, m, "create", err);
 }
 
@@ -542,7 +548,8 @@ static ffd_status drag_begin_controls(ffd_session *s, const parser *p, const cJS
         }
     ffd_free(all);
     const cJSON *center = cJSON_GetObjectItemCaseSensitive(body, "center");
-    if (center && (st = rig_read_vec3(p, center, "center", c)))
+    if (center && ((st = rig_read_vec3(p, center, "center", c)) ||
+                   (st = check_coords(c, 1, "drag_begin", "center", err))))
         return st;
     memcpy(d->center, c, sizeof c);
     d->kind = DRAG_CONTROLS;
@@ -630,7 +637,7 @@ static ffd_status control_targets(ffd_session *s, const parser *p, const cJSON *
             targets[3 * i + a] =
                 d->center[a] + M[a][0] * r[0] + M[a][1] * r[1] + M[a][2] * r[2] + t[a];
     }
-    return FFD_OK;
+    return check_coords(targets, d->k, p->name, "the moved control points", p->err);
 }
 
 static ffd_status op_drag(ffd_session *s, const parser *p, const cJSON *body, ffd_error *err)
@@ -647,7 +654,8 @@ static ffd_status op_drag(ffd_session *s, const parser *p, const cJSON *body, ff
             return st;
         if (!t)
             return rig_expected(p, "target", "an array of 3 finite numbers (missing)");
-        if ((st = rig_read_vec3(p, t, "target", target)))
+        if ((st = rig_read_vec3(p, t, "target", target)) ||
+            (st = check_coords(target, 1, "drag", "target", err)))
             return st;
         if (d->constraints > s->pin_count)
             memcpy(d->targets + 3 * (d->constraints - 1), target, sizeof target);
@@ -719,7 +727,8 @@ static ffd_status op_pin(ffd_session *s, const parser *p, const cJSON *body, ffd
                         s->ctx.n);
     const cJSON *t = cJSON_GetObjectItemCaseSensitive(body, "target");
     memcpy(target, s->positions + 3 * (size_t)v, sizeof target);
-    if (t && (st = rig_read_vec3(p, t, "target", target)))
+    if (t && ((st = rig_read_vec3(p, t, "target", target)) ||
+              (st = check_coords(target, 1, "pin", "target", err))))
         return st;
     if (!s->method->vt->linear_map)
         return conflict(err, "this method has no direct manipulation of mesh points", "pin");
@@ -767,7 +776,9 @@ static ffd_status op_pin(ffd_session *s, const parser *p, const cJSON *body, ffd
 static ffd_status op_unpin(ffd_session *s, const parser *p, const cJSON *body, ffd_error *err)
 {
     static const char *const keys[] = {"vertex", "all", NULL};
-    ffd_status st = rig_check_keys(p, body, "body", keys, "vertex, all");
+    ffd_status st = need_method(s, "unpin", err);
+    if (!st)
+        st = rig_check_keys(p, body, "body", keys, "vertex, all");
     if (st)
         return st;
     const cJSON *all = cJSON_GetObjectItemCaseSensitive(body, "all");
@@ -786,6 +797,8 @@ static ffd_status op_unpin(ffd_session *s, const parser *p, const cJSON *body, f
         if (i == s->pin_count)
             return ffd_fail(err, FFD_ERR_RANGE, "unpin: vertex %u is not pinned", v);
     }
+    if (s->pin_count == 0)
+        return conflict(err, "there are no pins", "unpin");
     undo_entry before;
     if ((st = capture(s, UNDO_STATE, "unpin", &before, err)))
         return st;
@@ -914,9 +927,14 @@ ffd_status ffd_session_command(ffd_session *s, const char *op, const char *body,
     if (body && size) {
         const char *end = NULL;
         doc = cJSON_ParseWithLengthOpts(body, size, &end, 0);
-        if (!doc) {
+        while (doc && end < body + size && (*end == ' ' || *end == '\t' || *end == '\n' ||
+                                            *end == '\r'))
+            end++;
+        if (!doc || end != body + size) {
             size_t at = end && end >= body ? (size_t)(end - body) : 0;
-            return ffd_fail(err, FFD_ERR_PARSE, "%s: malformed JSON at byte %zu", op, at);
+            const char *why = doc ? " (text after the value)" : "";
+            cJSON_Delete(doc);
+            return ffd_fail(err, FFD_ERR_PARSE, "%s: malformed JSON at byte %zu%s", op, at, why);
         }
     } else {
         doc = cJSON_CreateObject();
@@ -963,11 +981,14 @@ ffd_status ffd_session_command(ffd_session *s, const char *op, const char *body,
                                                                             : "translate";
         if (!st && !cJSON_AddStringToObject(begin, "mode", mode))
             st = ffd_fail(err, FFD_ERR_NOMEM, "move: out of memory");
+        uint32_t revision = s->revision;
         if (!st && !(st = op_drag_begin(s, &p, begin, err))) {
-            if ((st = op_drag(s, &p, step, err)))
+            if ((st = op_drag(s, &p, step, err))) {
                 op_drag_end(s, 0, NULL);
-            else
+                s->revision = revision; /* nothing changed */
+            } else {
                 st = op_drag_end(s, 1, err);
+            }
         }
         cJSON_Delete(begin);
         cJSON_Delete(step);
@@ -1254,6 +1275,7 @@ ffd_status ffd_session_create(ffd_mesh *mesh, const char *name, const ffd_sessio
     for (int a = 0; a < 3; a++)
         d2 += (s->ctx.max[a] - s->ctx.min[a]) * (s->ctx.max[a] - s->ctx.min[a]);
     s->ctx.diag = d2 > 0 ? sqrt(d2) : 1;
+    s->ctx.max_controls = s->options.max_controls;
     memcpy(s->positions, s->ctx.rest, n * 3 * sizeof *s->positions);
     *out = s;
     return FFD_OK;

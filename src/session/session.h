@@ -19,7 +19,18 @@ typedef struct sess_ctx {
     const double *rest;      /* n by 3 */
     double min[3], max[3];   /* bounding box of the rest mesh */
     double diag;             /* its diagonal (> 0; 1 for a degenerate mesh) */
+    size_t max_controls;     /* deformers with more control points are refused before building */
 } sess_ctx;
+
+/* Coordinates a request may ask for (targets, centres, moved controls):
+ * beyond this the float32 frame would overflow or the solve lose all
+ * precision. */
+#define SESS_COORD_MAX 1e15
+
+/* FFD_ERR_INVALID when count (a product of resolutions, computed without
+ * overflow by the caller) exceeds ctx->max_controls. */
+ffd_status sess_check_controls(const sess_ctx *ctx, double count, const char *what,
+                               ffd_error *err);
 
 typedef struct sess_method sess_method; /* each method's own struct begins with this */
 typedef struct sess_vtable sess_vtable;

@@ -247,6 +247,9 @@ static ffd_status lattice_build(const sess_ctx *ctx, ffd_basis basis, const uint
                                 const ffd_box *box, ffd_outside outside, double margin,
                                 const char *what, sess_method **out, ffd_error *err)
 {
+    ffd_status st = sess_check_controls(ctx, (double)res[0] * res[1] * res[2], what, err);
+    if (st)
+        return st;
     lattice_method *l = ffd_calloc(1, sizeof *l);
     if (!l)
         return ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory", what);
@@ -255,7 +258,7 @@ static ffd_status lattice_build(const sess_ctx *ctx, ffd_basis basis, const uint
     l->outside = outside;
     l->margin = margin;
     ffd_error inner = {{0}};
-    ffd_status st = ffd_lattice_create(basis, box, res, &l->lattice, &inner);
+    st = ffd_lattice_create(basis, box, res, &l->lattice, &inner);
     if (!st)
         st = ffd_lattice_bind(l->lattice, ctx->rest, ctx->n, outside, &l->binding, &inner);
     if (st) {
@@ -310,6 +313,9 @@ ffd_status sess_lattice_load(const sess_ctx *ctx, const ffd_rig *rig, sess_metho
     ffd_status st;
     if (rig->box_auto && (st = ffd_box_fit(ctx->rest, ctx->n, rig->margin, &box, &inner)))
         return ffd_fail(err, st, "%s: box \"auto\": %s", rig->name, inner.message);
+    const uint32_t *r = rig->resolution;
+    if ((st = sess_check_controls(ctx, (double)r[0] * r[1] * r[2], rig->name, err)))
+        return st;
     /* The rig's moves and constraints, as ffd deform applies them. */
     ffd_rig_report report = {0};
     if ((st = sess_apply_rig(ctx, rig, &report, err)))

@@ -415,6 +415,10 @@ static const sess_vtable tspline_vtable = {
 static ffd_status tspline_build(const sess_ctx *ctx, const uint32_t res[3], double padding,
                                 const char *what, tspline_method **out, ffd_error *err)
 {
+    /* refinements add points later; the initial lattice is what set-up costs */
+    ffd_status st = sess_check_controls(ctx, (double)res[0] * res[1] * res[2], what, err);
+    if (st)
+        return st;
     tspline_method *t = ffd_calloc(1, sizeof *t);
     if (!t)
         return ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory", what);
@@ -424,7 +428,7 @@ static ffd_status tspline_build(const sess_ctx *ctx, const uint32_t res[3], doub
     t->padding = padding;
     ffd_tsv_options options = {padding};
     ffd_error inner = {{0}};
-    ffd_status st = ffd_tsv_create(ctx->rest, ctx->n, ffd_mesh_face_offsets(ctx->mesh),
+    st = ffd_tsv_create(ctx->rest, ctx->n, ffd_mesh_face_offsets(ctx->mesh),
                                    ffd_mesh_face_indices(ctx->mesh),
                                    ffd_mesh_face_count(ctx->mesh), res, &options, &t->t, &inner);
     if (st) {

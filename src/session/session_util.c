@@ -196,3 +196,13 @@ int sess_add_to_array(cJSON *array, cJSON *item)
     }
     return 1;
 }
+
+ffd_status sess_check_controls(const sess_ctx *ctx, double count, const char *what,
+                               ffd_error *err)
+{
+    if (count > (double)ctx->max_controls)
+        return ffd_fail(err, FFD_ERR_INVALID,
+                        "%s: %.0f control points: more than the editor's limit of %zu", what,
+                        count, ctx->max_controls);
+    return FFD_OK;
+}

@@ -574,6 +574,8 @@ static enum MHD_Result get_export(const serve_server *srv, struct MHD_Connection
     void *data = NULL;
     size_t size = 0;
     ffd_status st = ffd_session_export(srv->session, &options, &data, &size, &err);
+    if (st == FFD_ERR_UNSUPPORTED) /* an encoding the format does not have */
+        st = FFD_ERR_INVALID;
     if (st != FFD_OK)
         return answer_status(srv, c, r, st, err.message);
     char suffix[32], disposition[160];
@@ -785,6 +787,8 @@ static enum MHD_Result post_export_save(serve_server *srv, struct MHD_Connection
         ffd_status st = ffd_session_deformed(srv->session, &deformed, &err);
         if (st == FFD_OK)
             st = ffd_mesh_write(deformed, abs, &options, &err);
+        if (st == FFD_ERR_UNSUPPORTED)
+            st = FFD_ERR_INVALID;
         ffd_mesh_destroy(deformed);
         ret = st == FFD_OK ? answer_saved(srv, c, r, path, abs)
                            : answer_status(srv, c, r, st, err.message);
