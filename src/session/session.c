@@ -263,6 +263,18 @@ static ffd_status apply_entry(ffd_session *s, undo_entry *e, undo_entry *inverse
     return FFD_OK;
 }
 
+/* A change failed half-way: back to the state before (e, consumed); returns st. */
+static ffd_status roll_back(ffd_session *s, undo_entry *e, ffd_status st)
+{
+    undo_entry inverse;
+    if (apply_entry(s, e, &inverse, NULL) == FFD_OK)
+        entry_free(&inverse);
+    else
+        entry_free(e);
+    refresh(s, NULL);
+    return st;
+}
+
 static ffd_status undo_redo(ffd_session *s, undo_stack *from, undo_stack *to, const char *op,
                             ffd_error *err)
 {
@@ -760,16 +772,8 @@ static ffd_status op_pin(ffd_session *s, const parser *p, const cJSON *body, ffd
     drag_free(d);
     if (!st)
         st = refresh(s, err);
-    if (st) {
-        /* put the pins and the deformer back */
-        undo_entry inverse;
-        if (apply_entry(s, &before, &inverse, NULL) == FFD_OK)
-            entry_free(&inverse);
-        else
-            entry_free(&before);
-        refresh(s, NULL);
-        return st;
-    }
+    if (st)
+        return roll_back(s, &before, st);
     return commit(s, &before, err);
 }
 
@@ -821,15 +825,8 @@ static ffd_status op_reset(ffd_session *s, ffd_error *err)
     undo_entry before;
     if (st || (st = capture(s, UNDO_STATE, "reset", &before, err)))
         return st;
-    if ((st = s->method->vt->reset(s->method, err)) || (st = refresh(s, err))) {
-        undo_entry inverse;
-        if (apply_entry(s, &before, &inverse, NULL) == FFD_OK)
-            entry_free(&inverse);
-        else
-            entry_free(&before);
-        refresh(s, NULL);
-        return st;
-    }
+    if ((st = s->method->vt->reset(s->method, err)) || (st = refresh(s, err)))
+        return roll_back(s, &before, st);
     ffd_free(s->pins);
     s->pins = NULL;
     s->pin_count = 0;
@@ -890,13 +887,8 @@ static ffd_status op_method(ffd_session *s, const char *op, const cJSON *body, f
     if (st == FFD_ERR_UNSUPPORTED)
         st = ffd_fail(err, FFD_ERR_INVALID, SESS_CONFLICT "%s: not an operation of the %s method",
                       op, s->method->vt->name);
-    if (!st && (st = refresh(s, err))) {
-        /* the op succeeded but evaluating failed: go back */
-        undo_entry *back = kind == SESS_UNDO_REBUILD ? &rebuild : &state, inverse;
-        if (apply_entry(s, back, &inverse, NULL) == FFD_OK)
-            entry_free(&inverse);
-        refresh(s, NULL);
-    }
+    if (!st && (st = refresh(s, err))) /* the op succeeded but evaluating failed: go back */
+        roll_back(s, kind == SESS_UNDO_REBUILD ? &rebuild : &state, st);
     if (!st && kind == SESS_UNDO_STATE)
         st = commit(s, &state, err);
     else if (!st && kind == SESS_UNDO_REBUILD)
