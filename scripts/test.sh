@@ -12,4 +12,6 @@ echo "== ASan + UBSan build and tests"
 bash "$root/scripts/build.sh" "$root/build-asan" -DCMAKE_BUILD_TYPE=Debug -DFFD_SANITIZE=ON
 (cd "$root/build-asan" && ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
     ctest --output-on-failure -j"$jobs")
-echo "all tests passed (release and sanitizer builds)"
+echo "== fuzzing: every libFuzzer target for 30 seconds (scripts/fuzz.sh)"
+bash "$root/scripts/fuzz.sh" 30
+echo "all tests passed (release and sanitizer builds, fuzzing)"
