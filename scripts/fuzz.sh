@@ -14,7 +14,7 @@ seconds=${1:-30}
 shift || true
 targets=("$@")
 if [ ${#targets[@]} -eq 0 ]; then
-  targets=(fuzz_obj fuzz_ply fuzz_off fuzz_stl fuzz_rig_json fuzz_rig_prm fuzz_session)
+  targets=(fuzz_obj fuzz_ply fuzz_off fuzz_stl fuzz_rig_json fuzz_rig_prm fuzz_session fuzz_http)
 fi
 build="$root/build-fuzz"
 CC=clang cmake -S "$root" -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DFFD_FUZZ=ON \
