@@ -9,7 +9,8 @@
  * are. Index 0 or out of range is FFD_ERR_RANGE. A vn no face uses has
  * anchor FFD_NO_ANCHOR and is left alone by set_positions. Line continuation
  * with a trailing backslash is not supported (parse error on v/vn/vt/f lines;
- * other lines are kept as they are). */
+ * other lines are kept as they are). A NUL byte anywhere is a parse error
+ * (binary data, not an OBJ file). */
 #include "mesh.h"
 
 #include <math.h>
@@ -101,6 +102,10 @@ static ffd_status resolve(obj_ctx *c, long long idx, size_t current, size_t tota
     if (idx == 0)
         return ffd_fail(err, FFD_ERR_RANGE, "%s:%zu: %s index 0 is invalid (OBJ indices start at 1)",
                         c->name, c->line, what);
+    if (idx >= (1LL << 40) || idx <= -(1LL << 40)) /* ffd_obj_parse_int stopped accumulating */
+        return ffd_fail(err, FFD_ERR_RANGE, "%s:%zu: %s index out of range (2^40 or more in magnitude; %zu %s defined)",
+                        c->name, c->line, what, idx > 0 ? total : current,
+                        what[0] == 'v' ? "vertices" : what[0] == 't' ? "texcoords" : "normals");
     long long r = idx > 0 ? idx - 1 : (long long)current + idx;
     if (r < 0 || (unsigned long long)r >= (idx > 0 ? total : current))
         return ffd_fail(err, FFD_ERR_RANGE, "%s:%zu: %s index %lld out of range (%zu %s defined)",
@@ -113,6 +118,16 @@ static ffd_status resolve(obj_ctx *c, long long idx, size_t current, size_t tota
 ffd_status ffd_obj_read(ffd_mesh *m, const char *name, ffd_error *err)
 {
     obj_ctx c = {name, (const char *)m->src, (const char *)m->src + m->src_size, 0};
+    /* OBJ is text: unknown statements are kept, so binary data (say, a binary
+     * STL with the wrong extension) would otherwise read as an empty mesh. */
+    const char *nul = memchr(c.s, '\0', (size_t)(c.end - c.s));
+    if (nul) {
+        size_t line = 1;
+        for (const char *p = c.s; p < nul; p++)
+            line += *p == '\n';
+        return ffd_fail(err, FFD_ERR_PARSE, "%s:%zu: NUL byte (byte %zu): expected a text OBJ file, found binary data",
+                        name, line, (size_t)(nul - c.s));
+    }
     /* Pass 1: totals, for preallocation and forward references. */
     size_t nv = 0, nn = 0, nt = 0, nf = 0, ncorner = 0;
     for (const char *p = c.s; p < c.end;) {

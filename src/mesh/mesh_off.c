@@ -143,8 +143,12 @@ ffd_status ffd_off_read(ffd_mesh *m, const char *name, ffd_error *err)
             return st;
         if (r == 0)
             break;
+        if (counts[nc] > 4294967295.0 && counts[nc] == floor(counts[nc]))
+            return ffd_fail(err, FFD_ERR_PARSE,
+                            "%s:%zu: %s count %.17g is above the supported maximum 4294967295", name,
+                            c.line, nc == 0 ? "vertex" : nc == 1 ? "face" : "edge", counts[nc]);
         if (!is_count(counts[nc], 4294967295.0))
-            return ffd_fail(err, FFD_ERR_PARSE, "%s:%zu: expected a non-negative integer count, found %g",
+            return ffd_fail(err, FFD_ERR_PARSE, "%s:%zu: expected a non-negative integer count, found %.17g",
                             name, c.line, counts[nc]);
     }
     if (nc < 2)

@@ -126,6 +126,9 @@ static ffd_status syntax_error(const char *name, const char *text, size_t size, 
     for (size_t i = offset; i < size && n + 1 < sizeof near && text[i] != '\n'; i++)
         near[n++] = isprint((unsigned char)text[i]) ? text[i] : '?';
     near[n] = 0;
+    if (n == 0)
+        return ffd_fail(err, FFD_ERR_PARSE, "%s:%zu:%zu: invalid JSON: %s at the end of the line", name,
+                        line, col, what);
     return ffd_fail(err, FFD_ERR_PARSE, "%s:%zu:%zu: invalid JSON: %s near '%s'", name, line,
                     col, what, near);
 }
@@ -1604,6 +1607,17 @@ ffd_status ffd_rig_parse_json(const char *text, size_t size, const char *name, f
         start++;
     if (start == size)
         return ffd_fail(err, FFD_ERR_PARSE, "%s: empty file, expected a JSON object", name);
+    /* JSON allows no control character but tab, line feed and carriage return
+     * (cJSON would skip a NUL or a form feed as whitespace). */
+    for (size_t i = 0; i < size; i++) {
+        unsigned char ch = (unsigned char)text[i];
+        if (ch < 0x20 && ch != '\t' && ch != '\n' && ch != '\r') {
+            char what[96];
+            snprintf(what, sizeof what, "control character 0x%02x (binary data? write it as \\u%04x inside a string)",
+                     ch, ch);
+            return syntax_error(name, text, size, i, what, err);
+        }
+    }
     size_t deep = too_deep_at(text, size);
     if (deep < size)
         return syntax_error(name, text, size, deep, "nested deeper than 64 levels", err);
