@@ -53,7 +53,12 @@ const char *ffd_status_string(ffd_status status);
 
 /* Optional allocator. All library allocation goes through these (tests use
  * it to fail the N-th allocation). Pass NULL to restore malloc/realloc/free.
- * Not thread-safe with respect to concurrent library calls: set it first. */
+ * Not thread-safe with respect to concurrent library calls: set it first.
+ * While one is set, cJSON's process-wide hooks (cJSON_InitHooks) point at it
+ * too (NULL restores cJSON's defaults); CHOLMOD allocates through it once a
+ * T-spline ARAP solve has started. Qhull and LAPACK/OpenBLAS allocate with
+ * their own allocators. Memory must be freed under the allocator that
+ * allocated it. */
 typedef struct ffd_allocator {
     void *(*malloc_fn)(size_t size, void *user);
     void *(*realloc_fn)(void *ptr, size_t size, void *user);

@@ -156,11 +156,18 @@ static cJSON *json(const char *text)
     return j;
 }
 
-/* Runs op with the JSON body text; returns its status. */
+/* Runs op with the JSON body text; returns its status. Under a failing
+ * allocator the body's parse can run out of memory too (cJSON allocates
+ * through ffd_set_allocator's allocator): FFD_ERR_NOMEM then. */
 static ffd_status run_op(sess_method *m, const char *op, const char *body, int *undo,
                          ffd_error *err)
 {
-    cJSON *b = json(body);
+    unsigned long oom = ffd_json_alloc_failures();
+    cJSON *b = cJSON_Parse(body);
+    if (!b && ffd_json_alloc_failures() != oom)
+        return ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory parsing the body", op);
+    if (!b)
+        b = json(body); /* reports the bad test JSON */
     int u = -1;
     ffd_status s = m->vt->op(m, op, b, undo ? undo : &u, err);
     cJSON_Delete(b);

@@ -1,18 +1,50 @@
-/* core — the one place the library allocates (so tests can fail the N-th allocation). */
+/* core — the one place the library allocates (so tests can fail the N-th allocation).
+ *
+ * cJSON (rigs, the editor session) allocates through its process-wide hooks:
+ * while an allocator is set they point here too (cJSON_InitHooks), so a
+ * failing allocator fails cJSON's allocations as well, and cJSON memory and
+ * ffd memory are interchangeable (cJSON_free == ffd_free). Without an
+ * allocator the hooks are left alone (a host's own hooks are kept).
+ * CHOLMOD is routed in tspline/tsv_arap.c. Qhull and LAPACK/OpenBLAS keep
+ * their own allocators (docs/reliability.md). */
 #include "core.h"
+
+#include <cjson/cJSON.h>
 
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 
 static ffd_allocator g_allocator; /* zero: the C library; set once by ffd_set_allocator */
+static int g_json_hooked;         /* 1: cJSON's hooks point at ffd_malloc/ffd_free */
+static _Thread_local unsigned long g_json_failures;
+
+static void *json_malloc(size_t size)
+{
+    void *p = ffd_malloc(size);
+    if (!p)
+        g_json_failures++;
+    return p;
+}
 
 void ffd_set_allocator(const ffd_allocator *allocator)
 {
-    if (allocator)
+    if (allocator) {
         g_allocator = *allocator;
-    else
+        cJSON_Hooks hooks = {json_malloc, ffd_free};
+        cJSON_InitHooks(&hooks);
+        g_json_hooked = 1;
+    } else {
         memset(&g_allocator, 0, sizeof g_allocator);
+        if (g_json_hooked)
+            cJSON_InitHooks(NULL);
+        g_json_hooked = 0;
+    }
+}
+
+unsigned long ffd_json_alloc_failures(void)
+{
+    return g_json_failures;
 }
 
 void *ffd_malloc(size_t size)

@@ -24,6 +24,11 @@ void *ffd_realloc(void *ptr, size_t size);
 /* count*size with overflow check: returns NULL on overflow or failure. */
 void *ffd_malloc_array(size_t count, size_t size);
 void *ffd_realloc_array(void *ptr, size_t count, size_t size);
+/* cJSON allocations that failed on this thread so far (counted while an
+ * allocator is set: then cJSON allocates through ffd_malloc). A parse that
+ * returns NULL while this count moved ran out of memory: FFD_ERR_NOMEM, not
+ * a syntax error. */
+unsigned long ffd_json_alloc_failures(void);
 /* Copies a NUL-terminated string (NULL -> NULL). */
 char *ffd_strdup(const char *s);
 

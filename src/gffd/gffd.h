@@ -206,8 +206,11 @@ int ffd_gffd_rigid_motion(const double *from, const double *to, size_t n, double
 /* When the whole skeleton moved rigidly from rest (its vertices, in part
  * order), gives that motion to every collinear part still fitted at rest,
  * so that points and straight polylines turn with the rest and a rigid
- * motion of the whole skeleton moves every field exactly. */
-void ffd_gffd_skeleton_align(ffd_gffd_skeleton *cur, const ffd_gffd_skeleton *rest);
+ * motion of the whole skeleton moves every field exactly. scratch holds
+ * 6 x ffd_gffd_skeleton_vertex_count(rest) doubles (allocated by the caller
+ * before it changes anything, so that this step cannot fail). */
+void ffd_gffd_skeleton_align(ffd_gffd_skeleton *cur, const ffd_gffd_skeleton *rest,
+                             double *scratch);
 
 /* The warp's automatic correspondences (eq. 4) for an edit of rest into
  * cur (same structure): every skeleton vertex, and around it points at half

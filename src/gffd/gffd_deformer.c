@@ -234,13 +234,22 @@ ffd_status ffd_gffd_set_vertices(ffd_gffd *g, size_t index, const double *vertic
     q->geom.vertices = old;
     if (st != FFD_OK)
         return st;
+    /* the alignment's scratch first: on error nothing changes */
+    double *scratch = NULL;
+    if (!g->replaced) {
+        size_t nv = ffd_gffd_skeleton_vertex_count(g->rest);
+        scratch = ffd_malloc_array(nv ? nv : 1, 6 * sizeof(double));
+        if (!scratch)
+            return ffd_fail(err, FFD_ERR_NOMEM, "skeleton[%zu]: out of memory", index);
+    }
     st = ffd_gffd_skeleton_set_vertices(g->cur, index, vertices, g->opt.max_samples, err);
-    if (st != FFD_OK)
-        return st;
-    ffd_gffd_skeleton_set_unit(g->cur, g->opt.unit);
-    if (!g->replaced)
-        ffd_gffd_skeleton_align(g->cur, g->rest);
-    return FFD_OK;
+    if (st == FFD_OK) {
+        ffd_gffd_skeleton_set_unit(g->cur, g->opt.unit);
+        if (!g->replaced)
+            ffd_gffd_skeleton_align(g->cur, g->rest, scratch);
+    }
+    ffd_free(scratch);
+    return st;
 }
 
 ffd_status ffd_gffd_replace(ffd_gffd *g, const ffd_gffd_primitive *skeleton, size_t count,

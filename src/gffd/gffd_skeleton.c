@@ -233,15 +233,16 @@ static int is_collinear(const double *v, size_t n)
     return 1;
 }
 
-void ffd_gffd_skeleton_align(ffd_gffd_skeleton *cur, const ffd_gffd_skeleton *rest)
+void ffd_gffd_skeleton_align(ffd_gffd_skeleton *cur, const ffd_gffd_skeleton *rest,
+                             double *scratch)
 {
     if (!ffd_gffd_skeleton_same_structure(cur, rest))
         return;
     size_t n = ffd_gffd_skeleton_vertex_count(rest);
-    double *from = ffd_malloc_array(n, 3 * sizeof(double));
-    double *to = ffd_malloc_array(n, 3 * sizeof(double));
+    double *from = scratch;
+    double *to = scratch + 3 * n;
     double rot[3][3], shift[3];
-    if (from && to) {
+    {
         ffd_gffd_skeleton_gather_vertices(rest, from);
         ffd_gffd_skeleton_gather_vertices(cur, to);
         if (ffd_gffd_rigid_motion(from, to, n, rot, shift))
@@ -259,8 +260,6 @@ void ffd_gffd_skeleton_align(ffd_gffd_skeleton *cur, const ffd_gffd_skeleton *re
                 q->rigid = 1;
             }
     }
-    ffd_free(from);
-    ffd_free(to);
 }
 
 /* Where f_i can be below r_i: the geometry's box grown by the outer sample shell. */

@@ -126,7 +126,7 @@ ffd_status ffd_rig_apply(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report *rep
     ffd_lattice *lattice = NULL;
     ffd_lattice_binding *binding = NULL, *pins = NULL;
     double *rest = NULL, *current = NULL, *delta = NULL, *residuals = NULL;
-    double *deformed = NULL, *jacobians = NULL;
+    double *deformed = NULL, *jacobians = NULL, *report_points = NULL;
     size_t *rows = NULL;
     ffd_manip_result result = {0};
     ffd_timings timings = {0};
@@ -243,6 +243,16 @@ ffd_status ffd_rig_apply(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report *rep
         }
     }
     size_t outside_count = n - ffd_lattice_binding_inside_count(binding);
+    /* the report's copy of the lattice, before the mesh changes (all or nothing) */
+    size_t nc = ffd_lattice_control_count(lattice);
+    if (report) {
+        report_points = ffd_malloc_array(nc, 3 * sizeof(double));
+        if (!report_points) {
+            s = ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory for the report", name);
+            goto fail;
+        }
+        memcpy(report_points, ffd_lattice_control_points(lattice), nc * 3 * sizeof(double));
+    }
     if ((s = ffd_mesh_set_positions(mesh, deformed, jacobians, &inner))) {
         s = ffd_rig_wrap(err, s, name, "deformed positions", &inner);
         goto fail;
@@ -258,13 +268,10 @@ ffd_status ffd_rig_apply(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report *rep
         report->max_residual = result.max_residual;
         report->outside_count = outside_count;
         report->timings = timings;
-        size_t nc = ffd_lattice_control_count(lattice);
         report->control_count = nc;
         report->level_count = 1;
-        report->control_points = ffd_malloc_array(nc, 3 * sizeof(double));
-        if (report->control_points)
-            memcpy(report->control_points, ffd_lattice_control_points(lattice),
-                   nc * 3 * sizeof(double));
+        report->control_points = report_points;
+        report_points = NULL;
         ffd_lattice_resolution(lattice, report->resolution);
     }
 fail:
@@ -278,6 +285,7 @@ fail:
     ffd_free(rows);
     ffd_free(deformed);
     ffd_free(jacobians);
+    ffd_free(report_points);
     return s;
 }
 

@@ -365,8 +365,12 @@ ffd_status ffd_rig_apply_gffd(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report
             ffd_gffd_get_primitive(g, i, &p, NULL);
             skeleton_count += p.vertex_count;
         }
-        skeleton_points = ffd_malloc_array(skeleton_count, 3 * sizeof(double));
-        if (skeleton_points) {
+        skeleton_points = ffd_malloc_array(skeleton_count ? skeleton_count : 1, 3 * sizeof(double));
+        if (!skeleton_points) {
+            st = ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory for the report", rig->name);
+            goto done;
+        }
+        {
             size_t k = 0;
             for (size_t i = 0; i < ffd_gffd_primitive_count(g); i++) {
                 ffd_gffd_primitive p;

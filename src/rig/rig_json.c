@@ -1623,7 +1623,10 @@ ffd_status ffd_rig_parse_json(const char *text, size_t size, const char *name, f
         return syntax_error(name, text, size, deep, "nested deeper than 64 levels", err);
 
     const char *end = NULL;
+    unsigned long oom = ffd_json_alloc_failures();
     cJSON *root = cJSON_ParseWithLengthOpts(text, size, &end, 0);
+    if (!root && ffd_json_alloc_failures() != oom)
+        return ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory parsing JSON", name);
     if (!root) {
         size_t at = end && end >= text ? (size_t)(end - text) : 0;
         return syntax_error(name, text, size, at, "syntax error", err);

@@ -238,6 +238,7 @@ ffd_status ffd_rig_apply_pbffd(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_repor
     ffd_placement_report placement = {0};
     ffd_pbffd *pb = NULL;
     double *bound = NULL, *current = NULL, *jacobians = NULL, *reached = NULL, *residuals = NULL;
+    double *report_points = NULL;
     size_t *rows = NULL;
     ffd_manip_result result = {0};
     ffd_timings timings = {0};
@@ -318,6 +319,20 @@ ffd_status ffd_rig_apply_pbffd(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_repor
     }
     if ((s = apply_curves(rig, current, n, err)))
         goto fail;
+    /* the report's copy of the finest level, before the mesh changes (all or nothing) */
+    size_t nc = ffd_pbffd_control_count(pb, 0);
+    if (report) {
+        report_points = ffd_malloc_array(nc ? nc : 1, 3 * sizeof(double));
+        if (!report_points) {
+            s = ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory for the report", name);
+            goto fail;
+        }
+        for (size_t j = 0; j < nc; j++) {
+            ffd_ebf ebf;
+            if (ffd_pbffd_control(pb, 0, j, &ebf, NULL) == FFD_OK)
+                memcpy(report_points + 3 * j, ebf.center, sizeof ebf.center);
+        }
+    }
     if ((s = ffd_mesh_set_positions(mesh, current, jacobians, &inner))) {
         s = ffd_rig_wrap(err, s, name, "deformed positions", &inner);
         goto fail;
@@ -341,14 +356,9 @@ ffd_status ffd_rig_apply_pbffd(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_repor
         report->outside_count = report->uncovered_count;
         report->placed = rig->pb.controls_auto;
         report->placement = placement;
-        size_t nc = ffd_pbffd_control_count(pb, 0);
         report->control_count = nc;
-        report->control_points = ffd_malloc_array(nc ? nc : 1, 3 * sizeof(double));
-        for (size_t j = 0; report->control_points && j < nc; j++) {
-            ffd_ebf ebf;
-            if (ffd_pbffd_control(pb, 0, j, &ebf, NULL) == FFD_OK)
-                memcpy(report->control_points + 3 * j, ebf.center, sizeof ebf.center);
-        }
+        report->control_points = report_points;
+        report_points = NULL;
     }
 fail:
     ffd_pbffd_destroy(pb);
@@ -359,5 +369,6 @@ fail:
     ffd_free(rows);
     ffd_free(reached);
     ffd_free(residuals);
+    ffd_free(report_points);
     return s;
 }

@@ -164,7 +164,7 @@ static ffd_status method_rig_text(const sess_method *m, char **text, ffd_error *
     if (!st) {
         char *printed = cJSON_Print(root);
         *text = printed ? ffd_strdup(printed) : NULL;
-        free(printed);
+        cJSON_free(printed);
         if (!*text)
             st = ffd_fail(err, FFD_ERR_NOMEM, "rig: out of memory");
     }
@@ -359,7 +359,11 @@ static ffd_status op_create(ffd_session *s, const parser *p, const cJSON *body, 
 static ffd_status check_rig_files(const char *text, size_t size, const char *name,
                                   const char *root, ffd_error *err)
 {
+    unsigned long oom = ffd_json_alloc_failures();
     cJSON *doc = cJSON_ParseWithLength(text, size);
+    if (!doc && ffd_json_alloc_failures() != oom)
+        return ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory parsing JSON",
+                        ffd_name_or(name, "rig"));
     if (!doc)
         return FFD_OK; /* the rig parser reports the syntax error */
     ffd_status st = FFD_OK;
@@ -918,7 +922,10 @@ ffd_status ffd_session_command(ffd_session *s, const char *op, const char *body,
     cJSON *doc = NULL;
     if (body && size) {
         const char *end = NULL;
+        unsigned long oom = ffd_json_alloc_failures();
         doc = cJSON_ParseWithLengthOpts(body, size, &end, 0);
+        if (!doc && ffd_json_alloc_failures() != oom)
+            return ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory parsing JSON", op);
         while (doc && end < body + size && (*end == ' ' || *end == '\t' || *end == '\n' ||
                                             *end == '\r'))
             end++;
@@ -1095,8 +1102,8 @@ static cJSON *pins_json(const ffd_session *s)
         double d = sqrt((x[0] - t[0]) * (x[0] - t[0]) + (x[1] - t[1]) * (x[1] - t[1]) +
                         (x[2] - t[2]) * (x[2] - t[2]));
         if (!cJSON_AddNumberToObject(o, "vertex", s->pins[i].vertex) ||
-            !cJSON_AddItemToObject(o, "target", sess_vec3(t)) ||
-            !cJSON_AddItemToObject(o, "position", sess_vec3(x)) ||
+            !sess_add_item(o, "target", sess_vec3(t)) ||
+            !sess_add_item(o, "position", sess_vec3(x)) ||
             !cJSON_AddNumberToObject(o, "residual", d)) {
             cJSON_Delete(arr);
             return NULL;
@@ -1116,8 +1123,8 @@ ffd_status ffd_session_state(const ffd_session *s, char **json, size_t *size, ff
          cJSON_AddStringToObject(mesh, "name", s->name) &&
          cJSON_AddNumberToObject(mesh, "vertices", (double)s->ctx.n) &&
          cJSON_AddNumberToObject(mesh, "faces", (double)ffd_mesh_face_count(s->mesh)) &&
-         cJSON_AddItemToObject(mesh, "min", sess_vec3(s->ctx.min)) &&
-         cJSON_AddItemToObject(mesh, "max", sess_vec3(s->ctx.max));
+         sess_add_item(mesh, "min", sess_vec3(s->ctx.min)) &&
+         sess_add_item(mesh, "max", sess_vec3(s->ctx.max));
     if (ok && s->method) {
         cJSON *params = cJSON_CreateObject(), *controls = cJSON_CreateObject();
         ok = params && controls && cJSON_AddItemToObject(root, "params", params);
@@ -1139,14 +1146,14 @@ ffd_status ffd_session_state(const ffd_session *s, char **json, size_t *size, ff
     cJSON *drag = NULL;
     if (ok && s->drag.kind) {
         drag = cJSON_CreateObject();
-        ok = drag && cJSON_AddItemToObject(root, "drag", drag) &&
+        ok = sess_add_item(root, "drag", drag) &&
              cJSON_AddStringToObject(drag, "kind", s->drag.kind == DRAG_VERTEX ? "vertex"
                                                                                 : "controls");
     } else if (ok) {
         ok = cJSON_AddNullToObject(root, "drag") != NULL;
     }
     cJSON *pins = ok ? pins_json(s) : NULL;
-    ok = ok && pins && cJSON_AddItemToObject(root, "pins", pins);
+    ok = ok && sess_add_item(root, "pins", pins); /* deletes pins it could not add */
     ok = ok && cJSON_AddNumberToObject(root, "undo", (double)s->undo.count) &&
          cJSON_AddNumberToObject(root, "redo", (double)s->redo.count) &&
          cJSON_AddNumberToObject(root, "busy_ms", s->busy_ms);
@@ -1159,7 +1166,7 @@ ffd_status ffd_session_state(const ffd_session *s, char **json, size_t *size, ff
     if (!printed)
         return ffd_fail(err, FFD_ERR_NOMEM, "state: out of memory");
     *json = ffd_strdup(printed);
-    free(printed);
+    cJSON_free(printed);
     if (!*json)
         return ffd_fail(err, FFD_ERR_NOMEM, "state: out of memory");
     *size = strlen(*json);

@@ -68,11 +68,11 @@ static ffd_status lat_describe(const sess_method *m, cJSON *params, cJSON *contr
                      (j + 1 == r[1] || sess_add_edge(edges, id, id + r[2])) &&
                      (k + 1 == r[2] || sess_add_edge(edges, id, id + 1));
             }
-    ok = ok && cJSON_AddItemToObject(params, "resolution", sess_uint_array(r, 3)) &&
+    ok = ok && sess_add_item(params, "resolution", sess_uint_array(r, 3)) &&
          cJSON_AddStringToObject(params, "basis", basis) &&
          cJSON_AddNumberToObject(params, "margin", l->margin) &&
          cJSON_AddStringToObject(params, "outside", outside_names[l->outside]) &&
-         cJSON_AddItemToObject(controls, "resolution", sess_uint_array(r, 3)) &&
+         sess_add_item(controls, "resolution", sess_uint_array(r, 3)) &&
          cJSON_AddStringToObject(controls, "basis", basis);
     return ok ? FFD_OK : ffd_fail(err, FFD_ERR_NOMEM, "state: out of memory");
 }
@@ -173,19 +173,19 @@ static ffd_status lat_rig(const sess_method *m, cJSON *root, ffd_error *err)
     ffd_lattice_box(l->lattice, &box);
     const double *p = ffd_lattice_control_points(l->lattice);
     cJSON *jbox = cJSON_CreateObject(), *moves = cJSON_CreateArray();
-    int ok = jbox && cJSON_AddItemToObject(root, "box", jbox);
-    if (!ok)
-        cJSON_Delete(jbox);
-    ok = ok && moves && cJSON_AddItemToObject(root, "moves", moves);
-    if (!ok && moves && !jbox)
+    /* sess_add_item deletes an item it could not add */
+    int ok = sess_add_item(root, "box", jbox);
+    if (ok)
+        ok = sess_add_item(root, "moves", moves);
+    else
         cJSON_Delete(moves);
     ok = ok &&
          cJSON_AddStringToObject(root, "basis",
                                  basis_names[ffd_lattice_basis(l->lattice) == FFD_BASIS_BERNSTEIN]) &&
-         cJSON_AddItemToObject(root, "resolution", sess_uint_array(r, 3)) &&
+         sess_add_item(root, "resolution", sess_uint_array(r, 3)) &&
          cJSON_AddStringToObject(root, "outside", outside_names[l->outside]) &&
-         cJSON_AddItemToObject(jbox, "origin", sess_vec3(box.origin)) &&
-         cJSON_AddItemToObject(jbox, "axes", sess_matrix3((const double(*)[3])box.axes));
+         sess_add_item(jbox, "origin", sess_vec3(box.origin)) &&
+         sess_add_item(jbox, "axes", sess_matrix3((const double(*)[3])box.axes));
     for (uint32_t i = 0; ok && i < r[0]; i++)
         for (uint32_t j = 0; ok && j < r[1]; j++)
             for (uint32_t k = 0; ok && k < r[2]; k++) {
@@ -201,8 +201,8 @@ static ffd_status lat_rig(const sess_method *m, cJSON *root, ffd_error *err)
                 ok = move && cJSON_AddItemToArray(moves, move);
                 if (!ok)
                     cJSON_Delete(move);
-                ok = ok && cJSON_AddItemToObject(move, "index", sess_uint_array(index, 3)) &&
-                     cJSON_AddItemToObject(move, "delta", sess_vec3(d));
+                ok = ok && sess_add_item(move, "index", sess_uint_array(index, 3)) &&
+                     sess_add_item(move, "delta", sess_vec3(d));
             }
     return ok ? FFD_OK : ffd_fail(err, FFD_ERR_NOMEM, "rig: out of memory");
 }

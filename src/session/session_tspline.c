@@ -79,7 +79,7 @@ static cJSON *proxy_json(const ffd_tsv *t)
         if (!ok)
             cJSON_Delete(face);
     }
-    ok = ok && cJSON_AddItemToObject(o, "points", sess_uint_array(proxy.vertices,
+    ok = ok && sess_add_item(o, "points", sess_uint_array(proxy.vertices,
                                                                   proxy.vertex_count)) &&
          cJSON_AddNumberToObject(o, "inside_cells", (double)proxy.inside_cells);
     if (!ok) {
@@ -95,11 +95,11 @@ static ffd_status tsv_describe(const sess_method *m, cJSON *params, cJSON *contr
     const tspline_method *t = as_tsv(m);
     size_t ne = ffd_tsv_element_count(t->t, FFD_TSV_EDGE), nv = tsv_count(m);
     cJSON *edges = cJSON_CreateArray(), *frozen = cJSON_CreateArray();
-    int ok = edges && cJSON_AddItemToObject(controls, "edges", edges);
-    if (!ok)
-        cJSON_Delete(edges);
-    ok = ok && frozen && cJSON_AddItemToObject(controls, "frozen", frozen);
-    if (!ok && edges)
+    /* sess_add_item deletes an item it could not add */
+    int ok = sess_add_item(controls, "edges", edges);
+    if (ok)
+        ok = sess_add_item(controls, "frozen", frozen);
+    else
         cJSON_Delete(frozen);
     for (size_t e = 0; ok && e < ne; e++) {
         uint32_t ends[2];
@@ -123,7 +123,7 @@ static ffd_status tsv_describe(const sess_method *m, cJSON *params, cJSON *contr
          cJSON_AddNumberToObject(controls, "max_weight_deviation",
                                  ffd_tsv_max_weight_deviation(t->t)) &&
          cJSON_AddNumberToObject(controls, "refinements", (double)t->edit_count) &&
-         cJSON_AddItemToObject(params, "resolution", sess_uint_array(t->res, 3)) &&
+         sess_add_item(params, "resolution", sess_uint_array(t->res, 3)) &&
          cJSON_AddNumberToObject(params, "padding", t->padding);
     return ok ? FFD_OK : ffd_fail(err, FFD_ERR_NOMEM, "state: out of memory");
 }
@@ -260,15 +260,16 @@ static ffd_status tsv_rig(const sess_method *m, cJSON *root, ffd_error *err)
     int ok = steps && cJSON_AddItemToObject(root, "steps", steps);
     if (!ok)
         cJSON_Delete(steps);
-    ok = ok && cJSON_AddItemToObject(root, "resolution", sess_uint_array(t->res, 3)) &&
+    ok = ok && sess_add_item(root, "resolution", sess_uint_array(t->res, 3)) &&
          cJSON_AddNumberToObject(root, "padding", t->padding);
     for (size_t e = 0; ok && e < t->edit_count; e++) {
         cJSON *step = cJSON_CreateObject(), *list = cJSON_CreateArray();
         ok = step && cJSON_AddItemToArray(steps, step);
         if (!ok)
             cJSON_Delete(step);
-        ok = ok && list && cJSON_AddItemToObject(step, "refine", list);
-        if (!ok && step)
+        if (ok)
+            ok = sess_add_item(step, "refine", list);
+        else
             cJSON_Delete(list);
         for (size_t i = 0; ok && i < t->edits[e].count; i++)
             ok = add_insertion(list, &t->edits[e].ins[i]);
@@ -294,8 +295,8 @@ static ffd_status tsv_rig(const sess_method *m, cJSON *root, ffd_error *err)
         ok = h && cJSON_AddItemToArray(moves, h);
         if (!ok)
             cJSON_Delete(h);
-        ok = ok && cJSON_AddItemToObject(h, "points", sess_uint_array(&id, 1)) &&
-             cJSON_AddItemToObject(h, "delta", sess_vec3(d));
+        ok = ok && sess_add_item(h, "points", sess_uint_array(&id, 1)) &&
+             sess_add_item(h, "delta", sess_vec3(d));
     }
     return ok ? FFD_OK : ffd_fail(err, FFD_ERR_NOMEM, "rig: out of memory");
 }
