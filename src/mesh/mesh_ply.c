@@ -307,6 +307,15 @@ static ffd_status walk(walker *w, const ply_header *h, ffd_mesh *m, ffd_error *e
     if (!vert)
         return ffd_fail(err, FFD_ERR_PARSE, "%s:%zu: the header declares no 'vertex' element", w->name,
                         h->lines);
+    for (size_t i = 0; i < h->n; i++)
+        if (&h->elems[i] != vert && name_is(h->elems[i].name, h->elems[i].name_len, "vertex"))
+            return ffd_fail(err, FFD_ERR_PARSE,
+                            "%s:%zu: the header declares the 'vertex' element twice", w->name,
+                            h->lines);
+    if (vert->nprops == 0)
+        return ffd_fail(err, FFD_ERR_PARSE,
+                        "%s:%zu: the 'vertex' element has no properties (expected x, y, z)",
+                        w->name, h->lines);
     for (size_t ei = 0; ei < h->n; ei++) {
         const ply_elem *el = &h->elems[ei];
         if (el->nprops == 0)
