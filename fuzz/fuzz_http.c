@@ -15,6 +15,7 @@
 #include <sys/socket.h>
 #include <sys/stat.h>
 #include <sys/time.h>
+#include <time.h>
 #include <unistd.h>
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
@@ -72,8 +73,25 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     struct timeval tv = {5, 0};
     setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
     setsockopt(fd, SOL_SOCKET, SO_SNDTIMEO, &tv, sizeof tv);
-    if (connect(fd, (struct sockaddr *)&a, sizeof a) != 0)
-        abort(); /* the server stopped listening */
+    /* A refused connection is retried for 5 s (the listen backlog may be full
+     * while earlier connections' threads finish); after that the server has
+     * stopped listening. */
+    int tries = 0;
+    while (connect(fd, (struct sockaddr *)&a, sizeof a) != 0) {
+        if (++tries == 50) {
+            perror("fuzz_http: connect");
+            abort();
+        }
+        close(fd);
+        nanosleep(&(struct timespec){0, 100000000}, NULL);
+        if ((fd = socket(AF_INET, SOCK_STREAM, 0)) < 0)
+            return 0;
+        setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+        setsockopt(fd, SOL_SOCKET, SO_SNDTIMEO, &tv, sizeof tv);
+    }
+    /* close with a reset: no TIME_WAIT, so a long run does not run out of ports */
+    struct linger lg = {1, 0};
+    setsockopt(fd, SOL_SOCKET, SO_LINGER, &lg, sizeof lg);
     for (size_t sent = 0; sent < size;) {
         ssize_t w = send(fd, data + sent, size - sent, MSG_NOSIGNAL);
         if (w <= 0)
