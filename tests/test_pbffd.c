@@ -151,6 +151,101 @@ static double *eval_new(const ffd_pbffd *pb)
     return x;
 }
 
+/* ================= a disabled control takes no part ================= */
+
+/* One run of every operation a disabled control could reach: create (master,
+ * levels), moves at both levels, a frame edit, a direct-manipulation solve at
+ * level 0 through the linear map, evaluation and Jacobians. at: where the
+ * extra control goes (SIZE_MAX: none); its centre and radius. The results
+ * (n by 3 positions, then n by 9 Jacobians) go to out. */
+static void disabled_run(size_t at, const double centre[3], double radius, double *out)
+{
+    size_t m = 10, n = 600;
+    check_rng_state = 88172645463325252ull;
+    ffd_ebf *c = random_controls(m + 1, 1);
+    double *p = random_points(n, 0.1, 0.9);
+    if (at != SIZE_MAX) {
+        memmove(c + at + 1, c + at, (m - at) * sizeof *c);
+        c[at] = sphere(centre[0], centre[1], centre[2], radius);
+        c[at].disabled = 1;
+    }
+    size_t mc = at == SIZE_MAX ? m : m + 1;
+#define IDX(j) ((at != SIZE_MAX && (j) >= at) ? (j) + 1 : (j))
+    ffd_pbffd_options o = {0};
+    o.levels = 2;
+    ffd_pbffd *pb = make(c, mc, p, n, &o);
+    if (!pb) {
+        free(c);
+        free(p);
+        return;
+    }
+    CHECK(ffd_pbffd_control_count(pb, 1) == 5);
+    CHECK_OK(ffd_pbffd_move(pb, 0, IDX(2), (double[3]){0.05, -0.02, 0.03}, NULL));
+    CHECK_OK(ffd_pbffd_move(pb, 1, 1, (double[3]){-0.04, 0.06, 0.01}, NULL));
+    ffd_ebf e;
+    CHECK_OK(ffd_pbffd_control(pb, 0, IDX(5), &e, NULL));
+    e.frame[0][1] += 0.1;
+    e.frame[2][0] -= 0.07;
+    CHECK_OK(ffd_pbffd_set_frame(pb, 0, IDX(5), (const double(*)[3])e.frame, NULL));
+    /* direct manipulation at level 0: two vertices held by controls */
+    ffd_linear_map map;
+    CHECK_OK(ffd_pbffd_linear_map(pb, 0, &map, NULL));
+    size_t pts[2] = {0, 0}, k = 0;
+    for (size_t i = 0; i < n && k < 2; i++)
+        if (ffd_pbffd_point_support(pb, i) >= 2 && (k == 0 || i > pts[0] + 50))
+            pts[k++] = i;
+    CHECK(k == 2);
+    double *q = malloc(12 * n * sizeof *q);
+    CHECK_OK(ffd_pbffd_eval(pb, q, NULL));
+    double cur[6], tgt[6], res[2];
+    for (size_t t = 0; t < 2; t++)
+        for (int a = 0; a < 3; a++) {
+            cur[3 * t + a] = q[3 * pts[t] + a];
+            tgt[3 * t + a] = cur[3 * t + a] + (a == 1 ? 0.02 : -0.01);
+        }
+    double *delta = calloc(3 * map.variable_count, sizeof *delta);
+    ffd_manip_result r;
+    CHECK_OK(ffd_manip_solve(&map, pts, k, cur, tgt, NULL, delta, res, &r, NULL));
+    for (size_t j = 0; j < map.variable_count; j++)
+        if (delta[3 * j] != 0 || delta[3 * j + 1] != 0 || delta[3 * j + 2] != 0)
+            CHECK_OK(ffd_pbffd_move(pb, 0, j, delta + 3 * j, NULL));
+    if (at != SIZE_MAX)
+        CHECK(delta[3 * at] == 0 && delta[3 * at + 1] == 0 && delta[3 * at + 2] == 0);
+    CHECK_OK(ffd_pbffd_eval(pb, out, NULL));
+    CHECK_OK(ffd_pbffd_jacobian(pb, out + 3 * n, NULL));
+#undef IDX
+    free(delta);
+    free(q);
+    free(c);
+    free(p);
+    ffd_pbffd_destroy(pb);
+}
+
+/* A disabled control changes nothing, bitwise: far away (it used to move
+ * the master's box and sphere), near (inside the points), first or last. */
+static void test_disabled_control_changes_nothing(void)
+{
+    size_t n = 600, len = 12 * n;
+    double *base = malloc(len * sizeof *base), *with = malloc(len * sizeof *with);
+    disabled_run(SIZE_MAX, NULL, 0, base);
+    static const double far[3] = {1000, -500, 2000}, near[3] = {0.5, 0.45, 0.5};
+    struct { size_t at; const double *c; double r; } cases[] = {
+        {10, far, 1.0}, {0, far, 50.0}, {10, near, 0.3}, {4, near, 0.6}};
+    for (size_t t = 0; t < sizeof cases / sizeof cases[0]; t++) {
+        memset(with, 0, len * sizeof *with);
+        disabled_run(cases[t].at, cases[t].c, cases[t].r, with);
+        CHECK(memcmp(base, with, len * sizeof *base) == 0);
+        if (memcmp(base, with, len * sizeof *base) != 0) {
+            double worst = 0;
+            for (size_t i = 0; i < 3 * n; i++)
+                worst = fmax(worst, fabs(base[i] - with[i]));
+            fprintf(stderr, "     case %zu: positions differ by up to %.3g\n", t, worst);
+        }
+    }
+    free(base);
+    free(with);
+}
+
 /* ================= rest, partition of unity, reference ================= */
 
 static void test_exact_at_rest(void)
@@ -1427,6 +1522,7 @@ static void test_failing_allocations(void)
 int main(int argc, char **argv)
 {
     static const check_test tests[] = {
+        {"disabled_control_changes_nothing", test_disabled_control_changes_nothing},
         {"exact_at_rest", test_exact_at_rest},
         {"partition_of_unity", test_partition_of_unity},
         {"matches_reference", test_matches_reference},

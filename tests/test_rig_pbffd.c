@@ -235,6 +235,57 @@ static void test_apply_identity_and_move(void)
     ffd_mesh_destroy(mesh);
 }
 
+/* An extra "enabled": false control (far away or near, last or first)
+ * leaves the result bitwise unchanged: moves at both levels, a frame edit
+ * and a constraint solve (control indices shift with a first one). */
+static void test_apply_disabled_changes_nothing(void)
+{
+    static const char *const extra[] = {
+        "", /* the reference */
+        ", {\"center\": [100,-40,250], \"radius\": 2, \"enabled\": false}]",
+        ", {\"center\": [0.5,0.5,0.5], \"radius\": 0.4, \"enabled\": false}]",
+        "[{\"center\": [-300,7,9], \"radius\": 1, \"enabled\": false}, "};
+    size_t centre = (4 * 9 + 4) * 9 + 4, n = 0;
+    double *ref = NULL;
+    for (size_t t = 0; t < sizeof extra / sizeof extra[0]; t++) {
+        int first = t == 3;
+        char controls[512], json[2048];
+        const char *list = strchr(FOUR_CONTROLS, '[');
+        if (t == 0)
+            snprintf(controls, sizeof controls, "%s", FOUR_CONTROLS);
+        else if (!first)
+            snprintf(controls, sizeof controls, "%.*s%s", (int)(strlen(FOUR_CONTROLS) - 1),
+                     FOUR_CONTROLS, extra[t]);
+        else
+            snprintf(controls, sizeof controls, "\"controls\": %s%s", extra[t], list + 1);
+        snprintf(json, sizeof json,
+                 PB "%s, \"levels\": 2,"
+                    " \"moves\": [{\"control\": %d, \"delta\": [0.05,0,0.02]},"
+                    " {\"control\": 1, \"level\": 1, \"delta\": [0,0.03,0]},"
+                    " {\"near\": [0.5,0.75,0.5], \"delta\": [0,0,-0.04]}],"
+                    " \"frames\": [{\"control\": %d, \"rotate\": {\"axis\": [0,0,1], \"angle\": 0.2}}],"
+                    " \"constraints\": [{\"vertex\": %zu, \"target\": [0.5,0.56,0.5]}]}",
+                 controls, first ? 2 : 1, first ? 3 : 2, centre);
+        ffd_mesh *mesh = grid_mesh(9);
+        n = ffd_mesh_vertex_count(mesh);
+        ffd_error err = {{0}};
+        ffd_rig_report report = {0};
+        ffd_status st = apply_json(json, mesh, &report, &err);
+        CHECK(st == FFD_OK);
+        if (st != FFD_OK)
+            fprintf(stderr, "     %s\n     %s\n", json, err.message);
+        CHECK(report.control_count == (t == 0 ? 4u : 5u));
+        ffd_rig_report_free(&report);
+        if (t == 0) {
+            ref = copy_positions(mesh);
+        } else {
+            CHECK(memcmp(ref, ffd_mesh_positions(mesh), 3 * n * sizeof *ref) == 0);
+        }
+        ffd_mesh_destroy(mesh);
+    }
+    free(ref);
+}
+
 static void test_apply_constraints(void)
 {
     ffd_mesh *mesh = grid_mesh(9);
@@ -367,6 +418,7 @@ int main(int argc, char **argv)
         {"parse_bad", test_parse_bad},
         {"write_round_trip", test_write_round_trip},
         {"apply_identity_and_move", test_apply_identity_and_move},
+        {"apply_disabled_changes_nothing", test_apply_disabled_changes_nothing},
         {"apply_constraints", test_apply_constraints},
         {"apply_levels_and_frames", test_apply_levels_and_frames},
         {"apply_curve", test_apply_curve},

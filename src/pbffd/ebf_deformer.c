@@ -72,22 +72,32 @@ static ffd_status check_options(const ffd_pbffd_options *o, ffd_error *err)
 }
 
 /* The master (§3.2.2): centred in the bounding box of the points and the
- * controls, a sphere master_radius times the bounding-sphere radius. */
+ * enabled controls' centres, a sphere master_radius times the bounding-sphere
+ * radius R: the largest distance from that centre to any point or enabled
+ * control centre. A disabled control takes no part (it would move the master
+ * and change every weight). When everything lies at one point, R is the
+ * largest radius of an enabled control, or 1 without one (nothing can move
+ * then: any R > 0 gives the same result). */
 static void make_master(ffd_pbffd *pb, const ffd_ebf *controls, size_t count, const double *points,
                         size_t n, double factor)
 {
     double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
     for (size_t i = 0; i < n + count; i++) {
+        if (i >= n && controls[i - n].disabled)
+            continue;
         const double *x = i < n ? points + 3 * i : controls[i - n].center;
         for (int c = 0; c < 3; c++) {
             lo[c] = fmin(lo[c], x[c]);
             hi[c] = fmax(hi[c], x[c]);
         }
     }
-    double center[3], r2 = 0, rmax = 0;
-    for (int c = 0; c < 3; c++)
-        center[c] = 0.5 * (lo[c] + hi[c]);
+    double center[3] = {0, 0, 0}, r2 = 0, rmax = 0;
+    if (lo[0] <= hi[0]) /* else no point and no enabled control: the origin */
+        for (int c = 0; c < 3; c++)
+            center[c] = 0.5 * (lo[c] + hi[c]);
     for (size_t i = 0; i < n + count; i++) {
+        if (i >= n && controls[i - n].disabled)
+            continue;
         const double *x = i < n ? points + 3 * i : controls[i - n].center;
         double d2 = 0;
         for (int c = 0; c < 3; c++)
@@ -95,11 +105,12 @@ static void make_master(ffd_pbffd *pb, const ffd_ebf *controls, size_t count, co
         r2 = fmax(r2, d2);
     }
     for (size_t j = 0; j < count; j++)
-        for (int c = 0; c < 3; c++)
-            rmax = fmax(rmax, controls[j].radius[c]);
+        if (!controls[j].disabled)
+            for (int c = 0; c < 3; c++)
+                rmax = fmax(rmax, controls[j].radius[c]);
     double R = sqrt(r2);
     if (!(R > 0))
-        R = rmax; /* everything at one point */
+        R = rmax > 0 ? rmax : 1.0; /* everything at one point */
     R *= factor;
     memset(&pb->master, 0, sizeof pb->master);
     memcpy(pb->master.center, center, sizeof center);
