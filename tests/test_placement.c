@@ -109,7 +109,7 @@ static void check_against_brute_force(const double *p, size_t n)
     double *v = NULL;
     size_t count = 0;
     ffd_error err = {{0}};
-    CHECK_OK(ffd_voronoi_vertices(p, n, &v, &count, &err));
+    CHECK_OK(ffd_voronoi_vertices(p, n, 0, &v, &count, &err));
     size_t brute = 0;
     int *matched = calloc(count ? count : 1, sizeof *matched);
     for (size_t a = 0; a < n; a++)
@@ -188,7 +188,7 @@ static void test_voronoi_regular_cases(void)
     double p[] = {s, s, s, s, -s, -s, -s, s, -s, -s, -s, s, 0.3, 0.2, 40};
     double *v = NULL;
     size_t count = 0;
-    CHECK_OK(ffd_voronoi_vertices(p, 5, &v, &count, NULL));
+    CHECK_OK(ffd_voronoi_vertices(p, 5, 0, &v, &count, NULL));
     int found = 0;
     for (size_t k = 0; k < count; k++)
         if (sqrt(d2(v + 3 * k, (double[3]){0, 0, 0})) < 1e-12)
@@ -203,7 +203,7 @@ static void test_voronoi_regular_cases(void)
             cube[3 * i + a] = (i >> a) & 1 ? 3.0 : 1.0;
     capture cap;
     capture_begin(&cap);
-    ffd_status st = ffd_voronoi_vertices(cube, 8, &v, &count, NULL);
+    ffd_status st = ffd_voronoi_vertices(cube, 8, 0, &v, &count, NULL);
     long printed = capture_end(&cap);
     CHECK(printed == 0);
     CHECK(st == FFD_OK);
@@ -227,19 +227,19 @@ static void test_voronoi_degenerate(void)
     double *v = (double *)1;
     size_t count = 7;
     ffd_error e1 = {{0}}, e2 = {{0}}, e3 = {{0}}, e4 = {{0}};
-    ffd_status s1 = ffd_voronoi_vertices(plane, 30, &v, &count, &e1);
+    ffd_status s1 = ffd_voronoi_vertices(plane, 30, 0, &v, &count, &e1);
     double *v1 = v;
     size_t c1 = count;
     /* too few sites */
-    ffd_status s2 = ffd_voronoi_vertices(plane, 4, &v, &count, &e2);
+    ffd_status s2 = ffd_voronoi_vertices(plane, 4, 0, &v, &count, &e2);
     /* collinear */
     double line[3 * 10];
     for (int i = 0; i < 10; i++)
         line[3 * i] = line[3 * i + 1] = line[3 * i + 2] = i;
-    ffd_status s3 = ffd_voronoi_vertices(line, 10, &v, &count, &e3);
+    ffd_status s3 = ffd_voronoi_vertices(line, 10, 0, &v, &count, &e3);
     /* non-finite */
     double bad[15] = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1, NAN, 1, 1};
-    ffd_status s4 = ffd_voronoi_vertices(bad, 5, &v, &count, &e4);
+    ffd_status s4 = ffd_voronoi_vertices(bad, 5, 0, &v, &count, &e4);
     long printed = capture_end(&cap);
     CHECK(printed == 0);
     CHECK(s1 == FFD_ERR_NUMERIC);
@@ -736,6 +736,353 @@ static void test_place_errors(void)
     ffd_mesh_destroy(flat);
 }
 
+/* ---- generated closed meshes ---- */
+
+typedef struct shape_builder {
+    double *x;
+    size_t n, cap;
+    uint32_t *idx, *off;
+    size_t ni, nf, icap, fcap;
+} shape_builder;
+
+static uint32_t sb_vertex(shape_builder *b, double x, double y, double z)
+{
+    if (b->n == b->cap) {
+        b->cap = b->cap ? 2 * b->cap : 64;
+        b->x = realloc(b->x, 3 * b->cap * sizeof *b->x);
+    }
+    b->x[3 * b->n] = x;
+    b->x[3 * b->n + 1] = y;
+    b->x[3 * b->n + 2] = z;
+    return (uint32_t)b->n++;
+}
+
+static void sb_face(shape_builder *b, int k, uint32_t v0, uint32_t v1, uint32_t v2, uint32_t v3)
+{
+    if (b->ni + 4 > b->icap) {
+        b->icap = b->icap ? 2 * b->icap : 256;
+        b->idx = realloc(b->idx, b->icap * sizeof *b->idx);
+    }
+    if (b->nf + 2 > b->fcap) {
+        b->fcap = b->fcap ? 2 * b->fcap : 64;
+        b->off = realloc(b->off, b->fcap * sizeof *b->off);
+    }
+    if (b->nf == 0)
+        b->off[0] = 0;
+    b->idx[b->ni++] = v0;
+    b->idx[b->ni++] = v1;
+    b->idx[b->ni++] = v2;
+    if (k == 4)
+        b->idx[b->ni++] = v3;
+    b->off[++b->nf] = (uint32_t)b->ni;
+}
+
+static ffd_mesh *sb_finish(shape_builder *b)
+{
+    ffd_mesh *m = NULL;
+    ffd_error err = {{0}};
+    if (ffd_mesh_create(b->x, b->n, b->off, b->idx, b->nf, &m, &err) != FFD_OK)
+        fprintf(stderr, "shape: %s\n", err.message);
+    free(b->x);
+    free(b->idx);
+    free(b->off);
+    return m;
+}
+
+/* UV sphere of radius r about c: poles on z, rings of segs vertices. */
+static ffd_mesh *make_uv_sphere(int segs, int rings, double r, const double c[3])
+{
+    shape_builder b = {0};
+    const double pi = 3.14159265358979323846;
+    uint32_t north = sb_vertex(&b, c[0], c[1], c[2] + r);
+    for (int i = 1; i < rings; i++) {
+        double th = pi * i / rings;
+        for (int j = 0; j < segs; j++) {
+            double ph = 2 * pi * j / segs;
+            sb_vertex(&b, c[0] + r * sin(th) * cos(ph), c[1] + r * sin(th) * sin(ph),
+                      c[2] + r * cos(th));
+        }
+    }
+    uint32_t south = sb_vertex(&b, c[0], c[1], c[2] - r);
+#define RV(i, j) (1 + (uint32_t)((i) - 1) * segs + (uint32_t)((j) % segs))
+    for (int j = 0; j < segs; j++)
+        sb_face(&b, 3, north, RV(1, j), RV(1, j + 1), 0);
+    for (int i = 1; i + 1 < rings; i++)
+        for (int j = 0; j < segs; j++)
+            sb_face(&b, 4, RV(i, j), RV(i + 1, j), RV(i + 1, j + 1), RV(i, j + 1));
+    for (int j = 0; j < segs; j++)
+        sb_face(&b, 3, south, RV(rings - 1, j + 1), RV(rings - 1, j), 0);
+#undef RV
+    return sb_finish(&b);
+}
+
+/* Icosphere: the icosahedron subdivided sub times, projected on the sphere. */
+static ffd_mesh *make_icosphere(int sub, double r, const double c[3])
+{
+    const double t = (1 + sqrt(5.0)) / 2;
+    double v[12][3] = {{-1, t, 0}, {1, t, 0}, {-1, -t, 0}, {1, -t, 0}, {0, -1, t}, {0, 1, t},
+                       {0, -1, -t}, {0, 1, -t}, {t, 0, -1}, {t, 0, 1}, {-t, 0, -1}, {-t, 0, 1}};
+    static const uint32_t f0[20][3] = {{0, 11, 5}, {0, 5, 1},  {0, 1, 7},   {0, 7, 10}, {0, 10, 11},
+                                       {1, 5, 9},  {5, 11, 4}, {11, 10, 2}, {10, 7, 6}, {7, 1, 8},
+                                       {3, 9, 4},  {3, 4, 2},  {3, 2, 6},   {3, 6, 8},  {3, 8, 9},
+                                       {4, 9, 5},  {2, 4, 11}, {6, 2, 10},  {8, 6, 7},  {9, 8, 1}};
+    size_t nv = 12, nf = 20;
+    double *x = malloc(3 * nv * sizeof *x);
+    uint32_t *f = malloc(3 * nf * sizeof *f);
+    for (int i = 0; i < 12; i++) {
+        double l = sqrt(v[i][0] * v[i][0] + v[i][1] * v[i][1] + v[i][2] * v[i][2]);
+        for (int a = 0; a < 3; a++)
+            x[3 * i + a] = v[i][a] / l;
+    }
+    memcpy(f, f0, sizeof f0);
+    for (int s = 0; s < sub; s++) {
+        size_t nfn = 4 * nf, ne = 0;
+        uint32_t *g = malloc(3 * nfn * sizeof *g);
+        uint32_t(*edge)[3] = malloc(3 * nf * sizeof *edge); /* a < b, midpoint */
+        x = realloc(x, 3 * (nv + 3 * nf) * sizeof *x);
+        for (size_t k = 0; k < nf; k++) {
+            uint32_t m[3];
+            for (int e = 0; e < 3; e++) {
+                uint32_t a = f[3 * k + e], b = f[3 * k + (e + 1) % 3];
+                if (a > b) {
+                    uint32_t tmp = a;
+                    a = b;
+                    b = tmp;
+                }
+                size_t q = 0;
+                while (q < ne && !(edge[q][0] == a && edge[q][1] == b))
+                    q++;
+                if (q == ne) {
+                    double p[3], l = 0;
+                    for (int d = 0; d < 3; d++) {
+                        p[d] = x[3 * a + d] + x[3 * b + d];
+                        l += p[d] * p[d];
+                    }
+                    l = sqrt(l);
+                    for (int d = 0; d < 3; d++)
+                        x[3 * nv + d] = p[d] / l;
+                    edge[ne][0] = a;
+                    edge[ne][1] = b;
+                    edge[ne][2] = (uint32_t)nv++;
+                    ne++;
+                }
+                m[e] = edge[q][2];
+            }
+            uint32_t a = f[3 * k], b = f[3 * k + 1], cc = f[3 * k + 2];
+            uint32_t tri[4][3] = {{a, m[0], m[2]}, {b, m[1], m[0]}, {cc, m[2], m[1]}, {m[0], m[1], m[2]}};
+            memcpy(g + 12 * k, tri, sizeof tri);
+        }
+        free(edge);
+        free(f);
+        f = g;
+        nf = nfn;
+    }
+    uint32_t *off = malloc((nf + 1) * sizeof *off);
+    for (size_t k = 0; k <= nf; k++)
+        off[k] = (uint32_t)(3 * k);
+    for (size_t i = 0; i < nv; i++)
+        for (int a = 0; a < 3; a++)
+            x[3 * i + a] = c[a] + r * x[3 * i + a];
+    ffd_mesh *mesh = NULL;
+    ffd_error err = {{0}};
+    if (ffd_mesh_create(x, nv, off, f, nf, &mesh, &err) != FFD_OK)
+        fprintf(stderr, "icosphere: %s\n", err.message);
+    free(x);
+    free(f);
+    free(off);
+    return mesh;
+}
+
+/* Closed cylinder about the z axis: radius r, z in [0, h], segs around,
+ * rows bands along z, each cap a centre vertex and caprings concentric rings
+ * (the outermost is the side's end ring). */
+static ffd_mesh *make_cylinder(int segs, int rows, int caprings, double r, double h)
+{
+    shape_builder b = {0};
+    const double pi = 3.14159265358979323846;
+    for (int i = 0; i <= rows; i++)
+        for (int j = 0; j < segs; j++)
+            sb_vertex(&b, r * cos(2 * pi * j / segs), r * sin(2 * pi * j / segs), h * i / rows);
+#define SV(i, j) ((uint32_t)(i) * segs + (uint32_t)((j) % segs))
+    for (int i = 0; i < rows; i++)
+        for (int j = 0; j < segs; j++)
+            sb_face(&b, 4, SV(i, j), SV(i, j + 1), SV(i + 1, j + 1), SV(i + 1, j));
+    for (int top = 0; top < 2; top++) {
+        double z = top ? h : 0;
+        uint32_t centre = sb_vertex(&b, 0, 0, z);
+        uint32_t first = (uint32_t)b.n; /* inner rings 1 .. caprings-1 */
+        for (int k = 1; k < caprings; k++)
+            for (int j = 0; j < segs; j++)
+                sb_vertex(&b, r * k / caprings * cos(2 * pi * j / segs),
+                          r * k / caprings * sin(2 * pi * j / segs), z);
+#define CV(k, j) ((k) == caprings ? SV(top ? rows : 0, j) : first + (uint32_t)((k) - 1) * segs + (uint32_t)((j) % segs))
+        for (int j = 0; j < segs; j++) {
+            if (top)
+                sb_face(&b, 3, centre, CV(1, j), CV(1, j + 1), 0);
+            else
+                sb_face(&b, 3, centre, CV(1, j + 1), CV(1, j), 0);
+        }
+        for (int k = 1; k < caprings; k++)
+            for (int j = 0; j < segs; j++) {
+                if (top)
+                    sb_face(&b, 4, CV(k, j), CV(k + 1, j), CV(k + 1, j + 1), CV(k, j + 1));
+                else
+                    sb_face(&b, 4, CV(k, j + 1), CV(k + 1, j + 1), CV(k + 1, j), CV(k, j));
+            }
+#undef CV
+    }
+#undef SV
+    return sb_finish(&b);
+}
+
+/* The cube [0, s]^3 with each face an n by n grid of quads. */
+static ffd_mesh *make_box(int n, double s)
+{
+    shape_builder b = {0};
+    size_t N = (size_t)n + 1;
+    uint32_t *id = malloc(N * N * N * sizeof *id);
+    for (size_t i = 0; i < N; i++)
+        for (size_t j = 0; j < N; j++)
+            for (size_t k = 0; k < N; k++) {
+                int surf = i == 0 || j == 0 || k == 0 || i == N - 1 || j == N - 1 || k == N - 1;
+                id[(i * N + j) * N + k] =
+                    surf ? sb_vertex(&b, s * i / n, s * j / n, s * k / n) : UINT32_MAX;
+            }
+    for (int a = 0; a < 3; a++)
+        for (int side = 0; side < 2; side++)
+            for (int p = 0; p < n; p++)
+                for (int q = 0; q < n; q++) {
+                    uint32_t v[4];
+                    static const int corner[4][2] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
+                    for (int t = 0; t < 4; t++) {
+                        size_t ijk[3];
+                        ijk[a] = side ? (size_t)n : 0;
+                        ijk[(a + 1) % 3] = (size_t)(p + corner[t][0]);
+                        ijk[(a + 2) % 3] = (size_t)(q + corner[t][1]);
+                        v[t] = id[(ijk[0] * N + ijk[1]) * N + ijk[2]];
+                    }
+                    if (side)
+                        sb_face(&b, 4, v[0], v[1], v[2], v[3]);
+                    else
+                        sb_face(&b, 4, v[3], v[2], v[1], v[0]);
+                }
+    free(id);
+    return sb_finish(&b);
+}
+
+/* ---- degenerate Voronoi inputs: generated spheres, cylinders, boxes ---- */
+
+/* Places with the defaults (60 + 60) on a generated closed mesh: succeeds,
+ * deterministic (twice, and with one thread), every vertex under two ROIs,
+ * every interior point inside; returns the interior count and the first
+ * interior centre. */
+static size_t place_shape(const char *name, ffd_mesh *m, double first[3])
+{
+    size_t interior = 0;
+    if (!m) {
+        CHECK(!"shape not built");
+        return 0;
+    }
+    ffd_ebf *a = NULL, *b = NULL;
+    size_t na = 0, nb = 0;
+    ffd_placement_report rep;
+    ffd_error err = {{0}};
+    capture cap;
+    capture_begin(&cap);
+    ffd_status st = ffd_pbffd_place(m, NULL, &a, &na, &rep, &err);
+    long printed = capture_end(&cap);
+    CHECK(printed == 0);
+    CHECK(st == FFD_OK);
+    if (st != FFD_OK) {
+        fprintf(stderr, "     %s: %s\n", name, err.message);
+        ffd_mesh_destroy(m);
+        return 0;
+    }
+    interior = rep.interior_count;
+    CHECK(!rep.open && rep.exterior_count == 60 && interior >= 1 && interior <= 60);
+    CHECK(na == interior + 60);
+    CHECK((interior < 60) == (strstr(rep.note, "distinct interior point") != NULL));
+    CHECK(check_controls(m, a, na) == 0);
+    size_t outside = 0;
+    for (size_t j = 0; j < interior; j++)
+        outside += !inside_mesh(m, a[j].center);
+    CHECK(outside == 0);
+    memcpy(first, a[0].center, sizeof a[0].center);
+    int threads = omp_get_max_threads();
+    omp_set_num_threads(1);
+    CHECK_OK(ffd_pbffd_place(m, NULL, &b, &nb, NULL, NULL));
+    omp_set_num_threads(threads);
+    CHECK(na == nb && a && b && memcmp(a, b, na * sizeof *a) == 0);
+    printf("     %s: %zu vertices, %zu Voronoi vertices, %zu inside, %zu interior points%s%s\n",
+           name, ffd_mesh_vertex_count(m), rep.voronoi_vertices, rep.inside_vertices, interior,
+           rep.note[0] ? ": " : "", rep.note);
+    ffd_free(a);
+    ffd_free(b);
+    ffd_mesh_destroy(m);
+    return interior;
+}
+
+/* Cospherical vertices made Qhull merge everything into one Delaunay region:
+ * one Voronoi vertex, "only 0 Voronoi vertices lie inside". The jittered
+ * sites give every cell; the sphere's medial axis is its centre, so one
+ * interior point is placed there. */
+static void test_place_spheres(void)
+{
+    static const double o[3] = {0.3, -0.2, 0.1};
+    double c[3];
+    struct { const char *name; ffd_mesh *m; double r; } cases[] = {
+        {"uv sphere 32x16", make_uv_sphere(32, 16, 1.0, o), 1.0},
+        {"uv sphere 64x32", make_uv_sphere(64, 32, 2.5, o), 2.5},
+        {"icosphere 2", make_icosphere(2, 1.0, o), 1.0},
+        {"icosphere 3", make_icosphere(3, 40.0, o), 40.0},
+        {"icosphere 4", make_icosphere(4, 1e-3, o), 1e-3}};
+    for (size_t t = 0; t < sizeof cases / sizeof cases[0]; t++) {
+        CHECK(place_shape(cases[t].name, cases[t].m, c) == 1);
+        CHECK(sqrt(d2(c, o)) < 1e-4 * cases[t].r);
+    }
+    /* the exact sites: Qhull returns the centre once (what placement used to get) */
+    ffd_mesh *m = make_icosphere(2, 1.0, o);
+    double *v = NULL;
+    size_t count = 0;
+    CHECK_OK(ffd_voronoi_vertices(ffd_mesh_positions(m), ffd_mesh_vertex_count(m), 0, &v,
+                                  &count, NULL));
+    CHECK(count == 1 && v && sqrt(d2(v, o)) < 1e-9);
+    ffd_free(v);
+    ffd_mesh_destroy(m);
+}
+
+static void test_place_cylinders_and_boxes(void)
+{
+    double c[3];
+    size_t k = place_shape("cylinder 32x8, caps of 3 rings", make_cylinder(32, 8, 3, 1.0, 3.0), c);
+    CHECK(k > 1);
+    k = place_shape("cylinder 24x20, fan caps", make_cylinder(24, 20, 1, 0.5, 6.0), c);
+    CHECK(k > 1);
+    k = place_shape("box 6x6", make_box(6, 2.0), c);
+    CHECK(k > 1);
+    k = place_shape("box 12x12", make_box(12, 1.0), c);
+    CHECK(k > 1);
+}
+
+/* Slivers (flat Delaunay cells of four nearly cocircular sites) give no
+ * Voronoi vertex when a quality is asked for: the square's four corners
+ * with a tiny lift and a far point. */
+static void test_voronoi_slivers(void)
+{
+    double p[] = {0, 0, 0, 1, 0, 0, 1, 1, 1e-9, 0, 1, 0, 0.5, 0.5, 3, 0.5, 0.5, -3};
+    double *v = NULL;
+    size_t all = 0, kept = 0;
+    CHECK_OK(ffd_voronoi_vertices(p, 6, 0, &v, &all, NULL));
+    ffd_free(v);
+    CHECK_OK(ffd_voronoi_vertices(p, 6, 1e-4, &v, &kept, NULL));
+    CHECK(kept < all && kept >= 1);
+    /* what is kept is a well-shaped cell's centre: on the square's axis, near its plane */
+    for (size_t k = 0; k < kept; k++)
+        CHECK(fabs(v[3 * k] - 0.5) < 1e-6 && fabs(v[3 * k + 1] - 0.5) < 1e-6 &&
+              fabs(v[3 * k + 2]) < 2);
+    ffd_free(v);
+}
+
 /* ---- failing allocations ---- */
 
 static void failing_sweep(const ffd_mesh *m, size_t expect)
@@ -794,6 +1141,9 @@ int main(int argc, char **argv)
         {"place_inside_out", test_place_inside_out},
         {"place_open_teapot", test_place_open_teapot},
         {"place_errors", test_place_errors},
+        {"voronoi_slivers", test_voronoi_slivers},
+        {"place_spheres", test_place_spheres},
+        {"place_cylinders_and_boxes", test_place_cylinders_and_boxes},
         {"failing_allocations", test_failing_allocations},
     };
     return check_run(tests, sizeof tests / sizeof tests[0], argc, argv);

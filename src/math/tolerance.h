@@ -15,4 +15,19 @@
 /* Newton iterations of the outer-segment cubic solve stop at this step in t. */
 #define FFD_TOL_CUBIC 1e-15
 
+/* PB-FFD placement: each Voronoi site moves by up to this times the
+ * bounding-box diagonal, along each axis, by a fixed hash of its vertex index
+ * (deterministic), so that cospherical or cocircular vertices (spheres,
+ * cylinders, boxes) are in general position for Qhull. */
+#define FFD_TOL_SITE_JITTER 1e-9
+
+/* PB-FFD placement: Delaunay cells whose shape quality 6|V|/L^3 is below this
+ * give no Voronoi vertex (a sliver's circumcentre is set by the jitter). */
+#define FFD_TOL_SLIVER 1e-4
+
+/* PB-FFD placement: interior points closer than this times the bounding-box
+ * diagonal are one medial point (a sphere's Voronoi vertices all lie at its
+ * centre, within the jitter's reach). */
+#define FFD_TOL_MEDIAL_WELD 1e-3
+
 #endif

@@ -80,8 +80,37 @@ static int finite_centre(const coordT *c)
     return isfinite(c[0]) && isfinite(c[1]) && isfinite(c[2]);
 }
 
-ffd_status ffd_voronoi_vertices(const double *points, size_t n, double **out, size_t *count,
-                                ffd_error *err)
+/* Shape quality of a simplicial Delaunay cell: 6 |volume| / (longest edge)^3
+ * (sqrt(2)/2 for a regular tetrahedron, 0 for a flat one); 1 for a cell of
+ * more than four cospherical sites (its centre is that of their sphere). */
+static double cell_quality(qhT *qh, const facetT *facet)
+{
+    if (qh_setsize(qh, facet->vertices) != 4)
+        return 1.0;
+    const coordT *p[4];
+    int i = 0;
+    vertexT *vertex, **vertexp;
+    FOREACHvertex_(facet->vertices) p[i++] = vertex->point;
+    double e[3][3], longest = 0;
+    for (int k = 0; k < 3; k++)
+        for (int c = 0; c < 3; c++)
+            e[k][c] = p[k + 1][c] - p[0][c];
+    for (int a = 0; a < 4; a++)
+        for (int b = a + 1; b < 4; b++) {
+            double d2 = 0;
+            for (int c = 0; c < 3; c++)
+                d2 += (p[a][c] - p[b][c]) * (p[a][c] - p[b][c]);
+            longest = fmax(longest, d2);
+        }
+    double vol6 = e[0][0] * (e[1][1] * e[2][2] - e[1][2] * e[2][1]) -
+                  e[0][1] * (e[1][0] * e[2][2] - e[1][2] * e[2][0]) +
+                  e[0][2] * (e[1][0] * e[2][1] - e[1][1] * e[2][0]);
+    longest = sqrt(longest);
+    return longest > 0 ? fabs(vol6) / (longest * longest * longest) : 0.0;
+}
+
+ffd_status ffd_voronoi_vertices(const double *points, size_t n, double min_quality, double **out,
+                                size_t *count, ffd_error *err)
 {
     if (out)
         *out = NULL;
@@ -137,7 +166,8 @@ ffd_status ffd_voronoi_vertices(const double *points, size_t n, double **out, si
             status = ffd_fail(err, FFD_ERR_NOMEM, "Voronoi diagram: out of memory");
         } else {
             FORALLfacets {
-                if (facet->upperdelaunay || !finite_centre(facet->center))
+                if (facet->upperdelaunay || !finite_centre(facet->center) ||
+                    (min_quality > 0 && !(cell_quality(qh, facet) >= min_quality)))
                     continue;
                 memcpy(centres + 3 * k, facet->center, 3 * sizeof *centres);
                 k++;

@@ -15,6 +15,7 @@
  * point. Then the radii grow where a vertex lies under fewer than two ROIs,
  * so the deformation has no seams (§3.2.2 keeps the master for the rest). */
 #include "math/spatial.h"
+#include "math/tolerance.h"
 #include "math/voronoi.h"
 #include "mesh/mesh.h"
 #include "pbffd/placement.h"
@@ -195,6 +196,32 @@ static ffd_status snap_inside(double *points, size_t m, const double *cand, size
     }
     ffd_kdtree_destroy(tree);
     return FFD_OK;
+}
+
+/* A fixed value in [-1, 1) for (vertex index, axis): splitmix64 of the pair. */
+static double site_hash(size_t index, int axis)
+{
+    uint64_t z = (uint64_t)index * 3u + (uint64_t)axis + 0x9E3779B97F4A7C15ull;
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    z ^= z >> 31;
+    return (double)(z >> 11) * (2.0 / 9007199254740992.0) - 1.0;
+}
+
+/* An interior point closer than tol to an earlier kept one is the same
+ * medial point and goes (the kept one is inside). Compacts points[0..m) and
+ * returns the count left. */
+static size_t weld(double *points, size_t m, double tol)
+{
+    size_t kept = 0;
+    for (size_t j = 0; j < m; j++) {
+        int near = 0;
+        for (size_t k = 0; k < kept && !near; k++)
+            near = dist2(points + 3 * j, points + 3 * k) < tol * tol;
+        if (!near)
+            memmove(points + 3 * kept++, points + 3 * j, 3 * sizeof *points);
+    }
+    return kept;
 }
 
 /* Number of controls (capped at need) whose ROI holds x strictly. */
@@ -416,6 +443,9 @@ ffd_status ffd_pbffd_place(const ffd_mesh *mesh, const ffd_placement_options *op
         /* Steps 1-3: Voronoi vertices inside the mesh. */
         interior = opt.interior_count;
         size_t nsites = ns < opt.voronoi_sites ? ns : opt.voronoi_sites;
+        double mid[3];
+        for (int a = 0; a < 3; a++)
+            mid[a] = 0.5 * (info.bbox_min[a] + info.bbox_max[a]);
         spos = ffd_malloc_array(3 * (ns > nsites ? ns : nsites), sizeof *spos);
         if (!spos)
             goto nomem;
@@ -424,12 +454,18 @@ ffd_status ffd_pbffd_place(const ffd_mesh *mesh, const ffd_placement_options *op
             size_t s = (size_t)((double)k * (double)ns / (double)nsites);
             if (s >= ns)
                 s = ns - 1;
-            memcpy(spos + 3 * k, x + 3 * surface[s], 3 * sizeof *spos);
+            /* jittered: cospherical and cocircular vertices (spheres, cylinders,
+             * boxes) merge into Delaunay regions with one centre otherwise; and
+             * about the box's centre: the lifting of Qhull's Delaunay squares the
+             * coordinates, so a small mesh far from the origin loses precision */
+            for (int a = 0; a < 3; a++)
+                spos[3 * k + a] = (x[3 * surface[s] + a] - mid[a]) +
+                                  FFD_TOL_SITE_JITTER * diag * site_hash(surface[s], a);
         }
         rep.voronoi_sites = nsites;
         size_t nvor = 0;
         double t0 = ffd_now();
-        status = ffd_voronoi_vertices(spos, nsites, &voronoi, &nvor, err);
+        status = ffd_voronoi_vertices(spos, nsites, FFD_TOL_SLIVER, &voronoi, &nvor, err);
         rep.seconds_voronoi = ffd_now() - t0;
         if (status != FFD_OK) {
             if (err) {
@@ -440,6 +476,9 @@ ffd_status ffd_pbffd_place(const ffd_mesh *mesh, const ffd_placement_options *op
             goto fail;
         }
         rep.voronoi_vertices = nvor;
+        for (size_t k = 0; k < nvor; k++)
+            for (int a = 0; a < 3; a++)
+                voronoi[3 * k + a] += mid[a];
 
         for (size_t k = 0; k < ns; k++)
             memcpy(spos + 3 * k, x + 3 * surface[k], 3 * sizeof *spos);
@@ -482,6 +521,16 @@ ffd_status ffd_pbffd_place(const ffd_mesh *mesh, const ffd_placement_options *op
         status = snap_inside(points, interior, voronoi, rep.inside_vertices, solid, err);
         if (status != FFD_OK)
             goto fail;
+        /* a degenerate medial axis (a sphere's is its centre) has fewer
+         * distinct points than asked for: place those, and say so */
+        size_t distinct = weld(points, interior, FFD_TOL_MEDIAL_WELD * diag);
+        if (distinct < interior)
+            snprintf(rep.note, sizeof rep.note,
+                     "the medial axis has only %zu distinct interior point%s (within %g of the "
+                     "bounding-box diagonal): placed %zu interior point%s instead of %zu",
+                     distinct, distinct == 1 ? "" : "s", FFD_TOL_MEDIAL_WELD, distinct,
+                     distinct == 1 ? "" : "s", interior);
+        interior = distinct;
     }
     status = ffd_decimate_points(candidates, nc, exterior, points + 3 * interior, err);
     if (status != FFD_OK)

@@ -46,6 +46,44 @@ grep -q '"levels": 2' "$T/controls.json" || fail "the placed rig lacks its level
 ok deform "$EX/cow.off" -o "$T/same.off" --rig "$T/controls.json"
 cmp -s "$EX/cow.off" "$T/same.off" || fail "replaying placed controls without moves changed the mesh"
 
+# A disabled control changes nothing, bitwise: far away (it used to move the
+# master) or near, and whether it comes first or last.
+C3='{"center": [0.4,0,0], "radius": 0.2}, {"center": [0.3,0.1,0], "radius": 0.2}, {"center": [-0.3,0,0], "radius": 0.35}'
+MV='"levels": 2, "moves": [{"control": %d, "delta": [0.05,0.02,0]}, {"control": 0, "level": 1, "delta": [0,0,0.03]}]'
+printf "{\"deformer\": \"pbffd\", \"controls\": [$C3], $MV}" 0 >"$T/on.json"
+printf "{\"deformer\": \"pbffd\", \"controls\": [$C3, {\"center\": [50,-20,80], \"radius\": 1, \"enabled\": false}], $MV}" 0 >"$T/far.json"
+printf "{\"deformer\": \"pbffd\", \"controls\": [{\"center\": [0.35,0,0], \"radius\": 0.1, \"enabled\": false}, $C3], $MV}" 1 >"$T/near.json"
+ok deform "$EX/cow.off" -o "$T/on.off" --rig "$T/on.json"
+cmp -s "$EX/cow.off" "$T/on.off" && fail "the disabled-control rig moved nothing"
+for v in far near; do
+    ok deform "$EX/cow.off" -o "$T/$v.off" --rig "$T/$v.json"
+    cmp -s "$T/on.off" "$T/$v.off" || fail "a disabled control ($v) changed the result"
+done
+
+# Placement works on a sphere (cospherical vertices: Qhull merges them into
+# one Delaunay region): a UV sphere of radius 2 about (1,2,3), 32 x 16.
+awk 'BEGIN { pi = 3.14159265358979; s = 32; r = 16; print "v 1 2 5";
+    for (i = 1; i < r; i++) for (j = 0; j < s; j++)
+        printf "v %.17g %.17g %.17g\n", 1 + 2 * sin(pi * i / r) * cos(2 * pi * j / s),
+            2 + 2 * sin(pi * i / r) * sin(2 * pi * j / s), 3 + 2 * cos(pi * i / r);
+    print "v 1 2 1"; south = 2 + (r - 1) * s;
+    for (j = 0; j < s; j++) printf "f 1 %d %d\n", 2 + j, 2 + (j + 1) % s;
+    for (i = 1; i < r - 1; i++) for (j = 0; j < s; j++)
+        printf "f %d %d %d %d\n", 2 + (i - 1) * s + j, 2 + i * s + j, 2 + i * s + (j + 1) % s,
+            2 + (i - 1) * s + (j + 1) % s;
+    for (j = 0; j < s; j++) printf "f %d %d %d\n", south, 2 + (r - 2) * s + (j + 1) % s, 2 + (r - 2) * s + j
+}' >"$T/sphere.obj"
+ok pbffd place "$T/sphere.obj" -o "$T/sphere.json" --points "$T/sphere-points.obj" --report
+has stdout '"interior": 1, "exterior": 60, "open": false'
+has stderr "the medial axis has only 1 distinct interior point"
+# the interior point is the centre (1,2,3), within 1e-4 of the radius
+grep -m 1 '^v ' "$T/sphere-points.obj" | awk '{ exit !($1 == "v" && ($2-1)^2 + ($3-2)^2 + ($4-3)^2 < 4e-8) }' ||
+    fail "the sphere's interior point is not its centre: $(grep -m 1 '^v ' "$T/sphere-points.obj")"
+ok pbffd place "$T/sphere.obj" -o "$T/sphere2.json"
+cmp -s "$T/sphere.json" "$T/sphere2.json" || fail "placement on the sphere is not deterministic"
+ok deform "$T/sphere.obj" -o "$T/sphere-same.obj" --rig "$T/sphere.json"
+cmp -s "$T/sphere.obj" "$T/sphere-same.obj" || fail "replaying the sphere's controls changed it"
+
 # An open mesh takes the open-surface path and says so.
 printf 'v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0.2\nv 0.5 0.5 0.3\nf 1 2 5\nf 2 4 5\nf 4 3 5\nf 3 1 5\n' >"$T/open.obj"
 ok pbffd place "$T/open.obj" -o "$T/open.json" --exterior 6 --surface closed
