@@ -327,8 +327,10 @@ void ffd_lattice_linear_map(const ffd_lattice *lattice, const ffd_lattice_bindin
 /* One control point: an ellipsoidal basis function (EBF, eq. 1) centred at
  * center, with the reference frame (a, b, c) = frame[0], frame[1], frame[2]
  * (any lengths; linearly independent, else FFD_ERR_INVALID "degenerate
- * frame") and its region of influence (ROI): the ellipsoid whose semi-axes
- * have lengths radius[0..2] along the directions of a, b, c. Parameters
+ * frame") and its region of influence (ROI): the ellipsoid
+ * {center + G t : |t| < 1}, G's columns g_k = radius[k] a_k / |a_k|, whose
+ * conjugate semi-diameters are the g_k (its principal semi-axes when the
+ * frame is orthogonal): center + g_k lies on the boundary. Parameters
  * u = (alpha, beta, gamma) solve v - center = alpha a + beta b + gamma c,
  * which is eq. 3 for orthogonal frames and keeps rest reproduction exact
  * for oblique ones. */
@@ -336,12 +338,19 @@ typedef struct ffd_ebf {
     double center[3];
     double frame[3][3];
     double radius[3];
-    int disabled; /* 1: takes no part in the deformation (its index is kept) */
+    int disabled; /* 1: takes no part in the deformation (its index is kept): the
+                     result is bitwise the same as without it (it is not in the
+                     master's bounding box or sphere, not merged into level 1,
+                     never in a weight row, FFD_TIE_FIXED in the linear map) */
 } ffd_ebf;
 
-/* The kernel (eq. 1 made continuous): with rho the ROI-normalised distance
- * (rho^2 = (x-mu)^T R S^-2 R^T (x-mu) of eq. 1, S the ROI semi-axes; rho = 1
- * on the ROI boundary), phi(rho) = exp(-rho^2 / (2 sigma^2)) * (1 - rho^2)^3
+/* The kernel (eq. 1 made continuous): with rho the ROI-normalised distance,
+ * rho^2 = sum_k (u_k |a_k| / radius[k])^2 = |G^-1 (x - center)|^2 (u the
+ * parameters above, G as above; rho = 1 on the ROI boundary), which is eq. 1's
+ * (x-mu)^T R S^-2 R^T (x-mu) for an orthogonal frame (R^T (x-mu) =
+ * (u_k |a_k|)_k by eq. 3) and, for an oblique one, eq. 1 applied in the
+ * frame's parameter domain, as eq. 5 writes phi_j(u_ij) (pbffd.md, "The
+ * kernel"); phi(rho) = exp(-rho^2 / (2 sigma^2)) * (1 - rho^2)^3
  * for rho < 1 and 0 beyond. The first factor is eq. 1 divided by tau, so
  * phi(0) = 1. Cut off literally, eq. 1 with sigma = 3 is still 0.95 on the
  * boundary: the normalised weights (eq. 5) would jump there and the mesh
@@ -353,8 +362,11 @@ typedef struct ffd_ebf {
 typedef struct ffd_pbffd_options {
     double sigma;          /* eq. 1 standard deviation; default 3 */
     int no_master;         /* 1: no master control point (default: one per level, §3.2.2) */
-    double master_radius;  /* master ROI radius, multiple of the bounding-sphere radius of the
-                              bound points and controls; default 2 (>= 1) */
+    double master_radius;  /* master ROI radius, multiple of the bounding-sphere radius R:
+                              the largest distance from the master's centre (the centre of
+                              the bounding box of the bound points and the enabled
+                              controls' centres) to any bound point or enabled control
+                              centre; default 2 (>= 1) */
     double master_weight;  /* factor on the master's kernel value; default 1 */
     uint32_t levels;       /* control-set levels (§3.4), 1 = no hierarchy; default 1 */
 } ffd_pbffd_options;
@@ -367,8 +379,9 @@ typedef struct ffd_pbffd ffd_pbffd;
  * points are parameterised in the next coarser level (eq. 10). The n points
  * (#n by 3, usually the mesh vertices) are bound to level 0 (W and D of
  * eq. 7, sparse). Every level has an immovable master control point at the
- * centre of the bounding box of the points and controls, unless
- * options->no_master. Level 1 merges the enabled controls of level 0 (the
+ * centre of the bounding box of the points and the enabled controls' centres
+ * (a sphere of options->master_radius times R, above; fixed at creation:
+ * later control-set edits do not move it), unless options->no_master. Level 1 merges the enabled controls of level 0 (the
  * disabled ones are still parameterised in level 1); a merged point gets a
  * spherical ROI about the midpoint that encloses both ROIs, with an
  * axis-aligned frame of that radius. A point under no kernel at all (no
@@ -483,7 +496,8 @@ typedef struct ffd_placement_options {
 typedef struct ffd_placement_report {
     int open;                  /* 1: the open-surface path was taken */
     int fell_back;             /* 1: CLOSED was asked or AUTO found defects: took the open path */
-    size_t interior_count;     /* placed interior points */
+    size_t interior_count;     /* placed interior points (fewer than asked when the medial
+                                  axis is degenerate, see note) */
     size_t exterior_count;     /* placed exterior points */
     size_t voronoi_sites;      /* vertices given to Qhull */
     size_t voronoi_vertices;   /* Voronoi vertices Qhull returned */
@@ -491,14 +505,22 @@ typedef struct ffd_placement_report {
     size_t grown_radii;        /* controls whose radius grew to cover vertices */
     double seconds_voronoi;    /* Qhull */
     double seconds_total;
-    char note[256];            /* why the open path was taken, or "" */
+    char note[256];            /* why the open path was taken, or why fewer interior points
+                                  than asked were placed, or "" */
 } ffd_placement_report;
 
 /* Places control points for the mesh (Figure 2): the requested counts of
  * interior points (Voronoi vertices inside the mesh, octree decimation by
  * merging closest pairs) and exterior points (vertices offset along their
  * normals, decimated), each an EBF with an axis-aligned frame and radius =
- * radius_factor x nearest-neighbour distance. The master is not included
+ * radius_factor x nearest-neighbour distance. The Voronoi sites are the
+ * vertices moved by a fixed hash of their index (1e-9 of the bounding-box
+ * diagonal; deterministic), so that cospherical or cocircular vertices
+ * (spheres, cylinders, boxes) are in general position; interior points
+ * within 1e-3 of the diagonal of each other are one point, so a degenerate
+ * medial axis (a sphere's is its centre) gives fewer interior points than
+ * asked for: report->interior_count and *count say how many, report->note
+ * says why. The master is not included
  * (ffd_pbffd_create adds it). *controls is freed with ffd_free. Errors:
  * FFD_ERR_INVALID (no faces; more points requested than candidates exist:
  * the message says how many there are), FFD_ERR_NUMERIC (Qhull failed: its

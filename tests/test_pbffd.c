@@ -151,6 +151,128 @@ static double *eval_new(const ffd_pbffd *pb)
     return x;
 }
 
+/* ================= the ROI distance of an oblique frame ================= */
+
+/* rho^2 as ffd.h documents it, evaluated independently: the ROI is the image
+ * of the unit ball under t -> center + G t, G's columns g_k = r_k a_k/|a_k|,
+ * so rho^2 = |t|^2 with G t = x - center (Gaussian elimination, partial
+ * pivoting: not the library's cofactors). */
+static double documented_rho2(const ffd_ebf *e, const double x[3])
+{
+    double A[3][4];
+    for (int k = 0; k < 3; k++) {
+        double len = sqrt(e->frame[k][0] * e->frame[k][0] + e->frame[k][1] * e->frame[k][1] +
+                          e->frame[k][2] * e->frame[k][2]);
+        for (int r = 0; r < 3; r++)
+            A[r][k] = e->radius[k] * e->frame[k][r] / len;
+    }
+    for (int r = 0; r < 3; r++)
+        A[r][3] = x[r] - e->center[r];
+    for (int c = 0; c < 3; c++) {
+        int piv = c;
+        for (int r = c + 1; r < 3; r++)
+            if (fabs(A[r][c]) > fabs(A[piv][c]))
+                piv = r;
+        for (int k = 0; k < 4; k++) {
+            double t = A[c][k];
+            A[c][k] = A[piv][k];
+            A[piv][k] = t;
+        }
+        for (int r = c + 1; r < 3; r++) {
+            double f = A[r][c] / A[c][c];
+            for (int k = c; k < 4; k++)
+                A[r][k] -= f * A[c][k];
+        }
+    }
+    double t[3];
+    for (int r = 2; r >= 0; r--) {
+        double v = A[r][3];
+        for (int k = r + 1; k < 3; k++)
+            v -= A[r][k] * t[k];
+        t[r] = v / A[r][r];
+    }
+    return t[0] * t[0] + t[1] * t[1] + t[2] * t[2];
+}
+
+/* The literal reading of eq. 1 with R's columns the unit axes (what ffd.h
+ * used to say): sum_k ((x - center) . a_k/|a_k| / r_k)^2. */
+static double literal_rho2(const ffd_ebf *e, const double x[3])
+{
+    double r2 = 0;
+    for (int k = 0; k < 3; k++) {
+        double len = sqrt(e->frame[k][0] * e->frame[k][0] + e->frame[k][1] * e->frame[k][1] +
+                          e->frame[k][2] * e->frame[k][2]);
+        double d = 0;
+        for (int c = 0; c < 3; c++)
+            d += (x[c] - e->center[c]) * e->frame[k][c] / len;
+        r2 += (d / e->radius[k]) * (d / e->radius[k]);
+    }
+    return r2;
+}
+
+static void test_roi_distance_oblique(void)
+{
+    ffd_ebf e;
+    memset(&e, 0, sizeof e);
+    const double center[3] = {0.2, -0.1, 0.3};
+    const double frame[3][3] = {{2.0, 0.6, -0.1}, {0.5, 1.5, 0.4}, {-0.2, -0.45, 0.8}};
+    const double radius[3] = {0.9, 0.4, 0.25};
+    memcpy(e.center, center, sizeof center);
+    memcpy(e.frame, frame, sizeof frame);
+    memcpy(e.radius, radius, sizeof radius);
+    CHECK_OK(ffd_ebf_check(&e, "controls", 0, NULL));
+    ffd_ebf_kernel k;
+    ffd_ebf_kernel_init(&e, 1.0, &k);
+    const double sigma = 3.0, inv2s2 = 1.0 / (2 * sigma * sigma);
+    size_t inside = 0;
+    for (int t = 0; t < 4000; t++) {
+        double x[3], v[3], rho2 = 0;
+        for (int c = 0; c < 3; c++) {
+            x[c] = rnd(k.lo[c], k.hi[c]);
+            v[c] = x[c] - center[c];
+        }
+        for (int a = 0; a < 3; a++) {
+            double r = k.q[a][0] * v[0] + k.q[a][1] * v[1] + k.q[a][2] * v[2];
+            rho2 += r * r;
+        }
+        double want = documented_rho2(&e, x);
+        CHECK_NEAR(rho2, want, 1e-12 * (1 + want));
+        double phi = ffd_ebf_phi(&k, inv2s2, x, NULL, NULL);
+        double want_phi = want < 1 ? ffd_ebf_phi_of(want, inv2s2) : 0.0;
+        if (fabs(want - 1) > 1e-9)
+            CHECK_NEAR(phi, want_phi, 1e-12);
+        inside += want < 1;
+    }
+    CHECK(inside > 500);
+    /* the end of each scaled axis, center + r_k a_k/|a_k|, is on the boundary:
+     * just inside it is held, just outside not (through the public API) */
+    double pts[12];
+    for (int a = 0; a < 3; a++) {
+        double len = sqrt(frame[a][0] * frame[a][0] + frame[a][1] * frame[a][1] +
+                          frame[a][2] * frame[a][2]);
+        double end[3];
+        for (int c = 0; c < 3; c++)
+            end[c] = center[c] + radius[a] * frame[a][c] / len;
+        CHECK_NEAR(documented_rho2(&e, end), 1.0, 1e-12);
+        /* the literal R S^-2 R^T reading puts it well off the boundary */
+        CHECK(fabs(literal_rho2(&e, end) - 1.0) > 0.02);
+        for (int c = 0; c < 3; c++) {
+            pts[3 * a + c] = center[c] + (1 - 1e-6) * (end[c] - center[c]);
+            if (a == 0)
+                pts[9 + c] = center[c] + (1 + 1e-6) * (end[c] - center[c]);
+        }
+    }
+    ffd_pbffd_options o = {0};
+    o.no_master = 1;
+    ffd_pbffd *pb = make(&e, 1, pts, 4, &o);
+    if (pb) {
+        for (size_t i = 0; i < 3; i++)
+            CHECK(ffd_pbffd_point_support(pb, i) == 1);
+        CHECK(ffd_pbffd_point_support(pb, 3) == 0);
+        ffd_pbffd_destroy(pb);
+    }
+}
+
 /* ================= a disabled control takes no part ================= */
 
 /* One run of every operation a disabled control could reach: create (master,
@@ -1522,6 +1644,7 @@ static void test_failing_allocations(void)
 int main(int argc, char **argv)
 {
     static const check_test tests[] = {
+        {"roi_distance_oblique", test_roi_distance_oblique},
         {"disabled_control_changes_nothing", test_disabled_control_changes_nothing},
         {"exact_at_rest", test_exact_at_rest},
         {"partition_of_unity", test_partition_of_unity},
