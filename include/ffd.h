@@ -443,8 +443,12 @@ void ffd_pbffd_reset(ffd_pbffd *pb);
  * (re-)parameterised in level 1; the coarser levels are not rebuilt. add
  * returns the new index; remove shifts the later indices down by one (the
  * only control cannot be removed: FFD_ERR_INVALID); set_enabled(0) keeps the
- * index. Errors: FFD_ERR_RANGE, FFD_ERR_INVALID and FFD_ERR_NONFINITE for a
- * bad control ("control[4]: ..."), FFD_ERR_NOMEM; on error nothing changes. */
+ * index. An edit of a control that is disabled before and after it (add
+ * with control->disabled, remove or redefine of a disabled one) changes no
+ * position and does not rebase: reset still returns where it did and later
+ * results are bitwise those without the edit. Errors: FFD_ERR_RANGE,
+ * FFD_ERR_INVALID and FFD_ERR_NONFINITE for a bad control ("control[4]:
+ * ..."), FFD_ERR_NOMEM; on error nothing changes. */
 ffd_status ffd_pbffd_add(ffd_pbffd *pb, const ffd_ebf *control, size_t *index, ffd_error *err);
 ffd_status ffd_pbffd_remove(ffd_pbffd *pb, size_t index, ffd_error *err);
 ffd_status ffd_pbffd_set_enabled(ffd_pbffd *pb, size_t index, int enabled, ffd_error *err);

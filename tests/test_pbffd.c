@@ -368,6 +368,77 @@ static void test_disabled_control_changes_nothing(void)
     free(with);
 }
 
+/* Adding, redefining and removing a disabled control through the API in a
+ * deformed state changes nothing either: no rebase (reset still returns to
+ * the creation state) and later moves give the same bits. */
+static void test_disabled_edits_change_nothing(void)
+{
+    size_t m = 10, n = 500;
+    check_rng_state = 1234567ull;
+    ffd_ebf *c = random_controls(m, 1);
+    double *p = random_points(n, 0.1, 0.9);
+    ffd_pbffd_options o = {0};
+    o.levels = 2;
+    ffd_pbffd *a = make(c, m, p, n, &o), *b = make(c, m, p, n, &o);
+    if (!a || !b) {
+        ffd_pbffd_destroy(a);
+        ffd_pbffd_destroy(b);
+        free(c);
+        free(p);
+        return;
+    }
+    double *xa = malloc(12 * n * sizeof *xa), *xb = malloc(12 * n * sizeof *xb);
+    const double d1[3] = {0.04, -0.03, 0.02}, d2[3] = {-0.02, 0.05, 0.01}, d3[3] = {0, 0.02, -0.03};
+    CHECK_OK(ffd_pbffd_move(a, 0, 3, d1, NULL));
+    CHECK_OK(ffd_pbffd_move(b, 0, 3, d1, NULL));
+    ffd_ebf far = sphere(500, -200, 80, 3), near = sphere(0.5, 0.5, 0.5, 0.3);
+    far.disabled = near.disabled = 1;
+    size_t i1 = 0, i2 = 0;
+    CHECK_OK(ffd_pbffd_add(a, &far, &i1, NULL));
+    CHECK_OK(ffd_pbffd_add(a, &near, &i2, NULL));
+    CHECK(i1 == m && i2 == m + 1 && ffd_pbffd_control_count(a, 0) == m + 2);
+    CHECK_OK(ffd_pbffd_move(a, 1, 2, d2, NULL));
+    CHECK_OK(ffd_pbffd_move(b, 1, 2, d2, NULL));
+    ffd_ebf moved = sphere(0.45, 0.55, 0.5, 0.4);
+    CHECK_OK(ffd_pbffd_redefine(a, i2, &moved, NULL));
+    ffd_ebf got;
+    CHECK_OK(ffd_pbffd_control(a, 0, i2, &got, NULL));
+    CHECK(got.disabled == 1 && got.center[0] == 0.45);
+    CHECK_OK(ffd_pbffd_remove(a, i1, NULL));
+    CHECK(ffd_pbffd_control_count(a, 0) == m + 1);
+    CHECK_OK(ffd_pbffd_move(a, 0, 7, d3, NULL));
+    CHECK_OK(ffd_pbffd_move(b, 0, 7, d3, NULL));
+    for (int pass = 0; pass < 2; pass++) {
+        CHECK_OK(ffd_pbffd_eval(a, xa, NULL));
+        CHECK_OK(ffd_pbffd_eval(b, xb, NULL));
+        CHECK_OK(ffd_pbffd_jacobian(a, xa + 3 * n, NULL));
+        CHECK_OK(ffd_pbffd_jacobian(b, xb + 3 * n, NULL));
+        CHECK(memcmp(xa, xb, 12 * n * sizeof *xa) == 0);
+        for (size_t l = 0; l < 2; l++)
+            for (size_t j = 0; j < ffd_pbffd_control_count(b, l); j++) {
+                ffd_ebf ea, eb;
+                CHECK_OK(ffd_pbffd_control(a, l, j, &ea, NULL));
+                CHECK_OK(ffd_pbffd_control(b, l, j, &eb, NULL));
+                CHECK(memcmp(ea.center, eb.center, sizeof ea.center) == 0);
+            }
+        /* reset returns both to the creation state */
+        ffd_pbffd_reset(a);
+        ffd_pbffd_reset(b);
+        if (pass == 0) {
+            CHECK_OK(ffd_pbffd_eval(a, xa, NULL));
+            CHECK(memcmp(xa, p, 3 * n * sizeof *xa) == 0);
+            CHECK_OK(ffd_pbffd_move(a, 1, 0, d2, NULL));
+            CHECK_OK(ffd_pbffd_move(b, 1, 0, d2, NULL));
+        }
+    }
+    free(xa);
+    free(xb);
+    free(c);
+    free(p);
+    ffd_pbffd_destroy(a);
+    ffd_pbffd_destroy(b);
+}
+
 /* ================= rest, partition of unity, reference ================= */
 
 static void test_exact_at_rest(void)
@@ -1591,7 +1662,7 @@ static void test_failing_allocations(void)
         ffd_pbffd_options o = {0};
         o.levels = 2;
         ffd_pbffd *pb = NULL;
-        ffd_status s[8] = {FFD_OK};
+        ffd_status s[11] = {FFD_OK};
         s[0] = ffd_pbffd_create(c, m, p, n, &o, &pb, NULL);
         double *ref = malloc(3 * n * sizeof *ref), *q = malloc(3 * n * sizeof *q);
         if (s[0] == FFD_OK) {
@@ -1605,6 +1676,15 @@ static void test_failing_allocations(void)
             fa = keep;
             s[2] = ffd_pbffd_add(pb, &e, NULL, NULL);
             s[3] = ffd_pbffd_remove(pb, 2, NULL);
+            /* the edits of a disabled control (no rebase) */
+            ffd_ebf dis = sphere(5, 5, 5, 1);
+            dis.disabled = 1;
+            size_t di = 0;
+            s[8] = ffd_pbffd_add(pb, &dis, &di, NULL);
+            if (s[8] == FFD_OK) {
+                s[9] = ffd_pbffd_redefine(pb, di, &e, NULL);
+                s[10] = ffd_pbffd_remove(pb, di, NULL);
+            }
             keep = fa;
             fa.left = -1;
             CHECK_OK(ffd_pbffd_eval(pb, q, NULL));
@@ -1625,7 +1705,7 @@ static void test_failing_allocations(void)
         free(ref);
         free(q);
         int all = 1;
-        for (int i = 0; i < 8; i++) {
+        for (int i = 0; i < 11; i++) {
             CHECK(s[i] == FFD_OK || s[i] == FFD_ERR_NOMEM);
             all &= s[i] == FFD_OK;
         }
@@ -1646,6 +1726,7 @@ int main(int argc, char **argv)
     static const check_test tests[] = {
         {"roi_distance_oblique", test_roi_distance_oblique},
         {"disabled_control_changes_nothing", test_disabled_control_changes_nothing},
+        {"disabled_edits_change_nothing", test_disabled_edits_change_nothing},
         {"exact_at_rest", test_exact_at_rest},
         {"partition_of_unity", test_partition_of_unity},
         {"matches_reference", test_matches_reference},

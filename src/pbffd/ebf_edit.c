@@ -340,6 +340,120 @@ nomem:
     return ffd_fail(err, FFD_ERR_NOMEM, "out of memory editing the control set");
 }
 
+/* An edit of a control that is disabled before and after it (adding a
+ * disabled control, removing or redefining a disabled one) changes no weight
+ * row and no position, so it does not rebase: the base state, the rows and
+ * what reset returns to stay as they are, bitwise; only the control set and,
+ * with levels, the control's own row in level 1 (eq. 10) change. That row is
+ * bound against level 1's current state (rows) and its base (rows_base), as
+ * if the control had been there from the start. */
+static ffd_status edit_inert(ffd_pbffd *pb, edit_kind kind, size_t j, const ffd_ebf *ctl,
+                             ffd_error *err)
+{
+    ffd_pb_level *L0 = &pb->levels[0];
+    const size_t M = L0->count, n = pb->n;
+    const size_t count = kind == EDIT_ADD ? M + 1 : (kind == EDIT_REMOVE ? M - 1 : M);
+    ffd_ebf *cur = ffd_malloc_array(count, sizeof *cur);
+    ffd_ebf *base = ffd_malloc_array(count, sizeof *base);
+    unsigned char *changed = ffd_calloc(count, 1);
+    uint32_t *colmap = kind == EDIT_REMOVE ? ffd_malloc_array(M, sizeof *colmap) : NULL;
+    size_t *pick = ffd_malloc_array((n > count ? n : count) + 1, sizeof *pick);
+    ffd_ebf_rows mesh, rows, rows_base, one_cur, one_base;
+    memset(&mesh, 0, sizeof mesh);
+    memset(&rows, 0, sizeof rows);
+    memset(&rows_base, 0, sizeof rows_base);
+    memset(&one_cur, 0, sizeof one_cur);
+    memset(&one_base, 0, sizeof one_base);
+    ffd_status st = cur && base && changed && pick && (kind != EDIT_REMOVE || colmap)
+                        ? FFD_OK
+                        : FFD_ERR_NOMEM;
+    if (st == FFD_OK) {
+        for (size_t r = 0; r < count; r++) {
+            size_t old = kind == EDIT_REMOVE && r >= j ? r + 1 : r;
+            if ((kind == EDIT_ADD || kind == EDIT_REDEFINE) && r == j) {
+                cur[r] = *ctl;
+                cur[r].disabled = 1;
+                base[r] = cur[r];
+            } else {
+                cur[r] = L0->cur[old];
+                base[r] = L0->base[old];
+            }
+        }
+    }
+    /* the bound points: the same rows (columns after j shift down on remove) */
+    if (st == FFD_OK && colmap) {
+        for (size_t c = 0; c < M; c++)
+            colmap[c] = c < j ? (uint32_t)c : (c == j ? UINT32_MAX : (uint32_t)(c - 1));
+        for (size_t i = 0; i < n; i++)
+            pick[i] = i;
+        st = ffd_ebf_rows_splice(&pb->mesh, &pb->mesh, pick, n, colmap, 0, &mesh);
+    }
+    /* level 0 over level 1: the control's own row */
+    if (st == FFD_OK && pb->level_count > 1) {
+        const ffd_pb_level *L1 = &pb->levels[1];
+        if (kind != EDIT_REMOVE) {
+            ffd_ebf_space sp;
+            for (int b = 0; b < 2 && st == FFD_OK; b++) {
+                st = ffd_ebf_space_init(&sp, b ? L1->base : L1->cur, L1->count,
+                                        pb->has_master ? &pb->master : NULL, pb->master_weight,
+                                        pb->sigma, 0);
+                if (st == FFD_OK) {
+                    st = ffd_ebf_rows_bind(&sp, cur[j].center, 1, 1, 0, b ? &one_base : &one_cur);
+                    ffd_ebf_space_free(&sp);
+                }
+            }
+        }
+        for (size_t r = 0; r < count; r++) {
+            size_t old = kind == EDIT_REMOVE && r >= j ? r + 1 : r;
+            pick[r] = kind != EDIT_REMOVE && r == j ? L0->rows.n : old;
+        }
+        if (st == FFD_OK)
+            st = ffd_ebf_rows_splice(&L0->rows_base, &one_base, pick, count, NULL, 0, &rows_base);
+        if (st == FFD_OK) /* reset assigns rows_base to rows without allocating */
+            st = ffd_ebf_rows_splice(&L0->rows, &one_cur, pick, count, NULL,
+                                     rows_base.start[count], &rows);
+    }
+    ffd_ebf_rows_free(&one_cur);
+    ffd_ebf_rows_free(&one_base);
+    ffd_free(pick);
+    ffd_free(colmap);
+    if (st != FFD_OK) {
+        ffd_free(cur);
+        ffd_free(base);
+        ffd_free(changed);
+        ffd_ebf_rows_free(&mesh);
+        ffd_ebf_rows_free(&rows);
+        ffd_ebf_rows_free(&rows_base);
+        return ffd_fail(err, FFD_ERR_NOMEM, "out of memory editing the control set");
+    }
+    /* ---- commit: nothing below fails ---- */
+    if (kind == EDIT_REMOVE) {
+        for (size_t v = 0; v < pb->version_count; v++) {
+            ffd_pb_version *V = &pb->versions[v];
+            if (V->ctl && V->count > j) {
+                memmove(V->ctl + j, V->ctl + j + 1, (V->count - j - 1) * sizeof *V->ctl);
+                V->count--;
+            }
+        }
+        ffd_ebf_rows_free(&pb->mesh);
+        pb->mesh = mesh;
+    }
+    ffd_free(L0->cur);
+    ffd_free(L0->base);
+    ffd_free(L0->changed);
+    L0->cur = cur;
+    L0->base = base;
+    L0->changed = changed;
+    L0->count = count;
+    if (pb->level_count > 1) {
+        ffd_ebf_rows_free(&L0->rows);
+        ffd_ebf_rows_free(&L0->rows_base);
+        L0->rows = rows;
+        L0->rows_base = rows_base;
+    }
+    return FFD_OK;
+}
+
 static ffd_status check_index(const ffd_pbffd *pb, size_t index, ffd_error *err)
 {
     if (index >= pb->levels[0].count)
@@ -358,7 +472,8 @@ ffd_status ffd_pbffd_add(ffd_pbffd *pb, const ffd_ebf *control, size_t *index, f
     ffd_status st = ffd_ebf_check(control, "control", j, err);
     if (st != FFD_OK)
         return st;
-    st = edit(pb, EDIT_ADD, j, control, err);
+    st = control->disabled ? edit_inert(pb, EDIT_ADD, j, control, err)
+                           : edit(pb, EDIT_ADD, j, control, err);
     if (st == FFD_OK && index)
         *index = j;
     return st;
@@ -372,6 +487,8 @@ ffd_status ffd_pbffd_remove(ffd_pbffd *pb, size_t index, ffd_error *err)
     if (pb->levels[0].count == 1)
         return ffd_fail(err, FFD_ERR_INVALID, "control %zu: cannot remove the only control point",
                         index);
+    if (pb->levels[0].cur[index].disabled)
+        return edit_inert(pb, EDIT_REMOVE, index, NULL, err);
     return edit(pb, EDIT_REMOVE, index, NULL, err);
 }
 
@@ -395,5 +512,7 @@ ffd_status ffd_pbffd_redefine(ffd_pbffd *pb, size_t index, const ffd_ebf *contro
     st = ffd_ebf_check(control, "control", index, err);
     if (st != FFD_OK)
         return st;
+    if (pb->levels[0].cur[index].disabled)
+        return edit_inert(pb, EDIT_REDEFINE, index, control, err);
     return edit(pb, EDIT_REDEFINE, index, control, err);
 }
