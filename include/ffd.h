@@ -927,7 +927,14 @@ ffd_status ffd_tsv_linear_map(ffd_tsv *t, ffd_linear_map *map, ffd_error *err);
  * enclosed by them count as inside), as a closed polygon mesh over control
  * point ids: quads, or n-gons where hanging points lie on a face's sides.
  * Faces are oriented outwards. Updated after every refinement. Borrowed;
- * valid until the next refinement. */
+ * valid until the next refinement.
+ * Where inside cells touch only along an edge or at a vertex, four faces
+ * meet at that edge (two fans at that vertex) over the same control ids;
+ * face_points gives the same faces as a closed, outward 2-manifold: such a
+ * control point is one point per sheet through it (faces of one inside cell
+ * stay connected), and every point maps back to its control id, so all
+ * copies of a control point always sit where it is and moving the control
+ * point moves them all (docs/tspline.md, "The proxy"). */
 typedef struct ffd_tsv_proxy {
     size_t face_count;
     const uint32_t *face_offsets;  /* face_count + 1 */
@@ -937,6 +944,9 @@ typedef struct ffd_tsv_proxy {
     const uint32_t *vertices;      /* distinct control ids on the proxy, ascending */
     size_t occupied_cells;         /* cells the object meets */
     size_t inside_cells;           /* cells inside the proxy (occupied or enclosed) */
+    size_t point_count;            /* the manifold proxy's points (>= vertex_count) */
+    const uint32_t *point_controls; /* point_count: each point's control id, ascending */
+    const uint32_t *face_points;   /* face_offsets layout: the point at each corner */
 } ffd_tsv_proxy;
 void ffd_tsv_get_proxy(const ffd_tsv *t, ffd_tsv_proxy *out);
 
@@ -1057,7 +1067,11 @@ typedef struct ffd_rig_report {
     size_t proxy_face_count;
     uint32_t *proxy_offsets;       /* proxy_face_count + 1 */
     uint32_t *proxy_indices;       /* control ids, faces oriented outwards */
-    size_t proxy_vertex_count;
+    size_t proxy_vertex_count;     /* distinct control ids on the proxy */
+    uint32_t *proxy_points;        /* per corner, its point of the manifold proxy
+                                      (ffd_tsv_proxy.face_points) */
+    uint32_t *proxy_point_controls; /* proxy_point_count: each point's control id */
+    size_t proxy_point_count;
     size_t refinements;            /* refinement steps applied */
     size_t added_points;           /* control points they added (requested and extra) */
     size_t moved_points;           /* existing control points they moved */
@@ -1075,7 +1089,9 @@ void ffd_rig_report_free(ffd_rig_report *report);
 ffd_status ffd_rig_report_write_lattice(const ffd_rig_report *report, const char *path,
                                         ffd_error *err);
 /* T-spline rigs: writes the proxy (its control points, deformed, and its
- * polygons) as an OBJ file, atomically; FFD_ERR_INVALID for other rigs. */
+ * polygons) as an OBJ file, atomically; FFD_ERR_INVALID for other rigs. The
+ * file is the manifold proxy: one 'v' per point (proxy_point_controls
+ * order: by control id, a control point on several sheets once per sheet). */
 ffd_status ffd_rig_report_write_proxy(const ffd_rig_report *report, const char *path,
                                       ffd_error *err);
 

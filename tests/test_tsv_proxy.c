@@ -384,6 +384,12 @@ static double proxy_volume(const tsv_lattice *L, const tsv_proxy *P, int ch)
     return vol;
 }
 
+typedef struct manifold_stats {
+    size_t points, edges, components;
+    long euler; /* V - E + F of the manifold proxy */
+} manifold_stats;
+static manifold_stats check_manifold(const tsv_lattice *L, const tsv_proxy *P);
+
 typedef struct proxy_stats {
     size_t ngons;          /* faces with more than four points */
     size_t enclosed;       /* inside cells that are not occupied */
@@ -550,6 +556,8 @@ static proxy_stats check_proxy(const tsv_lattice *L, const tsv_proxy *P, const o
         }
         CHECK(missed == 0);
     }
+    /* and it is a closed, outward 2-manifold (face_points) */
+    check_manifold(L, P);
     return s;
 }
 
@@ -1014,6 +1022,404 @@ static void test_arap_graph(void)
     obj_free(&o);
 }
 
+/* ---------------------------------------------------------------------- */
+/* The proxy as a closed 2-manifold (inside cells touching along an edge   */
+/* or at a vertex are split per sheet)                                     */
+/* ---------------------------------------------------------------------- */
+
+/* Initial cell (i,j,k) of an r^3 lattice (ffd.h: ids of the initial cells). */
+static uint32_t cell_id(uint32_t r, uint32_t i, uint32_t j, uint32_t k)
+{
+    return (i * (r - 1) + j) * (r - 1) + k;
+}
+
+/* A point set with one point at the gamma centre of each listed cell: those
+ * cells, and only those, are occupied. params: 3 * n, caller-owned. */
+static tsv_object cells_object(const tsv_lattice *L, const uint32_t *cells, size_t n,
+                               double *params)
+{
+    for (size_t i = 0; i < n; i++) {
+        double lo[3], hi[3];
+        cell_gbox(L, cells[i], lo, hi);
+        for (int a = 0; a < 3; a++)
+            params[3 * i + a] = 0.5 * (lo[a] + hi[a]);
+    }
+    tsv_object o = {params, n, NULL, NULL, 0};
+    return o;
+}
+
+static int cmp_u64_pair(const void *a, const void *b)
+{
+    const uint64_t *x = a, *y = b;
+    if (x[0] != y[0])
+        return (x[0] > y[0]) - (x[0] < y[0]);
+    return (x[1] > y[1]) - (x[1] < y[1]);
+}
+
+static uint32_t find_root(uint32_t *up, uint32_t x)
+{
+    while (up[x] != x)
+        x = up[x] = up[up[x]];
+    return x;
+}
+
+/* Everything "closed 2-manifold" means, checked on face_points alone:
+ * each point maps to its corners' control id; every directed edge occurs
+ * once and its reverse once (two faces per edge, consistently oriented,
+ * closed); the corners at each point form one fan (a single cycle of
+ * prev -> next links); and chi = V - E + F is 2 per component at most,
+ * and even. */
+static manifold_stats check_manifold(const tsv_lattice *L, const tsv_proxy *P)
+{
+    manifold_stats m = {0, 0, 0, 0};
+    const size_t nf = P->face_count, nidx = nf ? P->face_offsets[nf] : 0;
+    CHECK(P->point_controls != NULL && P->face_points != NULL);
+    if (!P->point_controls || !P->face_points)
+        return m;
+    m.points = P->point_count;
+    CHECK(P->point_count >= P->vertex_count);
+    /* points ascending by control id; every proxy vertex has one at least */
+    for (size_t k = 1; k < P->point_count; k++)
+        CHECK(P->point_controls[k - 1] <= P->point_controls[k]);
+    size_t distinct = 0;
+    for (size_t k = 0; k < P->point_count; k++) {
+        CHECK(P->point_controls[k] < L->nv);
+        distinct += k == 0 || P->point_controls[k] != P->point_controls[k - 1];
+    }
+    CHECK(distinct == P->vertex_count);
+    size_t *uses = calloc(P->point_count + 1, sizeof *uses);
+    for (size_t q = 0; q < nidx; q++) {
+        uint32_t p = P->face_points[q];
+        CHECK(p < P->point_count);
+        if (p >= P->point_count)
+            continue;
+        CHECK(P->point_controls[p] == P->face_indices[q]);
+        uses[p]++;
+    }
+    for (size_t k = 0; k < P->point_count; k++)
+        CHECK(uses[k] >= 2); /* no unused point (a hanging point on a convex edge has 2 faces) */
+    free(uses);
+    /* directed edges over points: each once, each with its reverse */
+    uint64_t *dir = malloc((nidx + 1) * sizeof *dir);
+    uint64_t *corner = malloc((nidx + 1) * 2 * sizeof *corner); /* (point, corner) */
+    for (size_t f = 0; f < nf; f++) {
+        uint32_t b0 = P->face_offsets[f], b1 = P->face_offsets[f + 1];
+        for (uint32_t q = b0; q < b1; q++) {
+            uint64_t a = P->face_points[q], b = P->face_points[q + 1 < b1 ? q + 1 : b0];
+            CHECK(a != b);
+            dir[q] = a << 32 | b;
+            corner[2 * q] = a;
+            corner[2 * q + 1] = q;
+        }
+    }
+    qsort(dir, nidx, sizeof *dir, cmp_u64);
+    size_t repeated = 0, unmatched = 0;
+    for (size_t i = 0; i < nidx; i++) {
+        repeated += i > 0 && dir[i] == dir[i - 1];
+        uint64_t rev = (dir[i] & 0xffffffffu) << 32 | dir[i] >> 32;
+        unmatched += bsearch(&rev, dir, nidx, sizeof *dir, cmp_u64) == NULL;
+    }
+    CHECK(repeated == 0);  /* at most one face per direction: two faces per edge */
+    CHECK(unmatched == 0); /* closed and consistently oriented */
+    m.edges = nidx / 2;
+    /* one fan per point: the links prev -> next of its corners form a single cycle */
+    qsort(corner, nidx, 2 * sizeof *corner, cmp_u64_pair);
+    size_t not_fan = 0;
+    for (size_t i = 0; i < nidx;) {
+        size_t j = i;
+        while (j < nidx && corner[2 * j] == corner[2 * i])
+            j++;
+        size_t k = j - i;
+        uint32_t *prev = malloc(k * sizeof *prev), *next = malloc(k * sizeof *next);
+        for (size_t c = 0; c < k; c++) {
+            uint32_t q = (uint32_t)corner[2 * (i + c) + 1];
+            size_t f = 0;
+            while (P->face_offsets[f + 1] <= q)
+                f++;
+            uint32_t b0 = P->face_offsets[f], b1 = P->face_offsets[f + 1];
+            prev[c] = P->face_points[q > b0 ? q - 1 : b1 - 1];
+            next[c] = P->face_points[q + 1 < b1 ? q + 1 : b0];
+        }
+        /* walk: from corner 0 to the corner whose prev is this next */
+        size_t at = 0, steps = 0;
+        do {
+            size_t to = k, hits = 0;
+            for (size_t c = 0; c < k; c++)
+                if (prev[c] == next[at])
+                    to = c, hits++;
+            if (hits != 1) {
+                not_fan++;
+                break;
+            }
+            at = to;
+            steps++;
+        } while (at != 0 && steps <= k);
+        not_fan += steps != k;
+        free(prev);
+        free(next);
+        i = j;
+    }
+    CHECK(not_fan == 0);
+    /* components (faces joined through points) and the Euler characteristic */
+    uint32_t *up = malloc((P->point_count + 1) * sizeof *up);
+    for (size_t k = 0; k < P->point_count; k++)
+        up[k] = (uint32_t)k;
+    for (size_t f = 0; f < nf; f++)
+        for (uint32_t q = P->face_offsets[f] + 1; q < P->face_offsets[f + 1]; q++) {
+            uint32_t a = find_root(up, P->face_points[P->face_offsets[f]]);
+            uint32_t b = find_root(up, P->face_points[q]);
+            up[a > b ? a : b] = a < b ? a : b;
+        }
+    for (size_t k = 0; k < P->point_count; k++)
+        m.components += find_root(up, (uint32_t)k) == k;
+    free(up);
+    m.euler = (long)m.points - (long)m.edges + (long)nf;
+    CHECK(m.euler % 2 == 0);
+    CHECK(m.euler <= 2 * (long)m.components);
+    free(dir);
+    free(corner);
+    return m;
+}
+
+/* The proxy of exactly these occupied cells, checked as in check_proxy and
+ * as a manifold. */
+static manifold_stats contact_case(tsv_lattice *L, const uint32_t *cells, size_t n,
+                                   tsv_proxy *P)
+{
+    double *params = malloc(3 * n * sizeof *params);
+    tsv_object ob = cells_object(L, cells, n, params);
+    obj o;
+    memset(&o, 0, sizeof o);
+    o.params = params;
+    o.n = n;
+    CHECK_E(tsv_proxy_build(L, &ob, P, &e_));
+    CHECK(P->occupied_cells == n);
+    check_proxy(L, P, &o);
+    manifold_stats m = check_manifold(L, P);
+    free(params);
+    return m;
+}
+
+/* Two cubes sharing only an edge, two sharing only a vertex, the complement
+ * of a vertex contact, a ring closed by an edge contact, and the edge
+ * contact again after an octree split puts a hanging point on that edge. */
+static void test_manifold_contacts(void)
+{
+    const uint32_t r = 6;
+    tsv_lattice *L = make_lattice(r, r, r);
+    tsv_proxy P;
+    memset(&P, 0, sizeof P);
+
+    /* edge only: cells (1,1,1) and (2,2,1) share the edge x = y = 2 */
+    uint32_t edge[2] = {cell_id(r, 1, 1, 1), cell_id(r, 2, 2, 1)};
+    manifold_stats m = contact_case(L, edge, 2, &P);
+    CHECK(P.face_count == 12 && P.vertex_count == 14);
+    CHECK(m.points == 16);    /* the edge's two ends, once per cube */
+    CHECK(m.components == 2); /* two cubes */
+    CHECK(m.euler == 4);      /* two spheres */
+
+    /* vertex only: cells (1,1,1) and (2,2,2) */
+    uint32_t corner[2] = {cell_id(r, 1, 1, 1), cell_id(r, 2, 2, 2)};
+    m = contact_case(L, corner, 2, &P);
+    CHECK(P.face_count == 12 && P.vertex_count == 15);
+    CHECK(m.points == 16 && m.components == 2 && m.euler == 4);
+
+    /* the complement: the 2x2x2 block [1,3)^3 without (1,1,1) and (2,2,2);
+     * the two notches meet at the block's centre: two fans there */
+    uint32_t ring6[6];
+    size_t k = 0;
+    for (uint32_t i = 1; i <= 2; i++)
+        for (uint32_t j = 1; j <= 2; j++)
+            for (uint32_t l = 1; l <= 2; l++)
+                if (!(i == j && j == l))
+                    ring6[k++] = cell_id(r, i, j, l);
+    m = contact_case(L, ring6, 6, &P);
+    CHECK(P.face_count == 24 && P.vertex_count == 25);
+    CHECK(m.points == 26 && m.components == 1 && m.euler == 2);
+
+    /* a ring in the plane k = 1 around cell (2,2), closed only by the edge
+     * contact of (1,2) and (2,1): a bent bar, not a torus */
+    const uint32_t ij[7][2] = {{2, 1}, {3, 1}, {3, 2}, {3, 3}, {2, 3}, {1, 3}, {1, 2}};
+    uint32_t bar[7];
+    for (size_t i = 0; i < 7; i++)
+        bar[i] = cell_id(r, ij[i][0], ij[i][1], 1);
+    m = contact_case(L, bar, 7, &P);
+    CHECK(m.points == P.vertex_count + 2 && m.components == 1 && m.euler == 2);
+
+    /* an edge contact whose two cubes are also joined through faces around
+     * both of its ends (an L of three cells below them and one above):
+     * paired through the inside cells, each end would stay one point and the
+     * edge would appear twice; paired through the outside cells (step 3 of
+     * tsv_proxy_sheets) both ends split, and the proxy bounds the closed
+     * union of the eight cells, whose V - E + F - C is 1: one sphere */
+    const uint32_t pinch_ijk[8][3] = {{1, 1, 2}, {2, 2, 2}, {1, 1, 1}, {2, 1, 1},
+                                      {2, 2, 1}, {1, 1, 3}, {2, 1, 3}, {2, 2, 3}};
+    uint32_t pinch[8];
+    for (size_t i = 0; i < 8; i++)
+        pinch[i] = cell_id(r, pinch_ijk[i][0], pinch_ijk[i][1], pinch_ijk[i][2]);
+    m = contact_case(L, pinch, 8, &P);
+    CHECK(m.points == P.vertex_count + 2 && m.components == 1);
+    CHECK(m.euler == 2);
+
+    /* the edge contact with a hanging point on the shared edge: split (1,1,1)
+     * (its id stays with one part, the other 7 are appended) */
+    size_t nc0 = L->nc;
+    octree_split(L, edge[0]);
+    positions_at_gamma(L);
+    CHECK(L->nc == nc0 + 7);
+    uint32_t split[9] = {edge[0], edge[1]};
+    for (uint32_t i = 0; i < 7; i++)
+        split[2 + i] = (uint32_t)nc0 + i;
+    m = contact_case(L, split, 9, &P);
+    size_t ngons = 0;
+    for (size_t f = 0; f < P.face_count; f++)
+        ngons += P.face_offsets[f + 1] - P.face_offsets[f] > 4;
+    CHECK(ngons > 0);
+    CHECK(m.points == P.vertex_count + 3); /* the edge's ends and its hanging point */
+    CHECK(m.components == 2 && m.euler == 4);
+    tsv_proxy_free(&P);
+    tsv_lattice_destroy(L);
+}
+
+/* Random sets of occupied cells (some after octree splits): the proxy is
+ * always a closed 2-manifold; with no contact it is the old one, point for
+ * point. */
+static void test_manifold_random(void)
+{
+    for (int trial = 0; trial < (getenv("TRIALS") ? atoi(getenv("TRIALS")) : 60); trial++) {
+        const uint32_t r = 6;
+        tsv_lattice *L = make_lattice(r, r, r);
+        if (trial % 3 == 2) { /* hanging points: three random cells split */
+            for (int k = 0; k < 3; k++)
+                octree_split(L, (uint32_t)(check_rand01() * (double)L->nc) % (uint32_t)L->nc);
+            positions_at_gamma(L);
+        }
+        double prob = 0.15 + 0.5 * check_rand01();
+        uint32_t *cells = malloc(L->nc * sizeof *cells);
+        size_t n = 0;
+        for (size_t c = 0; c < L->nc; c++)
+            if (check_rand01() < prob)
+                cells[n++] = (uint32_t)c;
+        tsv_proxy P;
+        memset(&P, 0, sizeof P);
+        manifold_stats m = contact_case(L, cells, n, &P);
+        if (m.points == P.vertex_count) /* nothing split: points are the vertices */
+            for (size_t k = 0; k < P.point_count; k++)
+                CHECK(P.point_controls[k] == P.vertices[k]);
+        tsv_proxy_free(&P);
+        free(cells);
+        tsv_lattice_destroy(L);
+    }
+}
+
+/* The proxy Laplacian (eq. 5) on the manifold proxy: one row per point.
+ * On a proxy without contacts the solve is bitwise that of the lattice-id
+ * polygons; with contacts the ARAP solve still reproduces rigid motions and
+ * the identity, and a graph whose points do not match its corners is refused. */
+static void arap_rigid_check(const tsv_arap_graph *g, size_t nv, int expect_same_as_ids)
+{
+    uint8_t *roles = calloc(nv, 1);
+    double *tg = malloc(3 * nv * sizeof *tg), *x = malloc(3 * nv * sizeof *x);
+    double *x2 = malloc(3 * nv * sizeof *x2);
+    /* handles: every 5th point; target: a rotation about z by 0.4 and a shift */
+    const double c = cos(0.4), s = sin(0.4);
+    for (size_t v = 0; v < nv; v++) {
+        const double *p = g->ref + 3 * v;
+        roles[v] = v % 5 == 0 ? TSV_HARD : TSV_FREE;
+        tg[3 * v] = c * p[0] - s * p[1] + 0.3;
+        tg[3 * v + 1] = s * p[0] + c * p[1] - 0.2;
+        tg[3 * v + 2] = p[2] + 0.1;
+    }
+    tsv_arap_weights w = {1.0, 2.0 / 3.0, 0.5, 1.0};
+    tsv_arap *a = NULL;
+    CHECK_E(tsv_arap_create(g, roles, &w, &a, &e_));
+    /* the identity at rest */
+    memcpy(x, g->ref, 3 * nv * sizeof *x);
+    CHECK_E(tsv_arap_solve(a, g->ref, x, 3, &e_));
+    double worst = 0.0;
+    for (size_t i = 0; i < 3 * nv; i++)
+        worst = fmax(worst, fabs(x[i] - g->ref[i]));
+    CHECK(worst <= 1e-10);
+    tsv_arap_destroy(a);
+    CHECK_E(tsv_arap_create(g, roles, &w, &a, &e_));
+    memcpy(x, g->ref, 3 * nv * sizeof *x);
+    CHECK_E(tsv_arap_solve(a, tg, x, 100, &e_));
+    worst = 0.0;
+    for (size_t i = 0; i < 3 * nv; i++)
+        worst = fmax(worst, fabs(x[i] - tg[i]));
+    CHECK(worst <= 1e-6); /* converged to the rigid motion */
+    tsv_arap_destroy(a);
+    /* the same graph without its points (one row per lattice id) */
+    tsv_arap_graph ids = *g;
+    ids.proxy_points = NULL;
+    ids.proxy_point_controls = NULL;
+    ids.proxy_point_count = 0;
+    for (size_t v = 0; v < nv; v++)
+        tg[3 * v] += v % 5 == 0 ? 0.05 * sin((double)v) : 0.0; /* not rigid */
+    CHECK_E(tsv_arap_create(g, roles, &w, &a, &e_));
+    memcpy(x, g->ref, 3 * nv * sizeof *x);
+    CHECK_E(tsv_arap_solve(a, tg, x, 5, &e_));
+    tsv_arap_destroy(a);
+    CHECK_E(tsv_arap_create(&ids, roles, &w, &a, &e_));
+    memcpy(x2, g->ref, 3 * nv * sizeof *x2);
+    CHECK_E(tsv_arap_solve(a, tg, x2, 5, &e_));
+    tsv_arap_destroy(a);
+    int same = memcmp(x, x2, 3 * nv * sizeof *x) == 0;
+    CHECK(same == expect_same_as_ids);
+    for (size_t i = 0; i < 3 * nv; i++)
+        CHECK(isfinite(x[i]));
+    free(roles);
+    free(tg);
+    free(x);
+    free(x2);
+}
+
+static void test_manifold_arap(void)
+{
+    const uint32_t r = 6;
+    /* no contact: a sphere's proxy */
+    obj o = make_sphere(16, 32);
+    tsv_lattice *L = make_lattice(r, r, r);
+    tsv_object ob = obj_view(&o);
+    tsv_proxy P;
+    memset(&P, 0, sizeof P);
+    CHECK_E(tsv_proxy_build(L, &ob, &P, &e_));
+    CHECK(P.point_count == P.vertex_count);
+    tsv_arap_graph g;
+    CHECK_E(tsv_arap_graph_build(L, &P, &g, &e_));
+    CHECK(g.proxy_point_count == P.point_count);
+    arap_rigid_check(&g, L->nv, 1);
+    tsv_arap_graph_free(&g);
+    /* an edge and a vertex contact */
+    uint32_t cells[3] = {cell_id(r, 1, 1, 1), cell_id(r, 2, 2, 1), cell_id(r, 3, 3, 2)};
+    manifold_stats m = contact_case(L, cells, 3, &P);
+    CHECK(m.points == P.vertex_count + 3);
+    CHECK_E(tsv_arap_graph_build(L, &P, &g, &e_));
+    CHECK(g.proxy_point_count == P.point_count);
+    size_t nidx = P.face_offsets[P.face_count];
+    for (size_t q = 0; q < nidx; q++)
+        CHECK(g.proxy_points[q] == P.face_points[q] &&
+              g.proxy_point_controls[g.proxy_points[q]] == g.proxy_indices[q]);
+    arap_rigid_check(&g, L->nv, 0); /* the split points have their own rows */
+    /* a point that is not on its corner's vertex is refused */
+    uint8_t *roles = calloc(L->nv, 1);
+    roles[0] = TSV_HARD;
+    uint32_t *bad = (uint32_t *)g.proxy_points;
+    uint32_t keep = bad[0];
+    bad[0] = (keep + 1) % (uint32_t)g.proxy_point_count;
+    tsv_arap_weights w = {1.0, 2.0 / 3.0, 0.5, 1.0};
+    tsv_arap *a = NULL;
+    ffd_error err = {{0}};
+    CHECK(tsv_arap_create(&g, roles, &w, &a, &err) == FFD_ERR_INVALID && a == NULL);
+    CHECK(strstr(err.message, "proxy corner 0") != NULL);
+    bad[0] = keep;
+    free(roles);
+    tsv_arap_graph_free(&g);
+    tsv_proxy_free(&P);
+    tsv_lattice_destroy(L);
+    obj_free(&o);
+}
+
 /* Failing allocations: NOMEM, no leak, the old proxy and cell flags kept. */
 static void test_failing_allocations(void)
 {
@@ -1119,6 +1525,9 @@ int main(int argc, char **argv)
         {"points", test_points},
         {"torus_and_cavity", test_torus_and_cavity},
         {"arap_graph", test_arap_graph},
+        {"manifold_contacts", test_manifold_contacts},
+        {"manifold_random", test_manifold_random},
+        {"manifold_arap", test_manifold_arap},
         {"failing_allocations", test_failing_allocations},
         {"timing", test_timing},
     };

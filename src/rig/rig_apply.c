@@ -22,6 +22,8 @@ void ffd_rig_report_free(ffd_rig_report *report)
     ffd_free(report->lattice_edges);
     ffd_free(report->proxy_offsets);
     ffd_free(report->proxy_indices);
+    ffd_free(report->proxy_points);
+    ffd_free(report->proxy_point_controls);
     ffd_tsv_fold_report_free(&report->folds);
     memset(report, 0, sizeof *report);
 }
@@ -322,43 +324,31 @@ static ffd_status write_tspline_lattice(const ffd_rig_report *report, const char
 ffd_status ffd_rig_report_write_proxy(const ffd_rig_report *report, const char *path,
                                       ffd_error *err)
 {
-    if (!report || !report->tspline || !report->control_points)
+    if (!report || !report->tspline || !report->control_points || !report->proxy_points ||
+        !report->proxy_point_controls)
         return ffd_fail(err, FFD_ERR_INVALID, "%s: only a T-spline rig has a proxy", path);
-    /* only the proxy's own points, renumbered */
-    size_t nv = report->control_count, corners = report->proxy_offsets[report->proxy_face_count];
-    uint32_t *map = ffd_malloc_array(nv ? nv : 1, sizeof(uint32_t));
-    size_t cap = 128 + report->proxy_vertex_count * 80 + corners * 12 + report->proxy_face_count * 4;
+    /* the manifold proxy: one point per sheet of each control point on it
+     * (ffd_tsv_proxy.face_points), in the order of their control ids */
+    size_t np = report->proxy_point_count, corners = report->proxy_offsets[report->proxy_face_count];
+    size_t cap = 160 + np * 80 + corners * 12 + report->proxy_face_count * 4;
     char *buf = ffd_malloc(cap);
-    if (!map || !buf) {
-        ffd_free(map);
-        ffd_free(buf);
+    if (!buf)
         return ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory", path);
-    }
-    for (size_t v = 0; v < nv; v++)
-        map[v] = UINT32_MAX;
     size_t len = (size_t)snprintf(buf, cap,
                                   "# ffdkit T-spline proxy: %zu points, %zu faces "
-                                  "(points in order of their control ids)\n",
-                                  report->proxy_vertex_count, report->proxy_face_count);
-    uint32_t next = 0;
-    /* mark used points in one pass, then number them in id order */
-    for (size_t k = 0; k < corners; k++)
-        map[report->proxy_indices[k]] = 0;
-    for (size_t v = 0; v < nv; v++) {
-        if (map[v] == UINT32_MAX)
-            continue;
-        map[v] = ++next;
-        const double *p = report->control_points + 3 * v;
+                                  "(points in order of their control ids, once per sheet)\n",
+                                  np, report->proxy_face_count);
+    for (size_t k = 0; k < np; k++) {
+        const double *p = report->control_points + 3 * (size_t)report->proxy_point_controls[k];
         len += (size_t)snprintf(buf + len, cap - len, "v %.17g %.17g %.17g\n", p[0], p[1], p[2]);
     }
     for (size_t f = 0; f < report->proxy_face_count; f++) {
         len += (size_t)snprintf(buf + len, cap - len, "f");
         for (uint32_t k = report->proxy_offsets[f]; k < report->proxy_offsets[f + 1]; k++)
-            len += (size_t)snprintf(buf + len, cap - len, " %u", map[report->proxy_indices[k]]);
+            len += (size_t)snprintf(buf + len, cap - len, " %u", report->proxy_points[k] + 1);
         len += (size_t)snprintf(buf + len, cap - len, "\n");
     }
     ffd_status s = ffd_write_file_atomic(path, buf, len, err);
-    ffd_free(map);
     ffd_free(buf);
     return s;
 }

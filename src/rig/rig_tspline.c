@@ -413,8 +413,11 @@ static ffd_status report_lattice(const ffd_tsv *t, ffd_rig_report *report, ffd_e
     report->lattice_edges = ffd_malloc_array(ne ? ne : 1, 2 * sizeof(uint32_t));
     report->proxy_offsets = ffd_malloc_array(proxy.face_count + 1, sizeof(uint32_t));
     report->proxy_indices = ffd_malloc_array(corners ? corners : 1, sizeof(uint32_t));
+    report->proxy_points = ffd_malloc_array(corners ? corners : 1, sizeof(uint32_t));
+    report->proxy_point_controls =
+        ffd_malloc_array(proxy.point_count ? proxy.point_count : 1, sizeof(uint32_t));
     if (!report->control_points || !report->lattice_edges || !report->proxy_offsets ||
-        !report->proxy_indices)
+        !report->proxy_indices || !report->proxy_points || !report->proxy_point_controls)
         return ffd_fail(err, FFD_ERR_NOMEM, "out of memory for the report");
     memcpy(report->control_points, ffd_tsv_control_points(t), nv * 3 * sizeof(double));
     report->control_count = nv;
@@ -424,8 +427,14 @@ static ffd_status report_lattice(const ffd_tsv *t, ffd_rig_report *report, ffd_e
     report->proxy_offsets[0] = 0;
     if (proxy.face_count)
         memcpy(report->proxy_offsets, proxy.face_offsets, (proxy.face_count + 1) * sizeof(uint32_t));
-    if (corners)
+    if (corners) {
         memcpy(report->proxy_indices, proxy.face_indices, corners * sizeof(uint32_t));
+        memcpy(report->proxy_points, proxy.face_points, corners * sizeof(uint32_t));
+    }
+    if (proxy.point_count)
+        memcpy(report->proxy_point_controls, proxy.point_controls,
+               proxy.point_count * sizeof(uint32_t));
+    report->proxy_point_count = proxy.point_count;
     report->proxy_face_count = proxy.face_count;
     report->proxy_vertex_count = proxy.vertex_count;
     report->cell_count = ffd_tsv_element_count(t, FFD_TSV_CELL);

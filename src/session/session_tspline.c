@@ -79,6 +79,20 @@ static cJSON *proxy_json(const ffd_tsv *t)
         if (!ok)
             cJSON_Delete(face);
     }
+    /* the same faces as a closed 2-manifold: "face_points" index
+     * "point_controls", one entry per sheet of each control point (all at
+     * its position; dragging the control point moves them all) */
+    cJSON *face_points = ok ? cJSON_CreateArray() : NULL;
+    ok = ok && sess_add_item(o, "face_points", face_points);
+    for (size_t f = 0; ok && f < proxy.face_count; f++) {
+        cJSON *face = sess_uint_array(proxy.face_points + proxy.face_offsets[f],
+                                      proxy.face_offsets[f + 1] - proxy.face_offsets[f]);
+        ok = face && cJSON_AddItemToArray(face_points, face);
+        if (!ok)
+            cJSON_Delete(face);
+    }
+    ok = ok && sess_add_item(o, "point_controls",
+                             sess_uint_array(proxy.point_controls, proxy.point_count));
     ok = ok && sess_add_item(o, "points", sess_uint_array(proxy.vertices,
                                                                   proxy.vertex_count)) &&
          cJSON_AddNumberToObject(o, "inside_cells", (double)proxy.inside_cells);

@@ -219,6 +219,12 @@ typedef struct tsv_proxy {
     uint32_t *lattice_face;       /* face_count: the lattice face id */
     size_t vertex_count;
     uint32_t *vertices;           /* ascending */
+    /* the proxy as a closed 2-manifold (tsv_proxy.c, "Sheets"): a control
+     * point where inside cells touch only along an edge or at a vertex is one
+     * point per sheet through it */
+    size_t point_count;
+    uint32_t *point_controls;     /* point_count: each point's control id, ascending */
+    uint32_t *face_points;        /* face_offsets layout: the point at each corner */
     size_t occupied_cells, inside_cells;
 } tsv_proxy;
 
@@ -244,6 +250,10 @@ typedef struct tsv_arap_graph {
     const uint32_t *proxy_offsets; /* proxy polygons over lattice ids: E_M */
     const uint32_t *proxy_indices;
     size_t proxy_face_count;
+    const uint32_t *proxy_points;  /* NULL, or per corner its point of the manifold proxy
+                                      (tsv_proxy.point_controls): one E_M row per point */
+    const uint32_t *proxy_point_controls; /* proxy_point_count: each point's lattice id */
+    size_t proxy_point_count;
     const double *proxy_uv;        /* 2 per proxy corner: in-plane gamma coordinates,
                                       for the ear-clipping triangulation */
 } tsv_arap_graph;

@@ -444,31 +444,46 @@ static ffd_status build_proxy_laplacian(const tsv_arap_graph *g, const uint8_t *
         size_t k = g->proxy_offsets[f + 1] - g->proxy_offsets[f];
         kmax = k > kmax ? k : kmax;
     }
+    /* The rows are those of the manifold proxy's points (eq. 5 on the mesh
+     * M): a lattice point where the proxy has several sheets (inside cells
+     * that touch only along an edge or at a vertex, tsv_proxy.c) gets one
+     * row per sheet, each over its own fan, all rotated by that point's R_i;
+     * summing the fans into one row would mix the sheets' differential
+     * coordinates (at a corner contact they cancel). Columns are mapped back
+     * to lattice points below. Without points, each lattice point is one. */
+    const size_t np = g->proxy_points ? g->proxy_point_count : g->n;
+    const uint32_t *corner_id = g->proxy_points ? g->proxy_points : g->proxy_indices;
+    const uint32_t *ctl = g->proxy_point_controls;
     cot_pairs cp = {0};
     uint32_t *live = ffd_malloc_array(kmax ? kmax : 1, sizeof *live);
     uint32_t *tri = ffd_malloc_array(kmax ? 3 * kmax : 1, sizeof *tri);
+    double *pref = g->proxy_points ? ffd_malloc_array(np ? np : 1, 3 * sizeof *pref) : NULL;
+    const double *ref = g->proxy_points ? pref : g->ref;
     ffd_status st = FFD_OK;
-    if (!live || !tri) {
+    if (!live || !tri || (g->proxy_points && !pref)) {
         st = ffd_fail(err, FFD_ERR_NOMEM, "tsv_arap: out of memory (proxy triangulation)");
         goto done;
     }
+    if (g->proxy_points)
+        for (size_t p = 0; p < np; p++)
+            memcpy(pref + 3 * p, g->ref + 3 * (size_t)ctl[p], 3 * sizeof *pref);
     for (size_t f = 0; f < g->proxy_face_count; f++) {
         size_t off = g->proxy_offsets[f], k = g->proxy_offsets[f + 1] - off;
-        const uint32_t *id = g->proxy_indices + off;
+        const uint32_t *id = corner_id + off;
         const double *uv = g->proxy_uv + 2 * off;
         if (k < 3)
             continue;
         int ok = 1;
         if (k == 4 && quad_both_splits(uv)) {
             /* plain quad: the average of its two diagonal splits (symmetric) */
-            ok = cot_triangle(&cp, g->ref, id[0], id[1], id[2], 0.5) &&
-                 cot_triangle(&cp, g->ref, id[0], id[2], id[3], 0.5) &&
-                 cot_triangle(&cp, g->ref, id[1], id[2], id[3], 0.5) &&
-                 cot_triangle(&cp, g->ref, id[1], id[3], id[0], 0.5);
+            ok = cot_triangle(&cp, ref, id[0], id[1], id[2], 0.5) &&
+                 cot_triangle(&cp, ref, id[0], id[2], id[3], 0.5) &&
+                 cot_triangle(&cp, ref, id[1], id[2], id[3], 0.5) &&
+                 cot_triangle(&cp, ref, id[1], id[3], id[0], 0.5);
         } else {
             size_t nt = ear_clip(uv, k, live, tri);
             for (size_t t = 0; t < nt && ok; t++)
-                ok = cot_triangle(&cp, g->ref, id[tri[3 * t]], id[tri[3 * t + 1]],
+                ok = cot_triangle(&cp, ref, id[tri[3 * t]], id[tri[3 * t + 1]],
                                   id[tri[3 * t + 2]], 1.0);
         }
         if (!ok) {
@@ -477,26 +492,36 @@ static ffd_status build_proxy_laplacian(const tsv_arap_graph *g, const uint8_t *
         }
     }
     arap_csr adj;
-    st = csr_from_pairs(g->n, cp.pairs, cp.count, cp.w, &adj, err);
+    st = csr_from_pairs(np, cp.pairs, cp.count, cp.w, &adj, err);
     if (st != FFD_OK)
         goto done;
     /* summed over all incident triangles; negative weights clamped to 0 */
-    for (size_t k = 0; k < adj.ptr[g->n]; k++)
+    for (size_t k = 0; k < adj.ptr[np]; k++)
         if (!(adj.val[k] > 0.0))
             adj.val[k] = 0.0;
     /* S_M: rows of M \ C only */
-    uint8_t *skip = ffd_malloc_array(g->n ? g->n : 1, 1);
+    uint8_t *skip = ffd_malloc_array(np ? np : 1, 1);
     if (!skip) {
         csr_free(&adj);
         st = ffd_fail(err, FFD_ERR_NOMEM, "tsv_arap: out of memory");
         goto done;
     }
-    for (size_t i = 0; i < g->n; i++)
-        skip[i] = roles[i] != TSV_FREE;
-    st = operator_from_weights(&adj, g->n, skip, g->ref, weight, op, err);
+    for (size_t i = 0; i < np; i++)
+        skip[i] = roles[ctl && g->proxy_points ? ctl[i] : i] != TSV_FREE;
+    st = operator_from_weights(&adj, np, skip, ref, weight, op, err);
     ffd_free(skip);
     csr_free(&adj);
+    /* points back to lattice points: a row's vertex and its columns (the
+     * assembly sums repeated columns, which a fan through both copies of a
+     * split edge can give) */
+    if (st == FFD_OK && g->proxy_points) {
+        for (size_t r = 0; r < op->rows; r++)
+            op->row_vertex[r] = ctl[op->row_vertex[r]];
+        for (size_t e = 0; e < op->ptr[op->rows]; e++)
+            op->col[e] = ctl[op->col[e]];
+    }
 done:
+    ffd_free(pref);
     ffd_free(cp.pairs);
     ffd_free(cp.w);
     ffd_free(live);
@@ -1003,6 +1028,16 @@ static ffd_status check_graph(const tsv_arap_graph *g, const uint8_t *roles,
             if (!isfinite(g->proxy_uv[2 * k]) || !isfinite(g->proxy_uv[2 * k + 1]))
                 return ffd_fail(err, FFD_ERR_NONFINITE, "tsv_arap: proxy corner %zu: uv not finite",
                                 k);
+        }
+        if (g->proxy_points) {
+            if (!g->proxy_point_controls)
+                return ffd_fail(err, FFD_ERR_INVALID, "tsv_arap: NULL proxy point controls");
+            for (size_t k = 0; k < corners; k++)
+                if (g->proxy_points[k] >= g->proxy_point_count ||
+                    g->proxy_point_controls[g->proxy_points[k]] != g->proxy_indices[k])
+                    return ffd_fail(err, FFD_ERR_INVALID, "tsv_arap: proxy corner %zu: point %u "
+                                    "is not on vertex %u", k, (unsigned)g->proxy_points[k],
+                                    (unsigned)g->proxy_indices[k]);
         }
     }
     const double ws[4] = {w->one_form, w->proxy, w->volume, w->target};

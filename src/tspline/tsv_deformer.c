@@ -626,6 +626,9 @@ void ffd_tsv_get_proxy(const ffd_tsv *t, ffd_tsv_proxy *out)
     out->vertices = p->vertices;
     out->occupied_cells = p->occupied_cells;
     out->inside_cells = p->inside_cells;
+    out->point_count = p->point_count;
+    out->point_controls = p->point_controls;
+    out->face_points = p->face_points;
 }
 
 /* --- ARAP drags (§3.4) --- */

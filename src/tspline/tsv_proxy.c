@@ -495,6 +495,8 @@ void tsv_proxy_free(tsv_proxy *proxy)
     ffd_free(proxy->face_cells);
     ffd_free(proxy->lattice_face);
     ffd_free(proxy->vertices);
+    ffd_free(proxy->point_controls);
+    ffd_free(proxy->face_points);
     memset(proxy, 0, sizeof *proxy);
 }
 
@@ -590,6 +592,213 @@ static ffd_status tsv_proxy_faces(const tsv_lattice *L, const uint8_t *out, tsv_
     return FFD_OK;
 }
 
+/* ---------------------------------------------------------------------
+ * Sheets: the proxy as a closed 2-manifold
+ * --------------------------------------------------------------------- */
+
+/* Where two inside cells share only an edge, four proxy faces meet at that
+ * edge; where they share only a vertex, the faces around it form two fans.
+ * The manifold proxy splits such edges and vertices per sheet, by the rule
+ * of voxel surfaces that faces of one inside cell stay connected:
+ *  1. each half-edge (corner q to the next corner of its face) gets a twin,
+ *     a half-edge of the reverse direction between the same lattice points:
+ *     one of the same inside cell where there is one (the two faces of a
+ *     cell at its edge), else the remaining one (at an edge with two faces
+ *     there is exactly one);
+ *  2. the corners at one control point are joined through the twins (corner
+ *     q and the corner at the same point in its twin's face, the next one
+ *     round the point); every corner then has two neighbours, so each class
+ *     is one cycle, a fan: one sheet, one point of the manifold proxy;
+ *  3. where the two inside cells at a four-face edge are also joined through
+ *     faces around both of its ends, step 2 leaves one point at each end and
+ *     the mesh would hold that edge twice (four faces on one pair of points).
+ *     That edge is paired the other way, through its two outside cells,
+ *     which splits both of its ends into two fans; then step 2 again.
+ * Points are numbered by control id, then by their lowest corner, so on a
+ * proxy with no contact point k is vertices[k] and face_points mirrors
+ * face_indices. */
+
+typedef struct half_edge {
+    uint64_t key;  /* lower point << 32 | higher point */
+    uint32_t q;    /* the corner it starts at */
+} half_edge;
+
+static int cmp_half_edge(const void *a, const void *b)
+{
+    const half_edge *x = a, *y = b;
+    if (x->key != y->key)
+        return (x->key > y->key) - (x->key < y->key);
+    return (x->q > y->q) - (x->q < y->q);
+}
+
+static int cmp_u64(const void *a, const void *b)
+{
+    uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
+    return (x > y) - (x < y);
+}
+
+static uint32_t uf_find(uint32_t *parent, uint32_t q)
+{
+    uint32_t r = q;
+    while (parent[r] != r)
+        r = parent[r];
+    while (parent[q] != r) { /* path compression */
+        uint32_t up = parent[q];
+        parent[q] = r;
+        q = up;
+    }
+    return r;
+}
+
+/* Step 2: parent[] classes of corners joined through the twins; every
+ * class's root is its lowest corner. */
+static void tsv_sheet_classes(const uint32_t *next, const uint32_t *twin, size_t nidx,
+                              uint32_t *parent)
+{
+    for (size_t q = 0; q < nidx; q++)
+        parent[q] = (uint32_t)q;
+    for (size_t q = 0; q < nidx; q++) {
+        uint32_t a = uf_find(parent, (uint32_t)q), b = uf_find(parent, next[twin[q]]);
+        if (a < b)
+            parent[b] = a;
+        else if (b < a)
+            parent[a] = b;
+    }
+}
+
+/* Does the four-face edge whose forward half-edges are f0, f1 join the
+ * same two points twice? */
+static int tsv_edge_doubled(uint32_t *parent, const uint32_t *next, uint32_t f0, uint32_t f1)
+{
+    return uf_find(parent, f0) == uf_find(parent, f1) &&
+           uf_find(parent, next[f0]) == uf_find(parent, next[f1]);
+}
+
+/* Fills P->point_count, point_controls and face_points from P's faces. */
+static ffd_status tsv_proxy_sheets(tsv_proxy *P, ffd_error *err)
+{
+    const size_t nf = P->face_count, nidx = nf ? P->face_offsets[nf] : 0;
+    uint32_t *next = ffd_malloc_array(nidx ? nidx : 1, sizeof *next);
+    uint32_t *twin = ffd_malloc_array(nidx ? nidx : 1, sizeof *twin);
+    uint32_t *face = ffd_malloc_array(nidx ? nidx : 1, sizeof *face);
+    uint32_t *parent = ffd_malloc_array(nidx ? nidx : 1, sizeof *parent);
+    uint32_t *quad = ffd_malloc_array(nidx ? nidx : 1, sizeof *quad); /* 2 per four-face edge */
+    half_edge *he = ffd_malloc_array(nidx ? nidx : 1, sizeof *he);
+    P->face_points = ffd_malloc_array(nidx ? nidx : 1, sizeof *P->face_points);
+    ffd_status st = FFD_OK;
+    size_t nquad = 0;
+    if (!next || !twin || !face || !parent || !quad || !he || !P->face_points) {
+        st = ffd_fail(err, FFD_ERR_NOMEM, "tsv_proxy_build: out of memory (proxy sheets)");
+        goto done;
+    }
+    for (size_t f = 0; f < nf; f++) {
+        uint32_t b0 = P->face_offsets[f], b1 = P->face_offsets[f + 1];
+        for (uint32_t q = b0; q < b1; q++) {
+            next[q] = q + 1 < b1 ? q + 1 : b0;
+            face[q] = (uint32_t)f;
+            uint64_t a = P->face_indices[q], b = P->face_indices[next[q]];
+            he[q].key = a < b ? a << 32 | b : b << 32 | a;
+            he[q].q = q;
+        }
+    }
+    /* step 1: the twins */
+    qsort(he, nidx, sizeof *he, cmp_half_edge);
+    for (size_t g0 = 0; g0 < nidx;) {
+        size_t g1 = g0 + 1;
+        while (g1 < nidx && he[g1].key == he[g0].key)
+            g1++;
+        uint32_t lower = (uint32_t)(he[g0].key >> 32);
+        uint32_t fwd[2], nfwd = 0;
+        for (int pass = 0; pass < 2; pass++)
+            for (size_t i = g0; i < g1; i++) {
+                uint32_t qi = he[i].q;
+                if (P->face_indices[qi] != lower || he[i].key == UINT64_MAX)
+                    continue;
+                for (size_t j = g0; j < g1; j++) {
+                    uint32_t qj = he[j].q;
+                    if (P->face_indices[qj] == lower || he[j].key == UINT64_MAX ||
+                        (pass == 0 && P->face_cells[face[qi]] != P->face_cells[face[qj]]))
+                        continue;
+                    twin[qi] = qj;
+                    twin[qj] = qi;
+                    he[i].key = he[j].key = UINT64_MAX; /* paired (keys are < 2^64 - 1) */
+                    if (nfwd < 2)
+                        fwd[nfwd] = qi;
+                    nfwd++;
+                    break;
+                }
+            }
+        for (size_t i = g0; i < g1; i++)
+            if (he[i].key != UINT64_MAX) {
+                uint32_t q = he[i].q;
+                st = ffd_fail(err, FFD_ERR_INVALID,
+                              "tsv_proxy_build: proxy edge (%u, %u) of face %u has no reverse "
+                              "half-edge: the proxy is not closed",
+                              (unsigned)P->face_indices[q], (unsigned)P->face_indices[next[q]],
+                              (unsigned)face[q]);
+                goto done;
+            }
+        if (nfwd == 2) {
+            quad[2 * nquad] = fwd[0];
+            quad[2 * nquad + 1] = fwd[1];
+            nquad++;
+        }
+        g0 = g1;
+    }
+    /* steps 2 and 3 */
+    tsv_sheet_classes(next, twin, nidx, parent);
+    size_t flipped = 0;
+    for (size_t k = 0; k < nquad; k++) {
+        uint32_t f0 = quad[2 * k], f1 = quad[2 * k + 1];
+        if (!tsv_edge_doubled(parent, next, f0, f1))
+            continue;
+        uint32_t b0 = twin[f0], b1 = twin[f1];
+        twin[f0] = b1, twin[b1] = f0;
+        twin[f1] = b0, twin[b0] = f1;
+        flipped++;
+    }
+    if (flipped) {
+        tsv_sheet_classes(next, twin, nidx, parent);
+        for (size_t k = 0; k < nquad; k++)
+            if (tsv_edge_doubled(parent, next, quad[2 * k], quad[2 * k + 1])) {
+                uint32_t q = quad[2 * k];
+                st = ffd_fail(err, FFD_ERR_INVALID,
+                              "tsv_proxy_build: proxy edge (%u, %u) cannot be split into two "
+                              "sheets",
+                              (unsigned)P->face_indices[q], (unsigned)P->face_indices[next[q]]);
+                goto done;
+            }
+    }
+    /* one point per class: (control id, lowest corner), ascending */
+    uint64_t *key = (uint64_t *)(void *)he; /* reused: sizeof(half_edge) >= sizeof(uint64_t) */
+    size_t np = 0;
+    for (size_t q = 0; q < nidx; q++)
+        if (uf_find(parent, (uint32_t)q) == q)
+            key[np++] = (uint64_t)P->face_indices[q] << 32 | q;
+    qsort(key, np, sizeof *key, cmp_u64);
+    P->point_controls = ffd_malloc_array(np ? np : 1, sizeof *P->point_controls);
+    if (!P->point_controls) {
+        st = ffd_fail(err, FFD_ERR_NOMEM, "tsv_proxy_build: out of memory (proxy sheets)");
+        goto done;
+    }
+    uint32_t *point_of_root = twin; /* reused: the twins are no longer needed */
+    for (size_t k = 0; k < np; k++) {
+        P->point_controls[k] = (uint32_t)(key[k] >> 32);
+        point_of_root[key[k] & 0xffffffffu] = (uint32_t)k;
+    }
+    for (size_t q = 0; q < nidx; q++)
+        P->face_points[q] = point_of_root[uf_find(parent, (uint32_t)q)];
+    P->point_count = np;
+done:
+    ffd_free(next);
+    ffd_free(twin);
+    ffd_free(face);
+    ffd_free(parent);
+    ffd_free(quad);
+    ffd_free(he);
+    return st;
+}
+
 ffd_status tsv_proxy_build(tsv_lattice *L, const tsv_object *obj, tsv_proxy *proxy,
                            ffd_error *err)
 {
@@ -608,6 +817,8 @@ ffd_status tsv_proxy_build(tsv_lattice *L, const tsv_object *obj, tsv_proxy *pro
         st = tsv_flood_outside(L, occ, out, err);
     if (st == FFD_OK)
         st = tsv_proxy_faces(L, out, &P, err);
+    if (st == FFD_OK)
+        st = tsv_proxy_sheets(&P, err);
     if (st != FFD_OK) {
         tsv_proxy_free(&P);
         ffd_free(occ);
@@ -640,6 +851,8 @@ void tsv_arap_graph_free(tsv_arap_graph *g)
     ffd_free((void *)g->proxy_offsets);
     ffd_free((void *)g->proxy_indices);
     ffd_free((void *)g->proxy_uv);
+    ffd_free((void *)g->proxy_points);
+    ffd_free((void *)g->proxy_point_controls);
     memset(g, 0, sizeof *g);
 }
 
@@ -783,10 +996,15 @@ ffd_status tsv_arap_graph_build(const tsv_lattice *L, const tsv_proxy *proxy,
     uint32_t *poff = ffd_malloc_array(nfp + 1, sizeof *poff);
     uint32_t *pidx = ffd_malloc_array(nidx ? nidx : 1, sizeof *pidx);
     double *uv = ffd_malloc_array(nidx ? nidx : 1, 2 * sizeof *uv);
+    /* the manifold proxy's points (one E_M row each), when the proxy has them */
+    const int sheets = proxy->face_points != NULL && proxy->point_controls != NULL;
+    const size_t npt = sheets ? proxy->point_count : 0;
+    uint32_t *ppts = sheets ? ffd_malloc_array(nidx ? nidx : 1, sizeof *ppts) : NULL;
+    uint32_t *pctl = sheets ? ffd_malloc_array(npt ? npt : 1, sizeof *pctl) : NULL;
     uint32_t *vol = NULL;
     size_t nvol = 0;
     ffd_status st = FFD_OK;
-    if (!ref || !edges || !poff || !pidx || !uv) {
+    if (!ref || !edges || !poff || !pidx || !uv || (sheets && (!ppts || !pctl))) {
         st = ffd_fail(err, FFD_ERR_NOMEM, "tsv_arap_graph_build: out of memory");
         goto fail;
     }
@@ -838,8 +1056,17 @@ ffd_status tsv_arap_graph_build(const tsv_lattice *L, const tsv_proxy *proxy,
     g->proxy_indices = pidx;
     g->proxy_face_count = nfp;
     g->proxy_uv = uv;
+    if (sheets) {
+        memcpy(ppts, proxy->face_points, nidx * sizeof *ppts);
+        memcpy(pctl, proxy->point_controls, npt * sizeof *pctl);
+        g->proxy_points = ppts;
+        g->proxy_point_controls = pctl;
+        g->proxy_point_count = npt;
+    }
     return FFD_OK;
 fail:
+    ffd_free(ppts);
+    ffd_free(pctl);
     ffd_free(ref);
     ffd_free(edges);
     ffd_free(poff);

@@ -67,7 +67,7 @@ static void print_report(const ffd_rig_report *report)
         printf(", \"cells\": %zu, \"proxy_points\": %zu, \"proxy_faces\": %zu, "
                "\"refinements\": %zu, \"added_points\": %zu, \"moved_points\": %zu, "
                "\"max_weight_deviation\": ",
-               report->cell_count, report->proxy_vertex_count, report->proxy_face_count,
+               report->cell_count, report->proxy_point_count, report->proxy_face_count,
                report->refinements, report->added_points, report->moved_points);
         cli_json_number(stdout, report->max_weight_deviation);
         printf(", \"arap_solves\": %zu, \"max_handle_error\": ", report->arap_solves);

@@ -149,13 +149,13 @@ int cmd_tspline(int argc, char **argv)
                "\"proxy_faces\": %zu, \"refinements\": %zu, \"added_points\": %zu, "
                "\"max_weight_deviation\": ",
                report.control_count, report.cell_count, report.lattice_edge_count,
-               report.proxy_vertex_count, report.proxy_face_count, report.refinements,
+               report.proxy_point_count, report.proxy_face_count, report.refinements,
                report.added_points);
         cli_json_number(stdout, report.max_weight_deviation);
         printf("}\n");
     }
     fprintf(stderr, "wrote %s (proxy: %zu points, %zu faces; lattice: %zu control points, %zu cells)\n",
-            out, report.proxy_vertex_count, report.proxy_face_count, report.control_count,
+            out, report.proxy_point_count, report.proxy_face_count, report.control_count,
             report.cell_count);
     code = CLI_EXIT_OK;
 done:
