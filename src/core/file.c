@@ -24,9 +24,22 @@ ffd_status ffd_read_file(const char *path, unsigned char **data, size_t *size, f
         return ffd_fail(err, FFD_ERR_IO, "%s: is a directory, expected a file", path);
     if (!S_ISREG(st.st_mode))
         return ffd_fail(err, FFD_ERR_IO, "%s: not a regular file", path);
-    FILE *f = fopen(path, "rb");
-    if (!f)
+    /* Opened without waiting (opening a FIFO waits for a writer) and checked
+     * again on the descriptor: a file replaced by a FIFO after the stat above
+     * cannot hang the reader. */
+    int fd = open(path, O_RDONLY | O_NONBLOCK | O_CLOEXEC);
+    if (fd < 0)
         return ffd_fail(err, FFD_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
+    if (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
+        close(fd);
+        return ffd_fail(err, FFD_ERR_IO, "%s: not a regular file", path);
+    }
+    FILE *f = fdopen(fd, "rb");
+    if (!f) {
+        int e = errno;
+        close(fd);
+        return ffd_fail(err, FFD_ERR_IO, "%s: cannot open: %s", path, strerror(e));
+    }
     size_t cap = (size_t)st.st_size + 1, n = 0;
     unsigned char *buf = ffd_malloc(cap);
     if (!buf) {

@@ -6,7 +6,13 @@
 # methods; malformed JSON; missing files), the server still answering with an
 # unchanged state after each, concurrent requests, the page's files, atomic
 # saves under the root, the --host warning, a taken port, a clean stop on
-# SIGTERM; the opened mesh is never modified.
+# SIGTERM; the opened mesh is never modified. Connections: one client
+# address holds at most --client-connections (others still get in past 256
+# idle ones), silent connections close after --idle-timeout, an ambiguous
+# body length (two Content-Length headers) is a 400 that closes the
+# connection; GET /api/state answers while a long request holds the session.
+# Raw connections use bash's /dev/tcp and curl --interface 127.0.0.2 (a
+# second loopback client address); nothing leaves 127.0.0.0/8.
 # The "session" part (a lattice, a drag, undo, rig and mesh round trips) needs
 # the real editing session; set FFD_SERVE_STUB=1 to skip it when the library
 # is built with a stub session.
@@ -111,6 +117,12 @@ bad 2 serve --host not-an-address
 bad 2 serve --max-upload 0
 bad 2 serve --bogus
 bad 2 serve a.obj b.obj
+bad 2 serve --client-connections 0
+has stderr "--client-connections '0': expected a count, 1 to 256"
+bad 2 serve --client-connections 257
+bad 2 serve --idle-timeout 0
+bad 2 serve --idle-timeout 1.5
+has stderr "--idle-timeout '1.5': expected seconds, 1 to 86400"
 bad 1 serve "$T/missing.obj" --port 0
 has stderr "missing.obj"
 
@@ -139,7 +151,8 @@ ln -s "$OUT/secret.html" "$T/web/leak.html"
 BUNNY_SUM=$(cksum <"$ROOT/bunny.obj")
 OUT_SUM=$(cd "$OUT" && cat secret.obj secret.json secret.html | cksum)
 
-start main "$ROOT/bunny.obj" --port 0 --root "$ROOT" --web "$T/web" || exit 1
+# 64 connections per client: "concurrent requests" below opens 60 at once
+start main "$ROOT/bunny.obj" --port 0 --root "$ROOT" --web "$T/web" --client-connections 64 || exit 1
 MAIN_PID=$PID
 MAIN_URL=$URL
 PORT=${URL##*:}
@@ -299,6 +312,36 @@ for i in $(seq 1 20); do
 done
 state_same "concurrent requests"
 
+# ---- an ambiguous body length: refused, and the connection closed ----
+# raw TEXT: sends TEXT (printf format) on a new connection and reads the
+# replies until the server closes it (5 s at most) into $T/raw.
+raw() {
+    local fd
+    exec {fd}<>"/dev/tcp/127.0.0.1/$PORT" || { fail "raw: cannot connect to $PORT"; return; }
+    printf "$1" >&"$fd"
+    timeout 5 cat <&"$fd" >"$T/raw"
+    exec {fd}>&-
+}
+replies() { grep -ac '^HTTP/1\.1 ' "$T/raw"; } # how many replies $T/raw holds
+# two lengths: libmicrohttpd reads the first (5 bytes) and would take the rest
+# for a second request (a smuggled GET)
+raw 'POST /api/open HTTP/1.1\r\nHost: x\r\nContent-Length: 5\r\nContent-Length: 80\r\n\r\n{"patGET /api/state HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n'
+grep -q '^HTTP/1.1 400 ' "$T/raw" && [ "$(replies)" = 1 ] && grep -qiF 'Connection: close' "$T/raw" &&
+    grep -qF '"error":"2 Content-Length headers: the body' "$T/raw" && grep -qF '"status":"invalid"' "$T/raw" ||
+    fail "two Content-Length headers: not one 400 closing the connection: $(tr -c '[:print:]\n' . <"$T/raw")"
+raw 'POST /api/open HTTP/1.1\r\nHost: x\r\nContent-Length: 21\r\nContent-Length: 21\r\nConnection: close\r\n\r\n{"path": "bunny.obj"}'
+grep -q '^HTTP/1.1 400 ' "$T/raw" && [ "$(replies)" = 1 ] ||
+    fail "two equal Content-Length headers: not one 400: $(tr -c '[:print:]\n' . <"$T/raw")"
+raw 'POST /api/open HTTP/1.1\r\nHost: x\r\nContent-Length: 21\r\nTransfer-Encoding: chunked\r\n\r\n15\r\n{"path": "bunny.obj"}\r\n0\r\n\r\n'
+grep -q '^HTTP/1.1 400 ' "$T/raw" && [ "$(replies)" = 1 ] &&
+    grep -qF 'Content-Length and Transfer-Encoding together' "$T/raw" ||
+    fail "Content-Length with Transfer-Encoding: not one 400: $(tr -c '[:print:]\n' . <"$T/raw")"
+raw 'POST /api/open HTTP/1.1\r\nHost: x\r\nContent-Length: 5, 80\r\n\r\n{"pat'
+grep -q '^HTTP/1.1 400 ' "$T/raw" || fail "Content-Length: 5, 80: not a 400: $(tr -c '[:print:]\n' . <"$T/raw")"
+raw 'POST /api/open HTTP/1.1\r\nHost: x\r\nContent-Length: 21\r\nConnection: close\r\n\r\n{"path": "bunny.obj"}'
+grep -q '^HTTP/1.1 200 ' "$T/raw" || fail "one Content-Length: not a 200: $(tr -c '[:print:]\n' . <"$T/raw")"
+state_same "ambiguous body lengths"
+
 # ---- uploads and opens replace the session ----
 expect_ok() { # expect_ok METHOD PATH [CURL ARGS]: HTTP 200
     req "$@"
@@ -323,6 +366,77 @@ has_body '"small.obj"'
 req GET /
 [ "$CODE" = 404 ] || fail "GET / without a page: HTTP $CODE"
 stop small
+
+# ---- connections: per client address, idle timeout (a server with small limits) ----
+# idle N: opens N connections from 127.0.0.1 that send nothing; their
+# descriptors in IDLE.
+idle() {
+    local fd
+    for _ in $(seq 1 "$1"); do
+        exec {fd}<>"/dev/tcp/127.0.0.1/$PORT" || { fail "cannot connect to $PORT"; return; }
+        IDLE+=("$fd")
+    done
+}
+# closed FD SECONDS: the server closes FD within SECONDS (read sees the end)
+closed() {
+    local line
+    read -r -t "$2" -u "$1" line
+    [ $? -eq 1 ]
+}
+close_idle() {
+    for fd in "${IDLE[@]}"; do exec {fd}>&-; done
+    IDLE=()
+}
+# state_from ADDRESS: GET /api/state from that client address answers 200 (5 s at most)
+state_from() {
+    [ "$(curl -s --max-time 5 --interface "$1" -o /dev/null -w '%{http_code}' "$URL/api/state")" = 200 ]
+}
+start limits "$ROOT/bunny.obj" --port 0 --root "$ROOT" --web "$T/no-page" --client-connections 4 \
+    --idle-timeout 2 || exit 1
+PORT=${URL##*:}
+IDLE=()
+t0=$(date +%s%N)
+idle 4
+printf 'GET /api/state HTTP/1.1\r\nHost: x\r\n' >&"${IDLE[0]}" # half a request: as idle
+idle 2
+closed "${IDLE[4]}" 1 && closed "${IDLE[5]}" 1 ||
+    fail "--client-connections 4: the 5th and 6th connection of 127.0.0.1 were not closed at once"
+closed "${IDLE[1]}" 0.2 && fail "--client-connections 4: the 2nd connection was closed at once"
+state_from 127.0.0.2 || fail "--client-connections 4: 127.0.0.2 shut out by 4 idle connections of 127.0.0.1"
+state_from 127.0.0.1 && fail "--client-connections 4: a 5th connection of 127.0.0.1 was served"
+for i in 0 1 2 3; do
+    closed "${IDLE[$i]}" 10 || fail "--idle-timeout 2: idle connection $i still open after 10 s"
+done
+ms=$((($(date +%s%N) - t0) / 1000000))
+[ "$ms" -ge 1500 ] || fail "--idle-timeout 2: idle connections closed after $ms ms"
+close_idle
+state_from 127.0.0.1 || fail "127.0.0.1 not served after its idle connections were closed"
+# a request that computes longer than the idle timeout (a few seconds) is still answered
+if [ "${FFD_SERVE_STUB:-0}" != 1 ]; then
+    expect_ok POST /api/create --data-binary '{"method": "tspline", "resolution": [14, 14, 14]}'
+    expect_ok POST /api/refine --data-binary '{"insertions": [{"cells": "proxy"}]}'
+fi
+stop limits
+
+# ---- more idle clients than the server's 256 connections, at the defaults ----
+start crowd "$ROOT/bunny.obj" --port 0 --root "$ROOT" --web "$T/no-page" || exit 1
+PORT=${URL##*:}
+idle 260
+closed "${IDLE[40]}" 2 || fail "defaults: the 41st idle connection of 127.0.0.1 was not closed at once"
+state_from 127.0.0.2 || fail "defaults: 260 idle connections of 127.0.0.1 shut out 127.0.0.2"
+close_idle
+for _ in $(seq 1 50); do state_from 127.0.0.1 && break; sleep 0.1; done
+state_from 127.0.0.1 || fail "defaults: 127.0.0.1 not served after closing its idle connections"
+# a browser: 6 keep-alive connections, 60 requests
+urls=()
+for _ in $(seq 1 20); do
+    for u in state frame topology; do urls+=(-o /dev/null "$URL/api/$u"); done
+done
+codes=$(curl -s --parallel --parallel-max 6 --max-time 60 -w '%{http_code}\n' "${urls[@]}" 2>/dev/null |
+    sort | uniq -c | tr -s ' ')
+[ "$codes" = " 60 200" ] || fail "6 parallel keep-alive connections: codes $codes"
+stop crowd
+PORT=${MAIN_URL##*:}
 
 # ---- a taken port; a non-loopback host ----
 bad 1 serve "$ROOT/bunny.obj" --port "$PORT" --root "$ROOT"
@@ -384,6 +498,58 @@ if [ "${FFD_SERVE_STUB:-0}" != 1 ]; then
     expect_ok POST '/api/rig/upload?name=bend.json' --data-binary @"$ROOT/bend.json"
     expect_ok POST /api/influence --data-binary '{"points": [0]}'
     [ "$(head -c 4 "$T/body")" = FFDI ] || fail "influence: no FFDI magic"
+
+    # files a rig names that are not regular files: the client's error (400), never a hang
+    mkfifo "$ROOT/pipe.obj" "$ROOT/pipe.json"
+    mkdir "$ROOT/folder.obj"
+    printf '{"deformer": "gffd", "skeleton": [{"type": "polyline", "file": "pipe.obj", "radius": 1}]}\n' \
+        >"$ROOT/pipe-skeleton.json"
+    printf '{"deformer": "gffd", "skeleton": [{"type": "polyline", "file": "folder.obj", "radius": 1}]}\n' \
+        >"$ROOT/folder-skeleton.json"
+    printf '{"deformer": "gffd", "skeleton": [{"type": "polyline", "file": "spine.obj", "radius": 1}],\n
+            "replace": [{"type": "polyline", "file": "pipe.obj", "radius": 1}]}\n' >"$ROOT/pipe-replace.json"
+    printf 'v 0 0 0\nv 0 5 0\nl 1 2\n' >"$ROOT/spine.obj"
+    req GET /api/state
+    cp "$T/body" "$T/state0"
+    post_json 400 invalid /api/rig/load '{"path": "pipe-skeleton.json"}'
+    has_body 'pipe.obj: not a regular file'
+    post_json 400 invalid /api/rig/load '{"path": "folder-skeleton.json"}'
+    has_body 'folder.obj: is a directory'
+    post_json 400 invalid /api/rig/load '{"path": "pipe-replace.json"}'
+    has_body 'pipe.obj: not a regular file'
+    post_json 400 invalid /api/rig/load '{"path": "pipe.json"}'
+    post_json 400 invalid /api/open '{"path": "pipe.obj"}'
+    post_json 400 invalid /api/open '{"path": "folder.obj"}'
+    post_json 400 invalid /api/export/save '{"path": "pipe.obj"}'
+    post_json 400 invalid /api/export/save '{"path": "folder.obj"}'
+    [ -p "$ROOT/pipe.obj" ] || fail "export/save replaced a FIFO"
+    state_same "rigs naming a FIFO or a directory"
+
+    # GET /api/state answers from the published state while a long request
+    # (a T-spline refinement of every proxy cell, seconds) holds the session
+    expect_ok POST /api/create --data-binary '{"method": "tspline", "resolution": [14, 14, 14]}'
+    cp "$T/body" "$T/state0"
+    curl -s --max-time 600 -o "$T/slow" -w '%{http_code}' -X POST \
+        --data-binary '{"insertions": [{"cells": "proxy"}]}' "$URL/api/refine" >"$T/slow.code" &
+    SLOW=$!
+    sleep 0.3
+    during=0
+    for _ in $(seq 1 20); do
+        kill -0 "$SLOW" 2>/dev/null || break
+        t=$(curl -s --max-time 10 -o "$T/during" -w '%{http_code} %{time_total}' "$URL/api/state")
+        kill -0 "$SLOW" 2>/dev/null || break # answered after the refinement: proves nothing
+        during=$((during + 1))
+        [ "${t%% *}" = 200 ] && awk -v t="${t#* }" 'BEGIN { exit !(t < 1) }' ||
+            fail "GET /api/state during a long request: $t (expected 200 within 1 s)"
+        same_state "$T/during" || fail "GET /api/state during a long request: not the last state"
+        sleep 0.1
+    done
+    wait "$SLOW"
+    [ "$(cat "$T/slow.code")" = 200 ] || fail "the long refinement: HTTP $(cat "$T/slow.code")"
+    [ "$during" -ge 1 ] || fail "no GET /api/state was answered while the refinement ran"
+    req GET /api/state
+    same_state "$T/body" && fail "GET /api/state after the refinement: the state before it"
+    cmp -s "$T/body" "$T/slow" || fail "GET /api/state after the refinement differs from its reply"
 fi
 
 stop main

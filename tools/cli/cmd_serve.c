@@ -29,6 +29,11 @@ static const char usage[] =
     "                    (default: the directory of MESH)\n"
     "  --web DIR         the page's files (default: the built page, web/dist)\n"
     "  --max-upload MB   largest uploaded mesh or rig (default 256)\n"
+    "  --client-connections N\n"
+    "                    connections one client address may hold at a time (default 32;\n"
+    "                    a browser opens about 6); more are closed at once\n"
+    "  --idle-timeout S  seconds a connection may stay silent before it is closed\n"
+    "                    (default 30)\n"
     "  --verbose         one line per request on stderr\n"
     "  -h, --help        this help\n";
 
@@ -46,7 +51,7 @@ static long parse_number(const char *s, long lo, long hi)
 int cmd_serve(int argc, char **argv)
 {
     const char *mesh_path = NULL, *port_text = NULL, *host = NULL, *root = NULL, *web = NULL,
-               *upload_text = NULL;
+               *upload_text = NULL, *clients_text = NULL, *timeout_text = NULL;
     int verbose = 0;
     for (int i = 1; i < argc; i++) {
         const char *arg = argv[i];
@@ -58,7 +63,11 @@ int cmd_serve(int argc, char **argv)
                    (e = cli_option_value(argc, argv, &i, "--host", NULL, &host)) != 0 ||
                    (e = cli_option_value(argc, argv, &i, "--root", NULL, &root)) != 0 ||
                    (e = cli_option_value(argc, argv, &i, "--web", NULL, &web)) != 0 ||
-                   (e = cli_option_value(argc, argv, &i, "--max-upload", NULL, &upload_text)) != 0) {
+                   (e = cli_option_value(argc, argv, &i, "--max-upload", NULL, &upload_text)) != 0 ||
+                   (e = cli_option_value(argc, argv, &i, "--client-connections", NULL,
+                                         &clients_text)) != 0 ||
+                   (e = cli_option_value(argc, argv, &i, "--idle-timeout", NULL, &timeout_text)) !=
+                       0) {
             if (e < 0)
                 return cli_option_error("serve", arg, e);
         } else if (strcmp(arg, "--verbose") == 0) {
@@ -71,13 +80,20 @@ int cmd_serve(int argc, char **argv)
             return cli_usage_error("serve", "unexpected argument '%s' (one mesh only)", arg);
         }
     }
-    long port = 8080, upload_mb = 256;
+    long port = 8080, upload_mb = 256, clients = SERVE_CLIENT_CONNECTIONS,
+         timeout = SERVE_IDLE_TIMEOUT;
     if (port_text && (port = parse_number(port_text, 0, 65535)) < 0)
         return cli_usage_error("serve", "--port '%s': expected a port number, 0 to 65535",
                                port_text);
     if (upload_text && (upload_mb = parse_number(upload_text, 1, 1L << 20)) < 0)
         return cli_usage_error("serve", "--max-upload '%s': expected megabytes, at least 1",
                                upload_text);
+    if (clients_text && (clients = parse_number(clients_text, 1, 256)) < 0)
+        return cli_usage_error("serve", "--client-connections '%s': expected a count, 1 to 256",
+                               clients_text);
+    if (timeout_text && (timeout = parse_number(timeout_text, 1, 86400)) < 0)
+        return cli_usage_error("serve", "--idle-timeout '%s': expected seconds, 1 to 86400",
+                               timeout_text);
     if (!host)
         host = "127.0.0.1";
     int loopback = serve_is_loopback(host);
@@ -122,7 +138,8 @@ int cmd_serve(int argc, char **argv)
     signal(SIGPIPE, SIG_IGN); /* a client gone mid-reply is not our death */
 
     serve_options options = {host, (unsigned)port, root, web, mesh_path,
-                             (size_t)upload_mb << 20, verbose};
+                             (size_t)upload_mb << 20, verbose, (unsigned)clients,
+                             (unsigned)timeout};
     serve_server *server = NULL;
     char msg[1024];
     if (serve_start(session, &options, &server, msg, sizeof msg) != 0) {

@@ -40,11 +40,19 @@
 #define LIST_LIMIT 500    /* meshes and rigs listed, each */
 #define LIST_VISITS 20000 /* directory entries looked at by one listing */
 #define MSG_LEN 1400
+#define CONNECTION_LIMIT 256 /* connections at a time, all clients together */
 
 struct serve_server {
     struct MHD_Daemon *daemon;
-    pthread_mutex_t lock; /* every API request runs under it: the session is not thread-safe */
+    pthread_mutex_t lock; /* every API request but GET /api/state runs under it: the session is not thread-safe */
     ffd_session *session;
+    /* The state as of the last change, for GET /api/state without the lock:
+     * published (under the lock) by every request that changes the session;
+     * NULL after a drag step (republished before the next request that may
+     * take long). Taken after lock, never before it. */
+    pthread_mutex_t published_lock;
+    char *published; /* ffd_malloc'd JSON, or NULL */
+    size_t published_size;
     char *mesh_path;      /* resolved file the session was opened from (never overwritten); NULL after an upload */
     char root[PATH_LEN];  /* resolved, no trailing slash unless "/" */
     char web[PATH_LEN];   /* resolved, "" when the page is missing */
@@ -82,6 +90,7 @@ typedef struct request {
     int answered;  /* a response is queued: the rest of the body is dropped */
     int too_large; /* the body passed limit: dropped, answered 413 at its end */
     int no_memory;
+    int close;     /* the reply closes the connection (the request's framing is in doubt) */
     double start;
 } request;
 
@@ -136,6 +145,8 @@ static enum MHD_Result answer(const serve_server *srv, struct MHD_Connection *c,
         MHD_add_response_header(resp, MHD_HTTP_HEADER_CONTENT_TYPE, type);
     MHD_add_response_header(resp, MHD_HTTP_HEADER_CACHE_CONTROL, "no-store");
     MHD_add_response_header(resp, "X-Content-Type-Options", "nosniff");
+    if (r->close)
+        MHD_add_response_header(resp, MHD_HTTP_HEADER_CONNECTION, "close");
     enum MHD_Result ret = MHD_queue_response(c, code, resp);
     MHD_destroy_response(resp);
     r->answered = 1;
@@ -248,9 +259,17 @@ static enum MHD_Result answer_status(const serve_server *srv, struct MHD_Connect
     case FFD_ERR_NONFINITE: code = MHD_HTTP_BAD_REQUEST, word = "nonfinite"; break;
     case FFD_ERR_UNSUPPORTED: code = MHD_HTTP_NOT_FOUND, word = "unsupported"; break;
     case FFD_ERR_IO:
-        /* paths are checked before the library opens them: a missing file here raced a delete */
+        /* A file the client named (a rig's skeleton file, or a path that
+         * raced a change) is missing, not a regular file (a FIFO, device or
+         * directory: ffd_read_file refuses it without opening it) or not
+         * readable: the client's error. A failed read or write of a regular
+         * file is the server's (500). The words are core/file.c's. */
         if (strstr(message, strerror(ENOENT)))
             code = MHD_HTTP_NOT_FOUND, word = "not_found";
+        else if (strstr(message, ": not a regular file") || strstr(message, ": is a directory"))
+            code = MHD_HTTP_BAD_REQUEST, word = "invalid";
+        else if (strstr(message, strerror(EACCES)))
+            code = MHD_HTTP_FORBIDDEN, word = "forbidden";
         else
             word = "io";
         break;
@@ -319,7 +338,8 @@ static unsigned check_relative(const char *rel, char *msg, size_t size)
 
 /* Resolves a client's path under the root into out: its directory must exist
  * and lie under the root after symbolic links, and so must the file when it
- * is a link. for_write: the file may be missing (not a directory). Returns 0
+ * is a link; an existing file must be a regular file. for_write: the file may
+ * be missing. Returns 0
  * or the HTTP code (403 outside, 404 missing, 400 bad shape); *word and msg say why. */
 static unsigned resolve(const serve_server *srv, const char *rel, int for_write,
                         char out[PATH_LEN], const char **word, char *msg, size_t size)
@@ -392,7 +412,9 @@ static unsigned resolve(const serve_server *srv, const char *rel, int for_write,
             return MHD_HTTP_INTERNAL_SERVER_ERROR;
         }
     }
-    if (S_ISDIR(st.st_mode) || (!for_write && !S_ISREG(st.st_mode))) {
+    /* a FIFO, device or socket is neither read (opening a FIFO waits for a
+     * writer) nor replaced by a save */
+    if (!S_ISREG(st.st_mode)) {
         *word = "invalid";
         snprintf(msg, size, "%s: not a regular file", rel);
         return MHD_HTTP_BAD_REQUEST;
@@ -509,7 +531,43 @@ static int parse_encoding(const char *s, ffd_encoding *out)
  * The API (all under srv->lock)
  * ====================================================================== */
 
-static enum MHD_Result reply_state(const serve_server *srv, struct MHD_Connection *c, request *r)
+/* ---- the published state (see struct serve_server) ---- */
+
+/* Puts json (taken over; NULL: none, made again under the lock when asked for). */
+static void publish(serve_server *srv, char *json, size_t size)
+{
+    pthread_mutex_lock(&srv->published_lock);
+    ffd_free(srv->published);
+    srv->published = json;
+    srv->published_size = json ? size : 0;
+    pthread_mutex_unlock(&srv->published_lock);
+}
+
+/* Publishes a copy of a state reply (under the lock). */
+static void publish_copy(serve_server *srv, const void *json, size_t size)
+{
+    char *copy = ffd_malloc(size + 1);
+    if (copy) {
+        memcpy(copy, json, size);
+        copy[size] = 0;
+    }
+    publish(srv, copy, size);
+}
+
+/* Under the lock: publishes the session's state unless it is published. */
+static void ensure_published(serve_server *srv)
+{
+    pthread_mutex_lock(&srv->published_lock);
+    int missing = srv->published == NULL;
+    pthread_mutex_unlock(&srv->published_lock);
+    char *json = NULL;
+    size_t size = 0;
+    if (missing && ffd_session_state(srv->session, &json, &size, NULL) == FFD_OK)
+        publish(srv, json, size);
+}
+
+/* The session's state as the reply, published (under the lock). */
+static enum MHD_Result reply_state(serve_server *srv, struct MHD_Connection *c, request *r)
 {
     ffd_error err = {{0}};
     char *json = NULL;
@@ -517,7 +575,27 @@ static enum MHD_Result reply_state(const serve_server *srv, struct MHD_Connectio
     ffd_status st = ffd_session_state(srv->session, &json, &size, &err);
     if (st != FFD_OK)
         return answer_status(srv, c, r, st, err.message);
+    publish_copy(srv, json, size);
     return answer_data(srv, c, r, json, size, "application/json", NULL);
+}
+
+/* GET /api/state: the published state, without waiting for the lock; only
+ * when none is published (after a drag step, or out of memory) does it take
+ * the lock and make one. */
+static enum MHD_Result get_state(serve_server *srv, struct MHD_Connection *c, request *r)
+{
+    pthread_mutex_lock(&srv->published_lock);
+    char *copy = srv->published ? ffd_malloc(srv->published_size + 1) : NULL;
+    size_t size = srv->published_size;
+    if (copy)
+        memcpy(copy, srv->published, size + 1);
+    pthread_mutex_unlock(&srv->published_lock);
+    if (copy)
+        return answer_data(srv, c, r, copy, size, "application/json", NULL);
+    pthread_mutex_lock(&srv->lock);
+    enum MHD_Result ret = reply_state(srv, c, r);
+    pthread_mutex_unlock(&srv->lock);
+    return ret;
 }
 
 static enum MHD_Result get_binary(const serve_server *srv, struct MHD_Connection *c, request *r)
@@ -584,7 +662,7 @@ static enum MHD_Result get_export(const serve_server *srv, struct MHD_Connection
     return answer_data(srv, c, r, data, size, "application/octet-stream", disposition);
 }
 
-static enum MHD_Result post_op(const serve_server *srv, struct MHD_Connection *c, request *r)
+static enum MHD_Result post_op(serve_server *srv, struct MHD_Connection *c, request *r)
 {
     ffd_error err = {{0}};
     void *reply = NULL;
@@ -594,6 +672,12 @@ static enum MHD_Result post_op(const serve_server *srv, struct MHD_Connection *c
                                         &reply, &size, &binary, &err);
     if (st != FFD_OK)
         return answer_status(srv, c, r, st, err.message);
+    /* a JSON reply is the new state; a binary one (a drag step's frame)
+     * leaves the state to be made when next needed */
+    if (binary)
+        publish(srv, NULL, 0);
+    else
+        publish_copy(srv, reply, size);
     return answer_data(srv, c, r, reply, size,
                        binary ? "application/octet-stream" : "application/json", NULL);
 }
@@ -800,7 +884,6 @@ static enum MHD_Result post_export_save(serve_server *srv, struct MHD_Connection
 static enum MHD_Result api(serve_server *srv, struct MHD_Connection *c, request *r)
 {
     switch (r->route) {
-    case ROUTE_STATE: return reply_state(srv, c, r);
     case ROUTE_FRAME:
     case ROUTE_TOPOLOGY: return get_binary(srv, c, r);
     case ROUTE_RIG: return get_rig(srv, c, r);
@@ -1064,11 +1147,50 @@ static unsigned classify(request *r, int get, int post, const char **allow)
     return MHD_HTTP_NOT_FOUND;
 }
 
+typedef struct header_count {
+    const char *name;
+    unsigned count;
+} header_count;
+
+static enum MHD_Result count_header(void *cls, enum MHD_ValueKind kind, const char *key,
+                                    const char *value)
+{
+    (void)kind, (void)value;
+    header_count *h = cls;
+    if (key && strcasecmp(key, h->name) == 0)
+        h->count++;
+    return MHD_YES;
+}
+
+/* How many times the request carries the header name (any case). */
+static unsigned header_times(struct MHD_Connection *c, const char *name)
+{
+    header_count h = {name, 0};
+    MHD_get_connection_values(c, MHD_HEADER_KIND, count_header, &h);
+    return h.count;
+}
+
 /* The first call for a request: route it and refuse what can be refused
- * before its body is read (wrong URL or method, a declared size over the
- * limit, an upload's unknown format). */
+ * before its body is read (an ambiguous body length, wrong URL or method, a
+ * declared size over the limit, an upload's unknown format). */
 static enum MHD_Result begin(serve_server *srv, struct MHD_Connection *c, request *r)
 {
+    /* libmicrohttpd 0.9.75 reads the body by the first of two Content-Length
+     * headers and takes the rest for the next request: a client (or a proxy
+     * in front) that reads the other one sees different requests (request
+     * smuggling, RFC 9112 section 6.3). Refused, and the connection closed. */
+    unsigned lengths = header_times(c, MHD_HTTP_HEADER_CONTENT_LENGTH);
+    if (lengths > 1 ||
+        (lengths == 1 && header_times(c, MHD_HTTP_HEADER_TRANSFER_ENCODING) > 0)) {
+        r->close = 1;
+        if (lengths > 1)
+            return answer_error(srv, c, r, MHD_HTTP_BAD_REQUEST, "invalid",
+                                "%u Content-Length headers: the body's length is ambiguous",
+                                lengths);
+        return answer_error(srv, c, r, MHD_HTTP_BAD_REQUEST, "invalid",
+                            "Content-Length and Transfer-Encoding together: the body's length "
+                            "is ambiguous");
+    }
     int get = strcmp(r->method, MHD_HTTP_METHOD_GET) == 0 ||
               strcmp(r->method, MHD_HTTP_METHOD_HEAD) == 0;
     int post = strcmp(r->method, MHD_HTTP_METHOD_POST) == 0;
@@ -1182,7 +1304,18 @@ static enum MHD_Result handle(void *cls, struct MHD_Connection *c, const char *u
         return get_static(srv, c, r);
     if (r->route == ROUTE_FILES)
         return get_files(srv, c, r);
+    if (r->route == ROUTE_STATE)
+        return get_state(srv, c, r);
     pthread_mutex_lock(&srv->lock);
+    /* a request that may take long starts with the state published, so that
+     * GET /api/state meanwhile answers without waiting for it; drag steps
+     * and reading a frame stay as cheap as they are */
+    int quick = r->route == ROUTE_FRAME || r->route == ROUTE_TOPOLOGY ||
+                (r->route == ROUTE_OP &&
+                 (strcmp(r->op, "drag") == 0 || strcmp(r->op, "drag_end") == 0 ||
+                  strcmp(r->op, "drag_cancel") == 0 || strcmp(r->op, "influence") == 0));
+    if (!quick)
+        ensure_published(srv);
     enum MHD_Result ret = api(srv, c, r);
     pthread_mutex_unlock(&srv->lock);
     return ret;
@@ -1285,15 +1418,31 @@ int serve_start(ffd_session *session, const serve_options *o, serve_server **out
         snprintf(msg, msg_size, "cannot create a lock");
         goto fail;
     }
+    if (pthread_mutex_init(&srv->published_lock, NULL) != 0) {
+        pthread_mutex_destroy(&srv->lock);
+        snprintf(msg, msg_size, "cannot create a lock");
+        goto fail;
+    }
     srv->session = session;
-    /* no MHD_USE_ERROR_LOG: MHD never prints on its own */
+    ensure_published(srv);
+    /* no MHD_USE_ERROR_LOG: MHD never prints on its own. Of the 256
+     * connections, one client address holds at most client_connections (MHD
+     * closes its next ones at once), and a connection silent for
+     * idle_timeout seconds is closed: slow or idle clients cannot shut the
+     * others out (docs/editor.md, "Safety"). */
+    unsigned clients = o->client_connections ? o->client_connections : SERVE_CLIENT_CONNECTIONS;
+    unsigned idle = o->idle_timeout ? o->idle_timeout : SERVE_IDLE_TIMEOUT;
     srv->daemon = MHD_start_daemon(MHD_USE_INTERNAL_POLLING_THREAD | MHD_USE_THREAD_PER_CONNECTION,
                                    0, NULL, NULL, handle, srv, MHD_OPTION_LISTEN_SOCKET, fd,
                                    MHD_OPTION_NOTIFY_COMPLETED, completed, srv,
-                                   MHD_OPTION_CONNECTION_TIMEOUT, (unsigned)120,
-                                   MHD_OPTION_CONNECTION_LIMIT, (unsigned)256, MHD_OPTION_END);
+                                   MHD_OPTION_CONNECTION_TIMEOUT, idle,
+                                   MHD_OPTION_PER_IP_CONNECTION_LIMIT, clients,
+                                   MHD_OPTION_CONNECTION_LIMIT, (unsigned)CONNECTION_LIMIT,
+                                   MHD_OPTION_END);
     if (!srv->daemon) {
         srv->session = NULL;
+        publish(srv, NULL, 0);
+        pthread_mutex_destroy(&srv->published_lock);
         pthread_mutex_destroy(&srv->lock);
         snprintf(msg, msg_size, "cannot start the HTTP server on %s:%u", srv->host, srv->port);
         goto fail;
@@ -1329,6 +1478,8 @@ void serve_stop(serve_server *srv)
         return;
     MHD_stop_daemon(srv->daemon); /* waits for the connections' threads, closes the socket */
     ffd_session_destroy(srv->session);
+    publish(srv, NULL, 0);
+    pthread_mutex_destroy(&srv->published_lock);
     pthread_mutex_destroy(&srv->lock);
     ffd_free(srv->mesh_path);
     free(srv);
