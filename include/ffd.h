@@ -991,6 +991,11 @@ ffd_status ffd_rig_parse_json(const char *text, size_t size, const char *name,
 ffd_status ffd_rig_parse_prm(const char *text, size_t size, const char *name,
                              ffd_rig **out, ffd_error *err);
 void ffd_rig_destroy(ffd_rig *rig);
+/* The files a rig read besides itself (GFFD skeleton "file"s), each as
+ * resolved against the rig's directory, for tools that must never write over
+ * an input: i < ffd_rig_input_count(rig); NULL past the end. Borrowed. */
+size_t ffd_rig_input_count(const ffd_rig *rig);
+const char *ffd_rig_input_path(const ffd_rig *rig, size_t i);
 
 /* Seconds spent in each phase of ffd_rig_apply. */
 typedef struct ffd_timings {

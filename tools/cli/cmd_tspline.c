@@ -98,8 +98,18 @@ int cmd_tspline(int argc, char **argv)
         return cli_usage_error("tspline proxy",
                                "--resolution '%s': expected N or L,M,N (positive integers)", res_text);
     int bad = cli_check_output("tspline proxy", in, out, 0);
-    if (!bad && lattice)
-        bad = cli_check_output("tspline proxy", in, lattice, 0);
+    if (!bad && lattice && ffd_format_from_path(lattice) == FFD_FORMAT_AUTO)
+        bad = cli_usage_error("tspline proxy",
+                              "%s: unknown output format (expected .obj, .ply, .off or .stl)",
+                              lattice);
+    const cli_file files[] = {
+        {"the input mesh", in, CLI_FILE_INPUT},
+        {"--rig", rig_path, CLI_FILE_INPUT},
+        {"-o", out, CLI_FILE_OUTPUT},
+        {"--lattice", lattice, CLI_FILE_OUTPUT},
+    };
+    if (!bad)
+        bad = cli_check_files("tspline proxy", files, sizeof files / sizeof *files);
     if (bad)
         return bad;
 
@@ -115,6 +125,10 @@ int cmd_tspline(int argc, char **argv)
     if (rig_path) {
         if (ffd_rig_read(rig_path, &rig, &err) != FFD_OK) {
             cli_error(code, "%s", err.message);
+            goto done;
+        }
+        if ((bad = cli_check_rig_inputs("tspline proxy", rig, files, sizeof files / sizeof *files))) {
+            code = bad;
             goto done;
         }
     } else {
