@@ -45,6 +45,8 @@ int cli_encoding_option(const char *arg, ffd_encoding *encoding);
  * input file (same path, or same device and inode) unless in_place. Returns 0,
  * or prints a usage error for command and returns CLI_EXIT_USAGE. */
 int cli_check_output(const char *command, const char *in, const char *out, int in_place);
+/* The first half of cli_check_output: out (NULL: skipped) has a mesh extension. */
+int cli_check_format(const char *command, const char *out);
 
 /* 1 when a and b name the same file: same device and inode when both exist
  * (a symbolic or hard link to a file is that file), else the same canonical

@@ -97,11 +97,9 @@ int cmd_tspline(int argc, char **argv)
     if (res_text && parse_resolution(res_text, res) != 0)
         return cli_usage_error("tspline proxy",
                                "--resolution '%s': expected N or L,M,N (positive integers)", res_text);
-    int bad = cli_check_output("tspline proxy", in, out, 0);
-    if (!bad && lattice && ffd_format_from_path(lattice) == FFD_FORMAT_AUTO)
-        bad = cli_usage_error("tspline proxy",
-                              "%s: unknown output format (expected .obj, .ply, .off or .stl)",
-                              lattice);
+    int bad = cli_check_format("tspline proxy", out);
+    if (!bad)
+        bad = cli_check_format("tspline proxy", lattice);
     const cli_file files[] = {
         {"the input mesh", in, CLI_FILE_INPUT},
         {"--rig", rig_path, CLI_FILE_INPUT},

@@ -200,11 +200,18 @@ int cli_check_files(const char *command, const cli_file *files, size_t count)
     return 0;
 }
 
-int cli_check_output(const char *command, const char *in, const char *out, int in_place)
+int cli_check_format(const char *command, const char *out)
 {
-    if (ffd_format_from_path(out) == FFD_FORMAT_AUTO)
+    if (out && ffd_format_from_path(out) == FFD_FORMAT_AUTO)
         return cli_usage_error(command,
                                "%s: unknown output format (expected .obj, .ply, .off or .stl)", out);
+    return 0;
+}
+
+int cli_check_output(const char *command, const char *in, const char *out, int in_place)
+{
+    if (cli_check_format(command, out))
+        return CLI_EXIT_USAGE;
     int same = cli_same_file(in, out);
     if (!in_place && same)
         return cli_usage_error(command,
