@@ -112,8 +112,12 @@ ffd_status ffd_mesh_read(const char *path, ffd_mesh **out, ffd_error *err);
 ffd_status ffd_mesh_read_memory(const void *data, size_t size, ffd_format format,
                                 const char *name, ffd_mesh **out, ffd_error *err);
 
-/* Writes atomically (temporary file in the same directory, then rename): on
- * failure an existing file at path is untouched. Same format as the source:
+/* Writes atomically: on failure, or when the process is killed, an existing
+ * file at path is untouched and no partial file is left (an unnamed O_TMPFILE
+ * file linked in when complete; where the file system lacks O_TMPFILE, a
+ * temporary "<path>.tmp<PID>.<N>" renamed over path, and such leftovers of
+ * dead processes are deleted by the next write to path; docs/cli.md). Every
+ * library function that writes a file does it this way. Same format as the source:
  * every non-position byte is kept; changed positions (and their normals) are
  * rewritten with 17 significant digits (text) or in the file's own binary
  * type. Another format: written from the mesh's geometry and attributes. */
