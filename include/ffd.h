@@ -260,7 +260,9 @@ typedef struct ffd_box {
 
 /* Axis-aligned bounding box of n points grown by margin times its extent on
  * each side (an axis of zero extent gets margin times the diagonal, or 1 for
- * a single point). margin >= 0. FFD_ERR_INVALID when n == 0, FFD_ERR_NONFINITE. */
+ * a single point). margin >= 0. FFD_ERR_INVALID when n == 0 or when the
+ * largest extent of the points is above 1e100 or nonzero and below 1e-100
+ * (the message gives the extents), FFD_ERR_NONFINITE. */
 ffd_status ffd_box_fit(const double *points, size_t n, double margin, ffd_box *box, ffd_error *err);
 
 /* Minimum control points per direction for a basis (2 for both). */
@@ -779,7 +781,8 @@ typedef struct ffd_tsv_options {
  * (as in ffd_mesh_create; NULL, NULL, 0 for a point set) decide which cells
  * the object occupies, for the proxy: a cell is occupied when a face (or a
  * point) meets it. Errors: FFD_ERR_INVALID (res below 4 or above 256 on an
- * axis, n == 0, more than 2^31 control points), FFD_ERR_RANGE (face index),
+ * axis, n == 0, more than 2^31 control points, an extent of the points above
+ * 1e100), FFD_ERR_RANGE (face index),
  * FFD_ERR_NONFINITE, FFD_ERR_NOMEM. */
 ffd_status ffd_tsv_create(const double *points, size_t n, const uint32_t *face_offsets,
                           const uint32_t *face_indices, size_t face_count, const uint32_t res[3],

@@ -176,7 +176,7 @@ int cmd_deform(int argc, char **argv)
     }
     double t1 = cli_now();
     if (ffd_rig_apply(rig, mesh, &report, &err) != FFD_OK) {
-        cli_error(code, "%s", err.message);
+        cli_error(code, "%s: %s", in, err.message); /* the mesh, then the rig's message */
         goto done;
     }
     double t2 = cli_now();

@@ -78,9 +78,10 @@ static int write_points(const char *path, const ffd_ebf *controls, size_t count,
     ffd_mesh *mesh = NULL;
     ffd_write_options options = {FFD_FORMAT_AUTO, FFD_ENCODING_SAME};
     int code = CLI_EXIT_OK;
-    if (ffd_mesh_create(p, count, NULL, NULL, 0, &mesh, err) != FFD_OK ||
-        ffd_mesh_write(mesh, path, &options, err) != FFD_OK)
-        code = cli_error(CLI_EXIT_INPUT, "%s", err->message);
+    if (ffd_mesh_create(p, count, NULL, NULL, 0, &mesh, err) != FFD_OK)
+        code = cli_error(CLI_EXIT_INPUT, "%s: %s", path, err->message);
+    else if (ffd_mesh_write(mesh, path, &options, err) != FFD_OK)
+        code = cli_error(CLI_EXIT_INPUT, "%s", err->message); /* names path */
     ffd_mesh_destroy(mesh);
     free(p);
     return code;

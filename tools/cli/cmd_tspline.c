@@ -130,17 +130,19 @@ int cmd_tspline(int argc, char **argv)
             goto done;
         }
     } else {
-        char text[160];
+        char text[160], name[80];
         int len = snprintf(text, sizeof text,
                            "{\"deformer\": \"tspline\", \"resolution\": [%u, %u, %u]}", res[0],
                            res[1], res[2]);
-        if (ffd_rig_parse_json(text, (size_t)len, "--resolution", &rig, &err) != FFD_OK) {
+        snprintf(name, sizeof name, "%s--resolution %u,%u,%u", res_text ? "" : "the default ",
+                 res[0], res[1], res[2]);
+        if (ffd_rig_parse_json(text, (size_t)len, name, &rig, &err) != FFD_OK) {
             cli_error(code, "%s", err.message);
             goto done;
         }
     }
     if (ffd_rig_apply(rig, mesh, &report, &err) != FFD_OK) {
-        cli_error(code, "%s", err.message);
+        cli_error(code, "%s: %s", in, err.message); /* the mesh, then the rig's message */
         goto done;
     }
     if (!report.tspline) {
