@@ -112,8 +112,12 @@ ffd_status ffd_mesh_read(const char *path, ffd_mesh **out, ffd_error *err);
 ffd_status ffd_mesh_read_memory(const void *data, size_t size, ffd_format format,
                                 const char *name, ffd_mesh **out, ffd_error *err);
 
-/* Writes atomically (temporary file in the same directory, then rename): on
- * failure an existing file at path is untouched. Same format as the source:
+/* Writes atomically: on failure, or when the process is killed, an existing
+ * file at path is untouched and no partial file is left (an unnamed O_TMPFILE
+ * file linked in when complete; where the file system lacks O_TMPFILE, a
+ * temporary "<path>.tmp<PID>.<N>" renamed over path, and such leftovers of
+ * dead processes are deleted by the next write to path; docs/cli.md). Every
+ * library function that writes a file does it this way. Same format as the source:
  * every non-position byte is kept; changed positions (and their normals) are
  * rewritten with 17 significant digits (text) or in the file's own binary
  * type. Another format: written from the mesh's geometry and attributes. */
@@ -256,7 +260,9 @@ typedef struct ffd_box {
 
 /* Axis-aligned bounding box of n points grown by margin times its extent on
  * each side (an axis of zero extent gets margin times the diagonal, or 1 for
- * a single point). margin >= 0. FFD_ERR_INVALID when n == 0, FFD_ERR_NONFINITE. */
+ * a single point). margin >= 0. FFD_ERR_INVALID when n == 0 or when the
+ * largest extent of the points is above 1e100 or nonzero and below 1e-100
+ * (the message gives the extents), FFD_ERR_NONFINITE. */
 ffd_status ffd_box_fit(const double *points, size_t n, double margin, ffd_box *box, ffd_error *err);
 
 /* Minimum control points per direction for a basis (2 for both). */
@@ -801,7 +807,8 @@ typedef struct ffd_tsv_options {
  * (as in ffd_mesh_create; NULL, NULL, 0 for a point set) decide which cells
  * the object occupies, for the proxy: a cell is occupied when a face (or a
  * point) meets it. Errors: FFD_ERR_INVALID (res below 4 or above 256 on an
- * axis, n == 0, more than 2^31 control points), FFD_ERR_RANGE (face index),
+ * axis, n == 0, more than 2^31 control points, an extent of the points above
+ * 1e100), FFD_ERR_RANGE (face index),
  * FFD_ERR_NONFINITE, FFD_ERR_NOMEM. */
 ffd_status ffd_tsv_create(const double *points, size_t n, const uint32_t *face_offsets,
                           const uint32_t *face_indices, size_t face_count, const uint32_t res[3],
@@ -1027,6 +1034,11 @@ ffd_status ffd_rig_parse_json(const char *text, size_t size, const char *name,
 ffd_status ffd_rig_parse_prm(const char *text, size_t size, const char *name,
                              ffd_rig **out, ffd_error *err);
 void ffd_rig_destroy(ffd_rig *rig);
+/* The files a rig read besides itself (GFFD skeleton "file"s), each as
+ * resolved against the rig's directory, for tools that must never write over
+ * an input: i < ffd_rig_input_count(rig); NULL past the end. Borrowed. */
+size_t ffd_rig_input_count(const ffd_rig *rig);
+const char *ffd_rig_input_path(const ffd_rig *rig, size_t i);
 
 /* Seconds spent in each phase of ffd_rig_apply. */
 typedef struct ffd_timings {

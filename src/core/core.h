@@ -40,7 +40,13 @@ bool ffd_grow(void **buf, size_t *cap, size_t need, size_t elem);
  * clear FFD_ERR_IO message. *data is NUL-terminated (one extra byte). */
 ffd_status ffd_read_file(const char *path, unsigned char **data, size_t *size, ffd_error *err);
 
-/* Writes bytes atomically: a temporary file beside path, fsync, rename. */
+/* Writes bytes atomically (docs/cli.md, "Conventions"): an unnamed
+ * O_TMPFILE file in path's directory, fsync, then linked in as path (or as
+ * "<path>.tmp<PID>.<N>" renamed over an existing path), so no partial file is
+ * ever visible; without O_TMPFILE, the named temporary file, fsync, rename.
+ * First removes "<path>.tmp<PID>.<N>" leftovers whose PID does not run.
+ * Through a symbolic link the target is replaced and the link kept; an
+ * existing file keeps its permissions. FFD_ERR_IO naming path on failure. */
 ffd_status ffd_write_file_atomic(const char *path, const void *data, size_t size, ffd_error *err);
 
 /* Monotonic clock in seconds. */

@@ -47,6 +47,17 @@ ffd_status ffd_box_fit(const double *points, size_t n, double margin, ffd_box *b
         diag += ext[c] * ext[c];
     }
     diag = sqrt(diag);
+    double largest = fmax(ext[0], fmax(ext[1], ext[2]));
+    if (!(largest <= FFD_BOX_MAX_EXTENT) || !isfinite(diag))
+        return ffd_fail(err, FFD_ERR_INVALID,
+                        "the bounding box (extent %g x %g x %g) is too large for a lattice box "
+                        "(extents up to %g)",
+                        ext[0], ext[1], ext[2], FFD_BOX_MAX_EXTENT);
+    if (largest > 0 && largest < FFD_BOX_MIN_EXTENT)
+        return ffd_fail(err, FFD_ERR_INVALID,
+                        "the bounding box is degenerate (extent %g x %g x %g): too small for a "
+                        "lattice box (extents from %g)",
+                        ext[0], ext[1], ext[2], FFD_BOX_MIN_EXTENT);
     memset(box, 0, sizeof *box);
     for (int c = 0; c < 3; c++) {
         double e = ext[c];

@@ -9,6 +9,12 @@
 /* A box whose |det(axes)| is below this times |a||b||c| has zero volume. */
 #define FFD_TOL_VOLUME 1e-12
 
+/* Extents a fitted box (lattice "auto" box, T-spline parameter box) may
+ * have: its volume (a product of three extents) and the inverse of its axes
+ * stay normal doubles. Bounding boxes outside are refused, not fitted. */
+#define FFD_BOX_MIN_EXTENT 1e-100
+#define FFD_BOX_MAX_EXTENT 1e100
+
 /* Default relative singular-value threshold of the least-squares solves. */
 #define FFD_TOL_RCOND 1e-10
 

@@ -354,12 +354,14 @@ ffd_status ffd_pbffd_place(const ffd_mesh *mesh, const ffd_placement_options *op
                             "(|x| <= 1e100)",
                             i / 3, x[i]);
     }
-    double ext[3], diag = 0;
+    double ext[3], diag = 0, largest = 0;
     for (int a = 0; a < 3; a++) {
         ext[a] = info.bbox_max[a] - info.bbox_min[a];
-        diag += ext[a] * ext[a];
+        largest = fmax(largest, ext[a]);
     }
-    diag = sqrt(diag);
+    for (int a = 0; a < 3 && largest > 0; a++) /* scaled: a 1e-300 box does not underflow */
+        diag += (ext[a] / largest) * (ext[a] / largest);
+    diag = largest * sqrt(diag);
     if (!(diag > 0) || !isfinite(diag))
         return ffd_fail(err, FFD_ERR_INVALID, "placement: the mesh's vertices all coincide");
     if (diag < 1e-90)

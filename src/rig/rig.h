@@ -208,6 +208,8 @@ struct ffd_rig {
     size_t move_count;
     ffd_rig_constraint *constraints;
     size_t constraint_count;
+    char **input_files;      /* the files the rig read besides itself (ffd_rig_input_path) */
+    size_t input_file_count;
 };
 
 /* "NAME: CONTEXT: inner message" with the inner status (rig_apply.c). */

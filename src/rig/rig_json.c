@@ -63,7 +63,20 @@ void ffd_rig_destroy(ffd_rig *rig)
     ffd_free(rig->gffd.corr_from);
     ffd_free(rig->gffd.corr_to);
     ffd_rig_tspline_free(&rig->tsv);
+    for (size_t i = 0; i < rig->input_file_count; i++)
+        ffd_free(rig->input_files[i]);
+    ffd_free(rig->input_files);
     ffd_free(rig);
+}
+
+size_t ffd_rig_input_count(const ffd_rig *rig)
+{
+    return rig ? rig->input_file_count : 0;
+}
+
+const char *ffd_rig_input_path(const ffd_rig *rig, size_t i)
+{
+    return rig && i < rig->input_file_count ? rig->input_files[i] : NULL;
 }
 
 /* ======================================================================
@@ -972,6 +985,31 @@ static char *resolve_path(const char *name, const char *file)
     return out;
 }
 
+/* Lists the "file"s of a skeleton array that was read (rig_read_skeleton)
+ * in rig->input_files, resolved as they were read, so that tools can refuse
+ * to write over them (ffd_rig_input_path). */
+static ffd_status list_skeleton_files(const parser *p, const cJSON *array, ffd_rig *rig)
+{
+    const cJSON *item;
+    cJSON_ArrayForEach(item, array)
+    {
+        const cJSON *file = cJSON_GetObjectItemCaseSensitive(item, "file");
+        if (!cJSON_IsString(file))
+            continue;
+        char *path = resolve_path(p->name, file->valuestring);
+        char **files = path ? ffd_realloc_array(rig->input_files, rig->input_file_count + 1,
+                                                sizeof *files)
+                            : NULL;
+        if (!files) {
+            ffd_free(path);
+            return ffd_fail(p->err, FFD_ERR_NOMEM, "%s: out of memory", p->name);
+        }
+        rig->input_files = files;
+        files[rig->input_file_count++] = path;
+    }
+    return FFD_OK;
+}
+
 /* An array of [x,y,z] points; at least min of them. */
 static ffd_status read_points(const parser *p, const cJSON *item, const char *path, size_t min,
                               double **out, size_t *count)
@@ -1359,7 +1397,8 @@ static ffd_status read_gffd_root(const parser *p, const cJSON *root, ffd_rig *ri
         return s;
     if (!(item = cJSON_GetObjectItemCaseSensitive(root, "skeleton")))
         return rig_expected(p, "skeleton", "an array of primitives (missing)");
-    if ((s = rig_read_skeleton(p, item, "skeleton", &g->skeleton, &g->skeleton_count)))
+    if ((s = rig_read_skeleton(p, item, "skeleton", &g->skeleton, &g->skeleton_count)) ||
+        (s = list_skeleton_files(p, item, rig)))
         return s;
     ffd_gffd_options *o = &g->options;
     if ((item = cJSON_GetObjectItemCaseSensitive(root, "unit"))) {
@@ -1405,6 +1444,8 @@ static ffd_status read_gffd_root(const parser *p, const cJSON *root, ffd_rig *ri
     if (edits && (s = read_gffd_edits(p, edits, g)))
         return s;
     if (replace && (s = rig_read_skeleton(p, replace, "replace", &g->replace, &g->replace_count)))
+        return s;
+    if (replace && (s = list_skeleton_files(p, replace, rig)))
         return s;
     if ((item = cJSON_GetObjectItemCaseSensitive(root, "correspondences")) &&
         (s = read_correspondences(p, item, g)))

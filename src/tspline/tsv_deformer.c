@@ -2,6 +2,7 @@
  * over an object (Zhang, Zheng & Cai 2020, §3.2), its refinement, proxy,
  * evaluation, direct manipulation, ARAP drags (§3.4) and the fold-over check. */
 #include "tspline/tsv.h"
+#include "math/tolerance.h"
 
 #include <math.h>
 #include <string.h>
@@ -81,8 +82,12 @@ static ffd_status fit_box(const double *points, size_t n, double padding, double
     for (int a = 0; a < 3; a++)
         diag += (mx[a] - mn[a]) * (mx[a] - mn[a]);
     diag = sqrt(diag);
-    if (!isfinite(diag))
-        return ffd_fail(err, FFD_ERR_NONFINITE, "the bounding box is too large (diagonal overflows)");
+    if (!(fmax(mx[0] - mn[0], fmax(mx[1] - mn[1], mx[2] - mn[2])) <= FFD_BOX_MAX_EXTENT) ||
+        !isfinite(diag))
+        return ffd_fail(err, FFD_ERR_INVALID,
+                        "the bounding box (extent %g x %g x %g) is too large for a T-spline "
+                        "lattice (extents up to %g)",
+                        mx[0] - mn[0], mx[1] - mn[1], mx[2] - mn[2], FFD_BOX_MAX_EXTENT);
     if (diag == 0)
         diag = 1;
     for (int a = 0; a < 3; a++) {

@@ -58,6 +58,34 @@ cp "$T/in.obj" "$T/inplace.obj"
 cmp -s "$T/inplace.obj" "$T/out.obj" || fail "--in-place result differs from -o result"
 expect 2 "--in-place: $T/out.obj is not the input file" deform "$T/in.obj" --in-place -o "$T/out.obj" --rig "$T/good.json"
 
+# Errors about a mesh name the mesh (and the rig) and say what is wrong with
+# it: a valid mesh 2e300 across, a valid cube 2e-300 across (run from $T so
+# that the names in the message are the short ones given).
+B=$SRC/tests/bad
+(
+    cd "$T" || exit 1
+    cp "$B/proxy-huge-mesh/huge.obj" "$B/rig-auto-box-tiny-mesh/tiny.obj" \
+        "$B/rig-auto-box-tiny-mesh/auto.json" "$B/tspline-huge-mesh/ts.json" \
+        "$B/pbffd-auto-tiny-mesh/pb.json" .
+    failures=0
+    expect 1 "ffd: huge.obj: the default --resolution 6,6,6: tspline: the bounding box (extent 2e+300 x 2e+300 x 2e+300) is too large for a T-spline lattice (extents up to 1e+100)" \
+        tspline proxy huge.obj -o p.obj
+    expect 1 "ffd: huge.obj: --resolution 5,5,5: tspline: the bounding box (extent 2e+300" \
+        tspline proxy huge.obj -o p.obj --resolution 5
+    expect 1 "ffd: huge.obj: ts.json: tspline: the bounding box (extent 2e+300" \
+        deform huge.obj -o o.obj --rig ts.json
+    expect 1 "ffd: tiny.obj: auto.json: box \"auto\": the bounding box is degenerate (extent 2e-300 x 2e-300 x 2e-300): too small for a lattice box (extents from 1e-100)" \
+        deform tiny.obj -o o.obj --rig auto.json
+    expect 1 "ffd: huge.obj: auto.json: box \"auto\": the bounding box (extent 2e+300 x 2e+300 x 2e+300) is too large for a lattice box (extents up to 1e+100)" \
+        deform huge.obj -o o.obj --rig auto.json
+    expect 1 "ffd: tiny.obj: pb.json: controls (automatic placement): placement: the mesh is too small (bounding-box diagonal 3.4641e-300" \
+        deform tiny.obj -o o.obj --rig pb.json
+    expect 1 "ffd: tiny.obj: placement: the mesh is too small (bounding-box diagonal 3.4641e-300" \
+        pbffd place tiny.obj -o c.json
+    [ ! -e p.obj ] && [ ! -e o.obj ] && [ ! -e c.json ] || fail "a refused run wrote an output"
+    exit "$failures"
+) || failures=$((failures + $?))
+
 if [ "$failures" -ne 0 ]; then
     echo "$failures failure(s)"
     exit 1

@@ -128,9 +128,9 @@ has stderr "beyond the supported range"
 # place never overwrites its input, and -o and --points are different files
 cp "$EX/cow.off" "$T/c.off"
 bad 2 pbffd place "$T/c.off" -o "$T/./c.off"
-has stderr "the output would overwrite the input mesh"
+has stderr "is the same file as the input mesh"
 bad 2 pbffd place "$T/c.off" -o "$T/r.json" --points "$T/c.off"
-has stderr "would overwrite the input mesh"
+has stderr "--points $T/c.off is the same file as the input mesh"
 bad 2 pbffd place "$T/c.off" -o "$T/r.obj" --points "$T/r.obj"
 has stderr "the same file as -o"
 bad 2 pbffd place "$T/c.off" -o "$T/r.json" --offset 1e300

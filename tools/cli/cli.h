@@ -45,9 +45,34 @@ int cli_encoding_option(const char *arg, ffd_encoding *encoding);
  * input file (same path, or same device and inode) unless in_place. Returns 0,
  * or prints a usage error for command and returns CLI_EXIT_USAGE. */
 int cli_check_output(const char *command, const char *in, const char *out, int in_place);
+/* The first half of cli_check_output: out (NULL: skipped) has a mesh extension. */
+int cli_check_format(const char *command, const char *out);
 
-/* 1 when a and b name the same file (same path, or same device and inode). */
+/* 1 when a and b name the same file: same device and inode when both exist
+ * (a symbolic or hard link to a file is that file), else the same canonical
+ * directory and name (two outputs not yet written, a directory reached
+ * through a symbolic link). */
 int cli_same_file(const char *a, const char *b);
+
+/* A file a command reads or writes, for cli_check_files. */
+typedef enum { CLI_FILE_INPUT, CLI_FILE_OUTPUT, CLI_FILE_IN_PLACE } cli_file_role;
+typedef struct cli_file {
+    const char *option; /* how the user named it: "-o", "--lattice-out", "the input mesh" */
+    const char *path;   /* NULL: not given (skipped) */
+    cli_file_role role; /* CLI_FILE_IN_PLACE: an input the command rewrites (--in-place) */
+} cli_file;
+
+/* The one aliasing rule of every command, checked before any work: no
+ * output (CLI_FILE_OUTPUT or CLI_FILE_IN_PLACE) is an input or another output
+ * (cli_same_file). Returns 0, or prints a usage error naming both options
+ * ("--lattice-out a.obj is the same file as the input mesh a.obj") and
+ * returns CLI_EXIT_USAGE. */
+int cli_check_files(const char *command, const cli_file *files, size_t count);
+/* cli_check_files for the outputs in files (count of them) against the files
+ * the rig read besides itself (ffd_rig_input_path: GFFD skeleton files), once
+ * the rig is read and before any work. */
+int cli_check_rig_inputs(const char *command, const ffd_rig *rig, const cli_file *files,
+                         size_t count);
 
 /* Monotonic seconds. */
 double cli_now(void);

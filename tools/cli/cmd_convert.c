@@ -50,6 +50,9 @@ int cmd_convert(int argc, char **argv)
     int bad = cli_check_output("convert", in, out, in_place);
     if (bad)
         return bad;
+    const cli_file files[] = {{"the input mesh", in, CLI_FILE_INPUT}, {"OUT", out, CLI_FILE_OUTPUT}};
+    if (!in_place && (bad = cli_check_files("convert", files, 2)))
+        return bad;
 
     ffd_error err = {{0}};
     ffd_mesh *mesh = NULL;

@@ -149,6 +149,16 @@ int cmd_deform(int argc, char **argv)
     int bad = cli_check_output("deform", in, out, in_place);
     if (bad)
         return bad;
+    const cli_file files[] = {
+        {in_place ? "the input mesh (--in-place)" : "the input mesh", in,
+         in_place ? CLI_FILE_IN_PLACE : CLI_FILE_INPUT},
+        {"--rig", rig_path, CLI_FILE_INPUT},
+        {"-o", in_place ? NULL : out, CLI_FILE_OUTPUT},
+        {"--lattice-out", lattice_out, CLI_FILE_OUTPUT},
+        {"--proxy-out", proxy_out, CLI_FILE_OUTPUT},
+    };
+    if ((bad = cli_check_files("deform", files, sizeof files / sizeof *files)))
+        return bad;
 
     ffd_error err = {{0}};
     ffd_mesh *mesh = NULL;
@@ -160,9 +170,13 @@ int cmd_deform(int argc, char **argv)
         cli_error(code, "%s", err.message);
         goto done;
     }
+    if ((bad = cli_check_rig_inputs("deform", rig, files, sizeof files / sizeof *files))) {
+        code = bad;
+        goto done;
+    }
     double t1 = cli_now();
     if (ffd_rig_apply(rig, mesh, &report, &err) != FFD_OK) {
-        cli_error(code, "%s", err.message);
+        cli_error(code, "%s: %s", in, err.message); /* the mesh, then the rig's message */
         goto done;
     }
     double t2 = cli_now();

@@ -105,7 +105,7 @@ int cmd_info(int argc, char **argv)
     ffd_format format = ffd_mesh_source_format(mesh);
     ffd_mesh_destroy(mesh);
     if (s != FFD_OK)
-        return cli_error(CLI_EXIT_INPUT, "%s", err.message);
+        return cli_error(CLI_EXIT_INPUT, "%s: %s", path, err.message);
     if (json)
         print_json(path, format, &info);
     else

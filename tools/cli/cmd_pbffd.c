@@ -78,9 +78,10 @@ static int write_points(const char *path, const ffd_ebf *controls, size_t count,
     ffd_mesh *mesh = NULL;
     ffd_write_options options = {FFD_FORMAT_AUTO, FFD_ENCODING_SAME};
     int code = CLI_EXIT_OK;
-    if (ffd_mesh_create(p, count, NULL, NULL, 0, &mesh, err) != FFD_OK ||
-        ffd_mesh_write(mesh, path, &options, err) != FFD_OK)
-        code = cli_error(CLI_EXIT_INPUT, "%s", err->message);
+    if (ffd_mesh_create(p, count, NULL, NULL, 0, &mesh, err) != FFD_OK)
+        code = cli_error(CLI_EXIT_INPUT, "%s: %s", path, err->message);
+    else if (ffd_mesh_write(mesh, path, &options, err) != FFD_OK)
+        code = cli_error(CLI_EXIT_INPUT, "%s", err->message); /* names path */
     ffd_mesh_destroy(mesh);
     free(p);
     return code;
@@ -171,13 +172,14 @@ static int cmd_place(int argc, char **argv)
             return cli_usage_error("pbffd place", "--surface '%s': expected auto, closed or open",
                                    surface);
     }
-    if (cli_same_file(in, out))
-        return cli_usage_error("pbffd place", "%s: the output would overwrite the input mesh", out);
-    if (points && cli_same_file(in, points))
-        return cli_usage_error("pbffd place", "--points %s: would overwrite the input mesh",
-                               points);
-    if (points && cli_same_file(out, points))
-        return cli_usage_error("pbffd place", "--points %s: the same file as -o", points);
+    const cli_file files[] = {
+        {"the input mesh", in, CLI_FILE_INPUT},
+        {"-o", out, CLI_FILE_OUTPUT},
+        {"--points", points, CLI_FILE_OUTPUT},
+    };
+    int bad = cli_check_files("pbffd place", files, sizeof files / sizeof *files);
+    if (bad)
+        return bad;
     if (points && ffd_format_from_path(points) == FFD_FORMAT_AUTO)
         return cli_usage_error("pbffd place",
                                "--points %s: unknown format (expected .obj, .ply, .off or .stl)",

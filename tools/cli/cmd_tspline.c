@@ -97,9 +97,17 @@ int cmd_tspline(int argc, char **argv)
     if (res_text && parse_resolution(res_text, res) != 0)
         return cli_usage_error("tspline proxy",
                                "--resolution '%s': expected N or L,M,N (positive integers)", res_text);
-    int bad = cli_check_output("tspline proxy", in, out, 0);
-    if (!bad && lattice)
-        bad = cli_check_output("tspline proxy", in, lattice, 0);
+    int bad = cli_check_format("tspline proxy", out);
+    if (!bad)
+        bad = cli_check_format("tspline proxy", lattice);
+    const cli_file files[] = {
+        {"the input mesh", in, CLI_FILE_INPUT},
+        {"--rig", rig_path, CLI_FILE_INPUT},
+        {"-o", out, CLI_FILE_OUTPUT},
+        {"--lattice", lattice, CLI_FILE_OUTPUT},
+    };
+    if (!bad)
+        bad = cli_check_files("tspline proxy", files, sizeof files / sizeof *files);
     if (bad)
         return bad;
 
@@ -117,18 +125,24 @@ int cmd_tspline(int argc, char **argv)
             cli_error(code, "%s", err.message);
             goto done;
         }
+        if ((bad = cli_check_rig_inputs("tspline proxy", rig, files, sizeof files / sizeof *files))) {
+            code = bad;
+            goto done;
+        }
     } else {
-        char text[160];
+        char text[160], name[80];
         int len = snprintf(text, sizeof text,
                            "{\"deformer\": \"tspline\", \"resolution\": [%u, %u, %u]}", res[0],
                            res[1], res[2]);
-        if (ffd_rig_parse_json(text, (size_t)len, "--resolution", &rig, &err) != FFD_OK) {
+        snprintf(name, sizeof name, "%s--resolution %u,%u,%u", res_text ? "" : "the default ",
+                 res[0], res[1], res[2]);
+        if (ffd_rig_parse_json(text, (size_t)len, name, &rig, &err) != FFD_OK) {
             cli_error(code, "%s", err.message);
             goto done;
         }
     }
     if (ffd_rig_apply(rig, mesh, &report, &err) != FFD_OK) {
-        cli_error(code, "%s", err.message);
+        cli_error(code, "%s: %s", in, err.message); /* the mesh, then the rig's message */
         goto done;
     }
     if (!report.tspline) {

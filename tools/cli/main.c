@@ -1,12 +1,17 @@
 /* ffd — the command-line tool: dispatch to one subcommand per file, and the
  * helpers they share (cli.h). docs/cli.md is the manual. */
+#ifndef _XOPEN_SOURCE
+#define _XOPEN_SOURCE 700 /* realpath, readlink, lstat */
+#endif
 #include "cli.h"
 
 #include <math.h>
 #include <stdarg.h>
+#include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
 #include <time.h>
+#include <unistd.h>
 
 static const char usage[] =
     "usage: ffd COMMAND [ARGS]\n"
@@ -107,21 +112,106 @@ int cli_encoding_option(const char *arg, ffd_encoding *encoding)
     return 1;
 }
 
+/* The canonical name of a file that may not exist yet: realpath when it
+ * exists; a dangling symbolic link is followed by hand (a write would create
+ * its target); otherwise the canonical directory and the last name. NULL on
+ * failure to allocate; the path itself when its directory cannot be resolved. */
+static char *canonical_path(const char *path, int depth)
+{
+    char *real = realpath(path, NULL);
+    if (real)
+        return real;
+    const char *slash = strrchr(path, '/');
+    size_t dir_len = slash ? (size_t)(slash - path) : 0;
+    struct stat st;
+    if (depth < 40 && lstat(path, &st) == 0 && S_ISLNK(st.st_mode)) {
+        char link[4096];
+        ssize_t n = readlink(path, link, sizeof link - 1);
+        if (n > 0) {
+            link[n] = 0;
+            char *next = malloc(dir_len + (size_t)n + 2);
+            if (!next)
+                return NULL;
+            if (link[0] == '/' || !slash)
+                memcpy(next, link, (size_t)n + 1);
+            else
+                sprintf(next, "%.*s/%s", (int)dir_len, path, link);
+            char *out = canonical_path(next, depth + 1);
+            free(next);
+            return out;
+        }
+    }
+    const char *name = slash ? slash + 1 : path;
+    char *dir = NULL;
+    if (!slash) {
+        dir = realpath(".", NULL);
+    } else {
+        char *d = malloc(dir_len + 2);
+        if (!d)
+            return NULL;
+        memcpy(d, path, dir_len);
+        strcpy(d + dir_len, dir_len ? "" : "/");
+        dir = realpath(d, NULL);
+        free(d);
+    }
+    size_t len = (dir ? strlen(dir) : 0) + strlen(name) + 2;
+    char *out = malloc(len > strlen(path) + 1 ? len : strlen(path) + 1);
+    if (out) {
+        if (dir)
+            snprintf(out, len, "%s/%s", strcmp(dir, "/") == 0 ? "" : dir, name);
+        else
+            strcpy(out, path);
+    }
+    free(dir);
+    return out;
+}
+
 int cli_same_file(const char *a, const char *b)
 {
     struct stat sa, sb;
     if (strcmp(a, b) == 0)
         return 1;
-    if (stat(a, &sa) != 0 || stat(b, &sb) != 0)
-        return 0;
-    return sa.st_dev == sb.st_dev && sa.st_ino == sb.st_ino;
+    if (stat(a, &sa) == 0 && stat(b, &sb) == 0)
+        return sa.st_dev == sb.st_dev && sa.st_ino == sb.st_ino;
+    char *ca = canonical_path(a, 0), *cb = canonical_path(b, 0);
+    int same = ca && cb && strcmp(ca, cb) == 0;
+    free(ca);
+    free(cb);
+    return same;
+}
+
+int cli_check_files(const char *command, const cli_file *files, size_t count)
+{
+    for (size_t j = 1; j < count; j++) {
+        for (size_t i = 0; i < j; i++) {
+            const cli_file *a = &files[i], *b = &files[j];
+            if (!a->path || !b->path || (a->role == CLI_FILE_INPUT && b->role == CLI_FILE_INPUT))
+                continue;
+            if (!cli_same_file(a->path, b->path))
+                continue;
+            /* name the output first (the later of two outputs) */
+            const cli_file *o = b->role != CLI_FILE_INPUT ? b : a, *other = o == b ? a : b;
+            return cli_usage_error(command, "%s %s is the same file as %s %s: refusing to %s",
+                                   o->option, o->path, other->option, other->path,
+                                   other->role == CLI_FILE_OUTPUT ? "write both to one file"
+                                                                  : "overwrite an input");
+        }
+    }
+    return 0;
+}
+
+int cli_check_format(const char *command, const char *out)
+{
+    if (out && ffd_format_from_path(out) == FFD_FORMAT_AUTO)
+        return cli_usage_error(command,
+                               "%s: unknown output format (expected .obj, .ply, .off or .stl)", out);
+    return 0;
 }
 
 int cli_check_output(const char *command, const char *in, const char *out, int in_place)
 {
-    if (ffd_format_from_path(out) == FFD_FORMAT_AUTO)
-        return cli_usage_error(command,
-                               "%s: unknown output format (expected .obj, .ply, .off or .stl)", out);
+    if (cli_check_format(command, out))
+        return CLI_EXIT_USAGE;
     int same = cli_same_file(in, out);
     if (!in_place && same)
         return cli_usage_error(command,
@@ -129,6 +219,21 @@ int cli_check_output(const char *command, const char *in, const char *out, int i
                                out);
     if (in_place && !same)
         return cli_usage_error(command, "--in-place: %s is not the input file", out);
+    return 0;
+}
+
+int cli_check_rig_inputs(const char *command, const ffd_rig *rig, const cli_file *files,
+                         size_t count)
+{
+    for (size_t k = 0; k < ffd_rig_input_count(rig); k++) {
+        for (size_t i = 0; i < count; i++) {
+            const cli_file pair[2] = {
+                {"the rig's skeleton file", ffd_rig_input_path(rig, k), CLI_FILE_INPUT}, files[i]};
+            int bad = cli_check_files(command, pair, 2);
+            if (bad)
+                return bad;
+        }
+    }
     return 0;
 }
 
