@@ -881,6 +881,109 @@ static void test_failing_allocations(void)
     }
 }
 
+/* ---------------------------------------------------------------------- */
+
+/* A UTF-8 byte order mark before the first line (issue 14: the first 'v' line
+ * of an OBJ was lost, every face then pointed one vertex off, and the read
+ * succeeded): every text format reads it, keeps it, and writes it back. */
+static void check_bom(const char *src, size_t size, ffd_format format, ffd_encoding transcode)
+{
+    static const double want[9] = {1, 2, 3, 4, 5, 6, 7, 8, 9};
+    ffd_mesh *m = NULL;
+    ffd_error err = {{0}};
+    CHECK(ffd_mesh_read_memory(src, size, format, "bom", &m, &err) == FFD_OK);
+    if (!m) {
+        fprintf(stderr, "  %s\n", err.message);
+        return;
+    }
+    CHECK(ffd_mesh_vertex_count(m) == 3 && ffd_mesh_face_count(m) == 1);
+    if (ffd_mesh_vertex_count(m) == 3)
+        CHECK(memcmp(ffd_mesh_positions(m), want, sizeof want) == 0);
+    const uint32_t *ix = ffd_mesh_face_indices(m);
+    CHECK(ffd_mesh_face_count(m) == 1 && ix[0] == 0 && ix[1] == 1 && ix[2] == 2);
+    /* untouched: byte for byte, the mark included */
+    size_t n = 0;
+    unsigned char *out = write_mem(m, format, FFD_ENCODING_SAME, &n);
+    CHECK(out && n == size && memcmp(out, src, size) == 0);
+    ffd_free(out);
+    /* moved: the mark stays and the file reads back to the new positions */
+    double q[9];
+    for (int i = 0; i < 9; i++)
+        q[i] = want[i] + 0.5;
+    CHECK_OK(ffd_mesh_set_positions(m, q, NULL, NULL));
+    out = write_mem(m, format, FFD_ENCODING_SAME, &n);
+    CHECK(out && n >= 3 && memcmp(out, "\xEF\xBB\xBF", 3) == 0);
+    ffd_mesh *r = NULL;
+    CHECK(out && ffd_mesh_read_memory(out, n, format, "bom-out", &r, &err) == FFD_OK);
+    CHECK(r && ffd_mesh_vertex_count(r) == 3 && memcmp(ffd_mesh_positions(r), q, sizeof q) == 0);
+    ffd_mesh_destroy(r);
+    ffd_free(out);
+    if (transcode != FFD_ENCODING_SAME) { /* the other encoding keeps the mark too */
+        out = write_mem(m, format, transcode, &n);
+        r = NULL;
+        CHECK(out && n >= 3 && memcmp(out, "\xEF\xBB\xBF", 3) == 0);
+        CHECK(out && ffd_mesh_read_memory(out, n, format, "bom-transcoded", &r, &err) == FFD_OK);
+        CHECK(r && ffd_mesh_vertex_count(r) == 3);
+        if (r && ffd_mesh_vertex_count(r) == 3)
+            for (int i = 0; i < 9; i++)
+                CHECK_NEAR(ffd_mesh_positions(r)[i], q[i], 1e-6);
+        ffd_mesh_destroy(r);
+        ffd_free(out);
+    }
+    /* another format is written from data, without the mark */
+    ffd_format other = format == FFD_FORMAT_OBJ ? FFD_FORMAT_OFF : FFD_FORMAT_OBJ;
+    out = write_mem(m, other, FFD_ENCODING_SAME, &n);
+    r = NULL;
+    CHECK(out && ffd_mesh_read_memory(out, n, other, "bom-converted", &r, &err) == FFD_OK);
+    CHECK(r && ffd_mesh_vertex_count(r) == 3 && memcmp(ffd_mesh_positions(r), q, sizeof q) == 0);
+    ffd_mesh_destroy(r);
+    ffd_free(out);
+    ffd_mesh_destroy(m);
+}
+
+static void test_utf8_bom(void)
+{
+    static const char obj[] = "\xEF\xBB\xBFv 1 2 3\nv 4 5 6\nv 7 8 9\nf 1 2 3\n";
+    check_bom(obj, sizeof obj - 1, FFD_FORMAT_OBJ, FFD_ENCODING_SAME);
+    static const char obj_comment[] = "\xEF\xBB\xBF# made on Windows\r\nv 1 2 3\r\nv 4 5 6\r\nv 7 8 9\r\nf 1 2 3\r\n";
+    check_bom(obj_comment, sizeof obj_comment - 1, FFD_FORMAT_OBJ, FFD_ENCODING_SAME);
+    static const char off[] = "\xEF\xBB\xBFOFF\n3 1 0\n1 2 3\n4 5 6\n7 8 9\n3 0 1 2\n";
+    check_bom(off, sizeof off - 1, FFD_FORMAT_OFF, FFD_ENCODING_SAME);
+    static const char noff[] = "\xEF\xBB\xBFNOFF 3 1 0\n1 2 3 0 0 1\n4 5 6 0 0 1\n7 8 9 0 0 1\n3 0 1 2\n";
+    check_bom(noff, sizeof noff - 1, FFD_FORMAT_OFF, FFD_ENCODING_SAME);
+#define BOM_PLY_HEADER(fmt)                                                                        \
+    "\xEF\xBB\xBFply\nformat " fmt " 1.0\nelement vertex 3\nproperty float x\nproperty float y\n" \
+    "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n"
+    static const char ply[] = BOM_PLY_HEADER("ascii") "1 2 3\n4 5 6\n7 8 9\n3 0 1 2\n";
+    check_bom(ply, sizeof ply - 1, FFD_FORMAT_PLY, FFD_ENCODING_BINARY_LE);
+    /* binary data after a header with a mark */
+    char bin[512];
+    size_t nb = strlen(BOM_PLY_HEADER("binary_little_endian"));
+    memcpy(bin, BOM_PLY_HEADER("binary_little_endian"), nb);
+    for (int i = 0; i < 9; i++) {
+        float f = (float)(i + 1);
+        memcpy(bin + nb, &f, 4); /* the test hosts are little-endian */
+        nb += 4;
+    }
+    bin[nb++] = 3;
+    for (int32_t i = 0; i < 3; i++, nb += 4)
+        memcpy(bin + nb, &i, 4);
+    check_bom(bin, nb, FFD_FORMAT_PLY, FFD_ENCODING_ASCII);
+#undef BOM_PLY_HEADER
+    static const char stl[] = "\xEF\xBB\xBFsolid t\nfacet normal 0 0 1\nouter loop\nvertex 1 2 3\n"
+                              "vertex 4 5 6\nvertex 7 8 9\nendloop\nendfacet\nendsolid t\n";
+    check_bom(stl, sizeof stl - 1, FFD_FORMAT_STL, FFD_ENCODING_SAME);
+    /* the mark belongs before the first line only: elsewhere it stays an error */
+    static const char late[] = "OFF\n\xEF\xBB\xBF" "3 1 0\n1 2 3\n4 5 6\n7 8 9\n3 0 1 2\n";
+    ffd_mesh *m = NULL;
+    ffd_error err = {{0}};
+    CHECK(ffd_mesh_read_memory(late, sizeof late - 1, FFD_FORMAT_OFF, "t", &m, &err) == FFD_ERR_PARSE);
+    CHECK(!m && strstr(err.message, "t:2:"));
+    static const char ply_late[] = "ply\n\xEF\xBB\xBF" "format ascii 1.0\nend_header\n";
+    CHECK(ffd_mesh_read_memory(ply_late, sizeof ply_late - 1, FFD_FORMAT_PLY, "t", &m, &err) == FFD_ERR_PARSE);
+    CHECK(!m);
+}
+
 int main(int argc, char **argv)
 {
     static const check_test tests[] = {
@@ -900,6 +1003,7 @@ int main(int argc, char **argv)
         {"atomic_write", test_atomic_write},
         {"ply_value_range", test_ply_value_range},
         {"failing_allocations", test_failing_allocations},
+        {"utf8_bom", test_utf8_bom},
     };
     return check_run(tests, sizeof tests / sizeof *tests, argc, argv);
 }

@@ -1052,6 +1052,47 @@ static void test_bunny_red_green(void)
     ffd_mesh_destroy(m);
 }
 
+/* A UTF-8 byte order mark before the first line is read past and kept: the
+ * refined file is the mark followed by the refined file without it (GFFD
+ * resampling writes through here, issue 14). */
+static void test_utf8_bom(void)
+{
+    static const struct {
+        const char *src, *want;
+        ffd_format format;
+    } cases[] = {
+        {tet_obj, tet_obj_refined, FFD_FORMAT_OBJ},
+        {tet_ply, tet_ply_refined, FFD_FORMAT_PLY},
+        {tet_coff, tet_coff_refined, FFD_FORMAT_OFF},
+        {tet_plain_off, tet_plain_off_refined, FFD_FORMAT_OFF},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof *cases; i++) {
+        char src[4096], want[4096];
+        snprintf(src, sizeof src, "\xEF\xBB\xBF%s", cases[i].src);
+        snprintf(want, sizeof want, "\xEF\xBB\xBF%s", cases[i].want);
+        ffd_mesh *m = from_mem(src, strlen(src), cases[i].format);
+        CHECK(m);
+        ffd_mesh *out = m ? refine(m, &tet_plan) : NULL;
+        CHECK(out);
+        check_tet_geometry(out);
+        check_text(out, want);
+        ffd_mesh_destroy(out);
+        ffd_mesh_destroy(m);
+    }
+    /* the mark straight before a 'v' line (the line the OBJ reader lost) */
+    char src[4096], want[4096];
+    snprintf(src, sizeof src, "\xEF\xBB\xBF%s", strstr(tet_obj, "\nv ") + 1);
+    snprintf(want, sizeof want, "\xEF\xBB\xBF%s", strstr(tet_obj_refined, "\nv ") + 1);
+    ffd_mesh *m = from_mem(src, strlen(src), FFD_FORMAT_OBJ);
+    CHECK(m);
+    ffd_mesh *out = m ? refine(m, &tet_plan) : NULL;
+    CHECK(out);
+    check_tet_geometry(out);
+    check_text(out, want);
+    ffd_mesh_destroy(out);
+    ffd_mesh_destroy(m);
+}
+
 int main(int argc, char **argv)
 {
     static const check_test tests[] = {
@@ -1072,6 +1113,7 @@ int main(int argc, char **argv)
         {"random_weights", test_random_weights},
         {"failing_allocations", test_failing_allocations},
         {"bunny_red_green", test_bunny_red_green},
+        {"utf8_bom", test_utf8_bom},
     };
     return check_run(tests, sizeof tests / sizeof *tests, argc, argv);
 }

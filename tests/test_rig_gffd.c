@@ -419,6 +419,19 @@ static void test_skeleton_files(void)
         ffd_rig_destroy(rig);
     }
 
+    /* a UTF-8 byte order mark before the first v line: that vertex is read
+     * (issue 14: it was lost, silently) */
+    snprintf(path, sizeof path, "%s/bom.obj", dir);
+    write_text(path, "\xEF\xBB\xBFv 5 0 0\nv 1 0 0\nv 2 0 0\n");
+    snprintf(json, sizeof json,
+             G "\"skeleton\": [{\"type\": \"polyline\", \"file\": \"%s\", \"radius\": 1}]}", path);
+    rig = parse_ok(json);
+    if (rig) {
+        const double *v = rig->gffd.skeleton[0].vertices;
+        CHECK(rig->gffd.skeleton[0].vertex_count == 3 && v[0] == 5 && v[3] == 1 && v[6] == 2);
+        ffd_rig_destroy(rig);
+    }
+
     /* a polyhedron from a mesh file keeps its faces */
     rig = parse_ok(G "\"skeleton\": [{\"type\": \"polyhedron\", \"file\": \"" EXAMPLES
                      "/head.off\", \"radius\": 1}]}");
@@ -429,7 +442,7 @@ static void test_skeleton_files(void)
         ffd_rig_destroy(rig);
     }
 #undef FILE_RIG
-    const char *names[] = {"missing.json", "two.obj", "badv.obj", "range.obj", "one.obj", "order.obj"};
+    const char *names[] = {"missing.json", "two.obj", "badv.obj", "range.obj", "one.obj", "order.obj", "bom.obj"};
     for (size_t i = 0; i < sizeof names / sizeof *names; i++) {
         snprintf(path, sizeof path, "%s/%s", dir, names[i]);
         unlink(path);

@@ -49,6 +49,20 @@ ffd_status ffd_read_file(const char *path, unsigned char **data, size_t *size, f
  * existing file keeps its permissions. FFD_ERR_IO naming path on failure. */
 ffd_status ffd_write_file_atomic(const char *path, const void *data, size_t size, ffd_error *err);
 
+/* Text input (text.c). Length of a UTF-8 byte order mark at text: 3 or 0. */
+size_t ffd_utf8_bom_length(const void *text, size_t size);
+/* 1-based line and column (in bytes) of text[offset]. */
+void ffd_text_line_col(const char *text, size_t offset, size_t *line, size_t *col);
+/* Byte offset of the first NUL in JSON text, or size when none: a raw NUL
+ * byte anywhere, or a \u0000 escape inside a string (offset of its
+ * backslash; "\\u0000", an escaped backslash and then text, is none).
+ * *escaped (may be NULL) tells which. */
+size_t ffd_json_nul_at(const char *text, size_t size, bool *escaped);
+/* FFD_ERR_PARSE "NAME:LINE:COL: a NUL character (\u0000) in a string is not
+ * allowed" (or "a NUL byte ...") when ffd_json_nul_at finds one; else FFD_OK.
+ * Every JSON parse site calls it before cJSON: cJSON would cut the string there. */
+ffd_status ffd_json_refuse_nul(const char *text, size_t size, const char *name, ffd_error *err);
+
 /* Monotonic clock in seconds. */
 double ffd_now(void);
 

@@ -10,7 +10,8 @@
  * anchor FFD_NO_ANCHOR and is left alone by set_positions. Line continuation
  * with a trailing backslash is not supported (parse error on v/vn/vt/f lines;
  * other lines are kept as they are). A NUL byte anywhere is a parse error
- * (binary data, not an OBJ file). */
+ * (binary data, not an OBJ file). A UTF-8 byte order mark before the first
+ * line is skipped (and kept in the source bytes, so a write keeps it). */
 #include "mesh.h"
 
 #include <math.h>
@@ -128,9 +129,12 @@ ffd_status ffd_obj_read(ffd_mesh *m, const char *name, ffd_error *err)
         return ffd_fail(err, FFD_ERR_PARSE, "%s:%zu: NUL byte (byte %zu): expected a text OBJ file, found binary data",
                         name, line, (size_t)(nul - c.s));
     }
+    /* The byte order mark would glue itself to the first keyword and lose
+     * that line (a first 'v' line shifts every face by one vertex). */
+    const char *first = c.s + ffd_utf8_bom_length(c.s, m->src_size);
     /* Pass 1: totals, for preallocation and forward references. */
     size_t nv = 0, nn = 0, nt = 0, nf = 0, ncorner = 0;
-    for (const char *p = c.s; p < c.end;) {
+    for (const char *p = first; p < c.end;) {
         const char *e = line_end(p, c.end);
         const char *q = skip_blank(p, e);
         if (e - q >= 2 && q[0] == 'v' && ffd_is_blank(q[1]))
@@ -155,7 +159,7 @@ ffd_status ffd_obj_read(ffd_mesh *m, const char *name, ffd_error *err)
 
     size_t cur_t = 0;
     ffd_status st = FFD_OK;
-    for (const char *p = c.s; p < c.end;) {
+    for (const char *p = first; p < c.end;) {
         const char *e = line_end(p, c.end);
         c.line++;
         const char *q = skip_blank(p, e);

@@ -8,7 +8,8 @@
  * or face per line. A face with fewer than 3 vertices, a header count that
  * disagrees with the data (missing lines, or data after the last face), and
  * anything that is not a number where one is expected are parse errors.
- * 4OFF, nOFF and binary OFF are FFD_ERR_UNSUPPORTED. */
+ * 4OFF, nOFF and binary OFF are FFD_ERR_UNSUPPORTED. A UTF-8 byte order mark
+ * before the header is skipped (and kept in the source bytes). */
 #include "mesh.h"
 
 #include <math.h>
@@ -90,8 +91,9 @@ static bool is_count(double v, double max)
 
 ffd_status ffd_off_read(ffd_mesh *m, const char *name, ffd_error *err)
 {
-    off_ctx c = {name, (const char *)m->src, (const char *)m->src, (const char *)m->src + m->src_size,
-                 0, 0};
+    off_ctx c = {name, (const char *)m->src,
+                 (const char *)m->src + ffd_utf8_bom_length(m->src, m->src_size),
+                 (const char *)m->src + m->src_size, 0, 0};
     const char *b, *e;
     ffd_status st = FFD_OK;
     if (!next_content(&c, &b, &e))

@@ -10,7 +10,8 @@
  * stream (line numbers in messages); binary errors name the byte offset.
  * Declared counts are checked against the bytes left before allocating; data
  * after the last element (other than whitespace in ascii) is an error, as is
- * a face with fewer than 3 vertices. */
+ * a face with fewer than 3 vertices. A UTF-8 byte order mark before "ply"
+ * is skipped (and kept in the source bytes, so writes and transcodes keep it). */
 #include "mesh.h"
 
 #include <math.h>
@@ -88,7 +89,8 @@ ffd_status ffd_ply_parse_header(const unsigned char *src, size_t size, const cha
                                 ply_header *h, ffd_error *err)
 {
     memset(h, 0, sizeof *h);
-    const char *s = (const char *)src, *end = s + size, *p = s;
+    const char *s = (const char *)src, *end = s + size;
+    const char *p = s + ffd_utf8_bom_length(s, size); /* before "ply": skipped, kept in the source */
     bool have_format = false;
     for (size_t line = 1;; line++) {
         const char *nl = memchr(p, '\n', (size_t)(end - p));

@@ -737,7 +737,7 @@ static ffd_status obj_scan(objw *o, ffd_error *err)
 {
     const ffd_mesh *m = o->c->m;
     size_t cur_v = 0, cur_t = 0, cur_n = 0, face = 0, ci = 0;
-    const char *at = o->s;
+    const char *at = o->s + ffd_utf8_bom_length(o->s, (size_t)(o->end - o->s)); /* as ffd_obj_read */
     tline l;
     while (next_line(&at, o->end, &l)) {
         const char *q = skip_blanks(l.p, l.ce), *k = keyword_end(q, l.ce);
@@ -960,7 +960,9 @@ static void obj_write(ffd_buf *b, const objw *o)
     const char *nl = c->nl;
     bool ins_v = c->nnew > 0, ins_t = o->nvt.n > 0, ins_n = o->nvn.n > 0;
     size_t cur_v = 0, cur_t = 0, face = 0;
-    const char *at = o->s;
+    size_t bom = ffd_utf8_bom_length(o->s, (size_t)(o->end - o->s));
+    ffd_buf_put(b, o->s, bom); /* kept, as the source's other bytes */
+    const char *at = o->s + bom;
     tline l;
     while (next_line(&at, o->end, &l) && !b->oom) {
         const char *q = skip_blanks(l.p, l.ce), *k = keyword_end(q, l.ce);
@@ -1102,7 +1104,7 @@ static ffd_status refine_off(rctx *c, ffd_buf *b, ffd_error *err)
     size_t vi = 0, fi = 0, last_v = 0, skip = m->vertex_normals ? 6 : 3;
     bool normals = m->vertex_normals && m->normal_count == c->nv && m->normal_count;
     tline l;
-    for (const char *at = s; next_line(&at, end, &l);) {
+    for (const char *at = s + ffd_utf8_bom_length(s, m->src_size); next_line(&at, end, &l);) {
         const char *q = skip_blanks(l.p, l.ce), *ce = hash_in(q, l.ce);
         while (ce > q && ffd_is_blank(ce[-1]))
             ce--;

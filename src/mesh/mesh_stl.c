@@ -6,7 +6,9 @@
  * file starting with "solid" is ascii; anything else is a binary file whose
  * size disagrees with its count (parse error naming the byte offset).
  * Ascii may hold several solids one after the other; keywords are matched
- * case-insensitively; each loop must have exactly 3 vertices. */
+ * case-insensitively; each loop must have exactly 3 vertices. A UTF-8 byte
+ * order mark before an ascii file's "solid" is skipped (and kept in the
+ * source bytes). */
 #include "mesh.h"
 
 #include <math.h>
@@ -128,7 +130,8 @@ static void skip_rest_of_line(stl_ctx *c)
 
 static ffd_status read_ascii(ffd_mesh *m, const char *name, ffd_error *err)
 {
-    stl_ctx c = {name, (const char *)m->src, (const char *)m->src,
+    stl_ctx c = {name, (const char *)m->src,
+                 (const char *)m->src + ffd_utf8_bom_length(m->src, m->src_size),
                  (const char *)m->src + m->src_size, 1};
     m->encoding = FFD_ENCODING_ASCII;
     m->facet_normals = 1;
@@ -196,6 +199,7 @@ ffd_status ffd_stl_read(ffd_mesh *m, const char *name, ffd_error *err)
             return read_binary(m, name, err);
     }
     const char *p = (const char *)m->src, *end = p + size;
+    p += ffd_utf8_bom_length(p, size);
     while (p < end && ffd_is_space(*p))
         p++;
     if ((size_t)(end - p) >= 5 && strncasecmp(p, "solid", 5) == 0)

@@ -135,17 +135,19 @@ ffd_status ffd_rig_load_primitive(const char *path, ffd_rig_primitive *prim, ffd
     ffd_status st = ffd_read_file(path, &data, &size, err);
     if (st != FFD_OK)
         return st;
-    /* an OBJ without faces is a polyline */
+    /* an OBJ without faces is a polyline; a byte order mark is read past, as
+     * ffd_obj_read does (it would hide the first line) */
+    size_t bom = ffd_utf8_bom_length(data, size);
     int has_faces = 1;
     if (format == FFD_FORMAT_OBJ || format == FFD_FORMAT_AUTO) {
         has_faces = 0;
-        for (size_t i = 0; i + 1 < size; i++)
-            if ((i == 0 || data[i - 1] == '\n') && data[i] == 'f' &&
+        for (size_t i = bom; i + 1 < size; i++)
+            if ((i == bom || data[i - 1] == '\n') && data[i] == 'f' &&
                 (data[i + 1] == ' ' || data[i + 1] == '\t'))
                 has_faces = 1;
     }
     if (!has_faces) {
-        st = load_polyline(path, (const char *)data, size, prim, err);
+        st = load_polyline(path, (const char *)data + bom, size - bom, prim, err);
         ffd_free(data);
         return st;
     }
