@@ -924,18 +924,21 @@ static void test_write_files(void)
         ffd_mesh *pm = NULL;
         CHECK_OK(ffd_mesh_read(proxy, &pm, &err));
         if (pm) {
-            CHECK(ffd_mesh_vertex_count(pm) == r.proxy_vertex_count);
+            /* the manifold proxy: one point per sheet of each control point */
+            CHECK(ffd_mesh_vertex_count(pm) == r.proxy_point_count);
+            CHECK(r.proxy_point_count >= r.proxy_vertex_count);
             CHECK(ffd_mesh_face_count(pm) == r.proxy_face_count);
-            /* the proxy's points are the deformed control points */
+            /* point i is control point proxy_point_controls[i], deformed */
             const double *pp = ffd_mesh_positions(pm);
-            size_t matched = 0;
-            for (size_t i = 0; i < ffd_mesh_vertex_count(pm); i++)
-                for (size_t v = 0; v < r.control_count; v++)
-                    if (max_diff(pp + 3 * i, r.control_points + 3 * v, 1) <= 1e-12) {
-                        matched++;
-                        break;
-                    }
-            CHECK(matched == r.proxy_vertex_count);
+            size_t matched = 0, distinct = 0;
+            for (size_t i = 0; i < ffd_mesh_vertex_count(pm) && i < r.proxy_point_count; i++) {
+                uint32_t v = r.proxy_point_controls[i];
+                distinct += i == 0 || v != r.proxy_point_controls[i - 1];
+                matched += v < r.control_count &&
+                           max_diff(pp + 3 * i, r.control_points + 3 * (size_t)v, 1) <= 1e-12;
+            }
+            CHECK(matched == r.proxy_point_count);
+            CHECK(distinct == r.proxy_vertex_count);
             ffd_mesh_destroy(pm);
         }
         CHECK(count_lines(lattice, "v ") == r.control_count);

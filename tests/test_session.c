@@ -5,6 +5,7 @@
 #include "check.h"
 #include "ffd.h"
 
+#include <cJSON.h>
 #include <stdint.h>
 
 #define BUNNY FFD_SOURCE_DIR "/examples/lattice/bunny.obj"
@@ -272,6 +273,54 @@ static void test_tspline_session(void)
     ffd_session_destroy(s);
 }
 
+/* The editor's proxy of cells touching along an edge and at vertices
+ * (tests/data/tspline-contacts.obj): "face_points" over "point_controls" is
+ * the same faces as "faces", a closed 2-manifold (each directed edge once,
+ * with its reverse), a control point once per sheet. */
+static void test_tspline_proxy_manifold(void)
+{
+    ffd_session *s = open_session(FFD_SOURCE_DIR "/tests/data/tspline-contacts.obj");
+    if (!s)
+        return;
+    CHECK(run(s, "create", "{\"method\":\"tspline\",\"resolution\":[4,4,4]}", NULL) == FFD_OK);
+    char *state = NULL;
+    size_t size = 0;
+    CHECK_OK(ffd_session_state(s, &state, &size, NULL));
+    cJSON *root = state ? cJSON_ParseWithLength(state, size) : NULL;
+    const cJSON *proxy = cJSON_GetObjectItemCaseSensitive(
+        cJSON_GetObjectItemCaseSensitive(root, "controls"), "proxy");
+    CHECK(proxy != NULL);
+    const cJSON *faces = cJSON_GetObjectItemCaseSensitive(proxy, "faces");
+    const cJSON *fpts = cJSON_GetObjectItemCaseSensitive(proxy, "face_points");
+    const cJSON *ctl = cJSON_GetObjectItemCaseSensitive(proxy, "point_controls");
+    const cJSON *pts = cJSON_GetObjectItemCaseSensitive(proxy, "points");
+    CHECK(cJSON_GetArraySize(faces) == 24 && cJSON_GetArraySize(fpts) == 24);
+    CHECK(cJSON_GetArraySize(pts) == 28 && cJSON_GetArraySize(ctl) == 32);
+    int n_ctl = cJSON_GetArraySize(ctl), bad = 0, dir[32][32] = {{0}};
+    for (int f = 0; f < cJSON_GetArraySize(faces) && f < cJSON_GetArraySize(fpts); f++) {
+        const cJSON *a = cJSON_GetArrayItem(faces, f), *b = cJSON_GetArrayItem(fpts, f);
+        int m = cJSON_GetArraySize(b);
+        bad += cJSON_GetArraySize(a) != m;
+        for (int i = 0; i < m && i < cJSON_GetArraySize(a); i++) {
+            int p = cJSON_GetArrayItem(b, i)->valueint;
+            int q = cJSON_GetArrayItem(b, (i + 1) % m)->valueint;
+            if (p < 0 || p >= n_ctl || p >= 32 || q < 0 || q >= n_ctl || q >= 32) {
+                bad++;
+                continue;
+            }
+            bad += cJSON_GetArrayItem(ctl, p)->valueint != cJSON_GetArrayItem(a, i)->valueint;
+            dir[p][q]++;
+        }
+    }
+    for (int p = 0; p < 32; p++)
+        for (int q = 0; q < 32; q++)
+            bad += dir[p][q] > 1 || dir[p][q] != dir[q][p];
+    CHECK(bad == 0);
+    cJSON_Delete(root);
+    ffd_free(state);
+    ffd_session_destroy(s);
+}
+
 static void test_influence(void)
 {
     ffd_session *s = open_session(BUNNY);
@@ -414,6 +463,7 @@ int main(int argc, char **argv)
         {"direct_manipulation_and_pins", test_direct_manipulation_and_pins},
         {"cancel_restores", test_cancel_restores},
         {"tspline_session", test_tspline_session},
+        {"tspline_proxy_manifold", test_tspline_proxy_manifold},
         {"influence", test_influence},
         {"bad_requests", test_bad_requests},
         {"export_is_the_replay", test_export_is_the_replay},

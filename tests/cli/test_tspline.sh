@@ -34,6 +34,49 @@ check_proxy() { # check_proxy NAME PROXY REPORT: closed, counts as reported
         fail "$1: proxy vertices $(field "$T/info" vertices) != proxy_points in $(cat "$3")"
     [ "$(field "$T/info" faces)" = "$(field "$3" proxy_faces)" ] ||
         fail "$1: proxy faces $(field "$T/info" faces) != proxy_faces in $(cat "$3")"
+    # a closed, outward 2-manifold (docs/tspline.md: touching sheets are split)
+    grep -qF '"nonmanifold_edges": 0,' "$T/info" || fail "$1: the proxy is not manifold: $(cat "$T/info")"
+    manifold "$2" >"$T/manifold" || fail "$1: $(cat "$T/manifold")"
+    awk '{ exit !($5 > 0) }' "$T/manifold" || fail "$1: the proxy points inwards: $(cat "$T/manifold")"
+}
+# manifold PROXY: checks that the OBJ polygon mesh is a closed, consistently
+# oriented 2-manifold (every directed edge once and its reverse once, so
+# every edge has two faces; the corners at every vertex form one fan, a
+# single cycle of prev -> next links) and prints "V E F CHI VOLUME" (the
+# signed volume: > 0 when the faces point outwards); exits 1 otherwise
+manifold() {
+    awk '
+    /^v / { nv++; x[nv] = $2; y[nv] = $3; z[nv] = $4 }
+    /^f / {
+        nf++; n = NF - 1
+        for (i = 2; i <= NF; i++) { split($i, a, "/"); c[i - 1] = a[1] + 0 }
+        for (i = 1; i <= n; i++) {
+            p = c[i]; q = c[i % n + 1]; r = c[(i + n - 2) % n + 1]
+            if (p == q) bad = bad " repeated-corner:" nf
+            d[p " " q]++
+            u[p < q ? p " " q : q " " p]++
+            corners[p]++; if (!(p in first)) first[p] = r
+            if ((p, r) in link) bad = bad " two-corners-after:" p "," r
+            link[p, r] = q
+        }
+        for (i = 2; i + 1 <= n; i++) { # fan triangles: signed volume
+            a0 = c[1]; a1 = c[i]; a2 = c[i + 1]
+            vol += (x[a0] * (y[a1] * z[a2] - z[a1] * y[a2]) - y[a0] * (x[a1] * z[a2] - z[a1] * x[a2]) \
+                    + z[a0] * (x[a1] * y[a2] - y[a1] * x[a2])) / 6
+        }
+    }
+    END {
+        for (k in d) { if (d[k] != 1) bad = bad " directed-edge-twice:" k
+                       split(k, e, " "); if (!((e[2] " " e[1]) in d)) bad = bad " no-reverse:" k }
+        for (k in u) { ne++; if (u[k] != 2) bad = bad " edge-faces:" k "=" u[k] }
+        for (p in corners) { # one fan: follow the links from the first corner
+            s = first[p]; t = s; steps = 0
+            do { if (!((p, t) in link)) break; t = link[p, t]; steps++ } while (t != s && steps <= corners[p])
+            if (t != s || steps != corners[p]) bad = bad " not-one-fan:" p
+        }
+        if (bad != "") { print "not a closed oriented manifold:" substr(bad, 1, 400); exit 1 }
+        printf "%d %d %d %d %.12g\n", nv, ne, nf, nv - ne + nf, vol
+    }' "$1"
 }
 check_lattice() { # check_lattice NAME LATTICE CONTROLS EDGES
     [ "$(grep -c '^v ' "$2")" -eq "$3" ] || fail "$1: $(grep -c '^v ' "$2") v lines, expected $3"
@@ -50,9 +93,26 @@ for key in '"control_points": 216' '"cells": 125' '"edges": 540' '"proxy_points"
     grep -qF "$key" "$T/p0.report" || fail "default: the report lacks $key: $(cat "$T/p0.report")"
 done
 check_proxy default "$T/p0.obj" "$T/p0.report"
-# the bunny's unrefined proxy is a manifold too (refined ones may touch along an
-# edge: two cells that share only an edge both inside)
-grep -qF '"nonmanifold_edges": 0,' "$T/info" || fail "default: the proxy is not manifold: $(cat "$T/info")"
+
+# cells that share only an edge or a vertex (tests/data/tspline-contacts.obj:
+# four cubes in the cells (0,0,0), (1,1,0), (2,2,1), (1,1,2) of a 3x3x3
+# lattice): the proxy is four separate cubes, the 28 control points on them
+# written once per sheet, 32 points in all, V - E + F = 8 (four spheres),
+# volume 4 (each cube a unit cell of the [0,3]^3 box)
+CONTACTS=$SRC/tests/data/tspline-contacts.obj
+ok tspline proxy "$CONTACTS" --resolution 4 -o "$T/contacts.obj" --report
+cp "$T/stdout" "$T/contacts.report"
+check_proxy contacts "$T/contacts.obj" "$T/contacts.report"
+[ "$(cat "$T/manifold")" = "32 48 24 8 4" ] || fail "contacts: V E F chi volume $(cat "$T/manifold")"
+has contacts.report '"proxy_points": 32'
+grep -qF '"welded_vertices": 28,' "$T/info" || fail "contacts: not 28 distinct positions: $(cat "$T/info")"
+# ffd deform --proxy-out writes the same manifold proxy (a rig that moves nothing)
+printf '{"deformer": "tspline", "resolution": [4, 4, 4]}' >"$T/contacts.json"
+ok deform "$CONTACTS" -o "$T/contacts.out.obj" --rig "$T/contacts.json" --report \
+    --proxy-out "$T/contacts.proxy.obj"
+cp "$T/stdout" "$T/contacts.deform.report"
+check_proxy "contacts deform" "$T/contacts.proxy.obj" "$T/contacts.deform.report"
+cmp -s "$T/contacts.obj" "$T/contacts.proxy.obj" || fail "contacts: --proxy-out differs from tspline proxy"
 
 ok tspline proxy "$BUNNY" --resolution 6,7,5 --output "$T/p1.obj" --lattice "$T/l1.obj" --report
 cp "$T/stdout" "$T/p1.report"
@@ -184,10 +244,7 @@ awk -v r="$(field "$T/drag.report" max_residual)" 'BEGIN { exit !(r < 1e-6) }' |
     fail "drag: max_residual $(field "$T/drag.report" max_residual)"
 [ "$(cksum <"$T/in.obj")" = "$in_sum" ] || fail "drag: the input mesh was modified"
 # the proxy: closed, its counts as reported; the lattice: a v per control point, an l per edge
-info "$T/drag.proxy.obj"
-grep -qF '"closed": true' "$T/info" || fail "drag: --proxy-out is not closed: $(cat "$T/info")"
-[ "$(field "$T/info" vertices)" = "$(field "$T/drag.report" proxy_points)" ] || fail "drag: --proxy-out vertices"
-[ "$(field "$T/info" faces)" = "$(field "$T/drag.report" proxy_faces)" ] || fail "drag: --proxy-out faces"
+check_proxy drag "$T/drag.proxy.obj" "$T/drag.report"
 [ "$(grep -c '^v ' "$T/drag.lattice.obj")" -eq "$(field "$T/drag.report" controls)" ] ||
     fail "drag: --lattice-out v lines != controls"
 [ "$(grep -c '^l ' "$T/drag.lattice.obj")" -gt 0 ] || fail "drag: --lattice-out has no edges"
