@@ -519,6 +519,11 @@ if [ "${FFD_SERVE_STUB:-0}" != 1 ]; then
     post_json 400 invalid /api/rig/load '{"path": "pipe-replace.json"}'
     has_body 'pipe.obj: not a regular file'
     post_json 400 invalid /api/rig/load '{"path": "pipe.json"}'
+    printf 'solid s\nendsolid s\n' >"$ROOT/skeleton.stl"
+    printf '{"deformer": "gffd", "skeleton": [{"type": "polyline", "file": "skeleton.stl", "radius": 1}]}\n' \
+        >"$ROOT/stl-skeleton.json"
+    post_json 415 unsupported_format /api/rig/load '{"path": "stl-skeleton.json"}'
+    has_body 'skeleton.stl: STL has no shared vertices'
     post_json 400 invalid /api/open '{"path": "pipe.obj"}'
     post_json 400 invalid /api/open '{"path": "folder.obj"}'
     post_json 400 invalid /api/export/save '{"path": "pipe.obj"}'
