@@ -257,7 +257,13 @@ static enum MHD_Result answer_status(const serve_server *srv, struct MHD_Connect
     case FFD_ERR_INVALID: code = MHD_HTTP_BAD_REQUEST, word = "invalid"; break;
     case FFD_ERR_RANGE: code = MHD_HTTP_BAD_REQUEST, word = "range"; break;
     case FFD_ERR_NONFINITE: code = MHD_HTTP_BAD_REQUEST, word = "nonfinite"; break;
-    case FFD_ERR_UNSUPPORTED: code = MHD_HTTP_NOT_FOUND, word = "unsupported"; break;
+    case FFD_ERR_UNSUPPORTED:
+        /* an op: no such op; a file a request names (a rig's STL skeleton): its format */
+        if (r->route == ROUTE_OP)
+            code = MHD_HTTP_NOT_FOUND, word = "unsupported";
+        else
+            code = MHD_HTTP_UNSUPPORTED_MEDIA_TYPE, word = "unsupported_format";
+        break;
     case FFD_ERR_IO:
         /* A file the client named (a rig's skeleton file, or a path that
          * raced a change) is missing, not a regular file (a FIFO, device or
