@@ -102,8 +102,9 @@ ffd_format ffd_format_from_path(const char *path);
 
 /* Reads a mesh. Format from the extension. Everything the file holds is kept
  * so that writing it back in the same format without changes reproduces it
- * byte for byte. Errors: FFD_ERR_IO (missing file, directory, unreadable),
- * FFD_ERR_PARSE (message "path:line: ..." for text, "path: byte N: ..." for
+ * byte for byte (a UTF-8 byte order mark before the first line of a text
+ * file or PLY header is read past and kept). Errors: FFD_ERR_IO (missing
+ * file, directory, unreadable), FFD_ERR_PARSE (message "path:line: ..." for text, "path: byte N: ..." for
  * binary), FFD_ERR_NONFINITE (NaN/Inf coordinate), FFD_ERR_RANGE (bad face
  * index), FFD_ERR_NOMEM. */
 ffd_status ffd_mesh_read(const char *path, ffd_mesh **out, ffd_error *err);
@@ -1027,7 +1028,10 @@ typedef struct ffd_rig ffd_rig;
 
 /* Reads a rig; .prm (PyGeM FFD parameters) by extension, JSON otherwise.
  * Unknown keys and wrong types are FFD_ERR_PARSE naming the key's path
- * (e.g. "rig.json: moves[1].delta: expected an array of 3 numbers"). */
+ * (e.g. "rig.json: moves[1].delta: expected an array of 3 numbers"). A
+ * leading UTF-8 byte order mark is read past; a NUL in JSON text (a \u0000
+ * escape in a key or string, or a raw NUL byte) is FFD_ERR_PARSE with
+ * "name:line:column". */
 ffd_status ffd_rig_read(const char *path, ffd_rig **out, ffd_error *err);
 ffd_status ffd_rig_parse_json(const char *text, size_t size, const char *name,
                               ffd_rig **out, ffd_error *err);
@@ -1159,7 +1163,8 @@ const char *ffd_session_name(const ffd_session *s);
  * success *reply (ffd_free) holds *reply_size bytes: a binary frame when
  * *binary is set (drag steps, influence), else a JSON text. On error the
  * session is exactly as before the call and err says why: FFD_ERR_PARSE
- * (malformed JSON, wrong key or type: the message names the key),
+ * (malformed JSON, wrong key or type: the message names the key; a NUL,
+ * \u0000 or raw, anywhere in the body: "op:line:column: ..."),
  * FFD_ERR_INVALID (a well-formed request the state refuses: no deformer,
  * wrong method, no drag in progress), FFD_ERR_RANGE (an id), FFD_ERR_UNSUPPORTED
  * (unknown op), FFD_ERR_NONFINITE, FFD_ERR_NOMEM. */

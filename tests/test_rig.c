@@ -693,6 +693,35 @@ static void test_report_free_null(void)
     CHECK(report.residuals == NULL);
 }
 
+/* Issue 14: cJSON decodes \u0000 into a NUL and the rig saw the text before
+ * it ({"margin\u0000x": 0.1} set "margin"); a NUL in any key or string is
+ * refused with line:column. A UTF-8 byte order mark before the JSON is read
+ * past (cJSON alone fails on it). */
+static void test_parse_nul_and_bom(void)
+{
+    parse_bad("{\"deformer\": \"lattice\", \"margin\\u0000x\": 0.1}", FFD_ERR_PARSE,
+              "rig.json:1:32: a NUL character (\\u0000) in a string is not allowed");
+    parse_bad("{\"deformer\": \"lattice\",\n \"basis\": \"bspline\\u0000junk\"}", FFD_ERR_PARSE,
+              "rig.json:2:19: a NUL character (\\u0000) in a string is not allowed");
+    parse_bad("{\"deformer\": \"lattice\\u0000\"}", FFD_ERR_PARSE, "rig.json:1:22: a NUL character");
+    parse_bad("{\"deformer\": \"lattice\", \"moves\": [{\"index\\u0000\": [0,0,0]}]}", FFD_ERR_PARSE,
+              "a NUL character (\\u0000) in a string");
+    /* an escaped backslash before u0000 is text, and no NUL */
+    parse_bad("{\"deformer\": \"lattice\", \"basis\": \"\\\\u0000\"}", FFD_ERR_PARSE, "rig.json: basis: expected");
+    /* the byte order mark */
+    ffd_rig *rig = parse_ok("\xEF\xBB\xBF{\"deformer\": \"lattice\", \"margin\": 0.25}");
+    if (rig) {
+        CHECK(rig->margin == 0.25);
+        ffd_rig_destroy(rig);
+    }
+    rig = parse_ok("\xEF\xBB\xBF\r\n  {\"deformer\": \"lattice\"}\n");
+    ffd_rig_destroy(rig);
+    parse_bad("\xEF\xBB\xBF", FFD_ERR_PARSE, "rig.json: empty file");
+    parse_bad("\xEF\xBB\xBF{\n\"deformer\": }", FFD_ERR_PARSE, "rig.json:2:");
+    parse_bad("{\"deformer\": \"lattice\"}\xEF\xBB\xBF", FFD_ERR_PARSE, "unexpected text after the JSON value");
+    parse_bad(" \xEF\xBB\xBF{\"deformer\": \"lattice\"}", FFD_ERR_PARSE, "rig.json:1:2: invalid JSON");
+}
+
 int main(int argc, char **argv)
 {
     static const check_test tests[] = {
@@ -701,6 +730,7 @@ int main(int argc, char **argv)
         {"parse_bad_keys_and_types", test_parse_bad_keys_and_types},
         {"parse_bad_values", test_parse_bad_values},
         {"parse_syntax_errors", test_parse_syntax_errors},
+        {"parse_nul_and_bom", test_parse_nul_and_bom},
         {"parse_size_limit", test_parse_size_limit},
         {"parse_prefixes", test_parse_prefixes},
         {"read_files", test_read_files},

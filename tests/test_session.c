@@ -7,6 +7,8 @@
 
 #include <cJSON.h>
 #include <stdint.h>
+#include <stdlib.h>
+#include <unistd.h>
 
 #define BUNNY FFD_SOURCE_DIR "/examples/lattice/bunny.obj"
 #define COW FFD_SOURCE_DIR "/examples/tspline/cow.off"
@@ -371,7 +373,7 @@ static void test_bad_requests(void)
     CHECK(strstr(err.message, "conflict: ") == err.message);
     CHECK(run(s, "pin", "{\"vertex\":99999}", &err) == FFD_ERR_RANGE);
     CHECK_OK(ffd_session_load_rig(s, "{\"deformer\":\"gffd\",\"skeleton\":[{\"type\":\"polyline\","
-                                     "\"file\":\"x.obj\",\"radius\":1}]}", 80, "up.json", NULL, &err) ==
+                                     "\"file\":\"x.obj\",\"radius\":1}]}", 78, "up.json", NULL, &err) ==
              FFD_ERR_INVALID ? FFD_OK : FFD_ERR_IO);
     CHECK(run(s, "reset", "{\"method\":1} {\"x\":1}", &err) == FFD_ERR_PARSE); /* trailing text */
     CHECK(strstr(err.message, "after the value"));
@@ -454,6 +456,51 @@ static void test_allocation_failures(void)
     }
 }
 
+/* Issue 14: a NUL (\u0000) in a request's key or string is refused (cJSON
+ * would read "lattice\u0000x" as "lattice"), in commands and in loaded rigs;
+ * a rig with a byte order mark is still checked for files outside root. */
+static void test_nul_and_bom(void)
+{
+    ffd_session *s = open_session(BUNNY);
+    ffd_error err = {{0}};
+    CHECK(run(s, "create", "{\"method\":\"lattice\\u0000x\"}", &err) == FFD_ERR_PARSE);
+    CHECK(strcmp(err.message, "create:1:19: a NUL character (\\u0000) in a string is not allowed") == 0);
+    CHECK(run(s, "create", "{\"method\\u0000\":\"lattice\"}", &err) == FFD_ERR_PARSE);
+    CHECK(strstr(err.message, "create:1:9: a NUL character"));
+    CHECK(run(s, "create", "{\"method\":\"lattice\"}", NULL) == FFD_OK);
+    CHECK(run(s, "drag_begin", "{\"points\":[1],\"mode\\u0000x\":1}", &err) == FFD_ERR_PARSE);
+    CHECK(strstr(err.message, "a NUL character"));
+    static const char raw[] = "{\"points\":[1]}\0{\"x\":1}";
+    void *reply = NULL;
+    size_t size = 0;
+    int binary = 0;
+    CHECK(ffd_session_command(s, "drag_begin", raw, sizeof raw - 1, &reply, &size, &binary, &err) ==
+          FFD_ERR_PARSE);
+    CHECK(strstr(err.message, "drag_begin:1:15: a NUL byte"));
+    ffd_free(reply);
+
+    /* rigs: the file check and the rig parser see the same text */
+    char root[] = "/tmp/ffd_session_nul_XXXXXX";
+    CHECK(mkdtemp(root) != NULL);
+    char name[128], rig[512];
+    snprintf(name, sizeof name, "%s/up.json", root);
+    snprintf(rig, sizeof rig,
+             "{\"deformer\":\"gffd\",\"skeleton\":[{\"type\":\"polyline\",\"file\":\"spine.obj\\u0000/"
+             "../../x\",\"radius\":1}]}");
+    CHECK(ffd_session_load_rig(s, rig, strlen(rig), name, root, &err) == FFD_ERR_PARSE);
+    CHECK(strstr(err.message, "up.json:1:68: a NUL character (\\u0000) in a string is not allowed"));
+    snprintf(rig, sizeof rig,
+             "\xEF\xBB\xBF{\"deformer\":\"gffd\",\"skeleton\":[{\"type\":\"polyline\",\"file\":\"%s\","
+             "\"radius\":1}]}",
+             FFD_SOURCE_DIR "/examples/gffd/spine.obj");
+    CHECK(ffd_session_load_rig(s, rig, strlen(rig), name, root, &err) == FFD_ERR_INVALID);
+    CHECK(strstr(err.message, "is outside the server's directory"));
+    CHECK(rmdir(root) == 0);
+    /* the session still holds its lattice, unmoved */
+    CHECK(replay_difference(s, BUNNY) < 1e-5);
+    ffd_session_destroy(s);
+}
+
 int main(int argc, char **argv)
 {
     static const check_test tests[] = {
@@ -466,6 +513,7 @@ int main(int argc, char **argv)
         {"tspline_proxy_manifold", test_tspline_proxy_manifold},
         {"influence", test_influence},
         {"bad_requests", test_bad_requests},
+        {"nul_and_bom", test_nul_and_bom},
         {"export_is_the_replay", test_export_is_the_replay},
         {"allocation_failures", test_allocation_failures},
     };

@@ -1643,7 +1643,10 @@ ffd_status ffd_rig_parse_json(const char *text, size_t size, const char *name, f
     if (size > RIG_MAX_BYTES)
         return ffd_fail(err, FFD_ERR_INVALID, "%s: %zu bytes, rig files are limited to 64 MiB",
                         name, size);
-    size_t start = 0;
+    /* RFC 8259 §8.1 lets a parser ignore a UTF-8 byte order mark, and editors
+     * on Windows write one; offsets in messages stay those of the file. */
+    size_t bom = ffd_utf8_bom_length(text, size);
+    size_t start = bom;
     while (start < size && isspace((unsigned char)text[start]))
         start++;
     if (start == size)
@@ -1662,10 +1665,13 @@ ffd_status ffd_rig_parse_json(const char *text, size_t size, const char *name, f
     size_t deep = too_deep_at(text, size);
     if (deep < size)
         return syntax_error(name, text, size, deep, "nested deeper than 64 levels", err);
+    ffd_status nul = ffd_json_refuse_nul(text, size, name, err);
+    if (nul)
+        return nul;
 
     const char *end = NULL;
     unsigned long oom = ffd_json_alloc_failures();
-    cJSON *root = cJSON_ParseWithLengthOpts(text, size, &end, 0);
+    cJSON *root = cJSON_ParseWithLengthOpts(text + bom, size - bom, &end, 0);
     if (!root && ffd_json_alloc_failures() != oom)
         return ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory parsing JSON", name);
     if (!root) {

@@ -359,8 +359,14 @@ static ffd_status op_create(ffd_session *s, const parser *p, const cJSON *body, 
 static ffd_status check_rig_files(const char *text, size_t size, const char *name,
                                   const char *root, ffd_error *err)
 {
+    /* The rig parser reads past a byte order mark and refuses NUL: so must
+     * this check, or a rig it cannot parse would skip it. */
+    ffd_status nul = ffd_json_refuse_nul(text, size, ffd_name_or(name, "rig"), err);
+    if (nul)
+        return nul;
+    size_t bom = ffd_utf8_bom_length(text, size);
     unsigned long oom = ffd_json_alloc_failures();
-    cJSON *doc = cJSON_ParseWithLength(text, size);
+    cJSON *doc = cJSON_ParseWithLength(text + bom, size - bom);
     if (!doc && ffd_json_alloc_failures() != oom)
         return ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory parsing JSON",
                         ffd_name_or(name, "rig"));
@@ -922,6 +928,9 @@ ffd_status ffd_session_command(ffd_session *s, const char *op, const char *body,
     cJSON *doc = NULL;
     if (body && size) {
         const char *end = NULL;
+        ffd_status nul = ffd_json_refuse_nul(body, size, op, err);
+        if (nul)
+            return nul;
         unsigned long oom = ffd_json_alloc_failures();
         doc = cJSON_ParseWithLengthOpts(body, size, &end, 0);
         if (!doc && ffd_json_alloc_failures() != oom)

@@ -65,9 +65,28 @@ ok deform "$T/inplace.obj" --in-place --rig "$DATA/pull.json"
 cmp -s "$T/inplace.obj" "$T/pulled.obj" || fail "--in-place result differs from -o result"
 ok deform "$T/pulled.obj" -o "$T/pulled.obj" --in-place --rig "$DATA/pull.json"
 
+echo '{"deformer": "lattice"}' >"$T/identity.json"
+
+# A UTF-8 byte order mark before the first line (issue 14: the first v line
+# was lost and every face shifted) is read past and written back; a rig file
+# may start with one too.
+sed 1d "$DATA/cube.obj" >"$T/plain.obj"
+{ printf '\357\273\277'; cat "$T/plain.obj"; } >"$T/bom.obj"
+{ printf '\357\273\277'; cat "$DATA/pull.json"; } >"$T/bom.json"
+ok info --json "$T/bom.obj"
+has stdout '"vertices": 8, "faces": 12'
+ok deform "$T/plain.obj" -o "$T/plain_pulled.obj" --rig "$DATA/pull.json"
+ok deform "$T/bom.obj" -o "$T/bom_pulled.obj" --rig "$T/bom.json"
+{ printf '\357\273\277'; cat "$T/plain_pulled.obj"; } | cmp -s - "$T/bom_pulled.obj" ||
+    fail "deforming a mesh with a byte order mark: not the mark and the unmarked result"
+ok deform "$T/bom.obj" -o "$T/bom_identity.obj" --rig "$T/identity.json"
+cmp -s "$T/bom.obj" "$T/bom_identity.obj" || fail "identity rig changed the bytes of a mesh with a byte order mark"
+cp "$T/bom.obj" "$T/bom_same.obj"
+ok convert "$T/bom_same.obj" "$T/bom_same.obj" --in-place
+cmp -s "$T/bom.obj" "$T/bom_same.obj" || fail "convert --in-place dropped the byte order mark"
+
 # A rig that moves nothing writes every shared mesh back byte for byte
 # (evaluation adds the zero displacement to each point exactly).
-echo '{"deformer": "lattice"}' >"$T/identity.json"
 for m in "$SRC"/../shared/data/*.obj "$SRC"/../shared/data/*.off "$SRC"/../shared/data/*.stl; do
     [ -f "$m" ] || continue
     out="$T/identity_$(basename "$m")"

@@ -267,6 +267,26 @@ post_json 404 not_found /api/export/save '{"path": "nodir/out.obj"}'
 [ -e "$ROOT/out.txt" ] || [ -e "$ROOT/out.ply" ] && fail "a refused export wrote a file"
 state_same "refused rig and export requests"
 
+# a NUL in a JSON key or string, or %00 in the URL's path or query: refused
+# (cJSON and MHD hand out C strings, which would end at the NUL and open
+# sub/copy.obj or serve index.html); nothing is opened (issue 14)
+post_json 400 parse /api/open '{"path": "sub/copy.obj\u0000/../.."}'
+has_body 'body:1:23: a NUL character (\\u0000) in a string is not allowed'
+post_json 400 parse /api/open '{"path\u0000x": "sub/copy.obj"}'
+post_json 400 parse /api/rig/load '{"path": "bend.json\u0000.obj"}'
+expect 400 parse POST '/api/rig/upload?name=r.json' --data-binary '{"deformer": "lattice", "margin\u0000x": 0.5}'
+has_body 'r.json:1:32: a NUL character'
+expect 400 parse POST /api/create --data-binary '{"method": "lattice\u0000x"}'
+expect 400 invalid GET '/index.html%00.png'
+has_body 'a NUL character (%00) in the URL is not allowed'
+expect 400 invalid GET '/api/state%00/../x' --path-as-is
+expect 400 invalid GET '/api/export?format=obj%00ply'
+expect 400 invalid GET '/api/export?format%00x=obj'
+expect 400 invalid POST '/api/upload?name=sub.obj%00.txt' --data-binary @"$ROOT/bunny.obj"
+expect 400 invalid POST '/api/open%00' -H 'Content-Type: application/json' --data-binary '{"path": "sub/copy.obj"}'
+[ -e "$ROOT/sub.obj" ] && fail "an upload named with %00 wrote a file"
+state_same "NUL in JSON and URLs"
+
 head -c $((1024 * 1024 + 1)) /dev/zero | tr '\0' ' ' >"$T/big.json"
 expect 413 too_large POST /api/create --data-binary @"$T/big.json"
 expect 413 too_large POST /api/create -H 'Transfer-Encoding: chunked' --data-binary @"$T/big.json"

@@ -474,6 +474,12 @@ static unsigned parse_body(const request *r, const char *const *keys, size_t n,
         snprintf(msg, size, "empty body: expected a JSON object");
         return MHD_HTTP_BAD_REQUEST;
     }
+    /* cJSON would cut a key or string at a NUL ("a.obj\u0000/../x" read as "a.obj") */
+    ffd_error nul = {{0}};
+    if (ffd_json_refuse_nul(r->body, r->size, "body", &nul) != FFD_OK) {
+        snprintf(msg, size, "%s", nul.message);
+        return MHD_HTTP_BAD_REQUEST;
+    }
     /* body[size] is its NUL: cJSON wants the terminator inside the length */
     const char *end = NULL;
     cJSON *j = cJSON_ParseWithLengthOpts(r->body, r->size + 1, &end, 1);
@@ -1277,19 +1283,36 @@ static void take(request *r, const char *data, size_t size)
     r->body[r->size] = 0;
 }
 
+/* MHD decodes %00 in the path and the query into a NUL and hands out C
+ * strings, so "/a.obj%00/../x" would read as "/a.obj". Only the raw URI, seen
+ * here before decoding, tells: the request's context starts as this mark. */
+static const char NUL_IN_URI = 0;
+#define NUL_IN_URI_MARK ((void *)&NUL_IN_URI)
+
+static void *log_uri(void *cls, const char *uri, struct MHD_Connection *c)
+{
+    (void)cls;
+    (void)c;
+    return uri && strstr(uri, "%00") ? NUL_IN_URI_MARK : NULL;
+}
+
 static enum MHD_Result handle(void *cls, struct MHD_Connection *c, const char *url,
                               const char *method, const char *version, const char *upload_data,
                               size_t *upload_data_size, void **con_cls)
 {
     serve_server *srv = cls;
     request *r = *con_cls;
-    if (!r) {
+    if (!r || r == NUL_IN_URI_MARK) {
+        int nul = r == NUL_IN_URI_MARK;
         if (!(r = calloc(1, sizeof *r)))
             return MHD_NO;
         *con_cls = r;
         r->method = method;
         r->url = url;
         r->start = cli_now();
+        if (nul)
+            return answer_error(srv, c, r, MHD_HTTP_BAD_REQUEST, "invalid",
+                                "%s: a NUL character (%%00) in the URL is not allowed", url);
         return begin(srv, c, r);
     }
     if (*upload_data_size > 0) {
@@ -1331,7 +1354,7 @@ static void completed(void *cls, struct MHD_Connection *c, void **con_cls,
                       enum MHD_RequestTerminationCode toe)
 {
     request *r = *con_cls;
-    if (r) {
+    if (r && r != NUL_IN_URI_MARK) {
         free(r->body);
         free(r);
         *con_cls = NULL;
@@ -1441,6 +1464,7 @@ int serve_start(ffd_session *session, const serve_options *o, serve_server **out
     srv->daemon = MHD_start_daemon(MHD_USE_INTERNAL_POLLING_THREAD | MHD_USE_THREAD_PER_CONNECTION,
                                    0, NULL, NULL, handle, srv, MHD_OPTION_LISTEN_SOCKET, fd,
                                    MHD_OPTION_NOTIFY_COMPLETED, completed, srv,
+                                   MHD_OPTION_URI_LOG_CALLBACK, log_uri, srv,
                                    MHD_OPTION_CONNECTION_TIMEOUT, idle,
                                    MHD_OPTION_PER_IP_CONNECTION_LIMIT, clients,
                                    MHD_OPTION_CONNECTION_LIMIT, (unsigned)CONNECTION_LIMIT,
