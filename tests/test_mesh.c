@@ -616,10 +616,13 @@ static void test_obj_jacobian_and_transcode_deformed(void)
         CHECK_NEAR(n[3 * i + 1], anchored ? n0[3 * i] : n0[3 * i + 1], 1e-15);
         CHECK_NEAR(n[3 * i + 2], n0[3 * i + 2], 1e-15);
     }
-    /* Singular Jacobian (flatten to a plane): cofactor maps (0,0,+-1) to zero, normal kept. */
+    /* Singular Jacobian (flatten to a plane; the points move, so the normals go
+     * through the cofactor): (0,0,+-1) is kept. */
     memset(J, 0, 9 * nv * sizeof *J);
-    for (size_t i = 0; i < nv; i++)
+    for (size_t i = 0; i < nv; i++) {
         J[9 * i] = J[9 * i + 4] = 1;
+        p[3 * i] += 0.5;
+    }
     double before[21];
     memcpy(before, ffd_mesh_normals(m), sizeof before);
     CHECK_OK(ffd_mesh_set_positions(m, p, J, &check_err_));
