@@ -161,8 +161,13 @@ const uint32_t *ffd_mesh_normal_anchors(const ffd_mesh *mesh);
  * d(x')/d(x) per vertex) each normal is mapped by the inverse transpose of
  * the Jacobian at its anchor vertex and renormalised to its previous length;
  * with jacobians NULL they are recomputed from the deformed faces around
- * the anchor (area-weighted). STL facet normals are always recomputed from
- * their deformed triangle. */
+ * the anchor (area-weighted). STL facet normals are recomputed from their
+ * deformed triangle. Identity is kept exactly, so that a write keeps the
+ * file's bytes: a coordinate whose new value == the stored one (-0.0 and
+ * +0.0 are equal) keeps the stored value; a normal is left as it is where
+ * its Jacobian is exactly the identity or neither its anchor nor any corner
+ * of a face around the anchor moved; a facet normal, where no corner of its
+ * facet moved. */
 ffd_status ffd_mesh_set_positions(ffd_mesh *mesh, const double *positions,
                                   const double *jacobians, ffd_error *err);
 
@@ -310,10 +315,14 @@ size_t ffd_lattice_binding_inside_count(const ffd_lattice_binding *binding);
  * Returns 1 when the point is inside the box, 0 otherwise. */
 int ffd_lattice_binding_params(const ffd_lattice_binding *binding, size_t i, double stu[3]);
 
-/* Deformed positions of the bound points, n by 3 (paper eq. 1). */
+/* Deformed positions of the bound points, n by 3 (paper eq. 1, evaluated as
+ * the point plus sum_j B_j (P_j - P_rest,j): a point whose support holds no
+ * moved control point keeps its bits). */
 ffd_status ffd_lattice_eval(const ffd_lattice *lattice, const ffd_lattice_binding *binding,
                             double *out, ffd_error *err);
-/* Jacobians d(x')/d(x) of the deformation at the bound points, n by 9 row-major. */
+/* Jacobians d(x')/d(x) of the deformation at the bound points, n by 9
+ * row-major (I plus the displacement's derivative: exactly I where nothing
+ * moved). */
 ffd_status ffd_lattice_jacobian(const ffd_lattice *lattice, const ffd_lattice_binding *binding,
                                 double *out, ffd_error *err);
 /* Evaluates the map at spline parameters directly (no binding), 3 doubles. */
@@ -914,9 +923,13 @@ ffd_status ffd_tsv_refine(ffd_tsv *t, const ffd_tsv_insertion *insertions, size_
 
 /* --- Evaluation --- */
 
-/* Deformed positions of the bound points, n by 3 (eq. 1). */
+/* Deformed positions of the bound points, n by 3 (eq. 1, evaluated as the
+ * point plus the displacement Phi (P - P_rest): the rest lattice gives every
+ * point back bitwise, and points no moved control point reaches keep their
+ * bits). */
 ffd_status ffd_tsv_eval(const ffd_tsv *t, double *out, ffd_error *err);
-/* Jacobians d(x')/d(x) at the bound points, n by 9 row-major. */
+/* Jacobians d(x')/d(x) at the bound points, n by 9 row-major (I plus the
+ * displacement's derivative: exactly I where nothing moved). */
 ffd_status ffd_tsv_jacobian(const ffd_tsv *t, double *out, ffd_error *err);
 /* The map at parameters (clamped into [0,1]^3), 3 doubles; jacobian (9,
  * d(x')/d(x), may be NULL). */

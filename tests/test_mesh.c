@@ -382,6 +382,213 @@ static void test_set_positions_normals(void)
     free(p);
 }
 
+/* ---- identity at the level of the file's bytes (docs/cli.md, ffd deform) ---- */
+
+/* Signed zeros, seven-digit values, texture coordinates, a quad; vn 2 is
+ * anchored at vertex 5 (its first use), vn 3 at vertex 6 of a triangle far
+ * from the rest, vn 4 at nothing. */
+static const char identity_obj[] = "# signed zeros\n"
+                                   "v -0.000000 0.0165005 0\n"
+                                   "v 1 -0.0000 0.0\n"
+                                   "v 1 1.0000 -0.000000\n"
+                                   "v 0 1 0.3\n"
+                                   "v 0.2 0.3 1.0000\n"
+                                   "v 5 5 5\n"
+                                   "v 6 5 5\n"
+                                   "v 5 6 5\n"
+                                   "vt 0 0\nvt 1 0\nvt 1 1\n"
+                                   "vn 0.0086 -0.0000 0.99996\n"
+                                   "vn 0.3 0.3 0.3\n"
+                                   "vn -0.0000 -0.0000 1.0000\n"
+                                   "vn 0 0 -1\n"
+                                   "f 1/1/1 2/2/1 3/3/1 4/1/1\n"
+                                   "f 5//2 1//2 2//2\n"
+                                   "f 6//3 7//3 8//3\n";
+
+/* Writes m as its source format; 1 when the bytes equal want (n bytes). */
+static int writes_back(const ffd_mesh *m, const void *want, size_t n)
+{
+    size_t size = 0;
+    unsigned char *out = write_mem(m, ffd_mesh_source_format(m), FFD_ENCODING_SAME, &size);
+    int same = out && size == n && memcmp(out, want, n) == 0;
+    if (out && !same && ffd_mesh_source_format(m) != FFD_FORMAT_PLY &&
+        ffd_mesh_source_format(m) != FFD_FORMAT_STL)
+        fprintf(stderr, "  %s: wrote\n%.*s", check_current, (int)size, (const char *)out);
+    ffd_free(out);
+    return same;
+}
+
+/* Line k (0-based) of text, into buf. */
+static const char *line_of(const char *text, size_t k, char *buf, size_t cap)
+{
+    while (k-- && (text = strchr(text, '\n')))
+        text++;
+    if (!text)
+        return "";
+    size_t n = strcspn(text, "\n");
+    n = n < cap - 1 ? n : cap - 1;
+    memcpy(buf, text, n);
+    buf[n] = 0;
+    return buf;
+}
+
+/* The output of m: which of the source's lines changed (bit k of the result). */
+static unsigned changed_lines(const ffd_mesh *m, const char *src)
+{
+    size_t size = 0;
+    unsigned char *out = write_mem(m, FFD_FORMAT_OBJ, FFD_ENCODING_SAME, &size);
+    unsigned mask = 0;
+    if (!out)
+        return ~0u;
+    char *text = malloc(size + 1);
+    memcpy(text, out, size);
+    text[size] = 0;
+    for (size_t k = 0; k < 32; k++) {
+        char a[128], b[128];
+        if (strcmp(line_of(src, k, a, sizeof a), line_of(text, k, b, sizeof b)) != 0)
+            mask |= 1u << k;
+    }
+    free(text);
+    ffd_free(out);
+    return mask;
+}
+
+static ffd_mesh *identity_mesh(void)
+{
+    ffd_mesh *m = NULL;
+    ffd_error err = {{0}};
+    if (ffd_mesh_read_memory(identity_obj, sizeof identity_obj - 1, FFD_FORMAT_OBJ, "id.obj", &m,
+                             &err) != FFD_OK) {
+        fprintf(stderr, "%s: %s\n", check_current, err.message);
+        check_failures++;
+    }
+    return m;
+}
+
+/* Identity Jacobians with negative zeros off the diagonal (what a sum of
+ * zero displacement terms gives). */
+static double *identity_jacobians(size_t nv)
+{
+    double *J = malloc(9 * nv * sizeof *J);
+    for (size_t i = 0; i < nv; i++)
+        for (int k = 0; k < 9; k++)
+            J[9 * i + k] = k % 4 == 0 ? 1.0 : -0.0;
+    return J;
+}
+
+/* A deformation that moves nothing, -0.0 coming back as +0.0: every byte stays
+ * ("-0.000000", "0.0165005", "vn 0.0086 -0.0000 ..."), with Jacobians (exactly
+ * the identity) and without (area-weighted normals). */
+static void test_identity_signed_zero_and_normals(void)
+{
+    for (int with_jacobians = 0; with_jacobians < 2; with_jacobians++) {
+        ffd_mesh *m = identity_mesh();
+        if (!m)
+            return;
+        size_t nv = ffd_mesh_vertex_count(m);
+        CHECK(nv == 8 && ffd_mesh_normal_count(m) == 4 && ffd_mesh_normal_anchors(m)[1] == 4);
+        double *p = malloc(3 * nv * sizeof *p);
+        for (size_t i = 0; i < 3 * nv; i++)
+            p[i] = ffd_mesh_positions(m)[i] + 0.0; /* -0.0 + 0.0 = +0.0 */
+        CHECK(!signbit(p[0]) && signbit(ffd_mesh_positions(m)[0]));
+        double *J = with_jacobians ? identity_jacobians(nv) : NULL;
+        CHECK_OK(ffd_mesh_set_positions(m, p, J, &check_err_));
+        CHECK(signbit(ffd_mesh_positions(m)[0])); /* the stored value is kept */
+        CHECK(signbit(ffd_mesh_normals(m)[1]));
+        CHECK(writes_back(m, identity_obj, sizeof identity_obj - 1));
+        /* a translation: Jacobians exactly I keep every normal's bytes */
+        if (with_jacobians) {
+            for (size_t i = 0; i < 3 * nv; i++)
+                p[i] += 0.25;
+            CHECK_OK(ffd_mesh_set_positions(m, p, J, &check_err_));
+            CHECK(changed_lines(m, identity_obj) == 0x1feu); /* lines 1-8: the v lines */
+        }
+        free(J);
+        free(p);
+        ffd_mesh_destroy(m);
+    }
+}
+
+/* One far vertex moves: only its line and the lines of normals anchored
+ * where the deformation is not the identity change. */
+static void test_identity_partial_move(void)
+{
+    enum { V6 = 1u << 6, VN1 = 1u << 12, VN3 = 1u << 14 };
+    for (int with_jacobians = 0; with_jacobians < 2; with_jacobians++) {
+        ffd_mesh *m = identity_mesh();
+        if (!m)
+            return;
+        size_t nv = ffd_mesh_vertex_count(m);
+        double *p = malloc(3 * nv * sizeof *p);
+        memcpy(p, ffd_mesh_positions(m), 3 * nv * sizeof *p);
+        p[3 * 5 + 2] += 0.5; /* vertex 6 up: its triangle tilts */
+        double *J = with_jacobians ? identity_jacobians(nv) : NULL;
+        if (J)
+            J[9 * 5 + 6] = 1.0; /* a shear at vertex 6: z' = z + x */
+        CHECK_OK(ffd_mesh_set_positions(m, p, J, &check_err_));
+        unsigned mask = changed_lines(m, identity_obj);
+        CHECK(mask == (V6 | VN3));
+        if (mask != (V6 | VN3))
+            fprintf(stderr, "  changed lines %#x, expected %#x\n", mask, V6 | VN3);
+        /* area-weighted: moving vertex 4 recomputes vn 1 (anchored at vertex 1,
+         * whose quad holds vertex 4) but not vn 2 (its triangle did not move) */
+        if (!with_jacobians) {
+            p[3 * 3 + 2] += 0.125;
+            CHECK_OK(ffd_mesh_set_positions(m, p, NULL, &check_err_));
+            mask = changed_lines(m, identity_obj);
+            CHECK(mask == (V6 | VN3 | (1u << 4) | VN1));
+            if (mask != (V6 | VN3 | (1u << 4) | VN1))
+                fprintf(stderr, "  changed lines %#x\n", mask);
+        }
+        free(J);
+        free(p);
+        ffd_mesh_destroy(m);
+    }
+}
+
+/* Binary files: a -0.0 coordinate (PLY double and float, STL float) set to
+ * +0.0 keeps its bytes; an unmoved STL facet keeps its normal. */
+static void test_identity_binary_signed_zero(void)
+{
+    const double pos[12] = {-0.0, 0, 0, 1, -0.0, 0, 0, 1, -0.0, 0.1, 0.2, 1};
+    const uint32_t off[3] = {0, 3, 6}, idx[6] = {0, 1, 2, 0, 2, 3};
+    ffd_mesh *made = NULL;
+    CHECK_OK(ffd_mesh_create(pos, 4, off, idx, 2, &made, &check_err_));
+    if (!made)
+        return;
+    const struct {
+        ffd_format format;
+        ffd_encoding encoding;
+    } kinds[] = {{FFD_FORMAT_PLY, FFD_ENCODING_BINARY_LE},
+                 {FFD_FORMAT_PLY, FFD_ENCODING_BINARY_BE},
+                 {FFD_FORMAT_STL, FFD_ENCODING_BINARY_LE},
+                 {FFD_FORMAT_STL, FFD_ENCODING_ASCII},
+                 {FFD_FORMAT_OFF, FFD_ENCODING_ASCII}};
+    for (size_t k = 0; k < sizeof kinds / sizeof *kinds; k++) {
+        size_t size = 0;
+        unsigned char *file = write_mem(made, kinds[k].format, kinds[k].encoding, &size);
+        ffd_mesh *m = NULL;
+        ffd_error err = {{0}};
+        CHECK(file && ffd_mesh_read_memory(file, size, kinds[k].format, "z", &m, &err) == FFD_OK);
+        if (m) {
+            size_t nv = ffd_mesh_vertex_count(m);
+            double *p = malloc(3 * nv * sizeof *p);
+            size_t negative = 0;
+            for (size_t i = 0; i < 3 * nv; i++) {
+                negative += signbit(ffd_mesh_positions(m)[i]) != 0;
+                p[i] = ffd_mesh_positions(m)[i] + 0.0;
+            }
+            CHECK(negative > 0);
+            CHECK_OK(ffd_mesh_set_positions(m, p, NULL, &check_err_));
+            CHECK(writes_back(m, file, size));
+            free(p);
+        }
+        ffd_mesh_destroy(m);
+        ffd_free(file);
+    }
+    ffd_mesh_destroy(made);
+}
+
 static void test_obj_jacobian_and_transcode_deformed(void)
 {
     ffd_mesh *m = read_path(FIX "all_forms.obj");
@@ -409,10 +616,13 @@ static void test_obj_jacobian_and_transcode_deformed(void)
         CHECK_NEAR(n[3 * i + 1], anchored ? n0[3 * i] : n0[3 * i + 1], 1e-15);
         CHECK_NEAR(n[3 * i + 2], n0[3 * i + 2], 1e-15);
     }
-    /* Singular Jacobian (flatten to a plane): cofactor maps (0,0,+-1) to zero, normal kept. */
+    /* Singular Jacobian (flatten to a plane; the points move, so the normals go
+     * through the cofactor): (0,0,+-1) is kept. */
     memset(J, 0, 9 * nv * sizeof *J);
-    for (size_t i = 0; i < nv; i++)
+    for (size_t i = 0; i < nv; i++) {
         J[9 * i] = J[9 * i + 4] = 1;
+        p[3 * i] += 0.5;
+    }
     double before[21];
     memcpy(before, ffd_mesh_normals(m), sizeof before);
     CHECK_OK(ffd_mesh_set_positions(m, p, J, &check_err_));
@@ -995,6 +1205,9 @@ int main(int argc, char **argv)
         {"deformed_write", test_deformed_write},
         {"set_positions_normals", test_set_positions_normals},
         {"obj_jacobian_and_transcode_deformed", test_obj_jacobian_and_transcode_deformed},
+        {"identity_signed_zero_and_normals", test_identity_signed_zero_and_normals},
+        {"identity_partial_move", test_identity_partial_move},
+        {"identity_binary_signed_zero", test_identity_binary_signed_zero},
         {"cross_format", test_cross_format},
         {"create_and_info", test_create_and_info},
         {"bad_inputs", test_bad_inputs},

@@ -580,6 +580,110 @@ static void test_apply_normals(void)
     ffd_mesh_destroy(mesh);
 }
 
+/* Whether the n characters at s contain text. */
+static int has_text(const char *s, size_t n, const char *text)
+{
+    size_t k = strlen(text);
+    for (size_t i = 0; i + k <= n; i++)
+        if (memcmp(s + i, text, k) == 0)
+            return 1;
+    return 0;
+}
+
+/* A partial move keeps the bytes of what it does not reach: one corner
+ * control point of a B-spline lattice moves; every vertex outside its
+ * support keeps its "v" line ("-0.000000" included) and its "vn" line
+ * (the Jacobian there is exactly the identity), and the vertices inside move. */
+static void test_apply_partial_move_keeps_bytes(void)
+{
+    const char *path = FFD_SOURCE_DIR "/tests/data/mesh/identity_smooth.obj";
+    unsigned char *src = NULL;
+    size_t size = 0;
+    ffd_mesh *mesh = NULL;
+    CHECK_OK(ffd_read_file(path, &src, &size, &check_err_));
+    CHECK_OK(ffd_mesh_read(path, &mesh, &check_err_));
+    if (!src || !mesh) {
+        ffd_free(src);
+        ffd_mesh_destroy(mesh);
+        return;
+    }
+    size_t n = ffd_mesh_vertex_count(mesh);
+    CHECK(ffd_mesh_normal_count(mesh) == n);
+    /* which vertices the moved control point reaches: its rows' tied columns */
+    const ffd_box box = {{-2, -2, -2}, {{4, 0, 0}, {0, 4, 0}, {0, 0, 4}}};
+    const uint32_t res[3] = {5, 5, 5};
+    ffd_lattice *lat = NULL;
+    ffd_lattice_binding *bind = NULL;
+    CHECK_OK(ffd_lattice_create(FFD_BASIS_BSPLINE, &box, res, &lat, &check_err_));
+    if (lat)
+        CHECK_OK(ffd_lattice_bind(lat, ffd_mesh_positions(mesh), n, FFD_OUTSIDE_FIXED, &bind,
+                                  &check_err_));
+    unsigned char *reached = calloc(n, 1);
+    if (bind) {
+        ffd_linear_map map;
+        ffd_lattice_linear_map(lat, bind, &map);
+        uint32_t *cols = malloc(map.max_row_nnz * sizeof *cols);
+        double *w = malloc(map.max_row_nnz * sizeof *w);
+        const uint32_t moved = (4 * 5 + 4) * 5 + 4; /* control [4, 4, 4] */
+        for (size_t i = 0; i < n; i++) {
+            size_t k = map.row(map.self, i, cols, w);
+            for (size_t e = 0; e < k; e++)
+                reached[i] |= w[e] != 0.0 && map.tie[cols[e]] == moved;
+        }
+        free(cols);
+        free(w);
+    }
+    ffd_lattice_binding_destroy(bind);
+    ffd_lattice_destroy(lat);
+    ffd_error err = {{0}};
+    ffd_status s = apply_json("{\"basis\": \"bspline\", \"resolution\": [5, 5, 5],"
+                              " \"box\": {\"origin\": [-2, -2, -2], \"axes\": [[4,0,0],[0,4,0],[0,0,4]]},"
+                              " \"moves\": [{\"index\": [4, 4, 4], \"delta\": [0.7, 0.9, 0.8]}]}",
+                              mesh, NULL, &err);
+    CHECK(s == FFD_OK);
+    if (s)
+        fprintf(stderr, "  %s\n", err.message);
+    unsigned char *out = NULL;
+    size_t out_size = 0;
+    ffd_write_options opt = {FFD_FORMAT_OBJ, FFD_ENCODING_SAME};
+    if (s == FFD_OK)
+        CHECK_OK(ffd_mesh_write_memory(mesh, &opt, &out, &out_size, &check_err_));
+    if (out) {
+        /* walk both files line by line: v lines are vertices, vn lines their normals */
+        const char *a = (const char *)src, *ae = a + size, *b = (const char *)out,
+                   *be = b + out_size;
+        size_t v = 0, vn = 0, kept = 0, moved_lines = 0, bad = 0, zeros = 0;
+        while (a < ae && b < be) {
+            size_t la = strcspn(a, "\n"), lb = strcspn(b, "\n");
+            int same = la == lb && memcmp(a, b, la) == 0;
+            size_t *counter = strncmp(a, "v ", 2) == 0 ? &v : strncmp(a, "vn ", 3) == 0 ? &vn : NULL;
+            if (counter && *counter < n) {
+                size_t i = (*counter)++;
+                if (!reached[i]) {
+                    kept++;
+                    bad += !same;
+                    zeros += counter == &v && has_text(a, la, "-0.000000");
+                } else if (counter == &v) {
+                    moved_lines += !same;
+                }
+            } else {
+                bad += !same;
+            }
+            a += la + 1;
+            b += lb + 1;
+        }
+        CHECK(v == n && vn == n);
+        CHECK(bad == 0);
+        if (bad)
+            fprintf(stderr, "  %zu lines outside the moved support changed\n", bad);
+        CHECK(kept > 0 && moved_lines > 0 && zeros > 0); /* both kinds occur */
+    }
+    ffd_free(out);
+    free(reached);
+    ffd_free(src);
+    ffd_mesh_destroy(mesh);
+}
+
 /* Random vertices pulled by random small offsets: generically reachable when
  * there are fewer constraints than control points. */
 static void test_apply_random_pins(void)
@@ -744,6 +848,7 @@ int main(int argc, char **argv)
         {"apply_random_pins", test_apply_random_pins},
         {"apply_outside", test_apply_outside},
         {"apply_normals", test_apply_normals},
+        {"apply_partial_move_keeps_bytes", test_apply_partial_move_keeps_bytes},
         {"allocation_failures", test_allocation_failures},
     };
     return check_run(tests, sizeof tests / sizeof tests[0], argc, argv);

@@ -121,6 +121,91 @@ static void test_identity_at_rest(void)
     ffd_mesh_destroy(m);
 }
 
+/* Displacement form (tsv_eval.c): at rest, after refinement too, every point
+ * comes back bitwise and every Jacobian is exactly the identity; moving one
+ * control point changes only the points in its support (the others keep
+ * their bits and identity Jacobians), and the result equals eq. 1 summed
+ * over the positions (ffd_tsv_eval_params) to rounding. A mesh of the
+ * repository, so that it runs everywhere. */
+static void test_exact_identity_and_partial_move(void)
+{
+    ffd_mesh *m = NULL;
+    CHECK_OK(ffd_mesh_read(FFD_SOURCE_DIR "/tests/data/mesh/identity_smooth.obj", &m, NULL));
+    if (!m)
+        return;
+    size_t n = ffd_mesh_vertex_count(m);
+    const double *x0 = ffd_mesh_positions(m);
+    ffd_tsv *t = make(m, 5, 6, 4);
+    if (!t) {
+        ffd_mesh_destroy(m);
+        return;
+    }
+    random_refine(t, 6);
+    double *x = eval_all(t), *J = malloc(9 * n * sizeof *J);
+    CHECK(memcmp(x, x0, 3 * n * sizeof *x) == 0);
+    CHECK_OK(ffd_tsv_jacobian(t, J, NULL));
+    size_t not_identity = 0;
+    for (size_t i = 0; i < 9 * n; i++)
+        not_identity += J[i] != (i % 9 % 4 == 0 ? 1.0 : 0.0);
+    CHECK(not_identity == 0);
+    /* one control point in the middle of the lattice */
+    double mid[3] = {0.1, -0.2, 0.05};
+    uint32_t cell = 0, v = 0, *ids = NULL;
+    size_t count = 0;
+    CHECK_OK(ffd_tsv_locate(t, FFD_TSV_CELL, mid, &cell, NULL));
+    CHECK_OK(ffd_tsv_element_points(t, FFD_TSV_CELL, cell, &ids, &count, NULL));
+    if (count)
+        v = ids[0];
+    ffd_free(ids);
+    const double delta[3] = {0.3, -0.2, 0.25};
+    CHECK_OK(ffd_tsv_move(t, v, delta, NULL));
+    ffd_linear_map map;
+    CHECK_OK(ffd_tsv_linear_map(t, &map, NULL));
+    uint32_t *cols = malloc(map.max_row_nnz * sizeof *cols);
+    double *w = malloc(map.max_row_nnz * sizeof *w);
+    free(x);
+    x = eval_all(t);
+    CHECK_OK(ffd_tsv_jacobian(t, J, NULL));
+    size_t inside = 0, outside = 0, bad = 0;
+    double worst = 0;
+    for (size_t i = 0; i < n; i++) {
+        size_t k = map.row(map.self, i, cols, w);
+        int reached = 0;
+        for (size_t e = 0; e < k; e++)
+            reached |= cols[e] == v && w[e] != 0.0;
+        if (reached) {
+            inside++;
+        } else {
+            outside++;
+            bad += memcmp(x + 3 * i, x0 + 3 * i, 3 * sizeof *x) != 0;
+            /* on the box boundary a clamped blending function is 0 with a
+             * non-zero one-sided derivative: the point stays, its
+             * neighbourhood does not, and neither does its Jacobian */
+            double stu[3];
+            ffd_tsv_point_params(t, i, stu);
+            int interior = stu[0] > 0 && stu[0] < 1 && stu[1] > 0 && stu[1] < 1 && stu[2] > 0 &&
+                           stu[2] < 1;
+            for (int c = 0; c < 9 && interior; c++)
+                bad += J[9 * i + c] != (c % 4 == 0 ? 1.0 : 0.0);
+        }
+        double stu[3], y[3];
+        ffd_tsv_point_params(t, i, stu);
+        ffd_tsv_eval_params(t, stu, y, NULL);
+        worst = fmax(worst, max_dist(x + 3 * i, y, 1));
+    }
+    CHECK(inside > 0 && outside > 0 && bad == 0);
+    if (bad || !inside || !outside)
+        fprintf(stderr, "  control %u: %zu points in its support, %zu outside, %zu bad\n", v,
+                inside, outside, bad);
+    CHECK(worst <= 1e-12 * diag_of(t));
+    free(cols);
+    free(w);
+    free(J);
+    free(x);
+    ffd_tsv_destroy(t);
+    ffd_mesh_destroy(m);
+}
+
 static void test_partition_of_unity(void)
 {
     ffd_mesh *m = load("cow.off");
@@ -157,9 +242,17 @@ static void test_refinement_invariance(void)
             ffd_tsv_eval_params(t, stu, y, NULL);
             CHECK(isfinite(y[0]) && isfinite(y[1]) && isfinite(y[2]));
         }
-        /* linear precision: the rest lattice maps every point to itself */
+        /* linear precision: the rest lattice maps every point to itself (through
+         * the point evaluator, which sums W B P: ffd_tsv_eval adds displacements
+         * to the points and is exact at rest by construction) */
         ffd_tsv_reset(t);
         double *rest = eval_all(t);
+        CHECK(memcmp(rest, ffd_mesh_positions(m), 3 * n * sizeof *rest) == 0);
+        for (size_t i = 0; i < n; i++) {
+            double stu[3];
+            ffd_tsv_point_params(t, i, stu);
+            ffd_tsv_eval_params(t, stu, rest + 3 * i, NULL);
+        }
         CHECK(max_dist(rest, ffd_mesh_positions(m), n) <= 1e-12 * diag_of(t));
         free(rest);
         free(before);
@@ -677,6 +770,7 @@ int main(int argc, char **argv)
 {
     static const check_test tests[] = {
         {"identity_at_rest", test_identity_at_rest},
+        {"exact_identity_and_partial_move", test_exact_identity_and_partial_move},
         {"partition_of_unity", test_partition_of_unity},
         {"refinement_invariance", test_refinement_invariance},
         {"batch_octree", test_batch_octree},

@@ -104,8 +104,10 @@ ffd_status ffd_lattice_check_binding(const ffd_lattice *lat, const ffd_lattice_b
  * at global parameters. */
 void ffd_lattice_eval_at(const ffd_lattice *lat, const double stu[3], double q[3], double dq[3][3]);
 
-/* The displacement sum B D at global parameters (see D_ext). */
-void ffd_lattice_displacement_at(const ffd_lattice *lat, const double stu[3], double d[3]);
+/* The displacement sum B D at global parameters (see D_ext), and its partial
+ * derivatives d/dS, d/dT, d/dU when dd != NULL. */
+void ffd_lattice_displacement_at(const ffd_lattice *lat, const double stu[3], double d[3],
+                                 double dd[3][3]);
 
 /* Rest position at global parameters (the box map of the rest normalised coordinates). */
 void ffd_lattice_rest_at(const ffd_lattice *lat, const double stu[3], double x[3]);

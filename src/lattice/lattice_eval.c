@@ -71,9 +71,10 @@ void ffd_lattice_eval_at(const ffd_lattice *lat, const double stu[3], double q[3
     eval_net(lat, lat->P_ext, stu, q, dq);
 }
 
-void ffd_lattice_displacement_at(const ffd_lattice *lat, const double stu[3], double d[3])
+void ffd_lattice_displacement_at(const ffd_lattice *lat, const double stu[3], double d[3],
+                                 double dd[3][3])
 {
-    eval_net(lat, lat->D_ext, stu, d, NULL);
+    eval_net(lat, lat->D_ext, stu, d, dd);
 }
 
 void ffd_lattice_eval_params(const ffd_lattice *lat, const double stu[3], double out[3])
@@ -227,9 +228,11 @@ ffd_status ffd_lattice_eval(const ffd_lattice *lat, const ffd_lattice_binding *b
             const double *rest = bind->rest + 3 * p0;
             for (size_t p = 0; p < np; p++) { /* the point plus the displacement sum B D */
                 double *o = out + 3 * (size_t)bind->order[p0 + p];
-                o[0] = rest[3 * p] + x[p];
-                o[1] = rest[3 * p + 1] + y[p];
-                o[2] = rest[3 * p + 2] + z[p];
+                const double *r = rest + 3 * p;
+                /* a zero displacement leaves the point bitwise (-0.0 + 0.0 would be +0.0) */
+                o[0] = x[p] != 0.0 ? r[0] + x[p] : r[0];
+                o[1] = y[p] != 0.0 ? r[1] + y[p] : r[1];
+                o[2] = z[p] != 0.0 ? r[2] + z[p] : r[2];
             }
         }
         ffd_free(scratch);
@@ -247,9 +250,9 @@ ffd_status ffd_lattice_eval(const ffd_lattice *lat, const ffd_lattice_binding *b
         /* clamp: the displacement of the nearest boundary point; Bernstein
          * extrapolation: of the polynomials at the raw parameters */
         double d[3];
-        ffd_lattice_displacement_at(lat, bind->out_params + 3 * o, d);
+        ffd_lattice_displacement_at(lat, bind->out_params + 3 * o, d, NULL);
         for (int c = 0; c < 3; c++)
-            dst[c] = x[c] + d[c];
+            dst[c] = d[c] != 0.0 ? x[c] + d[c] : x[c];
     }
     return FFD_OK;
 }

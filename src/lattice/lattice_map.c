@@ -1,4 +1,5 @@
-/* lattice — the Jacobian of the deformation (for normals) and the weight rows
+/* lattice — the Jacobian of the deformation (for normals, in displacement
+ * form like the evaluation: lattice_eval.c) and the weight rows
  * of bound points over the control slots (for direct manipulation, Hsu et al.
  * 1992 §3: the row matrix B of eq. 2 and the selection matrix S of eq. 6). */
 #include "lattice/lattice.h"
@@ -42,13 +43,16 @@ ffd_status ffd_lattice_jacobian(const ffd_lattice *lat, const ffd_lattice_bindin
                 g[c] = 1.0 / df;
             }
         }
-        double q[3], dq[3][3];
-        ffd_lattice_eval_at(lat, S, q, dq);
-        /* J = sum_a dq/dS_a (dS_a/dlocal_a) dual_a^T */
+        double d[3], dd[3][3];
+        ffd_lattice_displacement_at(lat, S, d, dd);
+        /* The rest lattice reproduces x (linear precision), so
+         * J = I + sum_a dD/dS_a (dS_a/dlocal_a) dual_a^T: exactly the identity
+         * where no control point of the support moved (normals keep their bytes). */
         for (int r = 0; r < 3; r++)
             for (int c = 0; c < 3; c++)
-                J[3 * r + c] = dq[0][r] * g[0] * lat->dual[0][c] + dq[1][r] * g[1] * lat->dual[1][c] +
-                               dq[2][r] * g[2] * lat->dual[2][c];
+                J[3 * r + c] = (r == c ? 1.0 : 0.0) + (dd[0][r] * g[0] * lat->dual[0][c] +
+                                                       dd[1][r] * g[1] * lat->dual[1][c] +
+                                                       dd[2][r] * g[2] * lat->dual[2][c]);
     }
     return FFD_OK;
 }

@@ -527,6 +527,21 @@ static void set_scaled(double *normal, const double t[3], double scale)
         normal[k] = t[k] * (len / tl);
 }
 
+/* Whether J (row-major 3x3) is exactly the identity (== : -0.0 counts as 0). */
+static bool is_identity(const double *J)
+{
+    return J[0] == 1.0 && J[4] == 1.0 && J[8] == 1.0 && J[1] == 0.0 && J[2] == 0.0 &&
+           J[3] == 0.0 && J[5] == 0.0 && J[6] == 0.0 && J[7] == 0.0;
+}
+
+/* Identity is kept at the level of the stored values: a coordinate whose new
+ * value equals the stored one numerically (==, so -0.0 and +0.0 are equal)
+ * keeps the stored value, and with it the bytes the writer copies from the
+ * source ("-0.000000" stays). moved[v] says whether any coordinate of vertex
+ * v changed. A normal is left alone (value and bytes) where the deformation
+ * is the identity around its anchor: its Jacobian is exactly the identity,
+ * or neither the anchor nor any corner of a face around it moved (the
+ * surface there is unchanged, so its normal is too). */
 ffd_status ffd_mesh_set_positions(ffd_mesh *mesh, const double *positions,
                                   const double *jacobians, ffd_error *err)
 {
@@ -548,27 +563,56 @@ ffd_status ffd_mesh_set_positions(ffd_mesh *mesh, const double *positions,
                 return ffd_fail(err, FFD_ERR_NONFINITE,
                                 "ffd_mesh_set_positions: jacobian of vertex %zu is not finite",
                                 i / 9);
+    /* moved[v]: bit 0 the vertex moved, bit 1 a corner of a face around it moved */
+    unsigned char *moved = NULL;
     double *acc = NULL;
-    if (mesh->normal_count && !mesh->facet_normals && !jacobians) {
-        acc = ffd_calloc(nv, 3 * sizeof(double));
-        if (!acc)
+    if (mesh->normal_count) {
+        moved = ffd_calloc(nv, 1);
+        if (!moved)
             return ffd_fail(err, FFD_ERR_NOMEM, "ffd_mesh_set_positions: out of memory");
+        if (!mesh->facet_normals && !jacobians) {
+            acc = ffd_calloc(nv, 3 * sizeof(double));
+            if (!acc) {
+                ffd_free(moved);
+                return ffd_fail(err, FFD_ERR_NOMEM, "ffd_mesh_set_positions: out of memory");
+            }
+        }
     }
+    for (size_t v = 0; v < nv; v++) {
+        double *P = mesh->positions + 3 * v;
+        const double *Q = positions + 3 * v;
+        bool changed = false;
+        for (int d = 0; d < 3; d++)
+            if (Q[d] != P[d]) {
+                P[d] = Q[d];
+                changed = true;
+            }
+        if (moved && changed)
+            moved[v] = 1;
+    }
+    if (!moved)
+        return FFD_OK;
+    const double *P = mesh->positions;
     if (mesh->facet_normals) {
         /* a facet whose corners did not move keeps its stored normal (and bytes) */
         for (size_t f = 0; f < mesh->normal_count && f < mesh->face_count; f++) {
             const uint32_t *ix = mesh->face_indices + mesh->face_offsets[f];
-            if (memcmp(mesh->positions + 3 * ix[0], positions + 3 * ix[0], 3 * sizeof(double)) ||
-                memcmp(mesh->positions + 3 * ix[1], positions + 3 * ix[1], 3 * sizeof(double)) ||
-                memcmp(mesh->positions + 3 * ix[2], positions + 3 * ix[2], 3 * sizeof(double)))
-                ffd_triangle_normal(positions + 3 * ix[0], positions + 3 * ix[1],
-                                    positions + 3 * ix[2], mesh->normals + 3 * f);
+            if (moved[ix[0]] || moved[ix[1]] || moved[ix[2]])
+                ffd_triangle_normal(P + 3 * ix[0], P + 3 * ix[1], P + 3 * ix[2],
+                                    mesh->normals + 3 * f);
         }
-        memcpy(mesh->positions, positions, 3 * sizeof(double) * nv);
+        ffd_free(moved);
         return FFD_OK;
     }
-    memcpy(mesh->positions, positions, 3 * sizeof(double) * nv);
-    const double *P = mesh->positions;
+    for (size_t f = 0; f < mesh->face_count; f++) {
+        uint32_t b = mesh->face_offsets[f], e = mesh->face_offsets[f + 1];
+        bool any = false;
+        for (uint32_t k = b; k < e && !any; k++)
+            any = moved[mesh->face_indices[k]] & 1;
+        if (any)
+            for (uint32_t k = b; k < e; k++)
+                moved[mesh->face_indices[k]] |= 2;
+    }
     if (acc) {
         /* Area-weighted: the polygon's area vector (Newell) added to each corner. */
         for (size_t f = 0; f < mesh->face_count; f++) {
@@ -589,18 +633,21 @@ ffd_status ffd_mesh_set_positions(ffd_mesh *mesh, const double *positions,
         }
         for (size_t i = 0; i < mesh->normal_count; i++) {
             uint32_t v = mesh->normal_anchors[i];
-            if (v == FFD_NO_ANCHOR || v >= nv)
+            if (v == FFD_NO_ANCHOR || v >= nv || !moved[v])
                 continue;
             set_scaled(mesh->normals + 3 * i, acc + 3 * v, 1e-300);
         }
         ffd_free(acc);
+        ffd_free(moved);
         return FFD_OK;
     }
     for (size_t i = 0; i < mesh->normal_count; i++) {
         uint32_t v = mesh->normal_anchors[i];
-        if (v == FFD_NO_ANCHOR || v >= nv)
+        if (v == FFD_NO_ANCHOR || v >= nv || !moved[v])
             continue;
         const double *J = jacobians + 9 * (size_t)v;
+        if (is_identity(J))
+            continue;
         /* Cofactor matrix = det(J) J^-T: maps normals, defined for singular J too. */
         double C[9] = {
             J[4] * J[8] - J[5] * J[7], J[5] * J[6] - J[3] * J[8], J[3] * J[7] - J[4] * J[6],
@@ -615,6 +662,7 @@ ffd_status ffd_mesh_set_positions(ffd_mesh *mesh, const double *positions,
             jn += J[k] * J[k];
         set_scaled(n, t, jn * norm3(n));
     }
+    ffd_free(moved);
     return FFD_OK;
 }
 

@@ -5,9 +5,10 @@
  * every vertex coordinate and every stored normal coordinate it records where
  * the value lives in src (a span: byte offset and length for text, byte offset
  * and scalar type for binary). Writing to the same format copies src and
- * rewrites only the spans whose current value differs (bitwise) from the value
- * that span holds, so an unchanged mesh is reproduced byte for byte and a
- * deformed one differs only in positions and normals. */
+ * rewrites only the spans whose current value differs (numerically: -0.0 is
+ * 0.0) from the value that span holds, so an unchanged mesh is reproduced
+ * byte for byte and a deformed one differs only in the positions and normals
+ * that changed. */
 #ifndef FFD_MESH_H
 #define FFD_MESH_H
 

@@ -4,7 +4,8 @@
  *
  * - Same format as the source, encoding SAME or equal to the source's: the
  *   source bytes are copied and only the position and normal values whose
- *   current value differs bitwise from the one the file held are rewritten:
+ *   current value differs from the one the file held are rewritten (a value
+ *   equal to it, -0.0 for 0.0 too, keeps the file's text or bytes):
  *   text values as the shortest of %.15g/%.16g/%.17g that reads back exactly,
  *   binary values in the file's own scalar type and byte order (integer types
  *   rounded and clamped, float32 rounded to nearest). An unchanged mesh is
@@ -110,17 +111,14 @@ void ffd_buf_free(ffd_buf *b)
  * Patching the source
  * ====================================================================== */
 
-static bool same_bits(double a, double b)
-{
-    return memcmp(&a, &b, sizeof a) == 0;
-}
-
-/* Next changed value at or after *i in (values, spans, n); returns its index or n. */
+/* Next changed value at or after *i in (values, spans, n); returns its index or n.
+ * A value equal to the one its span holds (==, so -0.0 and +0.0 are the same
+ * value) is not changed: its bytes are copied as the file wrote them. */
 static size_t next_changed(const ffd_mesh *m, const double *values, const ffd_span *spans,
                            size_t n, size_t i)
 {
     for (; i < n; i++)
-        if (!same_bits(values[i], ffd_span_value(m, &spans[i])))
+        if (values[i] != ffd_span_value(m, &spans[i]))
             return i;
     return n;
 }

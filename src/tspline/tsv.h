@@ -200,6 +200,14 @@ void tsv_phi_apply(const tsv_phi *phi, const tsv_lattice *L, int channel, double
 /* F at stu (clamped) for a channel; jac (9, row-major dF/d(s,t,u), may be NULL). */
 void tsv_eval_point(const tsv_lattice *L, const tsv_support *S, int channel, const double stu[3],
                     double out[3], double *jac);
+/* The same for the displacement sum_v W_v B_v (P_current - P_rest)_v. */
+void tsv_eval_displacement(const tsv_lattice *L, const tsv_support *S, const double stu[3],
+                           double out[3], double *jac);
+/* out (rows by 3) = points + Phi (P_current - P_rest): eq. 1 in displacement
+ * form (points are the bound points, which the rest channel reproduces);
+ * a zero displacement leaves a point bitwise. Parallel over rows. */
+void tsv_phi_apply_displacement(const tsv_phi *phi, const tsv_lattice *L, const double *points,
+                                double *out);
 
 /* ---------------------------------------------------------------------
  * tsv_proxy.c
@@ -293,6 +301,7 @@ struct ffd_tsv {
     tsv_support *S;
     tsv_phi phi;
     double *params;               /* n by 3 */
+    double *points;               /* n by 3: the bound points (evaluation adds displacements) */
     size_t n;
     uint32_t *face_offsets, *face_indices; /* the object's faces (copied), or NULL */
     size_t face_count;

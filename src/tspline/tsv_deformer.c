@@ -145,10 +145,14 @@ ffd_status ffd_tsv_create(const double *points, size_t n, const uint32_t *face_o
         return ffd_fail(err, FFD_ERR_NOMEM, "out of memory");
     t->n = n;
     t->params = ffd_malloc_array(n, 3 * sizeof(double));
-    if (!t->params) {
+    t->points = ffd_malloc_array(n, 3 * sizeof(double));
+    if (!t->params || !t->points) {
+        ffd_free(t->params);
+        ffd_free(t->points);
         ffd_free(t);
         return ffd_fail(err, FFD_ERR_NOMEM, "out of memory for %zu points", n);
     }
+    memcpy(t->points, points, n * 3 * sizeof(double));
     /* the linear parameterisation of §3.2 */
     for (size_t i = 0; i < n; i++)
         for (int a = 0; a < 3; a++) {
@@ -187,6 +191,7 @@ void ffd_tsv_destroy(ffd_tsv *t)
     tsv_phi_free(&t->phi);
     tsv_proxy_free(&t->proxy);
     ffd_free(t->params);
+    ffd_free(t->points);
     ffd_free(t->face_offsets);
     ffd_free(t->face_indices);
     ffd_free(t->current);
@@ -532,7 +537,7 @@ ffd_status ffd_tsv_refine(ffd_tsv *t, const ffd_tsv_insertion *insertions, size_
 ffd_status ffd_tsv_eval(const ffd_tsv *t, double *out, ffd_error *err)
 {
     (void)err;
-    tsv_phi_apply(&t->phi, t->L, TSV_CURRENT, out);
+    tsv_phi_apply_displacement(&t->phi, t->L, t->points, out);
     return FFD_OK;
 }
 
@@ -550,9 +555,13 @@ ffd_status ffd_tsv_jacobian(const ffd_tsv *t, double *out, ffd_error *err)
     const size_t n = t->n;
 #pragma omp parallel for schedule(static)
     for (size_t i = 0; i < n; i++) {
-        double x[3];
-        tsv_eval_point(t->L, t->S, TSV_CURRENT, t->params + 3 * i, x, out + 9 * i);
-        world_jacobian(t->L, out + 9 * i);
+        /* displacement form, like ffd_tsv_eval: the identity where nothing moved */
+        double d[3], *J = out + 9 * i;
+        tsv_eval_displacement(t->L, t->S, t->params + 3 * i, d, J);
+        world_jacobian(t->L, J);
+        J[0] += 1.0;
+        J[4] += 1.0;
+        J[8] += 1.0;
     }
     return FFD_OK;
 }

@@ -3,10 +3,17 @@
  * B_v = N[s_v](s) N[t_v](t) N[u_v](u). The univariate basis is Cox-de Boor on
  * the kappa values of the five sigma knots; a uniform grid of G^3 bins over
  * [0,1]^3 lists the vertices whose support meets each bin; the transfer
- * matrix Phi caches W_v B_v at the object's fixed parameters. */
+ * matrix Phi caches W_v B_v at the object's fixed parameters.
+ *
+ * Bound points are evaluated in displacement form, x' = x + Phi (P - P_rest):
+ * the rest channel has linear precision (sum_v W_v B_v P_rest,v = the box map
+ * of (s,t,u) = x, design §1.4-1.5, carried exactly through refinement), so
+ * this is eq. 1 in exact arithmetic; in floating point the identity is exact
+ * and points whose support holds no moved control point keep their bits. */
 #include "tspline/tsv.h"
 
 #include <math.h>
+#include <stdbool.h>
 #include <string.h>
 #ifdef _OPENMP
 #include <omp.h>
@@ -193,8 +200,11 @@ size_t tsv_support_eval(const tsv_support *S, const double stu[3], uint32_t *ids
     return m;
 }
 
-void tsv_eval_point(const tsv_lattice *L, const tsv_support *S, int channel, const double stu[3],
-                    double out[3], double *jac)
+/* Sum over the blending functions at stu (clamped) of W_v B_v c_v and its
+ * gradient, where c_v is channel P[channel] of vertex v, or (displacement)
+ * the current position minus the rest one. */
+static void eval_sum(const tsv_lattice *L, const tsv_support *S, int channel, bool displacement,
+                     const double stu[3], double out[3], double *jac)
 {
     double x[3];
     for (int d = 0; d < 3; d++)
@@ -208,7 +218,10 @@ void tsv_eval_point(const tsv_lattice *L, const tsv_support *S, int channel, con
         double val, g[3];
         if (!blend(S, c[i], x, &val, jac ? g : NULL))
             continue;
-        const double *P = L->verts[c[i]].P[channel];
+        const tsv_vertex *V = &L->verts[c[i]];
+        double P[3];
+        for (int r = 0; r < 3; r++)
+            P[r] = displacement ? V->P[TSV_CURRENT][r] - V->P[TSV_REST][r] : V->P[channel][r];
         for (int r = 0; r < 3; r++) {
             out[r] += val * P[r];
             if (jac)
@@ -216,6 +229,18 @@ void tsv_eval_point(const tsv_lattice *L, const tsv_support *S, int channel, con
                     jac[r * 3 + k] += g[k] * P[r];
         }
     }
+}
+
+void tsv_eval_point(const tsv_lattice *L, const tsv_support *S, int channel, const double stu[3],
+                    double out[3], double *jac)
+{
+    eval_sum(L, S, channel, false, stu, out, jac);
+}
+
+void tsv_eval_displacement(const tsv_lattice *L, const tsv_support *S, const double stu[3],
+                           double out[3], double *jac)
+{
+    eval_sum(L, S, TSV_CURRENT, true, stu, out, jac);
 }
 
 /* ===================================================================
@@ -288,6 +313,26 @@ void tsv_phi_free(tsv_phi *phi)
     ffd_free(phi->col);
     ffd_free(phi->val);
     memset(phi, 0, sizeof *phi);
+}
+
+void tsv_phi_apply_displacement(const tsv_phi *phi, const tsv_lattice *L, const double *points,
+                                double *out)
+{
+    long long nn = (long long)phi->rows;
+#pragma omp parallel for schedule(static)
+    for (long long i = 0; i < nn; i++) {
+        double acc[3] = {0.0, 0.0, 0.0};
+        for (size_t k = phi->rowptr[i]; k < phi->rowptr[i + 1]; k++) {
+            const tsv_vertex *V = &L->verts[phi->col[k]];
+            for (int r = 0; r < 3; r++)
+                acc[r] += phi->val[k] * (V->P[TSV_CURRENT][r] - V->P[TSV_REST][r]);
+        }
+        const double *x = points + 3 * i;
+        double *o = out + 3 * i;
+        /* a zero displacement leaves the point bitwise (-0.0 + 0.0 would be +0.0) */
+        for (int r = 0; r < 3; r++)
+            o[r] = acc[r] != 0.0 ? x[r] + acc[r] : x[r];
+    }
 }
 
 void tsv_phi_apply(const tsv_phi *phi, const tsv_lattice *L, int channel, double *out)

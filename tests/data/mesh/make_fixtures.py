@@ -121,3 +121,63 @@ open("bad_huge.ply", "w").write("ply\nformat binary_little_endian 1.0\nelement v
 bb = b"\0" * 80 + struct.pack("<I", 3) + b"\0" * 50 * 2
 open("bad_size.stl", "wb").write(bb)
 open("empty.obj", "w").write("")
+
+# Identity fixtures (tests/cli/test_identity.sh): a closed blob of quads and
+# triangles whose text a deformation that moves nothing must not change:
+# coordinates written "-0.000000", seven-digit values, texture coordinates,
+# normals with "-0.0000" components. The flat one has one vn per face (not
+# tied to a vertex), the smooth one one vn per vertex (carried to PLY and OFF).
+import math
+def blob(nu, nv):
+    def p(t, ph):
+        r = 1 + 0.3 * math.sin(3 * t) * math.sin(2 * ph) + 0.1 * math.cos(5 * t)
+        return (r * math.sin(ph) * math.cos(t), 1.3 * r * math.cos(ph), 0.8 * r * math.sin(ph) * math.sin(t))
+    vs, fs = [], []
+    for j in range(1, nv):
+        for i in range(nu):
+            vs.append(p(2 * math.pi * i / nu, math.pi * j / nv))
+    top, bot = len(vs), len(vs) + 1
+    vs += [p(0, 0), p(0, math.pi)]
+    at = lambda j, i: (j - 1) * nu + i % nu
+    for j in range(1, nv - 1):
+        for i in range(nu):
+            fs.append((at(j, i), at(j + 1, i), at(j + 1, i + 1), at(j, i + 1)))
+    for i in range(nu):
+        fs.append((top, at(1, i), at(1, i + 1)))
+        fs.append((bot, at(nv - 1, i + 1), at(nv - 1, i)))
+    return vs, fs
+def unit(n):
+    l = math.sqrt(sum(c * c for c in n)) or 1.0
+    return tuple(c / l for c in n)
+def vn_line(n):
+    # small components are written "-0.0000" on every other line (signed zeros in the text)
+    vn_line.k += 1
+    return "vn " + " ".join("-0.0000" if abs(c) < 3e-3 and vn_line.k % 2 else "%.4f" % c for c in n) + "\n"
+vn_line.k = 0
+def newell(vs, f):
+    n = [0.0, 0.0, 0.0]
+    for k in range(len(f)):
+        a, b = vs[f[k]], vs[f[(k + 1) % len(f)]]
+        n[0] += (a[1] - b[1]) * (a[2] + b[2])
+        n[1] += (a[2] - b[2]) * (a[0] + b[0])
+        n[2] += (a[0] - b[0]) * (a[1] + b[1])
+    return unit(n)
+for name, nu, nv, smooth in (("identity_flat.obj", 24, 12, False), ("identity_smooth.obj", 16, 9, True)):
+    vs, fs = blob(nu, nv)
+    s = "# fixture: a blob of quads and triangles (make_fixtures.py)\n"
+    s += "".join("v %.6f %.7g %.7f\n" % v for v in vs)
+    s += "".join("vt %.6f %.6f\n" % (0.5 + v[0] / 3, 0.5 + v[1] / 3) for v in vs)
+    if smooth:
+        acc = [[0.0, 0.0, 0.0] for _ in vs]
+        for f in fs:
+            n = newell(vs, f)
+            for i in f:
+                for c in range(3):
+                    acc[i][c] += n[c]
+        s += "".join(vn_line(unit(n)) for n in acc)
+        s += "s 1\n" + "".join("f " + " ".join("%d/%d/%d" % (i + 1, i + 1, i + 1) for i in f) + "\n" for f in fs)
+    else:
+        s += "".join(vn_line(newell(vs, f)) for f in fs)
+        s += "s off\n" + "".join("f " + " ".join("%d/%d/%d" % (i + 1, i + 1, k + 1) for i in f) + "\n"
+                                 for k, f in enumerate(fs))
+    open(name, "w", newline="").write(s)
