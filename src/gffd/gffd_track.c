@@ -45,6 +45,41 @@ static void search_at(const ffd_gffd_skeleton *s, const double x[3], double ln_e
     q->d = field_delta(s, x, ln_e0, q->grad, &q->e);
 }
 
+/* Not in the paper: a point that the edit left outside every influence
+ * region (E = 0) has no gradient of E to follow. It is carried along the
+ * gradient of the nearest primitive's own distance field to just inside
+ * that primitive's radius, where gradient tracking takes over: E's gradient
+ * is parallel to it, so the point follows the same path as its neighbours
+ * that stayed inside, and the deformation has no jump where the moved
+ * region's boundary passes. 0 when no primitive is in range. */
+static int enter_region(const ffd_gffd_tracker *t, double ln_e0, search *q)
+{
+    const ffd_gffd_skeleton *s = t->field;
+    double x[3];
+    memcpy(x, q->p, sizeof x);
+    for (int it = 0; it < 8; it++) {
+        double f, df[3], r;
+        if (!ffd_gffd_skeleton_nearest(s, x, &f, df, &r))
+            return 0;
+        double target = r * (1 - 1e-3), gn = norm3(df);
+        if (f < r && ffd_gffd_skeleton_field(s, x, NULL) > 0)
+            break;
+        if (!(gn > 0) || !isfinite(gn))
+            return 0;
+        double step = (f - target) / (gn * gn); /* Newton on f(x) = target */
+        if (!(fabs(step * gn) <= t->max_step))
+            step = (step < 0 ? -t->max_step : t->max_step) / gn;
+        for (int k = 0; k < 3; k++)
+            x[k] -= step * df[k];
+    }
+    search n;
+    search_at(s, x, ln_e0, &n);
+    if (!(n.e > 0))
+        return 0;
+    *q = n;
+    return 1;
+}
+
 /* Fig. 5 from q: restore the field value, stepping along the normalised
  * gradient (eq. 3), or along line when it is given. Steps are counted in
  * *iterations; returns 1 when |delta| < tolerance. */
@@ -53,6 +88,8 @@ static int fig5(const ffd_gffd_tracker *t, double ln_e0, const double *line, sea
 {
     const ffd_gffd_skeleton *s = t->field;
     double sign = 1, scale = 1;
+    if (!line && !(q->e > 0) && !enter_region(t, ln_e0, q))
+        return 0; /* outside every field, and no primitive in range */
     for (uint32_t it = 0; fabs(q->d) >= t->tolerance; it++) {
         if (it >= t->max_iterations || scale < 1e-12 || !(q->e > 0))
             return 0; /* out of steps, stuck, or outside every field */
@@ -115,41 +152,6 @@ static int fig5(const ffd_gffd_tracker *t, double ln_e0, const double *line, sea
     return 1;
 }
 
-/* Not in the paper: a point that the edit left outside every influence
- * region (E = 0) has no gradient of E to follow. It is carried along the
- * gradient of the nearest primitive's own distance field to just inside
- * that primitive's radius, where gradient tracking takes over: E's gradient
- * is parallel to it, so the point follows the same path as its neighbours
- * that stayed inside, and the deformation has no jump where the moved
- * region's boundary passes. 0 when no primitive is in range. */
-static int enter_region(const ffd_gffd_tracker *t, double ln_e0, search *q)
-{
-    const ffd_gffd_skeleton *s = t->field;
-    double x[3];
-    memcpy(x, q->p, sizeof x);
-    for (int it = 0; it < 8; it++) {
-        double f, df[3], r;
-        if (!ffd_gffd_skeleton_nearest(s, x, &f, df, &r))
-            return 0;
-        double target = r * (1 - 1e-3), gn = norm3(df);
-        if (f < r && ffd_gffd_skeleton_field(s, x, NULL) > 0)
-            break;
-        if (!(gn > 0) || !isfinite(gn))
-            return 0;
-        double step = (f - target) / (gn * gn); /* Newton on f(x) = target */
-        if (!(fabs(step * gn) <= t->max_step))
-            step = (step < 0 ? -t->max_step : t->max_step) / gn;
-        for (int k = 0; k < 3; k++)
-            x[k] -= step * df[k];
-    }
-    search n;
-    search_at(s, x, ln_e0, &n);
-    if (!(n.e > 0))
-        return 0;
-    *q = n;
-    return 1;
-}
-
 int ffd_gffd_track_point(const ffd_gffd_tracker *t, const double p0[3], double e0, double out[3],
                          uint32_t *iterations, int *fallback, double *error)
 {
@@ -172,11 +174,9 @@ int ffd_gffd_track_point(const ffd_gffd_tracker *t, const double p0[3], double e
     int ok = 0;
     if (gradient) {
         q = start;
-        if (q.e > 0 || enter_region(t, ln_e0, &q)) {
-            ok = fig5(t, ln_e0, NULL, &q, iterations);
-            if (ok || fabs(q.d) < fabs(best.d))
-                best = q;
-        }
+        ok = fig5(t, ln_e0, NULL, &q, iterations);
+        if (ok || fabs(q.d) < fabs(best.d))
+            best = q;
     }
     if (!ok && has_line) {
         /* Warp tracking (gradient tracking's fallback): every influenced
@@ -189,11 +189,9 @@ int ffd_gffd_track_point(const ffd_gffd_tracker *t, const double p0[3], double e
         *fallback = gradient;
         double w[3] = {p0[0] + disp[0], p0[1] + disp[1], p0[2] + disp[2]};
         search_at(s, w, ln_e0, &q);
-        if (q.e > 0) {
-            ok = fig5(t, ln_e0, NULL, &q, iterations);
-            if (ok || fabs(q.d) < fabs(best.d))
-                best = q;
-        }
+        ok = fig5(t, ln_e0, NULL, &q, iterations);
+        if (ok || fabs(q.d) < fabs(best.d))
+            best = q;
         if (!ok) {
             q = start;
             ok = fig5(t, ln_e0, line, &q, iterations);
@@ -218,11 +216,9 @@ int ffd_gffd_track_point(const ffd_gffd_tracker *t, const double p0[3], double e
         for (int k = 0; k < 3; k++)
             y[k] = rot[k][0] * p0[0] + rot[k][1] * p0[1] + rot[k][2] * p0[2] + shift[k];
         search_at(s, y, ln_e0, &q);
-        if (q.e > 0) {
-            ok = fig5(t, ln_e0, NULL, &q, iterations);
-            if (ok || fabs(q.d) < fabs(best.d))
-                best = q;
-        }
+        ok = fig5(t, ln_e0, NULL, &q, iterations);
+        if (ok || fabs(q.d) < fabs(best.d))
+            best = q;
     }
     *error = fabs(best.d);
     memcpy(out, best.p, 3 * sizeof(double));
