@@ -676,7 +676,9 @@ typedef struct ffd_gffd_track_report {
     size_t converged;          /* of those, within the tolerance */
     size_t failed_count;       /* not converged (left at their best position) */
     uint32_t *failed;          /* their ids, ascending (free with ffd_free; NULL when none) */
-    size_t fallback_count;     /* gradient tracking that met a zero gradient and used the warp direction */
+    size_t fallback_count;     /* points that needed a fallback start: gradient tracking that met a
+                                  zero gradient and used the warp, or any tracking that started
+                                  from the motion of the nearest, rigidly moved primitive */
     size_t iterations;         /* total steps over all points */
     double max_error;          /* max |ln E(P) - ln e_0| over tracked points, units of u */
 } ffd_gffd_track_report;
