@@ -684,6 +684,19 @@ int ffd_gffd_regularised(const ffd_gffd *g);
  * degenerate); on error nothing changes. */
 ffd_status ffd_gffd_set_vertices(ffd_gffd *g, size_t index, const double *vertices,
                                  ffd_error *err);
+/* Rigid skeleton edit: moves primitive index of the current skeleton by
+ * x -> rotation x + translation (rotation: 3 by 3, row-major, a proper
+ * rotation to 1e-12), and its field with it, exactly (no refit). Unlike new
+ * vertex positions it carries a turn that the vertices cannot show: a point
+ * or a straight polyline turned about itself. When every primitive has moved
+ * by one and the same rigid motion (and neither a replacement nor user
+ * correspondences intervened), tracking moves every influenced point by it
+ * in either mode (then blended in the influence band, see ffd_gffd_track).
+ * FFD_ERR_RANGE, FFD_ERR_NONFINITE, FFD_ERR_INVALID (not a rotation; a
+ * moved coordinate beyond 1e100 or too far for the unit), FFD_ERR_NOMEM; on
+ * error nothing changes. */
+ffd_status ffd_gffd_transform(ffd_gffd *g, size_t index, const double rotation[9],
+                              const double translation[3], ffd_error *err);
 /* Skeleton replacement (§5, second way): the current skeleton becomes
  * another one (any primitives, any count). There are no automatic
  * correspondences then: warp tracking needs ffd_gffd_set_correspondences
@@ -705,7 +718,9 @@ typedef struct ffd_gffd_track_report {
     size_t converged;          /* of those, within the tolerance */
     size_t failed_count;       /* not converged (left at their best position) */
     uint32_t *failed;          /* their ids, ascending (free with ffd_free; NULL when none) */
-    size_t fallback_count;     /* gradient tracking that met a zero gradient and used the warp direction */
+    size_t fallback_count;     /* points that needed a fallback start: gradient tracking that met a
+                                  zero gradient and used the warp, or any tracking that started
+                                  from the motion of the nearest, rigidly moved primitive */
     size_t iterations;         /* total steps over all points */
     double max_error;          /* max |ln E(P) - ln e_0| over tracked points, units of u */
 } ffd_gffd_track_report;
@@ -726,7 +741,14 @@ typedef struct ffd_gffd_track_report {
  * the gradient from P), so a rigid motion of the skeleton moves the points
  * rigidly; points the warp moves are moved even where the field did not
  * change. Points outside every influence region at bind time are copied
- * unchanged (bitwise) in both modes. out: n by 3. report may be NULL; free
+ * unchanged (bitwise) in both modes. The influence band (a departure from
+ * the paper): each point's displacement is then scaled by its blend weight
+ * b = max_i S((r_i - f_i) / (r_i / 3)) over the primitives whose rest
+ * field f_i is below r_i, S the quintic smoothstep clamped to [0, 1], so
+ * that the deformation is continuous (C^2 in the field) where an influence
+ * region ends; points deeper than the outer third of a radius (b = 1) keep
+ * their tracked positions bitwise, and points that did not converge are
+ * blended the same way (and reported). out: n by 3. report may be NULL; free
  * it with ffd_gffd_track_report_free. Parallel over points, bitwise
  * identical for any thread count. FFD_ERR_INVALID (warp tracking without
  * correspondences), FFD_ERR_NOMEM. */
@@ -741,6 +763,8 @@ ffd_status ffd_gffd_field(const ffd_gffd *g, int current, const double *points, 
                           double *values, double *gradients, ffd_error *err);
 /* The recorded field values e_0 of the bound points (n). */
 const double *ffd_gffd_bound_values(const ffd_gffd *g);
+/* The blend weights b of the bound points (n, in [0, 1]; see ffd_gffd_track). */
+const double *ffd_gffd_bound_weights(const ffd_gffd *g);
 
 /* Zero means default for every field. */
 typedef struct ffd_gffd_resample_options {

@@ -697,10 +697,14 @@ static void test_apply_twist(void)
     double *rest = copy_positions(mesh);
     ffd_rig_report report = {0};
     CHECK_OK(apply_example("twist.json", mesh, &report));
-    check_track_report(&report, n);
+    check_track_report(&report, ffd_mesh_vertex_count(mesh));
     CHECK(report.gffd.track.failed_count == 0);
-    CHECK(report.resampled == 0 && report.gffd.added_vertices == 0);
-    CHECK(ffd_mesh_vertex_count(mesh) == n && ffd_mesh_face_count(mesh) == nf);
+    /* the band where the ears' influence ends stretches: resampling splits
+     * it, and no edge is left long */
+    CHECK(report.resampled == 1 && report.gffd.added_vertices > 0);
+    CHECK(report.gffd.long_edges == 0 && !report.gffd.capped);
+    CHECK(ffd_mesh_vertex_count(mesh) == n + report.gffd.added_vertices &&
+          ffd_mesh_face_count(mesh) > nf);
     /* the skeleton in the report: 6 + 2 + 3 vertices; the body polyline held still */
     CHECK(report.control_count == 11);
     if (report.control_count == 11) {
@@ -733,7 +737,13 @@ static void test_apply_twist(void)
 
     /* gradient tracking: where the field did not change (the body, x > 2),
      * nothing moves, bitwise */
-    CHECK_OK(ffd_mesh_set_positions(mesh, rest, NULL, NULL));
+    ffd_mesh_destroy(mesh);
+    mesh = read_example("bunny.obj");
+    if (!mesh) {
+        free(rest);
+        return;
+    }
+    p = ffd_mesh_positions(mesh);
     CHECK_OK(apply_json(G "\"tracking\": \"gradient\", \"skeleton\": ["
                           "{\"type\": \"polyhedron\", \"file\": \"" EXAMPLES "/head.off\", \"radius\": 2.5},"
                           " {\"type\": \"polyline\", \"vertices\": [[-2.6, 7.6, 0.2], [-1.3, 9.3, -1.6]],"
@@ -882,6 +892,142 @@ static void test_apply_bad_keeps_mesh(void)
     ffd_mesh_destroy(mesh);
 }
 
+/* A rig's rotation of the whole skeleton reaches every vertex, whatever the
+ * skeleton: one point, two points, a straight polyline, a patch and a
+ * polyhedron, turned about an off-centre point and about their own centroid
+ * (no "center"), with the influence region covering the grid (radius 3 over
+ * [-1,1]^3, so every vertex lies deeper than the band): each vertex moves
+ * by exactly that rotation (1e-12), in both tracking modes. Before, a point
+ * turned about an off-centre point translated the vertices, and about itself
+ * moved nothing. */
+static void test_apply_rigid_any_skeleton(void)
+{
+    static const char *const skeletons[] = {
+        "{\"type\": \"point\", \"position\": [0.1, 0.2, -0.1], \"radius\": 3}",
+        "{\"type\": \"point\", \"position\": [-0.4, 0, 0], \"radius\": 3},"
+        " {\"type\": \"point\", \"position\": [0.4, 0.1, 0], \"radius\": 3}",
+        "{\"type\": \"polyline\", \"vertices\": [[-0.5,0,0],[0,0,0],[0.5,0,0]], \"radius\": 3}",
+        "{\"type\": \"patch\", \"vertices\": [[-0.5,-0.5,0],[0.5,-0.5,0],[0.5,0.5,0],[-0.5,0.5,0]],"
+        " \"faces\": [[0,1,2,3]], \"radius\": 3}",
+        "{\"type\": \"polyhedron\", \"vertices\": " TET_VERTS ", \"faces\": " TET_FACES
+        ", \"radius\": 3}",
+    };
+    static const double centroid[5][3] = {
+        {0.1, 0.2, -0.1}, {0, 0.05, 0}, {0, 0, 0}, {0, 0, 0}, {0.25, 0.25, 0.25}};
+    const double axis[3] = {0.3, -0.5, 0.8}, angle = 0.7, off[3] = {1.5, -1.0, 0.4};
+    double l = sqrt(axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]);
+    double k[3] = {axis[0] / l, axis[1] / l, axis[2] / l};
+    for (size_t sk = 0; sk < sizeof skeletons / sizeof *skeletons; sk++)
+        for (int about = 0; about < 2; about++)
+            for (int mode = 0; mode < 2; mode++) {
+                ffd_mesh *mesh = grid_mesh(9);
+                size_t n = ffd_mesh_vertex_count(mesh);
+                double *rest = copy_positions(mesh);
+                char json[1024], edits[512] = "";
+                size_t count = sk == 1 ? 2 : 1;
+                for (size_t j = 0; j < count; j++) {
+                    char one[200];
+                    if (about == 0)
+                        snprintf(one, sizeof one,
+                                 "%s{\"primitive\": %zu, \"rotate\": {\"axis\": [0.3, -0.5, 0.8],"
+                                 " \"angle\": 0.7}, \"center\": [1.5, -1.0, 0.4]}",
+                                 j ? ", " : "", j);
+                    else /* about the centroid of all the skeleton's vertices */
+                        snprintf(one, sizeof one,
+                                 "%s{\"primitive\": \"all\", \"rotate\": {\"axis\": [0.3, -0.5, 0.8],"
+                                 " \"angle\": 0.7}}",
+                                 j ? ", " : "");
+                    if (about == 0 || j == 0)
+                        strcat(edits, one);
+                }
+                snprintf(json, sizeof json,
+                         G "\"tracking\": \"%s\", \"skeleton\": [%s], \"edits\": [%s]}",
+                         mode ? "warp" : "gradient", skeletons[sk], edits);
+                ffd_rig_report report = {0};
+                ffd_error err = {{0}};
+                CHECK_OK(apply_json(json, mesh, &report, &err));
+                CHECK(report.influenced_count == n && report.gffd.track.failed_count == 0);
+                const double *c = about ? centroid[sk] : off;
+                const double *p = ffd_mesh_positions(mesh);
+                double worst = 0, most = 0, cs = cos(angle), sn = sin(angle);
+                for (size_t i = 0; i < n; i++) {
+                    double d[3], want[3];
+                    for (int a = 0; a < 3; a++)
+                        d[a] = rest[3 * i + a] - c[a];
+                    double kd = k[0] * d[0] + k[1] * d[1] + k[2] * d[2];
+                    double kx[3] = {k[1] * d[2] - k[2] * d[1], k[2] * d[0] - k[0] * d[2],
+                                    k[0] * d[1] - k[1] * d[0]};
+                    double m = 0;
+                    for (int a = 0; a < 3; a++) {
+                        want[a] = c[a] + d[a] * cs + kx[a] * sn + k[a] * kd * (1 - cs);
+                        worst = fmax(worst, fabs(p[3 * i + a] - want[a]) / fmax(1, fabs(want[a])));
+                        m += (p[3 * i + a] - rest[3 * i + a]) * (p[3 * i + a] - rest[3 * i + a]);
+                    }
+                    most = fmax(most, sqrt(m));
+                }
+                if (!(worst <= 1e-12))
+                    fprintf(stderr, "  skeleton %zu about %s, %s tracking: %.3g off the rotation\n",
+                            sk, about ? "itself" : "an off-centre point",
+                            mode ? "warp" : "gradient", worst);
+                CHECK(worst <= 1e-12);
+                CHECK(most > 0.5);
+                ffd_rig_report_free(&report);
+                free(rest);
+                ffd_mesh_destroy(mesh);
+            }
+}
+
+/* Edges of out between original vertices (ids < n) stretched by >= ratio
+ * from their rest length. */
+static size_t stretched_edges(const double *rest, size_t n, const ffd_mesh *out, double ratio)
+{
+    const double *p = ffd_mesh_positions(out);
+    const uint32_t *off = ffd_mesh_face_offsets(out), *idx = ffd_mesh_face_indices(out);
+    size_t count = 0;
+    for (size_t f = 0; f < ffd_mesh_face_count(out); f++)
+        for (uint32_t c = off[f]; c < off[f + 1]; c++) {
+            uint32_t a = idx[c], b = idx[c + 1 < off[f + 1] ? c + 1 : off[f]];
+            if (a >= n || b >= n || a > b) /* each interior edge once (consistent orientation) */
+                continue;
+            double lr = 0, ld = 0;
+            for (int k = 0; k < 3; k++) {
+                lr += (rest[3 * a + k] - rest[3 * b + k]) * (rest[3 * a + k] - rest[3 * b + k]);
+                ld += (p[3 * a + k] - p[3 * b + k]) * (p[3 * a + k] - p[3 * b + k]);
+            }
+            count += ld >= ratio * ratio * lr;
+        }
+    return count;
+}
+
+/* The examples do not tear: no edge between original vertices is stretched
+ * beyond the resampling ratio (1.8) unless the report counts it among the
+ * long edges it could not split. (Before the influence band and the
+ * resampling of twist.json, the twist left 90 such edges, up to 9.8 times
+ * their length, that nothing reported.) */
+static void test_apply_examples_no_tear(void)
+{
+    static const char *const cases[][2] = {
+        {"bend.json", "elephant.off"}, {"twist.json", "bunny.obj"}, {"replace.json", "cow.off"}};
+    for (size_t c = 0; c < 3; c++) {
+        ffd_mesh *mesh = read_example(cases[c][1]);
+        if (!mesh)
+            continue;
+        size_t n = ffd_mesh_vertex_count(mesh);
+        double *rest = copy_positions(mesh);
+        ffd_rig_report report = {0};
+        CHECK_OK(apply_example(cases[c][0], mesh, &report));
+        size_t long_edges = stretched_edges(rest, n, mesh, 1.8);
+        if (long_edges > report.gffd.long_edges)
+            fprintf(stderr, "  %s: %zu edges stretched >= 1.8, the report counts %zu\n",
+                    cases[c][0], long_edges, report.gffd.long_edges);
+        CHECK(long_edges <= report.gffd.long_edges);
+        CHECK(report.gffd.track.failed_count == 0);
+        ffd_rig_report_free(&report);
+        free(rest);
+        ffd_mesh_destroy(mesh);
+    }
+}
+
 /* Scale invariance: the bunny and the twist rig scaled by 1000 give the
  * unscaled result scaled by 1000 (the default unit follows the model). */
 static char *twist_rig(double s)
@@ -892,7 +1038,8 @@ static char *twist_rig(double s)
     size_t cap = 8192, len = 0;
     char *json = malloc(cap);
     len += (size_t)snprintf(json + len, cap - len,
-                            G "\"tracking\": \"warp\", \"skeleton\": [{\"type\": \"polyhedron\","
+                            G "\"tracking\": \"warp\", \"resample\": true,"
+                              " \"skeleton\": [{\"type\": \"polyhedron\","
                               " \"radius\": %.17g, \"vertices\": [", 2.5 * s);
     const double *v = ffd_mesh_positions(head);
     for (size_t i = 0; i < ffd_mesh_vertex_count(head); i++)
@@ -1002,6 +1149,8 @@ int main(int argc, char **argv)
         {"apply_replace", test_apply_replace},
         {"apply_bad_keeps_mesh", test_apply_bad_keeps_mesh},
         {"apply_scale_invariance", test_apply_scale_invariance},
+        {"apply_rigid_any_skeleton", test_apply_rigid_any_skeleton},
+        {"apply_examples_no_tear", test_apply_examples_no_tear},
     };
     return check_run(tests, sizeof tests / sizeof *tests, argc, argv);
 }

@@ -170,6 +170,8 @@ typedef struct ffd_gffd_part {
     int rigid;              /* 1: rot/shift differ from the identity */
     int collinear;          /* 1: a point or a straight polyline: a rigid edit of it alone
                                leaves the turn about its line open */
+    int turned;             /* 1: rot/shift were given (ffd_gffd_skeleton_transform), not
+                               fitted to the vertices: the whole skeleton's fit keeps off */
     double lo[3], hi[3];    /* where f_i can be below r_i: the geometry's box grown by 4r/3 */
     double cutoff;          /* exp(-r_i/u), set by ffd_gffd_skeleton_set_unit */
     int regularised;
@@ -223,10 +225,41 @@ size_t ffd_gffd_correspondence_count(const ffd_gffd_skeleton *rest);
 void ffd_gffd_correspondences(const ffd_gffd_skeleton *rest, const ffd_gffd_skeleton *cur,
                               double *from, double *to);
 
+/* Moves part index rigidly by x -> rot x + shift: its vertices, and its
+ * fitted field with them (composed with the part's placement; no refit).
+ * Unlike new vertex positions this carries the turn of a point or of a
+ * straight polyline about itself. Cannot fail. */
+void ffd_gffd_skeleton_transform(ffd_gffd_skeleton *s, size_t index, const double rot[3][3],
+                                 const double shift[3]);
+/* 1 when every field of cur is the rest one moved by one and the same rigid
+ * motion (rot, shift), not the identity: then tracking is that motion. */
+int ffd_gffd_skeleton_motion(const ffd_gffd_skeleton *cur, const ffd_gffd_skeleton *rest,
+                             double rot[3][3], double shift[3]);
+
+/* The primitive nearest to x relative to its radius, among those whose box
+ * holds x: its field value *f, gradient and radius; 0 when none. */
+int ffd_gffd_skeleton_nearest(const ffd_gffd_skeleton *s, const double x[3], double *f,
+                              double grad[3], double *radius);
+/* The motion of the primitive nearest to x in the rest skeleton (relative
+ * to its radius, among those in range) when cur moved it rigidly from rest:
+ * 1 and (rot, shift); 0 otherwise. Tracking's fallback start. */
+int ffd_gffd_skeleton_own_motion(const ffd_gffd_skeleton *rest, const ffd_gffd_skeleton *cur,
+                                 const double x[3], double rot[3][3], double shift[3]);
+
 /* All vertices, in part order (ffd_gffd_skeleton_vertex_count by 3). */
 void ffd_gffd_skeleton_gather_vertices(const ffd_gffd_skeleton *s, double *out);
 /* The merged field E (eq. 1-2) at x, and its gradient (may be NULL). */
 double ffd_gffd_skeleton_field(const ffd_gffd_skeleton *s, const double x[3], double grad[3]);
+
+/* The influence band (a departure from the paper, docs/gffd.md): over the
+ * outer GFFD_BAND of each radius the tracked displacement fades to zero, so
+ * that the deformation is continuous where an influence region ends. */
+#define GFFD_BAND (1.0 / 3.0)
+/* E at x, and in *weight the blend weight b(x) in [0, 1]: the largest over
+ * the primitives in range of S((r_i - f_i) / (GFFD_BAND r_i)), S the quintic
+ * smoothstep (C^2). b = 0 exactly where E = 0, 1 deeper than the band. */
+double ffd_gffd_skeleton_field_weight(const ffd_gffd_skeleton *s, const double x[3],
+                                      double *weight);
 /* Bounding box of all skeleton vertices (count > 0). */
 void ffd_gffd_skeleton_bounds(const ffd_gffd_skeleton *s, double lo[3], double hi[3]);
 
@@ -243,6 +276,9 @@ typedef struct ffd_gffd_warp {
 
 typedef struct ffd_gffd_tracker {
     const ffd_gffd_skeleton *field;  /* the current skeleton */
+    const ffd_gffd_skeleton *rest;   /* the rest one, when field is an edit of it (else NULL) */
+    int rigid;                       /* 1: every field moved by (rot, shift): points do too */
+    double rot[3][3], shift[3];
     const ffd_gffd_warp *warp;       /* NULL: no correspondences */
     int mode;                        /* ffd_gffd_tracking */
     double tolerance;                /* epsilon (units of u: log-field) */
@@ -259,9 +295,11 @@ enum { FFD_TRACK_UNCHANGED = 0, FFD_TRACK_CONVERGED = 1, FFD_TRACK_FAILED = 2 };
 int ffd_gffd_track_point(const ffd_gffd_tracker *t, const double p0[3], double e0, double out[3],
                          uint32_t *iterations, int *fallback, double *error);
 
-/* Tracks n points (values e0, may be 0: copied) in parallel, filling out and report. */
+/* Tracks n points (values e0, may be 0: copied) in parallel, filling out
+ * and report; then each point's displacement is scaled by its blend weight
+ * (n, in [0, 1]; 1 leaves the tracked position bitwise, 0 the point). */
 ffd_status ffd_gffd_track_points(const ffd_gffd_tracker *t, const double *points,
-                                 const double *e0, size_t n, double *out,
+                                 const double *e0, const double *weight, size_t n, double *out,
                                  ffd_gffd_track_report *report, ffd_error *err);
 
 #endif

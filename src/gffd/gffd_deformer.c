@@ -17,6 +17,7 @@ struct ffd_gffd {
     size_t n;
     double *points;               /* n by 3, as bound */
     double *e0;                   /* n recorded field values */
+    double *weight;               /* n blend weights in the influence band (GFFD_BAND) */
     size_t influenced;
     /* automatic correspondences: the rest skeleton's vertices */
     size_t auto_count;
@@ -69,6 +70,7 @@ void ffd_gffd_destroy(ffd_gffd *g)
     ffd_gffd_skeleton_destroy(g->cur);
     ffd_free(g->points);
     ffd_free(g->e0);
+    ffd_free(g->weight);
     ffd_free(g->auto_from);
     if (g->has_auto_factor)
         ffd_rbf_factor_free(&g->auto_factor);
@@ -140,9 +142,10 @@ ffd_status ffd_gffd_create(const ffd_gffd_primitive *skeleton, size_t count, con
     g->n = n;
     g->points = ffd_malloc_array(n ? n : 1, 3 * sizeof(double));
     g->e0 = ffd_malloc_array(n ? n : 1, sizeof(double));
+    g->weight = ffd_malloc_array(n ? n : 1, sizeof(double));
     g->auto_count = ffd_gffd_correspondence_count(g->rest);
     g->auto_from = ffd_malloc_array(g->auto_count, 3 * sizeof(double));
-    if (!g->points || !g->e0 || !g->auto_from) {
+    if (!g->points || !g->e0 || !g->weight || !g->auto_from) {
         st = ffd_fail(err, FFD_ERR_NOMEM, "out of memory binding %zu points", n);
         goto fail;
     }
@@ -157,12 +160,14 @@ ffd_status ffd_gffd_create(const ffd_gffd_primitive *skeleton, size_t count, con
         g->has_auto_factor = 1;
     }
 
-    /* bind (§3): e_0 = E(P) in the rest field */
+    /* bind (§3): e_0 = E(P) in the rest field, and the blend weight of the
+     * influence band */
     long long count_ll = (long long)n;
     const ffd_gffd_skeleton *rest = g->rest;
+    double *weight = g->weight;
 #pragma omp parallel for schedule(static)
     for (long long i = 0; i < count_ll; i++)
-        g->e0[i] = ffd_gffd_skeleton_field(rest, points + 3 * i, NULL);
+        g->e0[i] = ffd_gffd_skeleton_field_weight(rest, points + 3 * i, &weight[i]);
     for (size_t i = 0; i < n; i++)
         g->influenced += g->e0[i] > 0;
     *out = g;
@@ -216,6 +221,82 @@ int ffd_gffd_regularised(const ffd_gffd *g)
 const double *ffd_gffd_bound_values(const ffd_gffd *g)
 {
     return g->e0;
+}
+
+const double *ffd_gffd_bound_weights(const ffd_gffd *g)
+{
+    return g->weight;
+}
+
+ffd_status ffd_gffd_transform(ffd_gffd *g, size_t index, const double rotation[9],
+                              const double translation[3], ffd_error *err)
+{
+    if (index >= g->cur->count)
+        return ffd_fail(err, FFD_ERR_RANGE, "skeleton[%zu]: out of range (%zu primitives)", index,
+                        g->cur->count);
+    if (!rotation || !translation)
+        return ffd_fail(err, FFD_ERR_INVALID, "skeleton[%zu]: rotation or translation missing",
+                        index);
+    double rot[3][3], shift[3];
+    for (int a = 0; a < 3; a++) {
+        shift[a] = translation[a];
+        if (!isfinite(shift[a]))
+            return ffd_fail(err, FFD_ERR_NONFINITE, "skeleton[%zu]: translation is not finite",
+                            index);
+        for (int b = 0; b < 3; b++) {
+            rot[a][b] = rotation[3 * a + b];
+            if (!isfinite(rot[a][b]))
+                return ffd_fail(err, FFD_ERR_NONFINITE, "skeleton[%zu]: rotation is not finite",
+                                index);
+        }
+    }
+    /* a proper rotation: R R^T = I and det R = 1, to 1e-12 */
+    double worst = 0;
+    for (int a = 0; a < 3; a++)
+        for (int b = 0; b < 3; b++) {
+            double d = rot[a][0] * rot[b][0] + rot[a][1] * rot[b][1] + rot[a][2] * rot[b][2];
+            worst = fmax(worst, fabs(d - (a == b)));
+        }
+    double det = rot[0][0] * (rot[1][1] * rot[2][2] - rot[1][2] * rot[2][1]) -
+                 rot[0][1] * (rot[1][0] * rot[2][2] - rot[1][2] * rot[2][0]) +
+                 rot[0][2] * (rot[1][0] * rot[2][1] - rot[1][1] * rot[2][0]);
+    if (!(worst <= 1e-12) || !(det > 0))
+        return ffd_fail(err, FFD_ERR_INVALID,
+                        "skeleton[%zu]: not a rotation (|R R^T - I| = %.3g, det %.17g)", index,
+                        worst, det);
+    /* the moved primitive must keep the exponents of eq. 2 in range too */
+    ffd_gffd_part *q = &g->cur->parts[index];
+    size_t nv = q->geom.vertex_count;
+    double *moved = ffd_malloc_array(nv, 3 * sizeof(double));
+    if (!moved)
+        return ffd_fail(err, FFD_ERR_NOMEM, "skeleton[%zu]: out of memory", index);
+    for (size_t i = 0; i < nv; i++) {
+        const double *x = q->geom.vertices + 3 * i;
+        for (int k = 0; k < 3; k++)
+            moved[3 * i + k] = rot[k][0] * x[0] + rot[k][1] * x[1] + rot[k][2] * x[2] + shift[k];
+    }
+    double *old = q->geom.vertices;
+    q->geom.vertices = moved;
+    ffd_status st = check_unit(g->cur, g->opt.unit, err);
+    for (size_t i = 0; st == FFD_OK && i < 3 * nv; i++)
+        if (!(fabs(moved[i]) <= 1e100))
+            st = ffd_fail(err, FFD_ERR_INVALID,
+                          "skeleton[%zu]: vertex %zu: coordinate %g beyond 1e100", index, i / 3,
+                          moved[i]);
+    q->geom.vertices = old;
+    if (st == FFD_OK && !q->collinear) {
+        /* the vertices determine the motion: exactly ffd_gffd_set_vertices
+         * (a Kabsch fit moves the field), so that a replay of the vertices
+         * (the editor's) gives the same result bitwise */
+        st = ffd_gffd_set_vertices(g, index, moved, err);
+        ffd_free(moved);
+        return st;
+    }
+    ffd_free(moved);
+    if (st != FFD_OK)
+        return st;
+    ffd_gffd_skeleton_transform(g->cur, index, (const double(*)[3])rot, shift);
+    return FFD_OK;
 }
 
 ffd_status ffd_gffd_set_vertices(ffd_gffd *g, size_t index, const double *vertices,
@@ -354,11 +435,14 @@ static ffd_status current_warp(const ffd_gffd *g, ffd_gffd_warp *warp, const ffd
     return FFD_OK;
 }
 
-/* Shared by ffd_gffd_track and the resampler: tracks n points with values e0. */
-ffd_status ffd_gffd_track_with(const ffd_gffd *g, const double *points, const double *e0, size_t n,
-                               double *out, ffd_gffd_track_report *report, ffd_error *err);
-ffd_status ffd_gffd_track_with(const ffd_gffd *g, const double *points, const double *e0, size_t n,
-                               double *out, ffd_gffd_track_report *report, ffd_error *err)
+/* Shared by ffd_gffd_track and the resampler: tracks n points with values
+ * e0 and blend weights weight. */
+ffd_status ffd_gffd_track_with(const ffd_gffd *g, const double *points, const double *e0,
+                               const double *weight, size_t n, double *out,
+                               ffd_gffd_track_report *report, ffd_error *err);
+ffd_status ffd_gffd_track_with(const ffd_gffd *g, const double *points, const double *e0,
+                               const double *weight, size_t n, double *out,
+                               ffd_gffd_track_report *report, ffd_error *err)
 {
     ffd_gffd_warp local_warp;
     const ffd_gffd_warp *warp;
@@ -374,13 +458,19 @@ ffd_status ffd_gffd_track_with(const ffd_gffd *g, const double *points, const do
                                       "too many vertices for automatic ones");
     }
     ffd_gffd_tracker t;
+    memset(&t, 0, sizeof t);
     t.field = g->cur;
+    t.rest = g->replaced ? NULL : g->rest;
+    /* an edit that moved the whole skeleton rigidly moves the points with
+     * it, in either mode (the user's correspondences, when given, rule) */
+    t.rigid = !g->replaced && !g->user_count &&
+              ffd_gffd_skeleton_motion(g->cur, g->rest, t.rot, t.shift);
     t.warp = warp;
     t.mode = g->opt.tracking;
     t.tolerance = g->opt.tolerance;
     t.max_iterations = g->opt.max_iterations;
     t.max_step = 2 * g->cur->max_radius;
-    st = ffd_gffd_track_points(&t, points, e0, n, out, report, err);
+    st = ffd_gffd_track_points(&t, points, e0, weight, n, out, report, err);
     if (local)
         ffd_rbf_free(&local_warp.displacement);
     return st;
@@ -391,7 +481,7 @@ ffd_status ffd_gffd_track(const ffd_gffd *g, double *out, ffd_gffd_track_report 
 {
     if (report)
         memset(report, 0, sizeof *report);
-    return ffd_gffd_track_with(g, g->points, g->e0, g->n, out, report, err);
+    return ffd_gffd_track_with(g, g->points, g->e0, g->weight, g->n, out, report, err);
 }
 
 ffd_status ffd_gffd_field(const ffd_gffd *g, int current, const double *points, size_t n,

@@ -10,8 +10,9 @@
 
 #define NO_VERTEX UINT32_MAX
 
-ffd_status ffd_gffd_track_with(const ffd_gffd *g, const double *points, const double *e0, size_t n,
-                               double *out, ffd_gffd_track_report *report, ffd_error *err);
+ffd_status ffd_gffd_track_with(const ffd_gffd *g, const double *points, const double *e0,
+                               const double *weight, size_t n, double *out,
+                               ffd_gffd_track_report *report, ffd_error *err);
 
 /* ---- an edge table: undirected edge -> reference length, midpoint ---- */
 
@@ -96,9 +97,9 @@ static edge_slot *edge_put(edge_table *t, uint32_t a, uint32_t b, double ref)
 /* ---- growing arrays ---- */
 
 typedef struct state {
-    /* vertices: rest positions, deformed positions, field values */
+    /* vertices: rest positions, deformed positions, field values, blend weights */
     size_t nv, cap_v;
-    double *rest, *def, *value;
+    double *rest, *def, *value, *weight;
     /* new vertices of the plan */
     size_t nnew, cap_new;
     ffd_refine_vertex *newv;
@@ -120,6 +121,9 @@ static bool grow_vertices(state *s, size_t need)
     cap = s->cap_v;
     if (!ffd_grow((void **)&s->value, &cap, need, sizeof(double)))
         return false;
+    cap = s->cap_v;
+    if (!ffd_grow((void **)&s->weight, &cap, need, sizeof(double)))
+        return false;
     s->cap_v = cap;
     return true;
 }
@@ -129,6 +133,7 @@ static void state_free(state *s)
     ffd_free(s->rest);
     ffd_free(s->def);
     ffd_free(s->value);
+    ffd_free(s->weight);
     ffd_free(s->newv);
     ffd_free(s->off);
     ffd_free(s->idx);
@@ -159,12 +164,14 @@ static uint32_t new_vertex(state *s, const uint32_t *parents, uint32_t k)
     double *r = s->rest + 3 * (size_t)m;
     r[0] = r[1] = r[2] = 0;
     s->value[m] = 0;
+    s->weight[m] = 0;
     for (uint32_t j = 0; j < k; j++) {
         v->parent[j] = parents[j];
         v->weight[j] = 1.0 / k;
         for (int c = 0; c < 3; c++)
             r[c] += s->rest[3 * (size_t)parents[j] + c] / k;
         s->value[m] += s->value[parents[j]] / k; /* Fig. 6: d = average of the ends */
+        s->weight[m] += s->weight[parents[j]] / k; /* and so the band's weight */
     }
     return m;
 }
@@ -314,8 +321,8 @@ static bool track_new(const ffd_gffd *g, state *s, size_t first, ffd_gffd_track_
     if (first == s->nv)
         return true;
     ffd_gffd_track_report r;
-    *st = ffd_gffd_track_with(g, s->rest + 3 * first, s->value + first, s->nv - first,
-                              s->def + 3 * first, &r, err);
+    *st = ffd_gffd_track_with(g, s->rest + 3 * first, s->value + first, s->weight + first,
+                              s->nv - first, s->def + 3 * first, &r, err);
     if (*st != FFD_OK)
         return false;
     bool oom = false;
@@ -380,9 +387,10 @@ ffd_status ffd_gffd_resample(const ffd_gffd *g, const ffd_mesh *mesh,
     s.nv = nv;
     memcpy(s.rest, rest, nv * 3 * sizeof(double));
     memcpy(s.value, e0, nv * sizeof(double));
+    memcpy(s.weight, ffd_gffd_bound_weights(g), nv * sizeof(double));
     {
         ffd_gffd_track_report r;
-        st = ffd_gffd_track_with(g, s.rest, s.value, nv, s.def, &r, err);
+        st = ffd_gffd_track_with(g, s.rest, s.value, s.weight, nv, s.def, &r, err);
         if (st != FFD_OK)
             goto fail;
         rep.track = r;

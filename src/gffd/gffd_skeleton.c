@@ -245,11 +245,13 @@ void ffd_gffd_skeleton_align(ffd_gffd_skeleton *cur, const ffd_gffd_skeleton *re
     {
         ffd_gffd_skeleton_gather_vertices(rest, from);
         ffd_gffd_skeleton_gather_vertices(cur, to);
-        if (ffd_gffd_rigid_motion(from, to, n, rot, shift))
+        /* a collinear skeleton does not determine a turn about its line: its
+         * parts keep the turn they were given (ffd_gffd_skeleton_transform) */
+        if (!is_collinear(from, n) && ffd_gffd_rigid_motion(from, to, n, rot, shift))
             for (size_t i = 0; i < cur->count; i++) {
                 ffd_gffd_part *q = &cur->parts[i];
                 const ffd_gffd_part *r = &rest->parts[i];
-                if (!q->collinear ||
+                if (!q->collinear || q->turned ||
                     memcmp(q->fit_vertices, r->geom.vertices,
                            q->geom.vertex_count * 3 * sizeof(double)) != 0 ||
                     memcmp(q->geom.vertices, r->geom.vertices,
@@ -357,6 +359,157 @@ shifted:
     return worst <= GFFD_TOL_RIGID * fmax(size, 1e-300) * 16;
 }
 
+/* (r2, t2) = (r, t) after (r1, t1): x -> r (r1 x + t1) + t. */
+static void compose(double r[3][3], const double t[3], double r1[3][3], const double t1[3],
+                    double r2[3][3], double t2[3])
+{
+    for (int a = 0; a < 3; a++) {
+        for (int b = 0; b < 3; b++)
+            r2[a][b] = r[a][0] * r1[0][b] + r[a][1] * r1[1][b] + r[a][2] * r1[2][b];
+        t2[a] = r[a][0] * t1[0] + r[a][1] * t1[1] + r[a][2] * t1[2] + t[a];
+    }
+}
+
+/* 1 when rot from + shift == to within ffd_gffd_rigid_motion's tolerance. */
+static int reproduces(double rot[3][3], const double shift[3], const double *from,
+                      const double *to, size_t n)
+{
+    double size = n > 1 ? diagonal_of(from, n) : 1, worst = 0;
+    for (size_t i = 0; i < n; i++)
+        for (int k = 0; k < 3; k++) {
+            double y = rot[k][0] * from[3 * i] + rot[k][1] * from[3 * i + 1] +
+                       rot[k][2] * from[3 * i + 2] + shift[k];
+            worst = fmax(worst, fabs(y - to[3 * i + k]));
+        }
+    return worst <= GFFD_TOL_RIGID * fmax(size, 1e-300) * 16;
+}
+
+void ffd_gffd_skeleton_transform(ffd_gffd_skeleton *s, size_t index, const double rot[3][3],
+                                 const double shift[3])
+{
+    ffd_gffd_part *q = &s->parts[index];
+    double r1[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}}, t1[3] = {0, 0, 0};
+    if (q->rigid) {
+        memcpy(r1, q->rot, sizeof r1);
+        memcpy(t1, q->shift, sizeof t1);
+    }
+    double r[3][3];
+    memcpy(r, rot, sizeof r);
+    compose(r, shift, r1, t1, q->rot, q->shift);
+    for (size_t i = 0; i < q->geom.vertex_count; i++) {
+        double *x = q->geom.vertices + 3 * i, y[3];
+        for (int k = 0; k < 3; k++)
+            y[k] = rot[k][0] * x[0] + rot[k][1] * x[1] + rot[k][2] * x[2] + shift[k];
+        memcpy(x, y, sizeof y);
+    }
+    q->rigid = 1;
+    q->turned = 1;
+    set_box(q);
+}
+
+int ffd_gffd_skeleton_motion(const ffd_gffd_skeleton *cur, const ffd_gffd_skeleton *rest,
+                             double rot[3][3], double shift[3])
+{
+    if (!ffd_gffd_skeleton_same_structure(cur, rest))
+        return 0;
+    double lo[3], hi[3], d[3];
+    ffd_gffd_skeleton_bounds(rest, lo, hi);
+    sub3(hi, lo, d);
+    double size = fmax(norm3(d), rest->max_radius);
+    int moved = 0;
+    for (size_t i = 0; i < cur->count; i++) {
+        const ffd_gffd_part *q = &cur->parts[i], *r = &rest->parts[i];
+        /* the field must be the rest one, moved */
+        if (memcmp(q->fit_vertices, r->geom.vertices, q->geom.vertex_count * 3 * sizeof(double)))
+            return 0;
+        double r1[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}}, t1[3] = {0, 0, 0};
+        if (q->rigid) {
+            memcpy(r1, q->rot, sizeof r1);
+            memcpy(t1, q->shift, sizeof t1);
+        }
+        if (i == 0) {
+            memcpy(rot, r1, sizeof r1);
+            memcpy(shift, t1, sizeof t1);
+        } else {
+            for (int a = 0; a < 3; a++) {
+                for (int b = 0; b < 3; b++)
+                    if (!(fabs(rot[a][b] - r1[a][b]) <= GFFD_TOL_RIGID))
+                        return 0;
+                if (!(fabs(shift[a] - t1[a]) <= GFFD_TOL_RIGID * size))
+                    return 0;
+            }
+        }
+    }
+    for (int a = 0; a < 3; a++) {
+        moved |= shift[a] != 0;
+        for (int b = 0; b < 3; b++)
+            moved |= rot[a][b] != (a == b);
+    }
+    return moved;
+}
+
+int ffd_gffd_skeleton_nearest(const ffd_gffd_skeleton *s, const double x[3], double *f,
+                              double grad[3], double *radius)
+{
+    int found = 0;
+    double best = INFINITY;
+    for (size_t i = 0; i < s->count; i++) {
+        const ffd_gffd_part *q = &s->parts[i];
+        if (x[0] < q->lo[0] || x[0] > q->hi[0] || x[1] < q->lo[1] || x[1] > q->hi[1] ||
+            x[2] < q->lo[2] || x[2] > q->hi[2])
+            continue;
+        double fi, df[3];
+        if (q->rigid) {
+            double d[3] = {x[0] - q->shift[0], x[1] - q->shift[1], x[2] - q->shift[2]}, y[3], dy[3];
+            for (int k = 0; k < 3; k++)
+                y[k] = q->rot[0][k] * d[0] + q->rot[1][k] * d[1] + q->rot[2][k] * d[2];
+            ffd_rbf_eval(&q->field, y, &fi, dy);
+            for (int k = 0; k < 3; k++)
+                df[k] = q->rot[k][0] * dy[0] + q->rot[k][1] * dy[1] + q->rot[k][2] * dy[2];
+        } else {
+            ffd_rbf_eval(&q->field, x, &fi, df);
+        }
+        if (fi / q->geom.radius < best) {
+            best = fi / q->geom.radius;
+            *f = fi;
+            memcpy(grad, df, sizeof df);
+            *radius = q->geom.radius;
+            found = 1;
+        }
+    }
+    return found;
+}
+
+int ffd_gffd_skeleton_own_motion(const ffd_gffd_skeleton *rest, const ffd_gffd_skeleton *cur,
+                                 const double x[3], double rot[3][3], double shift[3])
+{
+    if (!ffd_gffd_skeleton_same_structure(cur, rest))
+        return 0;
+    size_t best = SIZE_MAX;
+    double best_f = INFINITY;
+    for (size_t i = 0; i < rest->count; i++) {
+        const ffd_gffd_part *q = &rest->parts[i];
+        if (x[0] < q->lo[0] || x[0] > q->hi[0] || x[1] < q->lo[1] || x[1] > q->hi[1] ||
+            x[2] < q->lo[2] || x[2] > q->hi[2])
+            continue;
+        double f;
+        ffd_rbf_eval(&q->field, x, &f, NULL); /* the rest fields are at their fit */
+        if (f < q->geom.radius && f / q->geom.radius < best_f) {
+            best_f = f / q->geom.radius;
+            best = i;
+        }
+    }
+    if (best == SIZE_MAX)
+        return 0;
+    const ffd_gffd_part *c = &cur->parts[best];
+    if (!c->rigid || memcmp(c->fit_vertices, rest->parts[best].geom.vertices,
+                            c->geom.vertex_count * 3 * sizeof(double)) != 0)
+        return 0;
+    memcpy(rot, c->rot, sizeof c->rot);
+    memcpy(shift, c->shift, sizeof c->shift);
+    return 1;
+}
+
 /* Samples the geometry and fits its distance field (§2, Fig. 1). */
 static ffd_status fit_part(ffd_gffd_part *q, size_t index, size_t max_samples, ffd_error *err)
 {
@@ -389,6 +542,7 @@ static ffd_status fit_part(ffd_gffd_part *q, size_t index, size_t max_samples, f
         q->rot[0][0] = q->rot[1][1] = q->rot[2][2] = 1;
         memset(q->shift, 0, sizeof q->shift);
         q->rigid = 0;
+        q->turned = 0;
         set_box(q);
     }
     ffd_rbf_factor_free(&factor);
@@ -592,15 +746,33 @@ ffd_status ffd_gffd_skeleton_set_vertices(ffd_gffd_skeleton *s, size_t index,
     double rot[3][3], shift[3];
     if (memcmp(v, q->fit_vertices, q->geom.vertex_count * 3 * sizeof(double)) == 0) {
         q->rigid = 0; /* back where it was fitted */
+        q->turned = 0;
         set_box(q);
         ffd_free(old);
         return FFD_OK;
+    }
+    if (q->collinear && q->rigid &&
+        ffd_gffd_rigid_motion(old, v, q->geom.vertex_count, rot, shift)) {
+        /* a point or a straight polyline: its vertices do not show its turn
+         * about its line, so the new motion is composed with the one it had
+         * (a turn given by ffd_gffd_skeleton_transform is kept), as long as
+         * the composition still reproduces the vertices */
+        double r2[3][3], t2[3];
+        compose(rot, shift, q->rot, q->shift, r2, t2);
+        if (reproduces(r2, t2, q->fit_vertices, v, q->geom.vertex_count)) {
+            memcpy(q->rot, r2, sizeof r2);
+            memcpy(q->shift, t2, sizeof t2);
+            set_box(q);
+            ffd_free(old);
+            return FFD_OK;
+        }
     }
     if (ffd_gffd_rigid_motion(q->fit_vertices, v, q->geom.vertex_count, rot, shift)) {
         /* a rigid edit moves the fitted field: exact, and no refit */
         memcpy(q->rot, rot, sizeof rot);
         memcpy(q->shift, shift, sizeof shift);
         q->rigid = 1;
+        q->turned = 0;
         set_box(q);
         ffd_free(old);
         return FFD_OK;
@@ -665,11 +837,28 @@ void ffd_gffd_skeleton_bounds(const ffd_gffd_skeleton *s, double lo[3], double h
     }
 }
 
-/* Eq. 1-2: E = sum_i exp(-f_i/u) - exp(-r_i/u) where f_i < r_i; the
- * gradient is sum_i -(1/u) exp(-f_i/u) grad f_i over the same terms. */
-double ffd_gffd_skeleton_field(const ffd_gffd_skeleton *s, const double x[3], double grad[3])
+/* The blend weight of one primitive at field value f (see ffd_gffd_skeleton_weight):
+ * the quintic smoothstep S(t) = t^3 (10 - 15 t + 6 t^2) of the depth
+ * t = (r - f) / (band r) below the influence boundary, clamped to [0, 1]. S
+ * and its first two derivatives vanish at t = 0 and S' and S'' at t = 1, so
+ * the weight is C^2 wherever f is. */
+static double band_weight(double f, double r)
 {
-    double e = 0, g[3] = {0, 0, 0};
+    double t = (r - f) / (GFFD_BAND * r);
+    if (!(t > 0))
+        return 0;
+    if (t >= 1)
+        return 1;
+    return t * t * t * (10 + t * (-15 + 6 * t));
+}
+
+/* Eq. 1-2: E = sum_i exp(-f_i/u) - exp(-r_i/u) where f_i < r_i; the
+ * gradient is sum_i -(1/u) exp(-f_i/u) grad f_i over the same terms;
+ * *weight (may be NULL): the largest band weight of the same terms. */
+static double field_and_weight(const ffd_gffd_skeleton *s, const double x[3], double grad[3],
+                               double *weight)
+{
+    double e = 0, g[3] = {0, 0, 0}, w = 0;
     for (size_t i = 0; i < s->count; i++) {
         const ffd_gffd_part *q = &s->parts[i];
         if (x[0] < q->lo[0] || x[0] > q->hi[0] || x[1] < q->lo[1] || x[1] > q->hi[1] ||
@@ -691,6 +880,8 @@ double ffd_gffd_skeleton_field(const ffd_gffd_skeleton *s, const double x[3], do
             continue;
         double ex = exp(-f * s->inv_unit);
         e += ex - q->cutoff;
+        if (weight)
+            w = fmax(w, band_weight(f, q->geom.radius));
         if (grad) {
             double c = -s->inv_unit * ex;
             g[0] += c * df[0];
@@ -703,7 +894,20 @@ double ffd_gffd_skeleton_field(const ffd_gffd_skeleton *s, const double x[3], do
         grad[1] = g[1];
         grad[2] = g[2];
     }
+    if (weight)
+        *weight = w;
     return e;
+}
+
+double ffd_gffd_skeleton_field(const ffd_gffd_skeleton *s, const double x[3], double grad[3])
+{
+    return field_and_weight(s, x, grad, NULL);
+}
+
+double ffd_gffd_skeleton_field_weight(const ffd_gffd_skeleton *s, const double x[3],
+                                      double *weight)
+{
+    return field_and_weight(s, x, NULL, weight);
 }
 
 /* ---- the warp's automatic correspondences ------------------------------ */

@@ -45,6 +45,41 @@ static void search_at(const ffd_gffd_skeleton *s, const double x[3], double ln_e
     q->d = field_delta(s, x, ln_e0, q->grad, &q->e);
 }
 
+/* Not in the paper: a point that the edit left outside every influence
+ * region (E = 0) has no gradient of E to follow. It is carried along the
+ * gradient of the nearest primitive's own distance field to just inside
+ * that primitive's radius, where gradient tracking takes over: E's gradient
+ * is parallel to it, so the point follows the same path as its neighbours
+ * that stayed inside, and the deformation has no jump where the moved
+ * region's boundary passes. 0 when no primitive is in range. */
+static int enter_region(const ffd_gffd_tracker *t, double ln_e0, search *q)
+{
+    const ffd_gffd_skeleton *s = t->field;
+    double x[3];
+    memcpy(x, q->p, sizeof x);
+    for (int it = 0; it < 8; it++) {
+        double f, df[3], r;
+        if (!ffd_gffd_skeleton_nearest(s, x, &f, df, &r))
+            return 0;
+        double target = r * (1 - 1e-3), gn = norm3(df);
+        if (f < r && ffd_gffd_skeleton_field(s, x, NULL) > 0)
+            break;
+        if (!(gn > 0) || !isfinite(gn))
+            return 0;
+        double step = (f - target) / (gn * gn); /* Newton on f(x) = target */
+        if (!(fabs(step * gn) <= t->max_step))
+            step = (step < 0 ? -t->max_step : t->max_step) / gn;
+        for (int k = 0; k < 3; k++)
+            x[k] -= step * df[k];
+    }
+    search n;
+    search_at(s, x, ln_e0, &n);
+    if (!(n.e > 0))
+        return 0;
+    *q = n;
+    return 1;
+}
+
 /* Fig. 5 from q: restore the field value, stepping along the normalised
  * gradient (eq. 3), or along line when it is given. Steps are counted in
  * *iterations; returns 1 when |delta| < tolerance. */
@@ -53,6 +88,8 @@ static int fig5(const ffd_gffd_tracker *t, double ln_e0, const double *line, sea
 {
     const ffd_gffd_skeleton *s = t->field;
     double sign = 1, scale = 1;
+    if (!line && !(q->e > 0) && !enter_region(t, ln_e0, q))
+        return 0; /* outside every field, and no primitive in range */
     for (uint32_t it = 0; fabs(q->d) >= t->tolerance; it++) {
         if (it >= t->max_iterations || scale < 1e-12 || !(q->e > 0))
             return 0; /* out of steps, stuck, or outside every field */
@@ -152,11 +189,9 @@ int ffd_gffd_track_point(const ffd_gffd_tracker *t, const double p0[3], double e
         *fallback = gradient;
         double w[3] = {p0[0] + disp[0], p0[1] + disp[1], p0[2] + disp[2]};
         search_at(s, w, ln_e0, &q);
-        if (q.e > 0) {
-            ok = fig5(t, ln_e0, NULL, &q, iterations);
-            if (ok || fabs(q.d) < fabs(best.d))
-                best = q;
-        }
+        ok = fig5(t, ln_e0, NULL, &q, iterations);
+        if (ok || fabs(q.d) < fabs(best.d))
+            best = q;
         if (!ok) {
             q = start;
             ok = fig5(t, ln_e0, line, &q, iterations);
@@ -170,6 +205,21 @@ int ffd_gffd_track_point(const ffd_gffd_tracker *t, const double p0[3], double e
         if (ok || fabs(q.d) < fabs(best.d))
             best = q;
     }
+    double rot[3][3], shift[3];
+    if (!ok && t->rest && ffd_gffd_skeleton_own_motion(t->rest, s, p0, rot, shift)) {
+        /* Not in the paper: the primitive nearest to p0 moved rigidly, so
+         * p0 moved with it has its value in that primitive's field; the
+         * gradient restores it there. This catches points near the edge of
+         * an influence region that the warp put outside every field. */
+        *fallback = 1;
+        double y[3];
+        for (int k = 0; k < 3; k++)
+            y[k] = rot[k][0] * p0[0] + rot[k][1] * p0[1] + rot[k][2] * p0[2] + shift[k];
+        search_at(s, y, ln_e0, &q);
+        ok = fig5(t, ln_e0, NULL, &q, iterations);
+        if (ok || fabs(q.d) < fabs(best.d))
+            best = q;
+    }
     *error = fabs(best.d);
     memcpy(out, best.p, 3 * sizeof(double));
     if (ok)
@@ -177,8 +227,22 @@ int ffd_gffd_track_point(const ffd_gffd_tracker *t, const double p0[3], double e
     return FFD_TRACK_FAILED;
 }
 
+/* The whole skeleton moved rigidly: the point moves with it, exactly
+ * (its field value there is e0 up to rounding, whatever the tracking mode;
+ * the motion came with the edit, so it holds for a point or a straight
+ * polyline too, whose vertices cannot show a turn about themselves). */
+static int rigid_point(const ffd_gffd_tracker *t, const double p0[3], double e0, double out[3],
+                       double *error)
+{
+    for (int k = 0; k < 3; k++)
+        out[k] = t->rot[k][0] * p0[0] + t->rot[k][1] * p0[1] + t->rot[k][2] * p0[2] + t->shift[k];
+    double e = ffd_gffd_skeleton_field(t->field, out, NULL);
+    *error = e > 0 ? fabs(log(e) - log(e0)) : INFINITY;
+    return FFD_TRACK_CONVERGED;
+}
+
 ffd_status ffd_gffd_track_points(const ffd_gffd_tracker *t, const double *points,
-                                 const double *e0, size_t n, double *out,
+                                 const double *e0, const double *weight, size_t n, double *out,
                                  ffd_gffd_track_report *report, ffd_error *err)
 {
     unsigned char *state = ffd_malloc(n ? n : 1);
@@ -201,11 +265,27 @@ ffd_status ffd_gffd_track_points(const ffd_gffd_tracker *t, const double *points
             state[i] = FFD_TRACK_UNCHANGED;
             continue;
         }
-        int fb = 0;
-        state[i] = (unsigned char)ffd_gffd_track_point(t, p0, e0[i], out + 3 * i, &iters[i], &fb,
-                                                       &errors[i]);
-        if (fb)
-            state[i] |= 4;
+        if (t->rigid) {
+            state[i] = (unsigned char)rigid_point(t, p0, e0[i], out + 3 * i, &errors[i]);
+        } else {
+            int fb = 0;
+            state[i] = (unsigned char)ffd_gffd_track_point(t, p0, e0[i], out + 3 * i, &iters[i],
+                                                           &fb, &errors[i]);
+            if (fb)
+                state[i] |= 4;
+        }
+        /* the influence band: the displacement fades to zero towards the
+         * boundary of the region (C^2), so that the mesh does not tear
+         * there; a point that did not converge is blended the same way */
+        double w = weight[i];
+        if (w < 1 && (state[i] & 3) != FFD_TRACK_UNCHANGED) {
+            double *x = out + 3 * i;
+            if (w > 0)
+                for (int k = 0; k < 3; k++)
+                    x[k] = p0[k] + w * (x[k] - p0[k]);
+            else
+                memcpy(x, p0, 3 * sizeof(double));
+        }
     }
     ffd_gffd_track_report r;
     memset(&r, 0, sizeof r);

@@ -261,8 +261,9 @@ ffd_status ffd_rig_load_primitive(const char *path, ffd_rig_primitive *prim, ffd
 void ffd_rig_primitive_free(ffd_rig_primitive *prim);
 /* The primitive as the library's ffd_gffd_primitive (borrowing its arrays). */
 void ffd_rig_primitive_public(const ffd_rig_primitive *r, ffd_gffd_primitive *p);
-/* Applies edit i of the rig to the current skeleton of g (step 2), through
- * ffd_gffd_set_vertices for each primitive it touches. */
+/* Applies edit i of the rig to the current skeleton of g (step 2): a
+ * rotation or translation through ffd_gffd_transform, the others through
+ * ffd_gffd_set_vertices, for each primitive it touches. */
 ffd_status ffd_rig_gffd_apply_edit(const ffd_rig *rig, ffd_gffd *g, size_t i, ffd_error *err);
 
 /* T-spline application (rig_tspline.c). */

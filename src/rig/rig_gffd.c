@@ -208,8 +208,9 @@ static ffd_gffd_primitive *public_skeleton(const ffd_rig_primitive *r, size_t n)
 }
 
 
-/* One edit on the current skeleton: the new vertices of each primitive it
- * touches, through ffd_gffd_set_vertices. */
+/* One edit on the current skeleton: a rotation or a translation through
+ * ffd_gffd_transform, the other edits as the new vertices of each primitive
+ * they touch, through ffd_gffd_set_vertices. */
 ffd_status ffd_rig_gffd_apply_edit(const ffd_rig *rig, ffd_gffd *g, size_t i, ffd_error *err)
 {
     const ffd_rig_gffd_edit *e = &rig->gffd.edits[i];
@@ -237,6 +238,34 @@ ffd_status ffd_rig_gffd_apply_edit(const ffd_rig *rig, ffd_gffd *g, size_t i, ff
                           e->axis[2] * e->axis[2]);
         for (int a = 0; a < 3; a++)
             axis[a] = e->axis[a] / len;
+    }
+    if (e->kind == FFD_RIG_EDIT_ROTATE || e->kind == FFD_RIG_EDIT_TRANSLATE) {
+        /* a rigid edit goes to the library as the motion itself, not as new
+         * vertices: a point or a straight polyline cannot show its turn */
+        double rot[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1}, shift[3] = {0, 0, 0};
+        if (e->kind == FFD_RIG_EDIT_ROTATE) {
+            for (int b = 0; b < 3; b++) { /* column b: the rotated unit vector e_b */
+                double unit[3] = {b == 0, b == 1, b == 2}, col[3];
+                ffd_rig_rotate(axis, e->angle, unit, col);
+                for (int a = 0; a < 3; a++)
+                    rot[3 * a + b] = col[a];
+            }
+            for (int a = 0; a < 3; a++) /* t = c - R c: the centre stays */
+                shift[a] = center[a] - (rot[3 * a] * center[0] + rot[3 * a + 1] * center[1] +
+                                        rot[3 * a + 2] * center[2]);
+        } else {
+            memcpy(shift, e->delta, sizeof shift);
+        }
+        for (size_t j = first; j < last; j++) {
+            ffd_error inner = {{0}};
+            ffd_status st = ffd_gffd_transform(g, j, rot, shift, &inner);
+            if (st != FFD_OK) {
+                char context[48];
+                snprintf(context, sizeof context, "edits[%zu]", i);
+                return ffd_rig_wrap(err, st, rig->name, context, &inner);
+            }
+        }
+        return FFD_OK;
     }
     for (size_t j = first; j < last; j++) {
         ffd_gffd_primitive p;
