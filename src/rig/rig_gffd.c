@@ -372,6 +372,17 @@ ffd_status ffd_rig_apply_gffd(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report
     }
     double t2 = ffd_now();
     if (rg->resample) {
+        /* Limits: the refined mesh may grow to max_vertices (default 16 x
+         * the input's); each vertex of it carries positions, attributes,
+         * faces and a tracking record (~300 bytes) */
+        double cap = rg->resample_options.max_vertices ? (double)rg->resample_options.max_vertices
+                                                       : 16.0 * (double)nv;
+        char cs[32];
+        st = ffd_budget_charge(budget, 300.0 * cap, 1000.0 * cap, err,
+                               "%s: resample: a mesh of up to %s vertices (max_vertices)",
+                               rig->name, ffd_format_count(cap, cs, sizeof cs));
+        if (st != FFD_OK)
+            goto done;
         st = ffd_gffd_resample(g, mesh, &rg->resample_options, &resampled, &rr, &inner);
         if (st != FFD_OK) {
             st = ffd_rig_wrap(err, st, rig->name, "resample", &inner);
