@@ -45,7 +45,7 @@ static int start(void)
     fclose(f);
     ffd_mesh *mesh = NULL;
     ffd_session *session = NULL;
-    ffd_session_options options = {20, 4096};
+    ffd_session_options options = {.max_undo = 20, .max_controls = 4096};
     if (ffd_mesh_read(path, &mesh, NULL) != FFD_OK ||
         ffd_session_create(mesh, "cube.obj", &options, &session, NULL) != FFD_OK)
         return -1;

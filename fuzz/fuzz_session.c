@@ -55,7 +55,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
     ffd_mesh *m = mesh();
     ffd_session *s = NULL;
-    ffd_session_options options = {20, 4096}; /* small: each input stays fast */
+    ffd_session_options options = {.max_undo = 20, .max_controls = 4096}; /* small: each input stays fast */
     if (!m || ffd_session_create(m, "cube", &options, &s, NULL) != FFD_OK) {
         ffd_mesh_destroy(m);
         return 0;

@@ -1155,14 +1155,36 @@ ffd_status ffd_rig_report_write_proxy(const ffd_rig_report *report, const char *
 ffd_status ffd_rig_write_pbffd_controls(const char *path, const ffd_ebf *controls, size_t count,
                                         const ffd_pbffd_options *options, ffd_error *err);
 
+/* Bounds on the work of one request (a rig applied, an editor operation).
+ * Before each large step the library estimates its peak memory (the bytes of
+ * its largest allocations: the T-spline lattice after a refinement, the
+ * ARAP factor, a GFFD field's dense (m+4)^2 matrix, the dense matrix of a
+ * direct-manipulation solve, ...) and its work (estimated operations, about
+ * one per nanosecond of one laptop core; dense LAPACK factorisations count
+ * 1/10 of their flops), and refuses a step whose memory exceeds max_memory
+ * or that would take the request's total work past max_work, with
+ * FFD_ERR_INVALID and a message naming the rig key, the estimate and the
+ * limit. The estimates and their calibration are in docs/rig.md ("Limits").
+ * Zero means default for every field. */
+typedef struct ffd_limits {
+    size_t max_memory;  /* bytes; default 2 GiB */
+    double max_work;    /* estimated operations per request; default 3e10 (about 30 s of
+                           one laptop core; what the editor allows) */
+    int unlimited;      /* 1: no limits at all (ffd deform --no-limits) */
+} ffd_limits;
+
+/* As ffd_rig_apply, under limits (NULL: the defaults). */
+ffd_status ffd_rig_apply_limited(const ffd_rig *rig, ffd_mesh *mesh, const ffd_limits *limits,
+                                 ffd_rig_report *report, ffd_error *err);
+
 /* Applies the rig to the mesh: builds the deformer, binds the vertices,
  * applies moves, then solves the constraints, evaluates, and sets the mesh's
  * positions (normals transformed by the Jacobian). A GFFD rig edits or
  * replaces its skeleton and tracks the vertices (normals recomputed from
  * the deformed faces); with "resample" the mesh gains vertices and faces
  * (it is replaced by the refined mesh). report may be NULL.
- * Errors: FFD_ERR_RANGE (vertex id), FFD_ERR_INVALID, FFD_ERR_NONFINITE;
- * on error the mesh is unchanged. */
+ * Errors: FFD_ERR_RANGE (vertex id), FFD_ERR_INVALID (also: a step over
+ * the default ffd_limits), FFD_ERR_NONFINITE; on error the mesh is unchanged. */
 ffd_status ffd_rig_apply(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report *report,
                          ffd_error *err);
 
@@ -1184,6 +1206,8 @@ typedef struct ffd_session ffd_session;
 typedef struct ffd_session_options {
     size_t max_undo;           /* undo entries kept; default 200 */
     size_t max_controls;       /* refuse deformers with more control points; default 2,000,000 */
+    ffd_limits limits;         /* bounds on each operation's memory and work (ffd_limits;
+                                  default: its defaults); a refused operation changes nothing */
 } ffd_session_options;
 
 /* Creates a session on mesh, which it takes over on success (destroyed with

@@ -63,6 +63,26 @@ size_t ffd_json_nul_at(const char *text, size_t size, bool *escaped);
  * Every JSON parse site calls it before cJSON: cJSON would cut the string there. */
 ffd_status ffd_json_refuse_nul(const char *text, size_t size, const char *name, ffd_error *err);
 
+/* The work budget of one request (ffd_limits, docs/rig.md "Limits"). A step
+ * estimates its peak bytes and its operations before it allocates or runs. */
+typedef struct ffd_budget {
+    double max_memory;  /* bytes; 0: unlimited */
+    double max_work;    /* operations for the whole request; 0: unlimited */
+    double work;        /* charged so far */
+} ffd_budget;
+#define FFD_DEFAULT_MAX_MEMORY ((size_t)2 << 30)
+#define FFD_DEFAULT_MAX_WORK 3e10
+/* Resolves limits (NULL: defaults; zero fields: defaults; unlimited: none). */
+void ffd_budget_init(ffd_budget *b, const ffd_limits *limits);
+/* Checks a step of peak bytes and work operations against b and charges its
+ * work. On refusal FFD_ERR_INVALID: "WHAT would need about 3.2 GB of memory
+ * (limit 2 GiB; ...)" where WHAT is the printf-formatted what. Nothing is
+ * charged on refusal. */
+ffd_status ffd_budget_charge(ffd_budget *b, double bytes, double work, ffd_error *err,
+                             const char *what, ...) FFD_PRINTF(5, 6);
+/* "2,400,000": n with thousands separators, into buf (at least 32 bytes). */
+const char *ffd_format_count(double n, char *buf, size_t size);
+
 /* Monotonic clock in seconds. */
 double ffd_now(void);
 

@@ -155,6 +155,19 @@ double ffd_gffd_geometry_distance(const ffd_gffd_geometry *g, const double x[3])
 ffd_status ffd_gffd_samples(const ffd_gffd_geometry *g, size_t max_samples, double **samples,
                             double **values, size_t *count, ffd_error *err);
 
+/* Limits (ffd_limits; gffd_estimate.c): an upper bound on the samples the
+ * rules above give primitive p before merging, at most max_samples (more
+ * is refused anyway), from its vertex count, its faces' corner count
+ * (face_offsets) and its segments' lengths; reads no face index, so it may
+ * run before p is checked. Exact for points and polylines without merged
+ * samples. */
+double ffd_gffd_estimate_samples(const ffd_gffd_primitive *p, size_t max_samples);
+/* Peak bytes and operations of fitting one field of m samples: the dense
+ * (m+4)^2 matrix (twice when a singular solve falls back to least squares
+ * is not counted), dsytrf's m^3/3 flops at 1/10 (LAPACK), and the exact
+ * distance of each sample (O(faces)). */
+void ffd_gffd_estimate_fit(double m, size_t face_count, double *bytes, double *work);
+
 /* ---- skeletons (gffd_skeleton.c) ----------------------------------------- */
 
 /* One primitive with its fitted distance field. */

@@ -226,7 +226,7 @@ double ffd_rig_residuals(size_t k, const double *reached, const double *targets,
 
 /* PB-FFD application (rig_pbffd.c); constraints as for the lattice. */
 ffd_status ffd_rig_apply_pbffd(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report *report,
-                               ffd_error *err);
+                               ffd_budget *budget, ffd_error *err);
 
 /* The PB-FFD rig's steps, shared with the editor session (rig_pbffd.c). */
 /* The frame edit e asks for, from the control's current frame. */
@@ -253,12 +253,17 @@ ffd_status ffd_rig_pb_constraint_delta(const ffd_rig *rig, ffd_pbffd *pb, const 
 
 /* GFFD application (rig_gffd.c). */
 ffd_status ffd_rig_apply_gffd(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report *report,
-                              ffd_error *err);
+                              ffd_budget *budget, ffd_error *err);
 /* Reads a skeleton primitive's geometry from a file: a polyline from an OBJ
  * file's v and l lines (one l statement, or none: the v lines in order), a
  * patch or polyhedron from a mesh file (OBJ, PLY, OFF). */
 ffd_status ffd_rig_load_primitive(const char *path, ffd_rig_primitive *prim, ffd_error *err);
 void ffd_rig_primitive_free(ffd_rig_primitive *prim);
+/* Limits (ffd_limits): charges the field fits of prims (the rig's "skeleton",
+ * with a refit per edit, or its "replace") to budget; the message names
+ * key[i] and max_samples. */
+ffd_status ffd_rig_gffd_charge(const ffd_rig *rig, const ffd_rig_primitive *prims, size_t count,
+                               const char *key, ffd_budget *budget, ffd_error *err);
 /* The primitive as the library's ffd_gffd_primitive (borrowing its arrays). */
 void ffd_rig_primitive_public(const ffd_rig_primitive *r, ffd_gffd_primitive *p);
 /* Applies edit i of the rig to the current skeleton of g (step 2): a
@@ -268,7 +273,17 @@ ffd_status ffd_rig_gffd_apply_edit(const ffd_rig *rig, ffd_gffd *g, size_t i, ff
 
 /* T-spline application (rig_tspline.c). */
 ffd_status ffd_rig_apply_tspline(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report *report,
-                                 ffd_error *err);
+                                 ffd_budget *budget, ffd_error *err);
+/* Limits (ffd_limits): charge a refinement of the resolved insertions, and
+ * an ARAP drag on the current lattice, to budget before running them. */
+ffd_status ffd_rig_tsv_charge_refine(const ffd_tsv *t, const ffd_tsv_insertion *ins, size_t count,
+                                     ffd_budget *budget, ffd_error *err);
+ffd_status ffd_rig_tsv_charge_arap(const ffd_tsv *t, uint32_t iterations, ffd_budget *budget,
+                                   ffd_error *err);
+/* Limits: the dense k x (variables) least-squares matrix of a
+ * direct-manipulation solve of k constraints through map (rig_apply.c). */
+ffd_status ffd_rig_charge_manip(const ffd_linear_map *map, size_t k, ffd_budget *budget,
+                                ffd_error *err);
 void ffd_rig_tspline_free(ffd_rig_tspline *t);
 /* A refine step's insertions resolved against the lattice: "near" located,
  * {"cells": "proxy"} expanded (*out ffd_free'd by the caller). */

@@ -105,19 +105,63 @@ static ffd_status check_inside(const ffd_rig *rig, const ffd_lattice_binding *bi
     return FFD_OK;
 }
 
+/* Dense least squares (dgelsd): k rows by at most k * max_row_nnz of the
+ * variables; the SVD's workspace about doubles the matrix; its flops
+ * ~ 4 k v min(k, v), counted at 1/10 as LAPACK (ffd_limits). */
+ffd_status ffd_rig_charge_manip(const ffd_linear_map *map, size_t k, ffd_budget *budget,
+                                ffd_error *err)
+{
+    double kk = (double)k, v = (double)map->variable_count;
+    double reach = kk * (double)(map->max_row_nnz ? map->max_row_nnz : 1);
+    if (reach < v)
+        v = reach;
+    double bytes = 2.0 * 8.0 * kk * v, work = 0.4 * kk * v * (kk < v ? kk : v);
+    char ks[32], vs[32];
+    return ffd_budget_charge(budget, bytes, work, err,
+                             "direct manipulation of %s constraints over %s variables",
+                             ffd_format_count(kk, ks, sizeof ks), ffd_format_count(v, vs, sizeof vs));
+}
+
+/* Binding and evaluating n points under a lattice: each point's basis has
+ * 4^3 terms (B-spline) or l m n (Bernstein); positions, parameters and
+ * Jacobians are ~200 bytes a point. */
+static ffd_status charge_lattice(const ffd_rig *rig, size_t n, ffd_budget *budget, ffd_error *err)
+{
+    const uint32_t *r = rig->resolution;
+    double controls = (double)r[0] * r[1] * r[2];
+    double terms = rig->basis == FFD_BASIS_BERNSTEIN ? controls : 64.0;
+    double bytes = 200.0 * (double)n + 24.0 * controls;
+    double work = 30.0 * terms * (double)n * (1 + (rig->constraint_count > 0)) + 10 * controls;
+    char ns[32], cs[32];
+    return ffd_budget_charge(budget, bytes, work, err,
+                             "resolution: %s vertices under %s control points (%s basis terms "
+                             "each)",
+                             ffd_format_count((double)n, ns, sizeof ns),
+                             ffd_format_count(controls, cs, sizeof cs),
+                             rig->basis == FFD_BASIS_BERNSTEIN ? "l m n" : "64");
+}
+
 ffd_status ffd_rig_apply(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report *report,
                          ffd_error *err)
+{
+    return ffd_rig_apply_limited(rig, mesh, NULL, report, err);
+}
+
+ffd_status ffd_rig_apply_limited(const ffd_rig *rig, ffd_mesh *mesh, const ffd_limits *limits,
+                                 ffd_rig_report *report, ffd_error *err)
 {
     if (report)
         memset(report, 0, sizeof *report);
     if (!rig || !mesh)
         return ffd_fail(err, FFD_ERR_INVALID, "ffd_rig_apply: rig and mesh must not be NULL");
+    ffd_budget budget;
+    ffd_budget_init(&budget, limits);
     if (rig->deformer == FFD_RIG_GFFD)
-        return ffd_rig_apply_gffd(rig, mesh, report, err);
+        return ffd_rig_apply_gffd(rig, mesh, report, &budget, err);
     if (rig->deformer == FFD_RIG_PBFFD)
-        return ffd_rig_apply_pbffd(rig, mesh, report, err);
+        return ffd_rig_apply_pbffd(rig, mesh, report, &budget, err);
     if (rig->deformer == FFD_RIG_TSPLINE)
-        return ffd_rig_apply_tspline(rig, mesh, report, err);
+        return ffd_rig_apply_tspline(rig, mesh, report, &budget, err);
 
     const char *name = rig->name;
     const size_t n = ffd_mesh_vertex_count(mesh);
@@ -133,6 +177,11 @@ ffd_status ffd_rig_apply(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report *rep
     ffd_manip_result result = {0};
     ffd_timings timings = {0};
 
+    ffd_error inner0 = {{0}};
+    if ((s = charge_lattice(rig, n, &budget, &inner0))) {
+        s = ffd_fail(err, s, "%s: %s", name, inner0.message);
+        goto fail;
+    }
     if (k) {
         rest = ffd_malloc_array(k, 3 * sizeof *rest);
         current = ffd_malloc_array(k, 3 * sizeof *current);
@@ -186,6 +235,10 @@ ffd_status ffd_rig_apply(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report *rep
         }
         ffd_linear_map map;
         ffd_lattice_linear_map(lattice, pins, &map);
+        if ((s = ffd_rig_charge_manip(&map, k, &budget, &inner))) {
+            s = ffd_rig_wrap(err, s, name, "constraints", &inner);
+            goto fail;
+        }
         if (map.variable_count != ffd_lattice_control_count(lattice)) {
             s = ffd_fail(err, FFD_ERR_UNSUPPORTED,
                          "%s: constraints: the lattice exposes %zu free variables, expected %zu",

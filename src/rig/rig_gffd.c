@@ -4,6 +4,7 @@
  * Fig. 6). The mesh changes only at the end, all at once. */
 #include "rig/rig.h"
 #include "mesh/mesh.h"
+#include "gffd/gffd.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -207,6 +208,32 @@ static ffd_gffd_primitive *public_skeleton(const ffd_rig_primitive *r, size_t n)
     return p;
 }
 
+/* Limits: the fields of a skeleton (key "skeleton" or "replace"), fitted
+ * once, and refitted once more per edit that touches them. */
+ffd_status ffd_rig_gffd_charge(const ffd_rig *rig, const ffd_rig_primitive *prims, size_t count,
+                               const char *key, ffd_budget *budget, ffd_error *err)
+{
+    const ffd_rig_gffd *rg = &rig->gffd;
+    size_t max_samples = rg->options.max_samples ? rg->options.max_samples : 4000;
+    for (size_t i = 0; i < count; i++) {
+        ffd_gffd_primitive p;
+        ffd_rig_primitive_public(&prims[i], &p);
+        double m = ffd_gffd_estimate_samples(&p, max_samples), bytes, work;
+        ffd_gffd_estimate_fit(m, p.face_count, &bytes, &work);
+        size_t refits = 1;
+        for (size_t e = 0; e < rg->edit_count && prims == rg->skeleton; e++)
+            refits += rg->edits[e].all || rg->edits[e].primitive == i;
+        char ms[32];
+        ffd_status st = ffd_budget_charge(
+            budget, bytes, work * (double)refits, err,
+            "%s: %s[%zu]: a field of about %s samples (max_samples %zu) fitted %zu time%s",
+            rig->name, key, i, ffd_format_count(m, ms, sizeof ms), max_samples, refits,
+            refits == 1 ? "" : "s");
+        if (st)
+            return st;
+    }
+    return FFD_OK;
+}
 
 /* One edit on the current skeleton: a rotation or a translation through
  * ffd_gffd_transform, the other edits as the new vertices of each primitive
@@ -321,7 +348,7 @@ ffd_status ffd_rig_gffd_apply_edit(const ffd_rig *rig, ffd_gffd *g, size_t i, ff
 }
 
 ffd_status ffd_rig_apply_gffd(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report *report,
-                              ffd_error *err)
+                              ffd_budget *budget, ffd_error *err)
 {
     const ffd_rig_gffd *rg = &rig->gffd;
     ffd_error inner = {{0}};
@@ -335,6 +362,11 @@ ffd_status ffd_rig_apply_gffd(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report
     size_t nv = ffd_mesh_vertex_count(mesh);
     double t0 = ffd_now();
 
+    if ((st = ffd_rig_gffd_charge(rig, rg->skeleton, rg->skeleton_count, "skeleton", budget,
+                                  err)) ||
+        (rg->replace &&
+         (st = ffd_rig_gffd_charge(rig, rg->replace, rg->replace_count, "replace", budget, err))))
+        goto done;
     if (!(prims = public_skeleton(rg->skeleton, rg->skeleton_count))) {
         st = ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory", rig->name);
         goto done;
@@ -371,6 +403,17 @@ ffd_status ffd_rig_apply_gffd(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report
     }
     double t2 = ffd_now();
     if (rg->resample) {
+        /* Limits: the refined mesh may grow to max_vertices (default 16 x
+         * the input's); each vertex of it carries positions, attributes,
+         * faces and a tracking record (~300 bytes) */
+        double cap = rg->resample_options.max_vertices ? (double)rg->resample_options.max_vertices
+                                                       : 16.0 * (double)nv;
+        char cs[32];
+        st = ffd_budget_charge(budget, 300.0 * cap, 1000.0 * cap, err,
+                               "%s: resample: a mesh of up to %s vertices (max_vertices)",
+                               rig->name, ffd_format_count(cap, cs, sizeof cs));
+        if (st != FFD_OK)
+            goto done;
         st = ffd_gffd_resample(g, mesh, &rg->resample_options, &resampled, &rr, &inner);
         if (st != FFD_OK) {
             st = ffd_rig_wrap(err, st, rig->name, "resample", &inner);

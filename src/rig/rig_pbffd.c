@@ -226,7 +226,7 @@ static ffd_status apply_curves(const ffd_rig *rig, double *positions, size_t n, 
 }
 
 ffd_status ffd_rig_apply_pbffd(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report *report,
-                               ffd_error *err)
+                               ffd_budget *budget, ffd_error *err)
 {
     const char *name = rig->name;
     const size_t n = ffd_mesh_vertex_count(mesh);
@@ -286,6 +286,20 @@ ffd_status ffd_rig_apply_pbffd(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_repor
             goto fail;
         }
         controls = placed;
+    }
+    {
+        /* Limits: binding tests every point against every control's region
+         * (ROI) and keeps a sparse row of the ones it meets (at most all). */
+        char ns[32], cs[32];
+        double pairs = (double)total * (double)(control_count + 1);
+        if ((s = ffd_budget_charge(budget, 24.0 * (double)total * 8.0 + 16.0 * pairs / 8.0,
+                                   60.0 * pairs, &inner,
+                                   "%s vertices under %s control points",
+                                   ffd_format_count((double)total, ns, sizeof ns),
+                                   ffd_format_count((double)control_count, cs, sizeof cs)))) {
+            s = ffd_rig_wrap(err, s, name, "controls", &inner);
+            goto fail;
+        }
     }
     if ((s = ffd_pbffd_create(controls, control_count, bound, total, &rig->pb.options, &pb,
                               &inner))) {

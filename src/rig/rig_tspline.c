@@ -220,12 +220,26 @@ ffd_status ffd_rig_tsv_resolve(ffd_tsv *t, const ffd_rig_tsv_step *st, ffd_tsv_i
     return FFD_OK;
 }
 
+ffd_status ffd_rig_tsv_charge_refine(const ffd_tsv *t, const ffd_tsv_insertion *ins, size_t count,
+                                     ffd_budget *budget, ffd_error *err)
+{
+    tsv_estimate e;
+    tsv_estimate_refine(t->L, ins, count, &e);
+    char have[32], cells[32];
+    return ffd_budget_charge(budget, e.bytes, e.work, err,
+                             "refining %s cells would make %s cells",
+                             ffd_format_count((double)t->L->nc, have, sizeof have),
+                             ffd_format_count(e.cells, cells, sizeof cells));
+}
+
 static ffd_status step_refine(ffd_tsv *t, const ffd_rig_tsv_step *st, ffd_rig_report *report,
-                              ffd_error *err)
+                              ffd_budget *budget, ffd_error *err)
 {
     ffd_tsv_insertion *ins = NULL;
     size_t count = 0;
     ffd_status s = ffd_rig_tsv_resolve(t, st, &ins, &count, err);
+    if (!s)
+        s = ffd_rig_tsv_charge_refine(t, ins, count, budget, err);
     if (!s) {
         ffd_tsv_refine_report rr;
         s = ffd_tsv_refine(t, ins, count, &rr, err);
@@ -239,8 +253,20 @@ static ffd_status step_refine(ffd_tsv *t, const ffd_rig_tsv_step *st, ffd_rig_re
     return s;
 }
 
+ffd_status ffd_rig_tsv_charge_arap(const ffd_tsv *t, uint32_t iterations, ffd_budget *budget,
+                                   ffd_error *err)
+{
+    tsv_estimate e;
+    size_t nv = ffd_tsv_control_count(t);
+    tsv_estimate_arap(nv, iterations, &e);
+    char count[32];
+    return ffd_budget_charge(budget, e.bytes, e.work, err,
+                             "the ARAP system of %s control points",
+                             ffd_format_count((double)nv, count, sizeof count));
+}
+
 static ffd_status step_deform(ffd_tsv *t, const ffd_rig_tsv_step *st, id_set *set,
-                              ffd_rig_report *report, ffd_error *err)
+                              ffd_rig_report *report, ffd_budget *budget, ffd_error *err)
 {
     ffd_status s = apply_freeze(t, st, set, err);
     if (s)
@@ -290,6 +316,8 @@ static ffd_status step_deform(ffd_tsv *t, const ffd_rig_tsv_step *st, id_set *se
     ffd_tsv_arap *arap = NULL;
     ffd_tsv_arap_report ar = {0};
     if (!s)
+        s = ffd_rig_tsv_charge_arap(t, st->arap.iterations, budget, err);
+    if (!s)
         s = ffd_tsv_arap_begin(t, set->ids, set->count, &st->arap, &arap, err);
     if (!s)
         s = ffd_tsv_arap_solve(arap, targets, &ar, err);
@@ -335,7 +363,8 @@ static ffd_status step_move(ffd_tsv *t, const ffd_rig_tsv_step *st, id_set *set,
 
 /* Direct manipulation of object vertices through the core solver (Hsu et al. 1992). */
 static ffd_status step_constrain(ffd_tsv *t, const ffd_rig_tsv_step *st, id_set *set,
-                                 const ffd_rig *rig, ffd_rig_report *report, ffd_error *err)
+                                 const ffd_rig *rig, ffd_rig_report *report, ffd_budget *budget,
+                                 ffd_error *err)
 {
     ffd_status s = apply_freeze(t, st, set, err);
     if (s)
@@ -347,6 +376,8 @@ static ffd_status step_constrain(ffd_tsv *t, const ffd_rig_tsv_step *st, id_set 
                             c, st->constraints[c].vertex, n);
     ffd_linear_map map;
     if ((s = ffd_tsv_linear_map(t, &map, err)))
+        return s;
+    if ((s = ffd_rig_charge_manip(&map, k, budget, err)))
         return s;
     double *x = ffd_malloc_array(n, 3 * sizeof(double));
     size_t *rows = ffd_malloc_array(k ? k : 1, sizeof(size_t));
@@ -443,7 +474,7 @@ static ffd_status report_lattice(const ffd_tsv *t, ffd_rig_report *report, ffd_e
 }
 
 ffd_status ffd_rig_apply_tspline(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report *report,
-                                 ffd_error *err)
+                                 ffd_budget *budget, ffd_error *err)
 {
     const ffd_rig_tspline *rt = &rig->tsv;
     const char *name = rig->name;
@@ -470,13 +501,13 @@ ffd_status ffd_rig_apply_tspline(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_rep
         if (!set.in) {
             s = ffd_fail(&inner, FFD_ERR_NOMEM, "out of memory");
         } else if (st->kind == FFD_RIG_STEP_REFINE) {
-            s = step_refine(t, st, rep, &inner);
+            s = step_refine(t, st, rep, budget, &inner);
         } else if (st->kind == FFD_RIG_STEP_DEFORM) {
-            s = step_deform(t, st, &set, rep, &inner);
+            s = step_deform(t, st, &set, rep, budget, &inner);
         } else if (st->kind == FFD_RIG_STEP_MOVE) {
             s = step_move(t, st, &set, &inner);
         } else {
-            s = step_constrain(t, st, &set, rig, rep, &inner);
+            s = step_constrain(t, st, &set, rig, rep, budget, &inner);
         }
         if (s) {
             static const char *const kinds[] = {"refine", "deform", "move", "constraints"};
@@ -494,6 +525,18 @@ ffd_status ffd_rig_apply_tspline(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_rep
     }
     if (!s && (s = ffd_tsv_eval(t, x, &inner)) == FFD_OK)
         s = ffd_tsv_jacobian(t, jac, &inner);
+    if (!s) {
+        tsv_estimate e;
+        tsv_estimate_folds(t->L, rt->fold_samples, &e);
+        uint32_t fs = rt->fold_samples ? rt->fold_samples : 3;
+        char cells[32];
+        if ((s = ffd_budget_charge(budget, e.bytes, e.work, &inner,
+                                   "%u: the fold check of %s cells at %u^3 samples each", fs,
+                                   ffd_format_count((double)ffd_tsv_element_count(t, FFD_TSV_CELL),
+                                                    cells, sizeof cells),
+                                   fs)))
+            s = ffd_rig_wrap(err, s, name, "fold_samples", &inner);
+    }
     if (!s && (s = ffd_tsv_check_folds(t, rt->fold_samples, &rep->folds, &inner)))
         s = ffd_rig_wrap(err, s, name, "fold check", &inner);
     double t3 = ffd_now();

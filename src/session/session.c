@@ -1206,7 +1206,7 @@ ffd_status ffd_session_deformed(const ffd_session *s, ffd_mesh **out, ffd_error 
     ffd_rig *rig = NULL;
     if (!(st = method_rig_text(s->method, &text, err)) &&
         !(st = ffd_rig_parse_json(text, strlen(text), "session", &rig, err)))
-        st = ffd_rig_apply(rig, copy, NULL, err);
+        st = ffd_rig_apply_limited(rig, copy, &s->ctx.limits, NULL, err);
     ffd_rig_destroy(rig);
     ffd_free(text);
     if (st)
@@ -1284,6 +1284,7 @@ ffd_status ffd_session_create(ffd_mesh *mesh, const char *name, const ffd_sessio
         d2 += (s->ctx.max[a] - s->ctx.min[a]) * (s->ctx.max[a] - s->ctx.min[a]);
     s->ctx.diag = d2 > 0 ? sqrt(d2) : 1;
     s->ctx.max_controls = s->options.max_controls;
+    s->ctx.limits = s->options.limits;
     memcpy(s->positions, s->ctx.rest, n * 3 * sizeof *s->positions);
     *out = s;
     return FFD_OK;

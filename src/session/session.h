@@ -20,6 +20,7 @@ typedef struct sess_ctx {
     double min[3], max[3];   /* bounding box of the rest mesh */
     double diag;             /* its diagonal (> 0; 1 for a degenerate mesh) */
     size_t max_controls;     /* deformers with more control points are refused before building */
+    ffd_limits limits;       /* bounds on the work of one operation (ffd_session_options) */
 } sess_ctx;
 
 /* Coordinates a request may ask for (targets, centres, moved controls):

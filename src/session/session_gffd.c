@@ -89,8 +89,22 @@ static ffd_status gffd_bind(const sess_ctx *ctx, const ffd_rig_primitive *rest, 
     for (size_t i = 0; i < count; i++)
         ffd_rig_primitive_public(&rest[i], &p[i]);
     ffd_error inner = {{0}};
+    ffd_status s = FFD_OK;
+    /* limits (ffd_limits): each field's dense matrix and factorisation */
+    ffd_budget budget;
+    ffd_budget_init(&budget, &ctx->limits);
+    size_t max_samples = opt && opt->max_samples ? opt->max_samples : 4000;
+    for (size_t i = 0; i < count && !s; i++) {
+        double m = ffd_gffd_estimate_samples(&p[i], max_samples), bytes, work;
+        char ms[32];
+        ffd_gffd_estimate_fit(m, p[i].face_count, &bytes, &work);
+        s = ffd_budget_charge(&budget, bytes, work, &inner,
+                              "skeleton[%zu]: a field of about %s samples (max_samples %zu)", i,
+                              ffd_format_count(m, ms, sizeof ms), max_samples);
+    }
     /* the fields (§2) and e_0 = E(P) of every vertex at rest (§3) */
-    ffd_status s = ffd_gffd_create(p, count, ctx->rest, ctx->n, opt, g, &inner);
+    if (!s)
+        s = ffd_gffd_create(p, count, ctx->rest, ctx->n, opt, g, &inner);
     ffd_free(p);
     return s ? ffd_fail(err, s, "%s: %s", what, inner.message) : FFD_OK;
 }

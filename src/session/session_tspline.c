@@ -154,7 +154,11 @@ static ffd_status tsv_begin(sess_method *m, const uint32_t *ids, size_t k, int a
     tsv_controls(m, t->begin);
     if (k && arap) {
         ffd_error inner = {{0}};
-        ffd_status st = ffd_tsv_arap_begin(t->t, ids, k, NULL, &t->arap, &inner);
+        ffd_budget budget;
+        ffd_budget_init(&budget, &m->ctx->limits);
+        ffd_status st = ffd_rig_tsv_charge_arap(t->t, 0, &budget, &inner);
+        if (!st)
+            st = ffd_tsv_arap_begin(t->t, ids, k, NULL, &t->arap, &inner);
         if (st) {
             ffd_free(t->begin);
             t->begin = NULL;
@@ -334,6 +338,11 @@ static ffd_status refine_apply(tspline_method *t, const ffd_rig_tsv_step *step, 
     refine_edit *grown = NULL;
     if (!st && count == 0)
         st = ffd_fail(&inner, FFD_ERR_INVALID, "nothing to refine (no cell inside the proxy)");
+    if (!st) {
+        ffd_budget budget;
+        ffd_budget_init(&budget, &t->base.ctx->limits);
+        st = ffd_rig_tsv_charge_refine(t->t, ins, count, &budget, &inner);
+    }
     if (!st && !(grown = ffd_realloc_array(t->edits, t->edit_count + 1, sizeof *grown)))
         st = ffd_fail(&inner, FFD_ERR_NOMEM, "out of memory");
     if (!st) {

@@ -174,7 +174,7 @@ ffd_status sess_apply_rig(const sess_ctx *ctx, const ffd_rig *rig, ffd_rig_repor
     ffd_mesh *copy = NULL;
     ffd_status st = sess_clone_mesh(ctx->mesh, &copy, err);
     if (!st)
-        st = ffd_rig_apply(rig, copy, report, err);
+        st = ffd_rig_apply_limited(rig, copy, &ctx->limits, report, err);
     ffd_mesh_destroy(copy);
     return st;
 }

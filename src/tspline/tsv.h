@@ -165,6 +165,26 @@ ffd_status tsv_refine(tsv_lattice *L, const ffd_tsv_insertion *ins, size_t count
 ffd_status tsv_refine_undoable(tsv_lattice *L, const ffd_tsv_insertion *ins, size_t count,
                                tsv_refine_stats *stats, tsv_lattice **undo, ffd_error *err);
 
+/* What a step will cost, estimated before it runs (ffd_limits; docs/rig.md
+ * "Limits"): the cells it leaves, its peak bytes, its operations. The
+ * constants are calibrated on the examples (bunny, 1 -> 4 proxy refinements;
+ * see tsv_estimate.c) and are meant to be within a factor of two. */
+typedef struct tsv_estimate {
+    double cells;   /* cells afterwards (refinement) */
+    double bytes;   /* peak bytes of the step's largest allocations */
+    double work;    /* operations (about one per nanosecond of one core) */
+} tsv_estimate;
+/* A refinement: the cells its requested topology makes (a cell split makes
+ * 2^a cells for its a axes of nonzero knot interval; face and edge
+ * insertions make none), which the closure rarely grows. */
+void tsv_estimate_refine(const tsv_lattice *L, const ffd_tsv_insertion *ins, size_t count,
+                         tsv_estimate *out);
+/* An ARAP drag begun on a lattice of nv control points (factor: nested
+ * dissection of a 3D graph, fill ~ nv^(4/3), flops ~ nv^1.7 as measured). */
+void tsv_estimate_arap(size_t nv, uint32_t iterations, tsv_estimate *out);
+/* The fold check: samples^3 Jacobians in each cell of nonzero volume. */
+void tsv_estimate_folds(const tsv_lattice *L, uint32_t samples, tsv_estimate *out);
+
 /* ---------------------------------------------------------------------
  * tsv_eval.c
  * --------------------------------------------------------------------- */

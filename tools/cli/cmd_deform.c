@@ -1,6 +1,7 @@
 /* ffd deform — apply a rig (JSON or PyGeM .prm) to a mesh and write the result. */
 #include "cli.h"
 
+#include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
 
@@ -23,6 +24,10 @@ static const char usage[] =
     "                    skeleton's vertices; T-spline: the T-lattice's points and edges)\n"
     "  --proxy-out F     T-spline rigs: also write the deformed proxy to F (OBJ)\n"
     "  --timings         print the seconds per phase as JSON on stderr\n"
+    "  --max-memory SIZE raise the limits (docs/rig.md \"Limits\"): refuse a step estimated\n"
+    "                    to need more than SIZE bytes (K, M, G, T suffixes: 8G; default 2G),\n"
+    "                    and allow work in proportion (SIZE/2G times the default)\n"
+    "  --no-limits       no limits on memory or work (batch runs you watch)\n"
     "  --ascii           text encoding (PLY, STL)\n"
     "  --binary          binary little-endian (PLY, STL)\n"
     "  --binary-be       binary big-endian (PLY)\n"
@@ -88,6 +93,28 @@ static void print_report(const ffd_rig_report *report)
     printf("}\n");
 }
 
+/* "8G", "512M", "3000000000": bytes; 0 on a malformed or zero size. */
+static size_t parse_size(const char *text)
+{
+    char *end = NULL;
+    double v = strtod(text, &end);
+    if (end == text || !(v > 0))
+        return 0;
+    double unit = 1;
+    switch (*end) {
+    case 'k': case 'K': unit = 1024.0; end++; break;
+    case 'm': case 'M': unit = 1048576.0; end++; break;
+    case 'g': case 'G': unit = 1073741824.0; end++; break;
+    case 't': case 'T': unit = 1099511627776.0; end++; break;
+    default: break;
+    }
+    if (unit > 1 && (strcmp(end, "iB") == 0 || strcmp(end, "B") == 0))
+        end += strlen(end);
+    if (*end || !(v * unit < 1e18))
+        return 0;
+    return (size_t)(v * unit);
+}
+
 static void print_timings(double read, const ffd_timings *t, double write)
 {
     fprintf(stderr, "{\"read\": %.6f, \"bind\": %.6f, \"solve\": %.6f, \"evaluate\": %.6f,"
@@ -100,6 +127,8 @@ int cmd_deform(int argc, char **argv)
     const char *in = NULL, *out = NULL, *rig_path = NULL, *lattice_out = NULL, *proxy_out = NULL;
     ffd_write_options options = {FFD_FORMAT_AUTO, FFD_ENCODING_SAME};
     int in_place = 0, want_report = 0, want_timings = 0;
+    const char *max_memory = NULL;
+    ffd_limits limits = {0};
     for (int i = 1; i < argc; i++) {
         const char *arg = argv[i];
         int e;
@@ -119,6 +148,20 @@ int cmd_deform(int argc, char **argv)
         } else if ((e = cli_option_value(argc, argv, &i, "--proxy-out", NULL, &proxy_out)) != 0) {
             if (e < 0)
                 return cli_option_error("deform", arg, e);
+        } else if ((e = cli_option_value(argc, argv, &i, "--max-memory", NULL, &max_memory)) !=
+                   0) {
+            if (e < 0)
+                return cli_option_error("deform", arg, e);
+            if (!(limits.max_memory = parse_size(max_memory)))
+                return cli_usage_error("deform",
+                                       "--max-memory '%s': expected a size such as 8G, 512M or "
+                                       "a number of bytes",
+                                       max_memory);
+            /* more memory granted: proportionally more work (docs/rig.md "Limits") */
+            double scale = (double)limits.max_memory / 2147483648.0;
+            limits.max_work = 3e10 * (scale > 1 ? scale : 1);
+        } else if (strcmp(arg, "--no-limits") == 0) {
+            limits.unlimited = 1;
         } else if ((e = cli_encoding_option(arg, &options.encoding)) != 0) {
             if (e < 0)
                 return cli_usage_error("deform", "'%s' conflicts with an earlier encoding option",
@@ -175,7 +218,7 @@ int cmd_deform(int argc, char **argv)
         goto done;
     }
     double t1 = cli_now();
-    if (ffd_rig_apply(rig, mesh, &report, &err) != FFD_OK) {
+    if (ffd_rig_apply_limited(rig, mesh, &limits, &report, &err) != FFD_OK) {
         cli_error(code, "%s: %s", in, err.message); /* the mesh, then the rig's message */
         goto done;
     }
