@@ -63,7 +63,8 @@ int cmd_serve(int argc, char **argv)
                    (e = cli_option_value(argc, argv, &i, "--host", NULL, &host)) != 0 ||
                    (e = cli_option_value(argc, argv, &i, "--root", NULL, &root)) != 0 ||
                    (e = cli_option_value(argc, argv, &i, "--web", NULL, &web)) != 0 ||
-                   (e = cli_option_value(argc, argv, &i, "--max-upload", NULL, &upload_text)) != 0 ||
+                   (e = cli_option_value(argc, argv, &i, "--max-upload", NULL, &upload_text)) !=
+                       0 ||
                    (e = cli_option_value(argc, argv, &i, "--client-connections", NULL,
                                          &clients_text)) != 0 ||
                    (e = cli_option_value(argc, argv, &i, "--idle-timeout", NULL, &timeout_text)) !=

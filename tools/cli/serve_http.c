@@ -44,7 +44,8 @@
 
 struct serve_server {
     struct MHD_Daemon *daemon;
-    pthread_mutex_t lock; /* every API request but GET /api/state runs under it: the session is not thread-safe */
+    /* every API request but GET /api/state runs under it: the session is not thread-safe */
+    pthread_mutex_t lock;
     ffd_session *session;
     /* The state as of the last change, for GET /api/state without the lock:
      * published (under the lock) by every request that changes the session;

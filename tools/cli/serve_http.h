@@ -18,7 +18,7 @@ typedef struct serve_options {
     size_t max_upload;     /* bytes; largest uploaded mesh or rig */
     int verbose;           /* one line per request on stderr */
     unsigned client_connections; /* connections from one client address at a time; 0: 32 */
-    unsigned idle_timeout;       /* seconds a connection may stay silent before it is closed; 0: 30 */
+    unsigned idle_timeout;       /* seconds a silent connection is kept; 0: 30 */
 } serve_options;
 
 #define SERVE_CLIENT_CONNECTIONS 32 /* a browser opens about 6 per server */
