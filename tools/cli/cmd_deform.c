@@ -223,22 +223,38 @@ int cmd_deform(int argc, char **argv)
         goto done;
     }
     double t2 = cli_now();
-    /* the side outputs first and the mesh last: a failure leaves no output behind */
+    /* Every output is made before any is written: a deformation or encoding
+     * error leaves every file as it was. Then the side outputs, the mesh last;
+     * on a write failure the outputs this run created are removed, and files
+     * that existed before keep their old bytes or get the complete new ones
+     * (each write is atomic). */
+    int lattice_existed = lattice_out && access(lattice_out, F_OK) == 0;
+    int proxy_existed = proxy_out && access(proxy_out, F_OK) == 0;
+    ffd_write_options check = options;
+    if (check.format == FFD_FORMAT_AUTO)
+        check.format = ffd_format_from_path(out);
+    unsigned char *bytes = NULL;
+    size_t nbytes = 0;
+    if (ffd_mesh_write_memory(mesh, &check, &bytes, &nbytes, &err) != FFD_OK) {
+        cli_error(code, "%s: %s", out, err.message);
+        goto done;
+    }
+    ffd_free(bytes);
     if (lattice_out && ffd_rig_report_write_lattice(&report, lattice_out, &err) != FFD_OK) {
         cli_error(code, "%s", err.message);
         goto done;
     }
     if (proxy_out && ffd_rig_report_write_proxy(&report, proxy_out, &err) != FFD_OK) {
         cli_error(code, "%s", err.message);
-        if (lattice_out)
+        if (lattice_out && !lattice_existed)
             unlink(lattice_out);
         goto done;
     }
     if (ffd_mesh_write(mesh, out, &options, &err) != FFD_OK) {
         cli_error(code, "%s", err.message);
-        if (lattice_out)
+        if (lattice_out && !lattice_existed)
             unlink(lattice_out);
-        if (proxy_out)
+        if (proxy_out && !proxy_existed)
             unlink(proxy_out);
         goto done;
     }
