@@ -290,8 +290,11 @@ state_same "NUL in JSON and URLs"
 head -c $((1024 * 1024 + 1)) /dev/zero | tr '\0' ' ' >"$T/big.json"
 expect 413 too_large POST /api/create --data-binary @"$T/big.json"
 expect 413 too_large POST /api/create -H 'Transfer-Encoding: chunked' --data-binary @"$T/big.json"
-expect 413 too_large POST /api/open -H 'Expect:' --data-binary @"$T/big.json"
-expect 413 too_large POST /api/rig/upload?name=r.json --data-binary @"$T/big.json" -H 'Expect:' \
+# a declared length past the limit is answered at once, from the headers:
+# these send one byte, so that curl is not still sending when the server
+# closes (with a real 1 MiB body the reset could beat the 413 to curl: 000)
+expect 413 too_large POST /api/open -H 'Expect:' --data-binary 'x' -H 'Content-Length: 1048577'
+expect 413 too_large POST /api/rig/upload?name=r.json --data-binary 'x' -H 'Expect:' \
     -H 'Content-Length: 999999999999'
 expect 415 unsupported_format POST '/api/upload?name=model.xyz' --data-binary @"$ROOT/bunny.obj"
 expect 415 unsupported_format POST '/api/rig/upload?name=rig.txt' --data-binary @"$ROOT/bend.json"
