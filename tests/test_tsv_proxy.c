@@ -1413,6 +1413,14 @@ static void test_manifold_arap(void)
     CHECK(tsv_arap_create(&g, roles, &w, &a, &err) == FFD_ERR_INVALID && a == NULL);
     CHECK(strstr(err.message, "proxy corner 0") != NULL);
     bad[0] = keep;
+    /* a point whose control id is out of range, even one no corner uses */
+    uint32_t *ctl = (uint32_t *)g.proxy_point_controls;
+    size_t last = g.proxy_point_count - 1;
+    keep = ctl[last];
+    ctl[last] = (uint32_t)L->nv;
+    CHECK(tsv_arap_create(&g, roles, &w, &a, &err) == FFD_ERR_RANGE && a == NULL);
+    CHECK(strstr(err.message, "proxy point") != NULL);
+    ctl[last] = keep;
     free(roles);
     tsv_arap_graph_free(&g);
     tsv_proxy_free(&P);

@@ -1032,6 +1032,10 @@ static ffd_status check_graph(const tsv_arap_graph *g, const uint8_t *roles,
         if (g->proxy_points) {
             if (!g->proxy_point_controls)
                 return ffd_fail(err, FFD_ERR_INVALID, "tsv_arap: NULL proxy point controls");
+            for (size_t p = 0; p < g->proxy_point_count; p++)
+                if (g->proxy_point_controls[p] >= g->n)
+                    return ffd_fail(err, FFD_ERR_RANGE, "tsv_arap: proxy point %zu: vertex %u out "
+                                    "of range (%zu)", p, (unsigned)g->proxy_point_controls[p], g->n);
             for (size_t k = 0; k < corners; k++)
                 if (g->proxy_points[k] >= g->proxy_point_count ||
                     g->proxy_point_controls[g->proxy_points[k]] != g->proxy_indices[k])
