@@ -465,6 +465,12 @@ static ffd_status dm_setup(ffd_session *s, uint32_t vertex, const char *op, ffd_
     if (st)
         return st;
     size_t k = s->pin_count + 1;
+    /* limits: each drag step solves the dense pins x variables system */
+    ffd_budget budget;
+    ffd_error inner = {{0}};
+    ffd_budget_init(&budget, &s->ctx.limits);
+    if ((st = ffd_rig_charge_manip(&d->map, k, &budget, &inner)))
+        return ffd_fail(err, st, "%s: %s", op, inner.message);
     d->rows = ffd_malloc_array(k, sizeof *d->rows);
     d->current = ffd_malloc_array(k, 3 * sizeof *d->current);
     d->targets = ffd_malloc_array(k, 3 * sizeof *d->targets);
