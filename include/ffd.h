@@ -740,7 +740,9 @@ typedef struct ffd_gffd_track_report {
  * (then, failing that, along the line through P in direction V, then along
  * the gradient from P), so a rigid motion of the skeleton moves the points
  * rigidly; points the warp moves are moved even where the field did not
- * change. Points outside every influence region at bind time are copied
+ * change. When every primitive moved by one and the same rigid motion
+ * (ffd_gffd_transform) every influenced point moves by it, in both modes.
+ * Points outside every influence region at bind time are copied
  * unchanged (bitwise) in both modes. The influence band (a departure from
  * the paper): each point's displacement is then scaled by its blend weight
  * b = max_i S((r_i - f_i) / (r_i / 3)) over the primitives whose rest
