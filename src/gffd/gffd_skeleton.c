@@ -300,6 +300,20 @@ static void minimal_rotation(const double a[3], const double b[3], double rot[3]
         }
 }
 
+/* 1 when rot from + shift == to within the rigid-motion tolerance. */
+static int reproduces(double rot[3][3], const double shift[3], const double *from,
+                      const double *to, size_t n)
+{
+    double size = n > 1 ? diagonal_of(from, n) : 1, worst = 0;
+    for (size_t i = 0; i < n; i++)
+        for (int k = 0; k < 3; k++) {
+            double y = rot[k][0] * from[3 * i] + rot[k][1] * from[3 * i + 1] +
+                       rot[k][2] * from[3 * i + 2] + shift[k];
+            worst = fmax(worst, fabs(y - to[3 * i + k]));
+        }
+    return worst <= GFFD_TOL_RIGID * fmax(size, 1e-300) * 16;
+}
+
 /* 1 when to = rot * from + shift for a rotation rot (Kabsch: the SVD of the
  * cross-covariance), within GFFD_TOL_RIGID of the geometry's size. */
 int ffd_gffd_rigid_motion(const double *from, const double *to, size_t n, double rot[3][3],
@@ -348,15 +362,7 @@ int ffd_gffd_rigid_motion(const double *from, const double *to, size_t n, double
 shifted:
     for (int k = 0; k < 3; k++)
         shift[k] = ct[k] - (rot[k][0] * cf[0] + rot[k][1] * cf[1] + rot[k][2] * cf[2]);
-    double size = n > 1 ? diagonal_of(from, n) : 1;
-    double worst = 0;
-    for (size_t i = 0; i < n; i++)
-        for (int k = 0; k < 3; k++) {
-            double y = rot[k][0] * from[3 * i] + rot[k][1] * from[3 * i + 1] +
-                       rot[k][2] * from[3 * i + 2] + shift[k];
-            worst = fmax(worst, fabs(y - to[3 * i + k]));
-        }
-    return worst <= GFFD_TOL_RIGID * fmax(size, 1e-300) * 16;
+    return reproduces(rot, shift, from, to, n);
 }
 
 /* (r2, t2) = (r, t) after (r1, t1): x -> r (r1 x + t1) + t. */
@@ -370,19 +376,6 @@ static void compose(double r[3][3], const double t[3], double r1[3][3], const do
     }
 }
 
-/* 1 when rot from + shift == to within ffd_gffd_rigid_motion's tolerance. */
-static int reproduces(double rot[3][3], const double shift[3], const double *from,
-                      const double *to, size_t n)
-{
-    double size = n > 1 ? diagonal_of(from, n) : 1, worst = 0;
-    for (size_t i = 0; i < n; i++)
-        for (int k = 0; k < 3; k++) {
-            double y = rot[k][0] * from[3 * i] + rot[k][1] * from[3 * i + 1] +
-                       rot[k][2] * from[3 * i + 2] + shift[k];
-            worst = fmax(worst, fabs(y - to[3 * i + k]));
-        }
-    return worst <= GFFD_TOL_RIGID * fmax(size, 1e-300) * 16;
-}
 
 void ffd_gffd_skeleton_transform(ffd_gffd_skeleton *s, size_t index, const double rot[3][3],
                                  const double shift[3])

@@ -83,22 +83,6 @@ const char *ffd_rig_input_path(const ffd_rig *rig, size_t i)
  * Syntax: positions, nesting depth, cJSON
  * ====================================================================== */
 
-/* 1-based line and column (in bytes) of text[offset]. */
-static void line_col(const char *text, size_t offset, size_t *line, size_t *col)
-{
-    size_t l = 1, c = 1;
-    for (size_t i = 0; i < offset; i++) {
-        if (text[i] == '\n') {
-            l++;
-            c = 1;
-        } else {
-            c++;
-        }
-    }
-    *line = l;
-    *col = c;
-}
-
 /* Offset of the first bracket nested deeper than RIG_MAX_DEPTH, or size when none.
  * Checked before cJSON so that its recursion never sees hostile depths. */
 static size_t too_deep_at(const char *text, size_t size)
@@ -130,7 +114,7 @@ static ffd_status syntax_error(const char *name, const char *text, size_t size, 
     size_t line, col;
     if (offset > size)
         offset = size;
-    line_col(text, offset, &line, &col);
+    ffd_text_line_col(text, offset, &line, &col);
     if (offset >= size)
         return ffd_fail(err, FFD_ERR_PARSE, "%s:%zu:%zu: invalid JSON: %s at end of file", name,
                         line, col, what);
