@@ -366,8 +366,8 @@ static void test_rotate_primitive_about_itself(void)
             CHECK(moved > 100);
             check_rig_matches(m, COW);
             char *text = method_rig_text(m);
-            cJSON *doc = text ? cJSON_Parse(text) : NULL;
-            cJSON *edit = cJSON_GetArrayItem(cJSON_GetObjectItem(doc, "edits"), 0);
+            cJSON *doc = text ? cJSON_Parse(text) : NULL, *edit;
+            edit = cJSON_GetArrayItem(cJSON_GetObjectItem(doc, "edits"), 0);
             CHECK(cJSON_GetArraySize(cJSON_GetObjectItem(doc, "edits")) == 1 &&
                   cJSON_GetObjectItem(edit, "rotate") && cJSON_GetObjectItem(edit, "center"));
             cJSON_Delete(doc);
@@ -423,6 +423,18 @@ static void test_rotate_primitive_about_itself(void)
                 }
             }
             free(y);
+            check_rig_matches(m, COW);
+            /* a skeleton edit (a new radius) keeps the primitive's motions */
+            CHECK_OK(run_op(m, "primitive", kind ? "{\"index\": 0, \"radius\": 0.27}"
+                                                 : "{\"index\": 0, \"radius\": 0.32}",
+                            NULL, NULL));
+            text = method_rig_text(m);
+            doc = text ? cJSON_Parse(text) : NULL;
+            edit = cJSON_GetArrayItem(cJSON_GetObjectItem(doc, "edits"), 0);
+            CHECK(cJSON_GetArraySize(cJSON_GetObjectItem(doc, "edits")) == 2 &&
+                  cJSON_GetObjectItem(edit, "rotate"));
+            cJSON_Delete(doc);
+            cJSON_free(text);
             check_rig_matches(m, COW);
             /* undo: the snapshot at rest, identity again */
             CHECK_OK(m->vt->restore(m, rest, NULL));

@@ -19,9 +19,9 @@
  * Skeleton editing (op "primitive") changes the rest skeleton: the mesh is
  * re-bound at rest to the new rest skeleton (its field values e_0 change
  * where the edited primitive reaches), and every other primitive keeps its
- * current vertices as its edit from its rest. An added primitive starts
+ * edits from its rest. An added primitive starts
  * unedited (its rest is where it is given); a primitive whose radius
- * changes keeps its rest geometry and its edit. The distance unit u is
+ * changes keeps its rest geometry and its edits. The distance unit u is
  * fixed when the method is created (the automatic one resolved then), so
  * that the kept primitives' fields do not change scale. User
  * correspondences of a loaded rig refer to the old skeleton and are dropped. */
