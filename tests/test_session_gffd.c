@@ -689,6 +689,16 @@ static void test_failing_allocations(void)
             s = m->vt->set_controls(m, ids, 2, c + 12, NULL);
         if (m)
             m->vt->end(m, s == FFD_OK);
+        /* the point turned about itself (a rotate edit), then re-bound */
+        const double axis[3] = {0, 0, 1}, zero[3] = {0, 0, 0};
+        if (!s)
+            s = m->vt->begin(m, ids + 1, 1, 0, NULL);
+        if (!s)
+            s = m->vt->set_motion(m, ids + 1, 1, c + 15, axis, 0.5, c + 15, zero, NULL);
+        if (m)
+            m->vt->end(m, s == FFD_OK);
+        if (!s)
+            s = run_op(m, "primitive", "{\"index\": 1, \"radius\": 0.25}", NULL, NULL);
         if (!s)
             s = m->vt->eval(m, x, NULL);
         if (!s)
