@@ -619,10 +619,14 @@ static ffd_status op_drag_begin(ffd_session *s, const parser *p, const cJSON *bo
 
 /* Targets of the dragged controls for a drag step's transform. */
 static ffd_status control_targets(ffd_session *s, const parser *p, const cJSON *body,
-                                  double *targets)
+                                  double *targets, double axis[3], double *angle, double t[3])
 {
     drag_state *d = &s->drag;
-    double M[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}}, t[3] = {0, 0, 0};
+    double M[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+    axis[0] = axis[1] = 0;
+    axis[2] = 1;
+    *angle = 0;
+    t[0] = t[1] = t[2] = 0;
     ffd_status st;
     if (d->mode == MODE_TRANSLATE) {
         static const char *const keys[] = {"delta", NULL};
@@ -635,13 +639,12 @@ static ffd_status control_targets(ffd_session *s, const parser *p, const cJSON *
             return st;
     } else if (d->mode == MODE_ROTATE) {
         static const char *const keys[] = {"axis", "angle", NULL};
-        double axis[3], angle = 0;
         if ((st = rig_check_keys(p, body, "body", keys, "axis, angle")) ||
-            (st = rig_read_rotation(p, body, "body", axis, &angle, NULL, NULL)))
+            (st = rig_read_rotation(p, body, "body", axis, angle, NULL, NULL)))
             return st;
         for (int c = 0; c < 3; c++) {
             double e[3] = {c == 0, c == 1, c == 2}, r[3];
-            ffd_rig_rotate(axis, angle, e, r);
+            ffd_rig_rotate(axis, *angle, e, r);
             for (int a = 0; a < 3; a++)
                 M[a][c] = r[a];
         }
@@ -696,8 +699,12 @@ static ffd_status op_drag(ffd_session *s, const parser *p, const cJSON *body, ff
         double *targets = ffd_malloc_array(d->k, 3 * sizeof *targets);
         if (!targets)
             return ffd_fail(err, FFD_ERR_NOMEM, "drag: out of memory");
-        st = control_targets(s, p, body, targets);
-        if (!st)
+        double axis[3], angle, delta[3];
+        st = control_targets(s, p, body, targets, axis, &angle, delta);
+        if (!st && d->mode != MODE_SCALE && s->method->vt->set_motion)
+            st = s->method->vt->set_motion(s->method, d->ids, d->k, targets, axis, angle,
+                                           d->center, delta, err);
+        else if (!st)
             st = s->method->vt->set_controls(s->method, d->ids, d->k, targets, err);
         ffd_free(targets);
     }

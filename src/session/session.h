@@ -72,6 +72,13 @@ struct sess_vtable {
     ffd_status (*linear_map)(sess_method *m, ffd_linear_map *map, ffd_error *err);
     ffd_status (*set_variables)(sess_method *m, const double *dv, ffd_error *err);
     void (*end)(sess_method *m, int commit);
+    /* Optional (NULL: set_controls): a translate or rotate drag step given
+     * as its rigid motion as well, x -> center + R(axis, angle) (x - center)
+     * + delta (angle 0 for a translation), with the targets set_controls
+     * would get. GFFD carries it to the primitives (a point's turn). */
+    ffd_status (*set_motion)(sess_method *m, const uint32_t *ids, size_t k, const double *targets,
+                             const double axis[3], double angle, const double center[3],
+                             const double delta[3], ffd_error *err);
 
     /* Undo of control edits: an opaque copy of the editable state
      * (control positions, logs, frames); restore brings it back exactly.

@@ -3,20 +3,25 @@
  * of primitives whose vertices are the controls; the mesh tracks the
  * edited skeleton's field (§3, Fig. 5).
  *
- * The state is the rest skeleton and the current position of every skeleton
- * vertex. The deformer always holds its canonical replay, what
- * ffd_rig_apply does with the rig this method writes (docs/rig.md "GFFD
- * rigs"): the rest skeleton bound, then one "vertices" edit per primitive
- * that moved, in primitive order, each from the rest fit
+ * The state is the rest skeleton and its edits since rest, the rig's
+ * "edits" (docs/rig.md "GFFD rigs"): a "vertices" edit for a primitive
+ * whose vertices were dragged (one per primitive, from the rest fit, while
+ * it has no rigid edit), and a "rotate" (about an explicit centre) or
+ * "translate" edit for each rotation of a whole primitive, and each
+ * translation of one that was rotated: these reach the library as the
+ * motion itself (ffd_gffd_transform), so that a point or a straight
+ * polyline turned about itself turns the mesh. The deformer always holds
+ * the edits' replay, which is what ffd_rig_apply does with the rig this
+ * method writes, and the current skeleton vertices are read back from it
  * (ffd_gffd_set_vertices refits or moves a field depending on where it was
  * fitted, so only this replay, not the drag's history, reproduces the rig).
  *
  * Skeleton editing (op "primitive") changes the rest skeleton: the mesh is
  * re-bound at rest to the new rest skeleton (its field values e_0 change
  * where the edited primitive reaches), and every other primitive keeps its
- * current vertices as its edit from its rest. An added primitive starts
+ * edits from its rest. An added primitive starts
  * unedited (its rest is where it is given); a primitive whose radius
- * changes keeps its rest geometry and its edit. The distance unit u is
+ * changes keeps its rest geometry and its edits. The distance unit u is
  * fixed when the method is created (the automatic one resolved then), so
  * that the kept primitives' fields do not change scale. User
  * correspondences of a loaded rig refer to the old skeleton and are dropped. */
@@ -41,12 +46,47 @@ typedef struct gf_method {
     double *corr_from, *corr_to; /* a loaded rig's correspondences (eq. 4) */
     size_t corr_count;
     ffd_gffd *g;
-    int synced;               /* g holds the canonical replay of cur */
-    double *begin;            /* drag: cur at begin */
+    ffd_rig_gffd_edit *edits; /* since rest, in order (all == 0, rotations with a centre) */
+    size_t edit_count;
+    int synced;                   /* g holds the replay of edits, cur its skeleton */
+    struct gf_snapshot *begin;    /* drag: the state at begin */
     ffd_gffd_skeleton *field; /* rest fields for influence (lazy) */
 } gf_method;
 
 static const sess_vtable gffd_vtable;
+
+typedef struct gf_snapshot {
+    size_t n;
+    double *cur;
+    ffd_rig_gffd_edit *edits;
+    size_t edit_count;
+} gf_snapshot;
+static void gf_snapshot_free(void *blob);
+
+static void edits_free(ffd_rig_gffd_edit *e, size_t n)
+{
+    for (size_t i = 0; e && i < n; i++)
+        ffd_free(e[i].vertices);
+    ffd_free(e);
+}
+
+/* A deep copy of n edits with room for cap >= n. */
+static ffd_rig_gffd_edit *edits_copy(const ffd_rig_gffd_edit *src, size_t n, size_t cap)
+{
+    ffd_rig_gffd_edit *e = ffd_calloc(cap ? cap : 1, sizeof *e);
+    for (size_t i = 0; e && i < n; i++) {
+        e[i] = src[i];
+        e[i].vertices = NULL;
+        if (src[i].vertices) {
+            if (!(e[i].vertices = ffd_malloc_array(src[i].vertex_count, 3 * sizeof(double)))) {
+                edits_free(e, i);
+                return NULL;
+            }
+            memcpy(e[i].vertices, src[i].vertices, src[i].vertex_count * 3 * sizeof(double));
+        }
+    }
+    return e;
+}
 static const char *const kind_names[] = {"point", "polyline", "patch", "polyhedron", NULL};
 
 /* ---- skeletons ------------------------------------------------------- */
@@ -109,23 +149,57 @@ static ffd_status gffd_bind(const sess_ctx *ctx, const ffd_rig_primitive *rest, 
     return s ? ffd_fail(err, s, "%s: %s", what, inner.message) : FFD_OK;
 }
 
-/* The canonical replay of cur on g: rest, then one edit per moved primitive. */
+/* The replay of the edits on g, as ffd_rig_apply does it (rigid edits
+ * through ffd_rig_gffd_apply_edit itself); cur becomes g's skeleton. */
 static ffd_status replay_skeleton(gf_method *m, ffd_error *err)
 {
     ffd_error inner = {{0}};
     m->synced = 0;
+    ffd_rig rig;
+    memset(&rig, 0, sizeof rig);
+    rig.name = (char *)"skeleton";
+    rig.deformer = FFD_RIG_GFFD;
+    rig.gffd.edits = m->edits;
+    rig.gffd.edit_count = m->edit_count;
     ffd_status s = ffd_gffd_reset(m->g, &inner);
-    for (size_t i = 0; !s && i < m->count; i++) {
-        const double *v = m->cur + 3 * m->offset[i];
-        if (memcmp(v, m->rest[i].vertices, m->rest[i].vertex_count * 3 * sizeof *v) != 0)
-            s = ffd_gffd_set_vertices(m->g, i, v, &inner);
+    for (size_t i = 0; !s && i < m->edit_count; i++) {
+        const ffd_rig_gffd_edit *e = &m->edits[i];
+        if (e->kind == FFD_RIG_EDIT_VERTICES)
+            s = ffd_gffd_set_vertices(m->g, e->primitive, e->vertices, &inner);
+        else if ((s = ffd_rig_gffd_apply_edit(&rig, m->g, i, &inner)))
+            return ffd_fail(err, s, "%s", inner.message);
     }
     if (!s && m->corr_count)
         s = ffd_gffd_set_correspondences(m->g, m->corr_from, m->corr_to, m->corr_count, &inner);
     if (s)
         return ffd_fail(err, s, "skeleton: %s", inner.message);
+    for (size_t i = 0; i < m->count; i++) {
+        ffd_gffd_primitive p;
+        ffd_gffd_get_primitive(m->g, i, &p, NULL);
+        memcpy(m->cur + 3 * m->offset[i], p.vertices, p.vertex_count * 3 * sizeof *m->cur);
+    }
     m->synced = 1;
     return FFD_OK;
+}
+
+/* The edits become next (taken, freed on error) and the deformer replays
+ * them; on error the state stays as it was. */
+static ffd_status set_edits(gf_method *m, ffd_rig_gffd_edit *next, size_t n, ffd_error *err)
+{
+    ffd_rig_gffd_edit *old = m->edits;
+    size_t old_count = m->edit_count;
+    m->edits = next;
+    m->edit_count = n;
+    ffd_status s = replay_skeleton(m, err);
+    if (s) {
+        m->edits = old;
+        m->edit_count = old_count;
+        edits_free(next, n);
+        replay_skeleton(m, NULL); /* a failure leaves synced = 0: eval retries */
+    } else {
+        edits_free(old, old_count);
+    }
+    return s;
 }
 
 static void gf_destroy(sess_method *base)
@@ -139,7 +213,8 @@ static void gf_destroy(sess_method *base)
     ffd_free(m->corr_from);
     ffd_free(m->corr_to);
     ffd_gffd_destroy(m->g);
-    ffd_free(m->begin);
+    edits_free(m->edits, m->edit_count);
+    gf_snapshot_free(m->begin);
     ffd_gffd_skeleton_destroy(m->field);
     ffd_free(m);
 }
@@ -326,17 +401,73 @@ ffd_status sess_gffd_load(const sess_ctx *ctx, const ffd_rig *rig, sess_method *
     }
     ffd_gffd *g = NULL;
     ffd_status s = gffd_bind(ctx, rest, count, &r->options, rig->name, &g, err);
-    /* the rig's edits in file order give the current skeleton (§5) */
-    for (size_t i = 0; !s && i < r->edit_count; i++)
-        s = ffd_rig_gffd_apply_edit(rig, g, i, err);
+    /* the rig's edits in file order give the current skeleton (§5); each
+     * becomes one edit per primitive it touches: a rigid one as itself
+     * (with its centre resolved as ffd_rig_gffd_apply_edit does), any
+     * other as the vertices it gives */
+    size_t cap = 0, n = 0;
+    for (size_t i = 0; i < r->edit_count; i++)
+        cap += r->edits[i].all ? count : 1;
+    ffd_rig_gffd_edit *edits = s ? NULL : ffd_calloc(cap ? cap : 1, sizeof *edits);
+    if (!s && !edits)
+        s = ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory", rig->name);
+    for (size_t i = 0; !s && i < r->edit_count; i++) {
+        const ffd_rig_gffd_edit *e = &r->edits[i];
+        size_t first = e->all ? 0 : e->primitive, last = e->all ? count : first + 1, nv = 0;
+        double center[3] = {0, 0, 0};
+        if (e->has_center) {
+            memcpy(center, e->center, sizeof center);
+        } else {
+            for (size_t j = first; j < last; j++) {
+                ffd_gffd_primitive p;
+                ffd_gffd_get_primitive(g, j, &p, NULL);
+                for (size_t v = 0; v < p.vertex_count; v++)
+                    for (int a = 0; a < 3; a++)
+                        center[a] += p.vertices[3 * v + a];
+                nv += p.vertex_count;
+            }
+            for (int a = 0; a < 3; a++)
+                center[a] /= (double)nv;
+        }
+        if ((s = ffd_rig_gffd_apply_edit(rig, g, i, err)))
+            break;
+        for (size_t j = first; j < last; j++, n++) {
+            ffd_rig_gffd_edit *d = &edits[n];
+            if (e->kind == FFD_RIG_EDIT_ROTATE || e->kind == FFD_RIG_EDIT_TRANSLATE) {
+                *d = *e;
+                d->vertices = NULL;
+                d->vertex_count = 0;
+                d->has_center = e->kind == FFD_RIG_EDIT_ROTATE;
+                memcpy(d->center, center, sizeof center);
+            } else {
+                ffd_gffd_primitive p;
+                ffd_gffd_get_primitive(g, j, &p, NULL);
+                memset(d, 0, sizeof *d);
+                d->kind = FFD_RIG_EDIT_VERTICES;
+                d->vertex_count = p.vertex_count;
+                if (!(d->vertices = ffd_malloc_array(p.vertex_count, 3 * sizeof(double)))) {
+                    s = ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory", rig->name);
+                    break;
+                }
+                memcpy(d->vertices, p.vertices, p.vertex_count * 3 * sizeof(double));
+            }
+            d->all = 0;
+            d->primitive = (uint32_t)j;
+        }
+    }
     if (s) {
+        edits_free(edits, cap);
         ffd_gffd_destroy(g);
         skeleton_free(rest, count);
         return s;
     }
     gf_method *m = NULL;
-    if ((s = gf_new(ctx, rest, count, &r->options, g, &m, err)))
+    if ((s = gf_new(ctx, rest, count, &r->options, g, &m, err))) {
+        edits_free(edits, cap);
         return s;
+    }
+    m->edits = edits;
+    m->edit_count = n;
     if ((s = copy_correspondences(m, r, err)) || (s = replay_skeleton(m, err))) {
         gf_destroy(&m->base);
         return s;
@@ -455,42 +586,92 @@ static ffd_status gf_describe(const sess_method *base, cJSON *params, cJSON *con
 
 /* ---- drags, snapshots, reset ----------------------------------------- */
 
+static ffd_status gf_snapshot_take(const sess_method *base, void **blob, ffd_error *err);
+static ffd_status gf_restore(sess_method *base, const void *blob, ffd_error *err);
+
 static ffd_status gf_begin(sess_method *base, const uint32_t *ids, size_t k, int arap,
                            ffd_error *err)
 {
     gf_method *m = (gf_method *)base;
-    size_t n = m->offset[m->count];
-    ffd_free(m->begin);
-    if (!(m->begin = ffd_malloc_array(n ? n : 1, 3 * sizeof *m->begin)))
-        return ffd_fail(err, FFD_ERR_NOMEM, "drag_begin: out of memory");
-    memcpy(m->begin, m->cur, n * 3 * sizeof *m->cur);
-    return FFD_OK;
+    void *blob = NULL;
+    ffd_status s = gf_snapshot_take(base, &blob, err);
+    gf_snapshot_free(m->begin);
+    m->begin = blob;
+    return s ? ffd_fail(err, s, "drag_begin: out of memory") : FFD_OK;
 }
 
-/* cur becomes next (copied) and the deformer replays it; on error cur and
- * the deformer stay as they were. */
-static ffd_status set_skeleton(gf_method *m, const double *next, ffd_error *err)
+/* The edits of one drag step from the begin state (or the current one):
+ * the controls' new positions are to; a primitive in whole (whole[i], may
+ * be NULL) moves by motion, a rotate edit, or a translate edit when it was
+ * rotated before (else its vertices tell the translation); any other
+ * primitive whose vertices changed gets them as a vertices edit: its only
+ * edit while it has no rigid one (none at rest), else after them. */
+static ffd_status step_edits(gf_method *m, const double *to, const unsigned char *whole,
+                             const ffd_rig_gffd_edit *motion, ffd_error *err)
 {
-    size_t n = m->offset[m->count];
-    double *old = ffd_malloc_array(n ? n : 1, 3 * sizeof *old);
-    if (!old)
-        return ffd_fail(err, FFD_ERR_NOMEM, "skeleton: out of memory");
-    memcpy(old, m->cur, n * 3 * sizeof *old);
-    memmove(m->cur, next, n * 3 * sizeof *old);
-    ffd_status s = replay_skeleton(m, err);
-    if (s) {
-        memcpy(m->cur, old, n * 3 * sizeof *old);
-        replay_skeleton(m, NULL); /* a failure leaves synced = 0: eval retries */
+    const ffd_rig_gffd_edit *base = m->begin ? m->begin->edits : m->edits;
+    const size_t nb = m->begin ? m->begin->edit_count : m->edit_count;
+    const double *from = m->begin ? m->begin->cur : m->cur;
+    ffd_rig_gffd_edit *e = edits_copy(base, nb, nb + m->count);
+    size_t n = nb;
+    if (!e)
+        return ffd_fail(err, FFD_ERR_NOMEM, "drag: out of memory");
+    for (size_t i = 0; i < m->count; i++) {
+        const size_t vc = m->rest[i].vertex_count;
+        const double *v = to + 3 * m->offset[i];
+        size_t last = n; /* its last edit */
+        int rigid = 0;
+        for (size_t j = 0; j < n; j++)
+            if (e[j].primitive == i) {
+                last = j;
+                rigid |= e[j].kind != FFD_RIG_EDIT_VERTICES;
+            }
+        if (whole && whole[i] && (motion->kind == FFD_RIG_EDIT_ROTATE || rigid)) {
+            e[n] = *motion;
+            e[n++].primitive = (uint32_t)i;
+            continue;
+        }
+        if (memcmp(v, from + 3 * m->offset[i], vc * 3 * sizeof *v) == 0)
+            continue;
+        double *copy = ffd_malloc_array(vc, 3 * sizeof *copy);
+        if (!copy) {
+            edits_free(e, n);
+            return ffd_fail(err, FFD_ERR_NOMEM, "drag: out of memory");
+        }
+        memcpy(copy, v, vc * 3 * sizeof *copy);
+        if (rigid && e[last].kind == FFD_RIG_EDIT_VERTICES) {
+            ffd_free(e[last].vertices);
+            e[last].vertices = copy;
+            continue;
+        }
+        if (!rigid) { /* vertices only: one edit from rest, none at rest */
+            size_t k = 0;
+            for (size_t j = 0; j < n; j++)
+                if (e[j].primitive == i)
+                    ffd_free(e[j].vertices);
+                else
+                    e[k++] = e[j];
+            n = k;
+            if (memcmp(v, m->rest[i].vertices, vc * 3 * sizeof *v) == 0) {
+                ffd_free(copy);
+                continue;
+            }
+        }
+        memset(&e[n], 0, sizeof e[n]);
+        e[n].kind = FFD_RIG_EDIT_VERTICES;
+        e[n].primitive = (uint32_t)i;
+        e[n].vertices = copy;
+        e[n++].vertex_count = vc;
     }
-    ffd_free(old);
-    return s;
+    return set_edits(m, e, n, err);
 }
 
-static ffd_status gf_set_controls(sess_method *base, const uint32_t *ids, size_t k,
-                                  const double *targets, ffd_error *err)
+/* to: the current controls with ids at targets (n by 3, allocated). */
+static ffd_status drag_targets(gf_method *m, const uint32_t *ids, size_t k, const double *targets,
+                               double **to, ffd_error *err)
 {
-    gf_method *m = (gf_method *)base;
     const size_t n = m->offset[m->count];
+    *to = NULL;
     for (size_t i = 0; i < k; i++) {
         if (ids[i] >= n)
             return ffd_fail(err, FFD_ERR_RANGE, "drag: control %u out of range (%zu controls)",
@@ -502,38 +683,92 @@ static ffd_status gf_set_controls(sess_method *base, const uint32_t *ids, size_t
     double *next = ffd_malloc_array(n ? n : 1, 3 * sizeof *next);
     if (!next)
         return ffd_fail(err, FFD_ERR_NOMEM, "drag: out of memory");
-    memcpy(next, m->cur, n * 3 * sizeof *next);
+    memcpy(next, m->begin ? m->begin->cur : m->cur, n * 3 * sizeof *next);
     for (size_t i = 0; i < k; i++)
         memcpy(next + 3 * ids[i], targets + 3 * i, 3 * sizeof *next);
+    *to = next;
+    return FFD_OK;
+}
+
+static ffd_status gf_set_controls(sess_method *base, const uint32_t *ids, size_t k,
+                                  const double *targets, ffd_error *err)
+{
+    gf_method *m = (gf_method *)base;
+    double *to = NULL;
     /* the skeleton edit (§5, first way), then tracking at eval */
-    ffd_status s = set_skeleton(m, next, err);
-    ffd_free(next);
+    ffd_status s = drag_targets(m, ids, k, targets, &to, err);
+    if (!s)
+        s = step_edits(m, to, NULL, NULL, err);
+    ffd_free(to);
+    return s;
+}
+
+/* A rotation or translation: primitives dragged in whole move by the
+ * motion itself (ffd_gffd_transform through the rig's rotate and translate
+ * edits), the others by their vertices. */
+static ffd_status gf_set_motion(sess_method *base, const uint32_t *ids, size_t k,
+                                const double *targets, const double axis[3], double angle,
+                                const double center[3], const double delta[3], ffd_error *err)
+{
+    gf_method *m = (gf_method *)base;
+    double *to = NULL;
+    ffd_status s = drag_targets(m, ids, k, targets, &to, err);
+    if (s)
+        return s;
+    const size_t n = m->offset[m->count];
+    unsigned char *chosen = ffd_calloc(n ? n : 1, 1), *whole = ffd_calloc(m->count, 1);
+    if (!chosen || !whole) {
+        ffd_free(to);
+        ffd_free(chosen);
+        ffd_free(whole);
+        return ffd_fail(err, FFD_ERR_NOMEM, "drag: out of memory");
+    }
+    for (size_t i = 0; i < k; i++)
+        chosen[ids[i]] = 1;
+    int moves = angle != 0 || delta[0] != 0 || delta[1] != 0 || delta[2] != 0;
+    for (size_t i = 0; moves && i < m->count; i++) {
+        whole[i] = 1;
+        for (size_t v = m->offset[i]; v < m->offset[i + 1]; v++)
+            whole[i] &= chosen[v];
+    }
+    ffd_rig_gffd_edit motion;
+    memset(&motion, 0, sizeof motion);
+    if (angle != 0) {
+        motion.kind = FFD_RIG_EDIT_ROTATE;
+        memcpy(motion.axis, axis, sizeof motion.axis);
+        motion.angle = angle;
+        motion.has_center = 1;
+        memcpy(motion.center, center, sizeof motion.center);
+    } else {
+        motion.kind = FFD_RIG_EDIT_TRANSLATE;
+        memcpy(motion.delta, delta, sizeof motion.delta);
+    }
+    s = step_edits(m, to, whole, &motion, err);
+    ffd_free(to);
+    ffd_free(chosen);
+    ffd_free(whole);
     return s;
 }
 
 static void gf_end(sess_method *base, int commit)
 {
     gf_method *m = (gf_method *)base;
-    if (!m->begin)
+    gf_snapshot *b = m->begin;
+    if (!b)
         return;
-    if (!commit && memcmp(m->begin, m->cur, m->offset[m->count] * 3 * sizeof *m->cur) != 0) {
-        memcpy(m->cur, m->begin, m->offset[m->count] * 3 * sizeof *m->cur);
-        replay_skeleton(m, NULL);
-    }
-    ffd_free(m->begin);
     m->begin = NULL;
+    if (!commit)
+        gf_restore(base, b, NULL);
+    gf_snapshot_free(b);
 }
-
-typedef struct gf_snapshot {
-    size_t n;
-    double *cur;
-} gf_snapshot;
 
 static void gf_snapshot_free(void *blob)
 {
     gf_snapshot *b = blob;
-    if (b)
+    if (b) {
         ffd_free(b->cur);
+        edits_free(b->edits, b->edit_count);
+    }
     ffd_free(b);
 }
 
@@ -545,8 +780,12 @@ static ffd_status gf_snapshot_take(const sess_method *base, void **blob, ffd_err
     if (b) {
         b->n = m->offset[m->count];
         b->cur = ffd_malloc_array(b->n ? b->n : 1, 3 * sizeof *b->cur);
+        b->edits = edits_copy(m->edits, m->edit_count, m->edit_count);
+        b->edit_count = m->edit_count;
     }
-    if (!b || !b->cur) {
+    if (!b || !b->cur || !b->edits) {
+        if (b && !b->edits)
+            b->edit_count = 0;
         gf_snapshot_free(b);
         return ffd_fail(err, FFD_ERR_NOMEM, "snapshot: out of memory");
     }
@@ -563,22 +802,16 @@ static ffd_status gf_restore(sess_method *base, const void *blob, ffd_error *err
         return ffd_fail(err, FFD_ERR_INVALID,
                         "restore: the snapshot has %zu skeleton vertices, the method %zu", b->n,
                         m->offset[m->count]);
-    return set_skeleton(m, b->cur, err);
+    ffd_rig_gffd_edit *e = edits_copy(b->edits, b->edit_count, b->edit_count);
+    if (!e)
+        return ffd_fail(err, FFD_ERR_NOMEM, "restore: out of memory");
+    return set_edits(m, e, b->edit_count, err);
 }
 
 static ffd_status gf_reset(sess_method *base, ffd_error *err)
 {
     gf_method *m = (gf_method *)base;
-    size_t n = m->offset[m->count];
-    double *rest = ffd_malloc_array(n ? n : 1, 3 * sizeof *rest);
-    if (!rest)
-        return ffd_fail(err, FFD_ERR_NOMEM, "reset: out of memory");
-    for (size_t i = 0; i < m->count; i++)
-        memcpy(rest + 3 * m->offset[i], m->rest[i].vertices,
-               m->rest[i].vertex_count * 3 * sizeof *rest);
-    ffd_status s = set_skeleton(m, rest, err);
-    ffd_free(rest);
-    return s;
+    return set_edits(m, NULL, 0, err);
 }
 
 /* ---- the rig --------------------------------------------------------- */
@@ -644,15 +877,22 @@ static ffd_status gf_rig(const sess_method *base, cJSON *root, ffd_error *err)
     int ok = (skeleton = cJSON_AddArrayToObject(root, "skeleton")) && add_options(root, &m->opt) &&
              (edits = cJSON_AddArrayToObject(root, "edits")) &&
              (!m->corr_count || sess_add_item(root, "correspondences", correspondences_json(m)));
-    for (size_t i = 0; ok && i < m->count; i++) {
-        const ffd_rig_primitive *p = &m->rest[i];
-        const double *v = m->cur + 3 * m->offset[i];
-        ok = sess_add_to_array(skeleton, primitive_json(p));
-        if (!ok || memcmp(v, p->vertices, p->vertex_count * 3 * sizeof *v) == 0)
-            continue;
-        cJSON *e = cJSON_CreateObject();
-        ok = sess_add_to_array(edits, e) && cJSON_AddNumberToObject(e, "primitive", (double)i) &&
-             sess_add_item(e, "vertices", points_json(v, p->vertex_count));
+    for (size_t i = 0; ok && i < m->count; i++)
+        ok = sess_add_to_array(skeleton, primitive_json(&m->rest[i]));
+    for (size_t i = 0; ok && i < m->edit_count; i++) {
+        const ffd_rig_gffd_edit *d = &m->edits[i];
+        cJSON *e = cJSON_CreateObject(), *r = NULL;
+        ok = sess_add_to_array(edits, e) &&
+             cJSON_AddNumberToObject(e, "primitive", (double)d->primitive);
+        if (ok && d->kind == FFD_RIG_EDIT_ROTATE)
+            ok = (r = cJSON_AddObjectToObject(e, "rotate")) &&
+                 sess_add_item(r, "axis", sess_array(d->axis, 3)) &&
+                 sess_add_item(r, "angle", sess_number(d->angle)) &&
+                 sess_add_item(e, "center", sess_array(d->center, 3));
+        else if (ok && d->kind == FFD_RIG_EDIT_TRANSLATE)
+            ok = sess_add_item(e, "translate", sess_array(d->delta, 3));
+        else if (ok)
+            ok = sess_add_item(e, "vertices", points_json(d->vertices, d->vertex_count));
     }
     return ok ? FFD_OK : ffd_fail(err, FFD_ERR_NOMEM, "rig: out of memory");
 }
@@ -718,19 +958,23 @@ static ffd_status gf_influence(sess_method *base, const uint32_t *ids, size_t k,
 
 /* The new rest skeleton (rest with one change) and the current vertices it
  * keeps; replaces m's contents on success. */
-static ffd_status rebuild(gf_method *m, ffd_rig_primitive *rest, size_t count, const double *cur,
-                          ffd_error *err)
+static ffd_status rebuild(gf_method *m, ffd_rig_primitive *rest, size_t count,
+                          ffd_rig_gffd_edit *edits, size_t edit_count, ffd_error *err)
 {
     ffd_gffd *g = NULL;
     gf_method *n = NULL;
     ffd_status s = gffd_bind(m->base.ctx, rest, count, &m->opt, "primitive", &g, err);
     if (s) {
         skeleton_free(rest, count);
+        edits_free(edits, edit_count);
         return s;
     }
-    if ((s = gf_new(m->base.ctx, rest, count, &m->opt, g, &n, err)))
+    if ((s = gf_new(m->base.ctx, rest, count, &m->opt, g, &n, err))) {
+        edits_free(edits, edit_count);
         return s;
-    memcpy(n->cur, cur, n->offset[count] * 3 * sizeof *cur);
+    }
+    n->edits = edits;
+    n->edit_count = edit_count;
     if ((s = replay_skeleton(n, err))) {
         gf_destroy(&n->base);
         return s;
@@ -747,33 +991,34 @@ static ffd_status primitive_op(gf_method *m, const ffd_rig_primitive *add, size_
 {
     size_t count = m->count + (add ? 1 : 0) - (remove ? 1 : 0);
     ffd_rig_primitive *rest = ffd_calloc(count, sizeof *rest);
-    double *cur =
-        ffd_malloc_array(m->offset[m->count] + (add ? add->vertex_count : 0) + 1, 3 * sizeof *cur);
-    size_t k = 0, v = 0;
-    int ok = rest && cur;
+    /* the kept primitives keep their edits (renumbered past a removed one) */
+    ffd_rig_gffd_edit *edits = edits_copy(m->edits, m->edit_count, m->edit_count);
+    size_t k = 0, n = 0;
+    int ok = rest && edits;
     for (size_t i = 0; ok && i < m->count; i++) {
         if (remove && i == index)
             continue;
         ok = primitive_copy(&rest[k], &m->rest[i]);
         if (ok && !add && !remove && i == index)
             rest[k].radius = radius;
-        memcpy(cur + 3 * v, m->cur + 3 * m->offset[i], m->rest[i].vertex_count * 3 * sizeof *cur);
-        v += m->rest[i].vertex_count;
         k += ok;
     }
-    if (ok && add) {
-        ok = primitive_copy(&rest[k], add);
-        memcpy(cur + 3 * v, add->vertices, add->vertex_count * 3 * sizeof *cur);
-        k += ok;
+    if (ok && add)
+        k += ok = primitive_copy(&rest[k], add);
+    for (size_t i = 0; edits && i < m->edit_count; i++) {
+        if (remove && edits[i].primitive == index) {
+            ffd_free(edits[i].vertices);
+            continue;
+        }
+        edits[n] = edits[i];
+        edits[n++].primitive -= remove && edits[i].primitive > index;
     }
     if (!ok) {
         skeleton_free(rest, k);
-        ffd_free(cur);
+        edits_free(edits, n);
         return ffd_fail(err, FFD_ERR_NOMEM, "primitive: out of memory");
     }
-    ffd_status s = rebuild(m, rest, count, cur, err);
-    ffd_free(cur);
-    return s;
+    return rebuild(m, rest, count, edits, n, err);
 }
 
 static ffd_status read_index(const parser *p, const cJSON *body, const char *key, size_t count,
@@ -860,6 +1105,7 @@ static const sess_vtable gffd_vtable = {
     .linear_map = NULL, /* GFFD is not linear in its controls */
     .set_variables = NULL,
     .end = gf_end,
+    .set_motion = gf_set_motion,
     .snapshot = gf_snapshot_take,
     .restore = gf_restore,
     .snapshot_free = gf_snapshot_free,
