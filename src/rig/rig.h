@@ -269,6 +269,8 @@ void ffd_rig_primitive_public(const ffd_rig_primitive *r, ffd_gffd_primitive *p)
 /* Applies edit i of the rig to the current skeleton of g (step 2): a
  * rotation or translation through ffd_gffd_transform, the others through
  * ffd_gffd_set_vertices, for each primitive it touches. */
+/* The centre of edit e on g: its "center", or the centroid of every vertex it touches. */
+void ffd_rig_gffd_edit_center(const ffd_rig_gffd_edit *e, const ffd_gffd *g, double center[3]);
 ffd_status ffd_rig_gffd_apply_edit(const ffd_rig *rig, ffd_gffd *g, size_t i, ffd_error *err);
 
 /* T-spline application (rig_tspline.c). */

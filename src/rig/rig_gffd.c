@@ -235,6 +235,27 @@ ffd_status ffd_rig_gffd_charge(const ffd_rig *rig, const ffd_rig_primitive *prim
     return FFD_OK;
 }
 
+void ffd_rig_gffd_edit_center(const ffd_rig_gffd_edit *e, const ffd_gffd *g, double center[3])
+{
+    size_t first = e->all ? 0 : e->primitive, last = e->all ? ffd_gffd_primitive_count(g) : first + 1;
+    center[0] = center[1] = center[2] = 0;
+    if (e->has_center) {
+        memcpy(center, e->center, 3 * sizeof *center);
+        return;
+    }
+    size_t n = 0;
+    for (size_t j = first; j < last; j++) {
+        ffd_gffd_primitive p;
+        ffd_gffd_get_primitive(g, j, &p, NULL);
+        for (size_t v = 0; v < p.vertex_count; v++)
+            for (int a = 0; a < 3; a++)
+                center[a] += p.vertices[3 * v + a];
+        n += p.vertex_count;
+    }
+    for (int a = 0; a < 3; a++)
+        center[a] /= (double)n;
+}
+
 /* One edit on the current skeleton: a rotation or a translation through
  * ffd_gffd_transform, the other edits as the new vertices of each primitive
  * they touch, through ffd_gffd_set_vertices. */
@@ -242,23 +263,8 @@ ffd_status ffd_rig_gffd_apply_edit(const ffd_rig *rig, ffd_gffd *g, size_t i, ff
 {
     const ffd_rig_gffd_edit *e = &rig->gffd.edits[i];
     size_t first = e->all ? 0 : e->primitive, last = e->all ? ffd_gffd_primitive_count(g) : first + 1;
-    /* the centre: given, or the centroid of every vertex the edit touches */
-    double center[3] = {0, 0, 0};
-    if (e->has_center) {
-        memcpy(center, e->center, sizeof center);
-    } else {
-        size_t n = 0;
-        for (size_t j = first; j < last; j++) {
-            ffd_gffd_primitive p;
-            ffd_gffd_get_primitive(g, j, &p, NULL);
-            for (size_t v = 0; v < p.vertex_count; v++)
-                for (int a = 0; a < 3; a++)
-                    center[a] += p.vertices[3 * v + a];
-            n += p.vertex_count;
-        }
-        for (int a = 0; a < 3; a++)
-            center[a] /= (double)n;
-    }
+    double center[3];
+    ffd_rig_gffd_edit_center(e, g, center);
     double axis[3] = {0, 0, 1};
     if (e->kind == FFD_RIG_EDIT_ROTATE) {
         double len = sqrt(e->axis[0] * e->axis[0] + e->axis[1] * e->axis[1] +

@@ -413,22 +413,9 @@ ffd_status sess_gffd_load(const sess_ctx *ctx, const ffd_rig *rig, sess_method *
         s = ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory", rig->name);
     for (size_t i = 0; !s && i < r->edit_count; i++) {
         const ffd_rig_gffd_edit *e = &r->edits[i];
-        size_t first = e->all ? 0 : e->primitive, last = e->all ? count : first + 1, nv = 0;
-        double center[3] = {0, 0, 0};
-        if (e->has_center) {
-            memcpy(center, e->center, sizeof center);
-        } else {
-            for (size_t j = first; j < last; j++) {
-                ffd_gffd_primitive p;
-                ffd_gffd_get_primitive(g, j, &p, NULL);
-                for (size_t v = 0; v < p.vertex_count; v++)
-                    for (int a = 0; a < 3; a++)
-                        center[a] += p.vertices[3 * v + a];
-                nv += p.vertex_count;
-            }
-            for (int a = 0; a < 3; a++)
-                center[a] /= (double)nv;
-        }
+        size_t first = e->all ? 0 : e->primitive, last = e->all ? count : first + 1;
+        double center[3];
+        ffd_rig_gffd_edit_center(e, g, center);
         if ((s = ffd_rig_gffd_apply_edit(rig, g, i, err)))
             break;
         for (size_t j = first; j < last; j++, n++) {
