@@ -64,33 +64,28 @@ static void tsv_controls(const sess_method *m, double *out)
     memcpy(out, ffd_tsv_control_points(as_tsv(m)->t), tsv_count(m) * 3 * sizeof *out);
 }
 
+/* o[key] = the proxy's faces as arrays of index (control ids or points). */
+static int add_faces(cJSON *o, const char *key, const uint32_t *index, const ffd_tsv_proxy *proxy)
+{
+    cJSON *faces = cJSON_CreateArray();
+    int ok = sess_add_item(o, key, faces);
+    for (size_t f = 0; ok && f < proxy->face_count; f++)
+        ok = sess_add_to_array(faces, sess_uint_array(index + proxy->face_offsets[f],
+                                                      proxy->face_offsets[f + 1] -
+                                                          proxy->face_offsets[f]));
+    return ok;
+}
+
 static cJSON *proxy_json(const ffd_tsv *t)
 {
     ffd_tsv_proxy proxy;
     ffd_tsv_get_proxy(t, &proxy);
-    cJSON *o = cJSON_CreateObject(), *faces = cJSON_CreateArray();
-    int ok = o && faces && cJSON_AddItemToObject(o, "faces", faces);
-    if (!ok)
-        cJSON_Delete(faces);
-    for (size_t f = 0; ok && f < proxy.face_count; f++) {
-        cJSON *face = sess_uint_array(proxy.face_indices + proxy.face_offsets[f],
-                                      proxy.face_offsets[f + 1] - proxy.face_offsets[f]);
-        ok = face && cJSON_AddItemToArray(faces, face);
-        if (!ok)
-            cJSON_Delete(face);
-    }
+    cJSON *o = cJSON_CreateObject();
+    int ok = o && add_faces(o, "faces", proxy.face_indices, &proxy);
     /* the same faces as a closed 2-manifold: "face_points" index
      * "point_controls", one entry per sheet of each control point (all at
      * its position; dragging the control point moves them all) */
-    cJSON *face_points = ok ? cJSON_CreateArray() : NULL;
-    ok = ok && sess_add_item(o, "face_points", face_points);
-    for (size_t f = 0; ok && f < proxy.face_count; f++) {
-        cJSON *face = sess_uint_array(proxy.face_points + proxy.face_offsets[f],
-                                      proxy.face_offsets[f + 1] - proxy.face_offsets[f]);
-        ok = face && cJSON_AddItemToArray(face_points, face);
-        if (!ok)
-            cJSON_Delete(face);
-    }
+    ok = ok && add_faces(o, "face_points", proxy.face_points, &proxy);
     ok = ok && sess_add_item(o, "point_controls",
                              sess_uint_array(proxy.point_controls, proxy.point_count));
     ok = ok && sess_add_item(o, "points", sess_uint_array(proxy.vertices,
