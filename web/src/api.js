@@ -26,6 +26,8 @@ export function oldestPendingMs() {
   for (const p of pending.values()) if (p.start < oldest) oldest = p.start;
   return oldest === Infinity ? 0 : performance.now() - oldest;
 }
+/** Number of requests sent and not yet answered. */
+export function pendingCount() { return pending.size; }
 export function pendingLabel() {
   let best = null;
   for (const p of pending.values()) if (!best || p.start < best.start) best = p;

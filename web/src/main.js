@@ -1,7 +1,7 @@
 // ffdkit editor page: boot, state handling, pointer and keyboard dispatch.
 
 import * as THREE from 'three';
-import { api, ApiError, onActivity, oldestPendingMs, pendingLabel, stats } from './api.js';
+import { api, ApiError, onActivity, oldestPendingMs, pendingCount, pendingLabel, stats } from './api.js';
 import { Viewport } from './viewport.js';
 import { ControlsView } from './controls.js';
 import { Selector } from './select.js';
@@ -603,6 +603,8 @@ window.ffdEditor = {
   get lastFrameRevision() { return editor.lastFrameRevision; },
   get tool() { return editor.tool; },
   get dragging() { return !!editor.activeDrag; },
+  /** Requests sent to the server and not yet answered. */
+  get pendingRequests() { return pendingCount(); },
   get dragStats() {
     const now = performance.now();
     return { updatesPerSecond: editor.dragTimes.filter((t) => now - t <= 1000).length, stepMs: editor.lastDragMs, applyMs: editor.lastApplyMs };

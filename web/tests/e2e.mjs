@@ -155,13 +155,25 @@ const shot = async (name, wait = 200) => {
   await page.screenshot({ path: file });
   note(`screenshot ${file}`);
 };
-/** Waits for the page to be idle: no drag, the state's revision drawn. */
+/** Waits for the page to be idle: no drag, no request in flight, the state's revision drawn,
+ * and still so 150 ms later (a click's request may be answered after the first look). */
+const idle = () => {
+  const e = window.ffdEditor;
+  return !e.dragging && e.pendingRequests === 0 && !!e.state && e.lastFrameRevision === e.state.revision;
+};
 const settle = async () => {
-  await page.waitForFunction(() => !window.ffdEditor.dragging, null, { timeout: 20000 });
-  await page.waitForFunction(() => window.ffdEditor.state && window.ffdEditor.lastFrameRevision === window.ffdEditor.state.revision, null, { timeout: 20000 });
-  const rev = (await state()).revision;
-  await page.waitForFunction((r) => window.ffdEditor.state.revision === r && window.ffdEditor.lastFrameRevision === r, rev, { timeout: 20000 });
-  await page.waitForTimeout(60);
+  const deadline = Date.now() + 60000;
+  for (;;) {
+    const left = deadline - Date.now();
+    if (left <= 0) throw new Error(`settle: page not idle after 60 s (${JSON.stringify(await ed(() => ({
+      dragging: window.ffdEditor.dragging, pending: window.ffdEditor.pendingRequests,
+      revision: window.ffdEditor.state && window.ffdEditor.state.revision, drawn: window.ffdEditor.lastFrameRevision })))})`);
+    await page.waitForFunction(idle, null, { timeout: left });
+    const rev = (await state()).revision;
+    await page.waitForTimeout(150);
+    if (await ed(idle) && (await state()).revision === rev
+      && await ed((r) => window.ffdEditor.state.revision === r, rev)) return;
+  }
 };
 /** A real mouse drag in small steps. */
 async function mouseDrag(from, to, steps = 12, mods = []) {
