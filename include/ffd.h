@@ -1192,6 +1192,77 @@ ffd_status ffd_rig_apply(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report *rep
 
 
 /* ======================================================================
+ * Deformers: every method behind one interface
+ * ====================================================================== */
+
+/* A deformer of any method (lattice, pbffd, gffd, tspline, ...), built from
+ * a rig and bound to any point set. The operations are the same for every
+ * method; one a method cannot offer is FFD_ERR_UNSUPPORTED (GFFD has no
+ * linear map). Method-specific operations stay on the method's own handle
+ * (ffd_deformer_handle). docs/api.md ("Deformers") and docs/architecture.md
+ * say how the methods are registered. Not thread-safe. */
+typedef struct ffd_deformer ffd_deformer;
+
+/* Builds the rig's deformer for mesh and replays the rig (moves, solves,
+ * edits, refinements) exactly as ffd_rig_apply does, without changing mesh:
+ * mesh is what the rig was made for ("box" "auto", vertex constraints,
+ * PB-FFD placement, the T-spline proxy and GFFD tracking read it) and is
+ * only read during the call. The bound points are then mesh's vertices.
+ * limits: NULL for the defaults (ffd_limits). Errors as ffd_rig_apply. */
+ffd_status ffd_deformer_create(const ffd_rig *rig, const ffd_mesh *mesh, const ffd_limits *limits,
+                               ffd_deformer **out, ffd_error *err);
+/* As ffd_deformer_create from rig JSON text (name names it in errors; a GFFD
+ * skeleton "file" is resolved relative to name's directory). */
+ffd_status ffd_deformer_create_json(const char *text, size_t size, const char *name,
+                                    const ffd_mesh *mesh, const ffd_limits *limits,
+                                    ffd_deformer **out, ffd_error *err);
+void ffd_deformer_destroy(ffd_deformer *d);
+/* The method's name, as the rig's "deformer" key spells it. */
+const char *ffd_deformer_method(const ffd_deformer *d);
+/* The method's own handle when the deformer is of that method (ffd_lattice
+ * for "lattice", ffd_pbffd for "pbffd", ffd_gffd for "gffd", ffd_tsv for
+ * "tspline"), NULL otherwise. Borrowed; method-specific edits made through
+ * it are seen by the next evaluation. */
+void *ffd_deformer_handle(ffd_deformer *d, const char *method);
+
+/* Binds n points given at rest (n by 3, copied): a second surface, a volume
+ * mesh's nodes, one partition of a distributed mesh. Replaces the previous
+ * binding; a point bound here deforms exactly as the same point would as a
+ * vertex of the mesh. FFD_ERR_NONFINITE; on error the binding is unchanged. */
+ffd_status ffd_deformer_bind(ffd_deformer *d, const double *points, size_t n, ffd_error *err);
+size_t ffd_deformer_point_count(const ffd_deformer *d);
+/* Deformed positions of the bound points, point_count by 3. */
+ffd_status ffd_deformer_eval(ffd_deformer *d, double *out, ffd_error *err);
+/* Jacobians d(x')/d(x) of the map at the bound points, point_count by 9
+ * row-major. FFD_ERR_UNSUPPORTED for a method without one. */
+ffd_status ffd_deformer_jacobian(ffd_deformer *d, double *out, ffd_error *err);
+/* The bound points' deformed positions as a linear map of the control
+ * variables: rows are the bound points, and the tie maps every column to
+ * the control it moves (variable j is control j, variable_count ==
+ * ffd_deformer_control_count): x'_i = sum_c w_ic p_tie(c) plus what does not
+ * depend on the controls. Borrows d until the next bind, control change or
+ * destroy. FFD_ERR_UNSUPPORTED where the map is not linear in the controls. */
+ffd_status ffd_deformer_linear_map(ffd_deformer *d, ffd_linear_map *map, ffd_error *err);
+
+/* The control variables: count, current positions (count by 3), positions
+ * set (ids NULL: all count, in order) or moved by deltas (k by 3), and every
+ * control back at rest. Setting goes through the method's own edit (a GFFD
+ * skeleton vertex moves its primitive and re-tracks). FFD_ERR_RANGE for an
+ * id, FFD_ERR_NONFINITE; on error nothing changed. */
+size_t ffd_deformer_control_count(const ffd_deformer *d);
+void ffd_deformer_controls(const ffd_deformer *d, double *out);
+ffd_status ffd_deformer_set_controls(ffd_deformer *d, const uint32_t *ids, size_t k,
+                                     const double *positions, ffd_error *err);
+ffd_status ffd_deformer_move_controls(ffd_deformer *d, const uint32_t *ids, size_t k,
+                                      const double *deltas, ffd_error *err);
+ffd_status ffd_deformer_reset(ffd_deformer *d, ffd_error *err);
+
+/* The method's report as JSON (ffd_free the text): {"method", "points",
+ * "controls": {"count", ...the method's structure...}, "params": {...}};
+ * the keys under "controls" and "params" are the method's (docs/api.md). */
+ffd_status ffd_deformer_report(const ffd_deformer *d, char **json, size_t *size, ffd_error *err);
+
+/* ======================================================================
  * Editing sessions: the editor's model (ffd serve is HTTP around it)
  * ====================================================================== */
 

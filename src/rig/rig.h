@@ -224,6 +224,10 @@ void ffd_rig_rotate(const double k[3], double angle, const double v[3], double o
 double ffd_rig_residuals(size_t k, const double *reached, const double *targets,
                          double *residuals);
 
+/* Lattice application (rig_apply.c): moves, then direct manipulation. */
+ffd_status ffd_rig_apply_lattice(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report *report,
+                                 ffd_budget *budget, ffd_error *err);
+
 /* PB-FFD application (rig_pbffd.c); constraints as for the lattice. */
 ffd_status ffd_rig_apply_pbffd(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report *report,
                                ffd_budget *budget, ffd_error *err);

@@ -6,6 +6,7 @@
  * the solve never touches the mesh-sized binding. The mesh is changed only by
  * the final ffd_mesh_set_positions, which is all-or-nothing. */
 #include "rig/rig.h"
+#include "deformer/method.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -156,13 +157,15 @@ ffd_status ffd_rig_apply_limited(const ffd_rig *rig, ffd_mesh *mesh, const ffd_l
         return ffd_fail(err, FFD_ERR_INVALID, "ffd_rig_apply: rig and mesh must not be NULL");
     ffd_budget budget;
     ffd_budget_init(&budget, limits);
-    if (rig->deformer == FFD_RIG_GFFD)
-        return ffd_rig_apply_gffd(rig, mesh, report, &budget, err);
-    if (rig->deformer == FFD_RIG_PBFFD)
-        return ffd_rig_apply_pbffd(rig, mesh, report, &budget, err);
-    if (rig->deformer == FFD_RIG_TSPLINE)
-        return ffd_rig_apply_tspline(rig, mesh, report, &budget, err);
+    const ffd_method *method = ffd_method_of_rig(rig);
+    if (!method)
+        return ffd_fail(err, FFD_ERR_INVALID, "%s: unknown deformer", rig->name);
+    return method->apply(rig, mesh, report, &budget, err);
+}
 
+ffd_status ffd_rig_apply_lattice(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report *report,
+                                 ffd_budget *budget, ffd_error *err)
+{
     const char *name = rig->name;
     const size_t n = ffd_mesh_vertex_count(mesh);
     const size_t k = rig->constraint_count;
@@ -178,7 +181,7 @@ ffd_status ffd_rig_apply_limited(const ffd_rig *rig, ffd_mesh *mesh, const ffd_l
     ffd_timings timings = {0};
 
     ffd_error inner0 = {{0}};
-    if ((s = charge_lattice(rig, n, &budget, &inner0))) {
+    if ((s = charge_lattice(rig, n, budget, &inner0))) {
         s = ffd_fail(err, s, "%s: %s", name, inner0.message);
         goto fail;
     }
@@ -235,7 +238,7 @@ ffd_status ffd_rig_apply_limited(const ffd_rig *rig, ffd_mesh *mesh, const ffd_l
         }
         ffd_linear_map map;
         ffd_lattice_linear_map(lattice, pins, &map);
-        if ((s = ffd_rig_charge_manip(&map, k, &budget, &inner))) {
+        if ((s = ffd_rig_charge_manip(&map, k, budget, &inner))) {
             s = ffd_rig_wrap(err, s, name, "constraints", &inner);
             goto fail;
         }

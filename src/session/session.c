@@ -3,6 +3,7 @@
  * frame / state / rig / export views of it. docs/editor.md lists the ops. */
 #define _XOPEN_SOURCE 700 /* realpath */
 #include "session/session.h"
+#include "deformer/method.h"
 
 #include "mesh/mesh.h"
 
@@ -175,12 +176,10 @@ static ffd_status method_rig_text(const sess_method *m, char **text, ffd_error *
 static ffd_status method_from_rig(const sess_ctx *ctx, const ffd_rig *rig, sess_method **out,
                                   ffd_error *err)
 {
-    switch (rig->deformer) {
-    case FFD_RIG_LATTICE: return sess_lattice_load(ctx, rig, out, err);
-    case FFD_RIG_PBFFD: return sess_pbffd_load(ctx, rig, out, err);
-    case FFD_RIG_GFFD: return sess_gffd_load(ctx, rig, out, err);
-    case FFD_RIG_TSPLINE: return sess_tspline_load(ctx, rig, out, err);
-    }
+    const ffd_method *method = ffd_method_of_rig(rig);
+    if (!method)
+        return ffd_fail(err, FFD_ERR_INVALID, "rig: unknown deformer");
+    return method->load(ctx, rig, out, err);
     return ffd_fail(err, FFD_ERR_INVALID, "rig: unknown deformer");
 }
 
@@ -334,22 +333,14 @@ static ffd_status install(ffd_session *s, sess_method *m, const char *label, ffd
 
 static ffd_status op_create(ffd_session *s, const parser *p, const cJSON *body, ffd_error *err)
 {
-    const cJSON *method = cJSON_GetObjectItemCaseSensitive(body, "method");
-    static const char *const names[] = {"lattice", "pbffd", "gffd", "tspline", NULL};
-    int which = 0;
-    ffd_status st;
+    const cJSON *name = cJSON_GetObjectItemCaseSensitive(body, "method");
+    char names[256];
+    ffd_method_names(names, sizeof names - 16);
+    const ffd_method *method = cJSON_IsString(name) ? ffd_method_find(name->valuestring) : NULL;
     if (!method)
-        return rig_expected(p, "method", "\"lattice\", \"pbffd\", \"gffd\" or \"tspline\" (missing)");
-    if ((st = rig_read_enum(p, method, "method", names,
-                            "\"lattice\", \"pbffd\", \"gffd\" or \"tspline\"", &which)))
-        return st;
+        return rig_expected(p, "method", name ? names : strcat(names, " (missing)"));
     sess_method *m = NULL;
-    switch (which) {
-    case 0: st = sess_lattice_create(&s->ctx, body, &m, err); break;
-    case 1: st = sess_pbffd_create(&s->ctx, body, &m, err); break;
-    case 2: st = sess_gffd_create(&s->ctx, body, &m, err); break;
-    default: st = sess_tspline_create(&s->ctx, body, &m, err); break;
-    }
+    ffd_status st = method->create(&s->ctx, body, &m, err);
     if (st)
         return st;
     return install(s, m, "create", err);
@@ -1279,25 +1270,7 @@ ffd_status ffd_session_create(ffd_mesh *mesh, const char *name, const ffd_sessio
         return ffd_fail(err, FFD_ERR_NOMEM, "out of memory for %zu vertices", n);
     }
     s->mesh = mesh;
-    s->ctx.mesh = mesh;
-    s->ctx.n = n;
-    s->ctx.rest = ffd_mesh_positions(mesh);
-    for (int a = 0; a < 3; a++) {
-        s->ctx.min[a] = INFINITY;
-        s->ctx.max[a] = -INFINITY;
-    }
-    for (size_t i = 0; i < n; i++)
-        for (int a = 0; a < 3; a++) {
-            double v = s->ctx.rest[3 * i + a];
-            s->ctx.min[a] = v < s->ctx.min[a] ? v : s->ctx.min[a];
-            s->ctx.max[a] = v > s->ctx.max[a] ? v : s->ctx.max[a];
-        }
-    double d2 = 0;
-    for (int a = 0; a < 3; a++)
-        d2 += (s->ctx.max[a] - s->ctx.min[a]) * (s->ctx.max[a] - s->ctx.min[a]);
-    s->ctx.diag = d2 > 0 ? sqrt(d2) : 1;
-    s->ctx.max_controls = s->options.max_controls;
-    s->ctx.limits = s->options.limits;
+    sess_ctx_init(&s->ctx, mesh, s->options.max_controls, &s->options.limits);
     memcpy(s->positions, s->ctx.rest, n * 3 * sizeof *s->positions);
     *out = s;
     return FFD_OK;

@@ -28,12 +28,18 @@ typedef struct sess_ctx {
  * precision. */
 #define SESS_COORD_MAX 1e15
 
+/* Fills ctx for mesh (borrowed: it must outlive ctx): its vertices, their
+ * bounding box and diagonal; max_controls 0: no bound but the limits. */
+void sess_ctx_init(sess_ctx *ctx, const ffd_mesh *mesh, size_t max_controls,
+                   const ffd_limits *limits);
+
 /* FFD_ERR_INVALID when count (a product of resolutions, computed without
  * overflow by the caller) exceeds ctx->max_controls. */
 ffd_status sess_check_controls(const sess_ctx *ctx, double count, const char *what,
                                ffd_error *err);
 
 typedef struct sess_method sess_method; /* each method's own struct begins with this */
+typedef struct sess_binding sess_binding; /* a method's binding of any point set */
 typedef struct sess_vtable sess_vtable;
 struct sess_method {
     const sess_vtable *vt;
@@ -104,6 +110,26 @@ struct sess_vtable {
      * session takes both before calling. On error nothing changed. */
     ffd_status (*op)(sess_method *m, const char *op, const cJSON *body, int *undo_kind,
                      ffd_error *err);
+
+    /* Any point set (ffd_deformer_bind): binds n points given at rest (n
+     * by 3; the method copies what it keeps), so that eval_points gives
+     * what eval would give for the same points as vertices of the mesh.
+     * The binding stays valid across control changes (set_controls, reset,
+     * restore) and method ops, which the method must see at evaluation. */
+    ffd_status (*bind)(sess_method *m, const double *points, size_t n, sess_binding **out,
+                       ffd_error *err);
+    void (*binding_free)(sess_binding *b);
+    ffd_status (*eval_points)(sess_method *m, const sess_binding *b, double *out, ffd_error *err);
+    /* d(x')/d(x) at the bound points, n by 9 row-major; NULL: unsupported. */
+    ffd_status (*jacobian_points)(sess_method *m, const sess_binding *b, double *out,
+                                  ffd_error *err);
+    /* The bound points as a linear map of the controls: the tie maps every
+     * column to a control id (no FFD_TIE_FIXED), variable_count ==
+     * control_count. Borrows m and b. NULL: not linear in the controls. */
+    ffd_status (*map_points)(sess_method *m, const sess_binding *b, ffd_linear_map *map,
+                             ffd_error *err);
+    /* The method's public handle (ffd_lattice, ffd_pbffd, ffd_gffd, ffd_tsv). */
+    void *(*handle)(sess_method *m);
 };
 
 /* Constructors. create: from the body of the "create" op (keys checked,

@@ -1,6 +1,9 @@
 /* session_util — JSON helpers shared by the session's method files. */
 #include "session/session.h"
 
+#include <math.h>
+#include <stdint.h>
+
 #include <stdio.h>
 #include <string.h>
 
@@ -195,6 +198,32 @@ int sess_add_to_array(cJSON *array, cJSON *item)
         return 0;
     }
     return 1;
+}
+
+void sess_ctx_init(sess_ctx *ctx, const ffd_mesh *mesh, size_t max_controls,
+                   const ffd_limits *limits)
+{
+    memset(ctx, 0, sizeof *ctx);
+    ctx->mesh = mesh;
+    ctx->n = ffd_mesh_vertex_count(mesh);
+    ctx->rest = ffd_mesh_positions(mesh);
+    for (int a = 0; a < 3; a++) {
+        ctx->min[a] = INFINITY;
+        ctx->max[a] = -INFINITY;
+    }
+    for (size_t i = 0; i < ctx->n; i++)
+        for (int a = 0; a < 3; a++) {
+            double v = ctx->rest[3 * i + a];
+            ctx->min[a] = v < ctx->min[a] ? v : ctx->min[a];
+            ctx->max[a] = v > ctx->max[a] ? v : ctx->max[a];
+        }
+    double d2 = 0;
+    for (int a = 0; a < 3; a++)
+        d2 += (ctx->max[a] - ctx->min[a]) * (ctx->max[a] - ctx->min[a]);
+    ctx->diag = d2 > 0 ? sqrt(d2) : 1;
+    ctx->max_controls = max_controls ? max_controls : SIZE_MAX;
+    if (limits)
+        ctx->limits = *limits;
 }
 
 ffd_status sess_check_controls(const sess_ctx *ctx, double count, const char *what,

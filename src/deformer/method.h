@@ -1,0 +1,45 @@
+/* method — the method registry: one descriptor per deformation method
+ * (lattice, pbffd, gffd, tspline). Everything generic — ffd_rig_apply, the
+ * public ffd_deformer, the editor session, the server's list of methods —
+ * looks a method up here instead of switching on it. Adding a method is its
+ * folder, one descriptor file (src/<method>/<method>_method.c) and one line
+ * in registry.c; docs/architecture.md walks through it. */
+#ifndef FFD_METHOD_H
+#define FFD_METHOD_H
+
+#include "rig/rig.h"
+#include "session/session.h"
+
+typedef struct ffd_method {
+    const char *name;               /* the rig's "deformer" and the editor's "method" */
+    ffd_rig_deformer id;            /* the rig's tag for it */
+    /* Applies a parsed rig of this method to mesh (ffd_rig_apply). */
+    ffd_status (*apply)(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report *report,
+                        ffd_budget *budget, ffd_error *err);
+    /* The method's deformer from a rig of this method, replayed on ctx's
+     * mesh (ffd_deformer_create, the session's load_rig and undo). */
+    ffd_status (*load)(const sess_ctx *ctx, const ffd_rig *rig, sess_method **out,
+                       ffd_error *err);
+    /* The method's deformer from the editor's "create" body. */
+    ffd_status (*create)(const sess_ctx *ctx, const cJSON *body, sess_method **out,
+                         ffd_error *err);
+} ffd_method;
+
+/* The registered methods, in registry order (i < ffd_method_count()). */
+size_t ffd_method_count(void);
+const ffd_method *ffd_method_at(size_t i);
+/* The method named name, NULL when none is. */
+const ffd_method *ffd_method_find(const char *name);
+/* The method of a parsed rig (never NULL for a rig the parser made). */
+const ffd_method *ffd_method_of_rig(const ffd_rig *rig);
+/* Writes "\"lattice\", \"pbffd\", \"gffd\" or \"tspline\"" (the names, for
+ * messages) into buf (truncated to size); returns buf. */
+const char *ffd_method_names(char *buf, size_t size);
+
+/* The descriptors (one file each, in the method's folder). */
+extern const ffd_method ffd_method_lattice;
+extern const ffd_method ffd_method_pbffd;
+extern const ffd_method ffd_method_gffd;
+extern const ffd_method ffd_method_tspline;
+
+#endif

@@ -1,0 +1,51 @@
+/* registry — the table of deformation methods (method.h). One line per method. */
+#include "deformer/method.h"
+
+#include <stdio.h>
+#include <string.h>
+
+static const ffd_method *const registry[] = {
+    &ffd_method_lattice,
+    &ffd_method_pbffd,
+    &ffd_method_gffd,
+    &ffd_method_tspline,
+};
+
+size_t ffd_method_count(void)
+{
+    return sizeof registry / sizeof *registry;
+}
+
+const ffd_method *ffd_method_at(size_t i)
+{
+    return i < ffd_method_count() ? registry[i] : NULL;
+}
+
+const ffd_method *ffd_method_find(const char *name)
+{
+    for (size_t i = 0; name && i < ffd_method_count(); i++)
+        if (!strcmp(registry[i]->name, name))
+            return registry[i];
+    return NULL;
+}
+
+const ffd_method *ffd_method_of_rig(const ffd_rig *rig)
+{
+    for (size_t i = 0; rig && i < ffd_method_count(); i++)
+        if (registry[i]->id == rig->deformer)
+            return registry[i];
+    return NULL;
+}
+
+const char *ffd_method_names(char *buf, size_t size)
+{
+    size_t used = 0, count = ffd_method_count();
+    if (size)
+        buf[0] = 0;
+    for (size_t i = 0; i < count && used < size; i++) {
+        const char *sep = i == 0 ? "" : i + 1 == count ? " or " : ", ";
+        int w = snprintf(buf + used, size - used, "%s\"%s\"", sep, registry[i]->name);
+        used += w > 0 ? (size_t)w : 0;
+    }
+    return buf;
+}

@@ -1,0 +1,12 @@
+/* gffd_method — the gffd method's descriptor in the method registry
+ * (deformer/method.h): its rig application, and its deformer from a rig or
+ * from the editor's "create" body. */
+#include "deformer/method.h"
+
+const ffd_method ffd_method_gffd = {
+    .name = "gffd",
+    .id = FFD_RIG_GFFD,
+    .apply = ffd_rig_apply_gffd,
+    .load = sess_gffd_load,
+    .create = sess_gffd_create,
+};

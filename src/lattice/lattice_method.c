@@ -1,0 +1,12 @@
+/* lattice_method — the lattice method's descriptor in the method registry
+ * (deformer/method.h): its rig application, and its deformer from a rig or
+ * from the editor's "create" body. */
+#include "deformer/method.h"
+
+const ffd_method ffd_method_lattice = {
+    .name = "lattice",
+    .id = FFD_RIG_LATTICE,
+    .apply = ffd_rig_apply_lattice,
+    .load = sess_lattice_load,
+    .create = sess_lattice_create,
+};

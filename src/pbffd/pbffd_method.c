@@ -1,0 +1,12 @@
+/* pbffd_method — the pbffd method's descriptor in the method registry
+ * (deformer/method.h): its rig application, and its deformer from a rig or
+ * from the editor's "create" body. */
+#include "deformer/method.h"
+
+const ffd_method ffd_method_pbffd = {
+    .name = "pbffd",
+    .id = FFD_RIG_PBFFD,
+    .apply = ffd_rig_apply_pbffd,
+    .load = sess_pbffd_load,
+    .create = sess_pbffd_create,
+};

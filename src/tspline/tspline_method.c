@@ -1,0 +1,12 @@
+/* tspline_method — the tspline method's descriptor in the method registry
+ * (deformer/method.h): its rig application, and its deformer from a rig or
+ * from the editor's "create" body. */
+#include "deformer/method.h"
+
+const ffd_method ffd_method_tspline = {
+    .name = "tspline",
+    .id = FFD_RIG_TSPLINE,
+    .apply = ffd_rig_apply_tspline,
+    .load = sess_tspline_load,
+    .create = sess_tspline_create,
+};
