@@ -35,7 +35,7 @@ static ffd_tsv *make(const ffd_mesh *m, uint32_t r)
 static void refine_and_compare(ffd_tsv *t, const ffd_tsv_insertion *ins, size_t count, int exact)
 {
     tsv_estimate e;
-    tsv_estimate_refine(t->L, ins, count, &e);
+    ffd_tsv_estimate_refine(t->L, ins, count, &e);
     CHECK_OK(ffd_tsv_refine(t, ins, count, NULL, NULL));
     double cells = (double)ffd_tsv_element_count(t, FFD_TSV_CELL);
     if (exact) {
@@ -80,7 +80,7 @@ static void test_estimate_refine_cells(void)
     t = make(m, 6);
     ffd_tsv_insertion mixed[2] = {{FFD_TSV_FACE, 3, 0}, {FFD_TSV_EDGE, 7, 0}};
     tsv_estimate e;
-    tsv_estimate_refine(t->L, mixed, 2, &e);
+    ffd_tsv_estimate_refine(t->L, mixed, 2, &e);
     CHECK_NEAR(e.cells, (double)t->L->nc, 0);
     ffd_tsv_destroy(t);
     /* proxy refinements (the Fig. 6-7 octree split): the closure adds a few */

@@ -12,7 +12,7 @@ static sess_method *create(const sess_fixture *f, const char *body)
     cJSON *b = json(body);
     sess_method *m = NULL;
     ffd_error err = {{0}};
-    if (sess_gffd_create(&f->ctx, b, &m, &err) != FFD_OK) {
+    if (ffd_sess_gffd_create(&f->ctx, b, &m, &err) != FFD_OK) {
         fprintf(stderr, "%s: create: %s\n", check_current, err.message);
         check_failures++;
     }
@@ -123,7 +123,7 @@ static void test_drags_and_primitives_match_rig(void)
         sess_method *loaded = NULL;
         CHECK_OK(ffd_rig_parse_json(text, strlen(text), "s.json", &rig, NULL));
         if (rig)
-            CHECK_OK(sess_gffd_load(&f.ctx, rig, &loaded, NULL));
+            CHECK_OK(ffd_sess_gffd_load(&f.ctx, rig, &loaded, NULL));
         if (loaded && x) {
             double *y = method_eval(loaded);
             if (y)
@@ -162,7 +162,7 @@ static void test_load_rig(void)
     sess_method *m = NULL;
     CHECK_OK(ffd_rig_parse_json(text, strlen(text), "r.json", &rig, NULL));
     if (rig)
-        CHECK_OK(sess_gffd_load(&f.ctx, rig, &m, NULL));
+        CHECK_OK(ffd_sess_gffd_load(&f.ctx, rig, &m, NULL));
     if (m) {
         double *x = method_eval(m), *y = apply_rig_text(text, COW);
         if (x && y)
@@ -204,7 +204,7 @@ static void test_load_rig(void)
         m = NULL;
         CHECK_OK(ffd_rig_parse_json(refused[i][0], strlen(refused[i][0]), "r.json", &rig, NULL));
         if (rig)
-            check_error(sess_gffd_load(&f.ctx, rig, &m, &err), &err, FFD_ERR_INVALID,
+            check_error(ffd_sess_gffd_load(&f.ctx, rig, &m, &err), &err, FFD_ERR_INVALID,
                         refused[i][1]);
         CHECK(m == NULL);
         ffd_rig_destroy(rig);
@@ -377,7 +377,7 @@ static void test_rotate_primitive_about_itself(void)
             if (text)
                 CHECK_OK(ffd_rig_parse_json(text, strlen(text), "r.json", &rig, NULL));
             if (rig)
-                CHECK_OK(sess_gffd_load(&f.ctx, rig, &loaded, NULL));
+                CHECK_OK(ffd_sess_gffd_load(&f.ctx, rig, &loaded, NULL));
             if (loaded) {
                 double *y = method_eval(loaded);
                 if (x && y)
@@ -581,7 +581,7 @@ static void create_bad(const sess_fixture *f, const char *body, ffd_status want,
     cJSON *b = json(body);
     sess_method *m = (sess_method *)1;
     ffd_error err = {{0}};
-    check_error(sess_gffd_create(&f->ctx, b, &m, &err), &err, want, fragment);
+    check_error(ffd_sess_gffd_create(&f->ctx, b, &m, &err), &err, want, fragment);
     CHECK(m == NULL);
     cJSON_Delete(b);
 }
@@ -670,7 +670,7 @@ static void test_failing_allocations(void)
         uint32_t ids[2] = {4, 5};
         ffd_set_allocator(&al);
         sess_method *m = NULL;
-        ffd_status s = sess_gffd_create(&f.ctx, body, &m, NULL);
+        ffd_status s = ffd_sess_gffd_create(&f.ctx, body, &m, NULL);
         if (!s)
             s = run_op(m, "primitive",
                        "{\"add\": {\"type\": \"point\", \"position\": [0.3, 0, 0], "

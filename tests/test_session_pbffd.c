@@ -13,7 +13,7 @@ static sess_method *create(const sess_fixture *f, const char *body)
     cJSON *b = json(body);
     sess_method *m = NULL;
     ffd_error err = {{0}};
-    if (sess_pbffd_create(&f->ctx, b, &m, &err) != FFD_OK) {
+    if (ffd_sess_pbffd_create(&f->ctx, b, &m, &err) != FFD_OK) {
         fprintf(stderr, "%s: create: %s\n", check_current, err.message);
         check_failures++;
     }
@@ -164,7 +164,7 @@ static void test_edits_match_rig(void)
     sess_method *loaded = NULL;
     CHECK_OK(ffd_rig_parse_json(text, strlen(text), "s.json", &rig, NULL));
     if (rig)
-        CHECK_OK(sess_pbffd_load(&f.ctx, rig, &loaded, NULL));
+        CHECK_OK(ffd_sess_pbffd_load(&f.ctx, rig, &loaded, NULL));
     if (loaded && x) {
         double *y = method_eval(loaded);
         if (y)
@@ -309,7 +309,7 @@ static void test_load_rig(void)
     sess_method *m = NULL;
     CHECK_OK(ffd_rig_parse_json(text, strlen(text), "r.json", &rig, NULL));
     if (rig)
-        CHECK_OK(sess_pbffd_load(&f.ctx, rig, &m, NULL));
+        CHECK_OK(ffd_sess_pbffd_load(&f.ctx, rig, &m, NULL));
     if (m) {
         double *x = method_eval(m), *y = apply_rig_text(text, COW);
         if (x && y)
@@ -329,13 +329,13 @@ static void test_load_rig(void)
     CHECK_OK(ffd_rig_parse_json(point, strlen(point), "r.json", &rig, NULL));
     m = NULL;
     if (rig)
-        check_error(sess_pbffd_load(&f.ctx, rig, &m, &err), &err, FFD_ERR_INVALID,
+        check_error(ffd_sess_pbffd_load(&f.ctx, rig, &m, &err), &err, FFD_ERR_INVALID,
                     "constraints[0].point: point constraints");
     CHECK(m == NULL);
     ffd_rig_destroy(rig);
     CHECK_OK(ffd_rig_parse_json("{}", 2, "r.json", &rig, NULL));
     if (rig)
-        check_error(sess_pbffd_load(&f.ctx, rig, &m, &err), &err, FFD_ERR_INVALID,
+        check_error(ffd_sess_pbffd_load(&f.ctx, rig, &m, &err), &err, FFD_ERR_INVALID,
                     "not a \"pbffd\" rig");
     ffd_rig_destroy(rig);
     fixture_close(&f);
@@ -347,7 +347,7 @@ static void create_bad(const sess_fixture *f, const char *body, ffd_status want,
     cJSON *b = json(body);
     sess_method *m = (sess_method *)1;
     ffd_error err = {{0}};
-    check_error(sess_pbffd_create(&f->ctx, b, &m, &err), &err, want, fragment);
+    check_error(ffd_sess_pbffd_create(&f->ctx, b, &m, &err), &err, want, fragment);
     CHECK(m == NULL);
     cJSON_Delete(b);
 }
@@ -459,7 +459,7 @@ static void test_failing_allocations(void)
         float *w = malloc(f.ctx.n * sizeof *w);
         uint32_t ids[2] = {0, 0};
         double t[6] = {0};
-        ffd_status s = sess_pbffd_load(&f.ctx, rig, &m, NULL);
+        ffd_status s = ffd_sess_pbffd_load(&f.ctx, rig, &m, NULL);
         if (!s) {
             ids[1] = (uint32_t)m->vt->control_count(m) - 1;
             double *pos = malloc(m->vt->control_count(m) * 3 * sizeof *pos);

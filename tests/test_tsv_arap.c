@@ -213,12 +213,12 @@ static void test_identity(void)
                 else
                     roles[v] = v % 11 == 0 ? TSV_HARD : (v % 5 == 0 ? TSV_SOFT : TSV_FREE);
             tsv_arap *a = NULL;
-            CHECK_OK(tsv_arap_create(&G->g, roles, &paper_weights, &a, NULL));
+            CHECK_OK(ffd_tsv_arap_solver_create(&G->g, roles, &paper_weights, &a, NULL));
             double *x = malloc(3 * G->n * sizeof *x);
             memcpy(x, G->p, 3 * G->n * sizeof *x);
-            CHECK_OK(tsv_arap_solve(a, G->p, x, 5, NULL));
+            CHECK_OK(ffd_tsv_arap_solver_solve(a, G->p, x, 5, NULL));
             CHECK(max_diff(x, G->p, 3 * G->n) <= 1e-10);
-            tsv_arap_destroy(a);
+            ffd_tsv_arap_solver_destroy(a);
             free(x);
             free(roles);
             grid_free(G);
@@ -240,11 +240,11 @@ static void test_translation(void)
                     q[3 * v + c] = G->p[3 * v + c] + t[c];
             }
             tsv_arap *a = NULL;
-            CHECK_OK(tsv_arap_create(&G->g, roles, &paper_weights, &a, NULL));
+            CHECK_OK(ffd_tsv_arap_solver_create(&G->g, roles, &paper_weights, &a, NULL));
             memcpy(x, G->p, 3 * G->n * sizeof *x);
-            CHECK_OK(tsv_arap_solve(a, q, x, 5, NULL));
+            CHECK_OK(ffd_tsv_arap_solver_solve(a, q, x, 5, NULL));
             CHECK(max_diff(x, q, 3 * G->n) <= 1e-10);
-            tsv_arap_destroy(a);
+            ffd_tsv_arap_solver_destroy(a);
             free(roles);
             free(q);
             free(x);
@@ -276,15 +276,15 @@ static void test_rigid_rotation(void)
             rotate(axis, 40.0 * M_PI / 180.0, ctr, G->p + 3 * v, q + 3 * v);
         }
         tsv_arap *a = NULL;
-        CHECK_OK(tsv_arap_create(&G->g, roles, &paper_weights, &a, NULL));
+        CHECK_OK(ffd_tsv_arap_solver_create(&G->g, roles, &paper_weights, &a, NULL));
         memcpy(x, G->p, 3 * G->n * sizeof *x);
-        CHECK_OK(tsv_arap_solve(a, q, x, 1, NULL));
+        CHECK_OK(ffd_tsv_arap_solver_solve(a, q, x, 1, NULL));
         double first = max_diff(x, q, 3 * G->n);
-        CHECK_OK(tsv_arap_solve(a, q, x, corners ? 99 : 29, NULL)); /* warm start */
+        CHECK_OK(ffd_tsv_arap_solver_solve(a, q, x, corners ? 99 : 29, NULL)); /* warm start */
         double after = max_diff(x, q, 3 * G->n);
         CHECK(first > 1e-2); /* the first solve (R = I) is not rigid */
         CHECK(after <= 1e-6);
-        tsv_arap_destroy(a);
+        ffd_tsv_arap_solver_destroy(a);
         free(roles);
         free(q);
         free(x);
@@ -436,21 +436,21 @@ static void test_cached_equals_fresh(void)
     }
     /* one solve with R = I against the dense reference */
     tsv_arap *a = NULL, *b = NULL;
-    CHECK_OK(tsv_arap_create(&G->g, roles, &paper_weights, &a, NULL));
+    CHECK_OK(ffd_tsv_arap_solver_create(&G->g, roles, &paper_weights, &a, NULL));
     memcpy(xa, G->p, 3 * n * sizeof *xa);
-    CHECK_OK(tsv_arap_solve(a, q0, xa, 1, NULL));
+    CHECK_OK(ffd_tsv_arap_solver_solve(a, q0, xa, 1, NULL));
     dense_reference(G, roles, &paper_weights, q0, xd);
     CHECK(max_diff(xa, xd, 3 * n) <= 1e-10);
     /* a: q0 then q1 on the cached factor; b: a fresh object through the same sequence */
-    CHECK_OK(tsv_arap_solve(a, q0, xa, 4, NULL));
-    CHECK_OK(tsv_arap_solve(a, q1, xa, 5, NULL));
-    CHECK_OK(tsv_arap_create(&G->g, roles, &paper_weights, &b, NULL));
+    CHECK_OK(ffd_tsv_arap_solver_solve(a, q0, xa, 4, NULL));
+    CHECK_OK(ffd_tsv_arap_solver_solve(a, q1, xa, 5, NULL));
+    CHECK_OK(ffd_tsv_arap_solver_create(&G->g, roles, &paper_weights, &b, NULL));
     memcpy(xb, G->p, 3 * n * sizeof *xb);
-    CHECK_OK(tsv_arap_solve(b, q0, xb, 5, NULL));
-    CHECK_OK(tsv_arap_solve(b, q1, xb, 5, NULL));
+    CHECK_OK(ffd_tsv_arap_solver_solve(b, q0, xb, 5, NULL));
+    CHECK_OK(ffd_tsv_arap_solver_solve(b, q1, xb, 5, NULL));
     CHECK(max_diff(xa, xb, 3 * n) <= 1e-12);
-    tsv_arap_destroy(a);
-    tsv_arap_destroy(b);
+    ffd_tsv_arap_solver_destroy(a);
+    ffd_tsv_arap_solver_destroy(b);
     free(roles);
     free(q0);
     free(q1);
@@ -475,25 +475,25 @@ static void test_soft_targets(void)
     }
     const tsv_arap_weights w = {1e-9, 1e-9, 1e-9, 1.0};
     tsv_arap *a = NULL;
-    CHECK_OK(tsv_arap_create(&G->g, roles, &w, &a, NULL));
+    CHECK_OK(ffd_tsv_arap_solver_create(&G->g, roles, &w, &a, NULL));
     memcpy(x, G->p, 3 * n * sizeof *x);
-    CHECK_OK(tsv_arap_solve(a, q, x, 3, NULL));
+    CHECK_OK(ffd_tsv_arap_solver_solve(a, q, x, 3, NULL));
     CHECK(max_diff(x, q, 3 * n) <= 1e-7);
-    tsv_arap_destroy(a);
+    ffd_tsv_arap_solver_destroy(a);
     /* with the paper's weights a soft handle lags its target but moves towards it */
     for (size_t v = 0; v < n; v++)
         roles[v] = v == 0 ? TSV_SOFT : (v + 1 == n ? TSV_HARD : TSV_FREE);
     for (size_t v = 0; v < n; v++)
         for (int c = 0; c < 3; c++)
             q[3 * v + c] = G->p[3 * v + c] + (v == 0 ? -0.5 : 0.0);
-    CHECK_OK(tsv_arap_create(&G->g, roles, &paper_weights, &a, NULL));
+    CHECK_OK(ffd_tsv_arap_solver_create(&G->g, roles, &paper_weights, &a, NULL));
     memcpy(x, G->p, 3 * n * sizeof *x);
-    CHECK_OK(tsv_arap_solve(a, q, x, 5, NULL));
+    CHECK_OK(ffd_tsv_arap_solver_solve(a, q, x, 5, NULL));
     for (int c = 0; c < 3; c++) {
         CHECK(x[c] < G->p[c] - 1e-3);
         CHECK(x[c] > q[c] + 1e-3);
     }
-    tsv_arap_destroy(a);
+    ffd_tsv_arap_solver_destroy(a);
     free(roles);
     free(q);
     free(x);
@@ -508,22 +508,22 @@ static void test_invalid(void)
     uint8_t *roles = calloc(G->n, 1);
     tsv_arap *a = NULL;
     ffd_error e = {{0}};
-    CHECK(tsv_arap_create(&G->g, roles, &paper_weights, &a, &e) == FFD_ERR_INVALID);
+    CHECK(ffd_tsv_arap_solver_create(&G->g, roles, &paper_weights, &a, &e) == FFD_ERR_INVALID);
     CHECK(a == NULL);
     CHECK(strstr(e.message, "nothing constrained") != NULL);
     roles[3] = 7;
-    CHECK(tsv_arap_create(&G->g, roles, &paper_weights, &a, NULL) == FFD_ERR_INVALID);
+    CHECK(ffd_tsv_arap_solver_create(&G->g, roles, &paper_weights, &a, NULL) == FFD_ERR_INVALID);
     roles[3] = TSV_SOFT;
     tsv_arap_weights w = paper_weights;
     w.target = 0.0;
-    CHECK(tsv_arap_create(&G->g, roles, &w, &a, NULL) == FFD_ERR_INVALID);
+    CHECK(ffd_tsv_arap_solver_create(&G->g, roles, &w, &a, NULL) == FFD_ERR_INVALID);
     w.volume = -1.0;
-    CHECK(tsv_arap_create(&G->g, roles, &w, &a, NULL) == FFD_ERR_INVALID);
+    CHECK(ffd_tsv_arap_solver_create(&G->g, roles, &w, &a, NULL) == FFD_ERR_INVALID);
     G->edges[5] = (uint32_t)G->n;
-    CHECK(tsv_arap_create(&G->g, roles, &paper_weights, &a, NULL) == FFD_ERR_RANGE);
+    CHECK(ffd_tsv_arap_solver_create(&G->g, roles, &paper_weights, &a, NULL) == FFD_ERR_RANGE);
     G->edges[5] = 0;
     G->p[7] = NAN;
-    CHECK(tsv_arap_create(&G->g, roles, &paper_weights, &a, NULL) == FFD_ERR_NONFINITE);
+    CHECK(ffd_tsv_arap_solver_create(&G->g, roles, &paper_weights, &a, NULL) == FFD_ERR_NONFINITE);
     G->p[7] = 1.0;
     /* a component without any constraint: not positive definite */
     const tsv_arap_weights only_edges = {1.0, 0.0, 0.0, 1.0};
@@ -533,20 +533,20 @@ static void test_invalid(void)
     g2.proxy_face_count = 0;
     memset(roles, 0, G->n);
     roles[G->edges[0]] = TSV_HARD;
-    CHECK(tsv_arap_create(&g2, roles, &only_edges, &a, &e) == FFD_ERR_NUMERIC);
+    CHECK(ffd_tsv_arap_solver_create(&g2, roles, &only_edges, &a, &e) == FFD_ERR_NUMERIC);
     CHECK(strstr(e.message, "positive definite") != NULL);
     /* all hard: the targets come back */
     memset(roles, TSV_HARD, G->n);
-    CHECK_OK(tsv_arap_create(&G->g, roles, &paper_weights, &a, NULL));
+    CHECK_OK(ffd_tsv_arap_solver_create(&G->g, roles, &paper_weights, &a, NULL));
     double *q = malloc(3 * G->n * sizeof *q), *x = calloc(3 * G->n, sizeof *x);
     for (size_t i = 0; i < 3 * G->n; i++)
         q[i] = check_rand01();
-    CHECK_OK(tsv_arap_solve(a, q, x, 5, NULL));
+    CHECK_OK(ffd_tsv_arap_solver_solve(a, q, x, 5, NULL));
     CHECK(memcmp(x, q, 3 * G->n * sizeof *x) == 0);
     q[4] = INFINITY;
-    CHECK(tsv_arap_solve(a, q, x, 5, NULL) == FFD_ERR_NONFINITE);
-    tsv_arap_destroy(a);
-    tsv_arap_destroy(NULL);
+    CHECK(ffd_tsv_arap_solver_solve(a, q, x, 5, NULL) == FFD_ERR_NONFINITE);
+    ffd_tsv_arap_solver_destroy(a);
+    ffd_tsv_arap_solver_destroy(NULL);
     free(q);
     free(x);
     free(roles);
@@ -567,14 +567,14 @@ static void test_hard_exact(void)
             q[3 * v + c] = G->p[3 * v + c] + 0.7 * (check_rand01() - 0.5);
     }
     tsv_arap *a = NULL;
-    CHECK_OK(tsv_arap_create(&G->g, roles, &paper_weights, &a, NULL));
+    CHECK_OK(ffd_tsv_arap_solver_create(&G->g, roles, &paper_weights, &a, NULL));
     memcpy(x, G->p, 3 * n * sizeof *x);
-    CHECK_OK(tsv_arap_solve(a, q, x, 5, NULL));
+    CHECK_OK(ffd_tsv_arap_solver_solve(a, q, x, 5, NULL));
     for (size_t v = 0; v < n; v++)
         if (roles[v] == TSV_HARD)
             for (int c = 0; c < 3; c++)
                 CHECK(x[3 * v + c] == q[3 * v + c]);
-    tsv_arap_destroy(a);
+    ffd_tsv_arap_solver_destroy(a);
     free(roles);
     free(q);
     free(x);
@@ -599,9 +599,9 @@ static void test_drag_symmetric(void)
     q[3 * handle + 1] += 0.8;
     q[3 * handle + 2] += 1.1;
     tsv_arap *a = NULL;
-    CHECK_OK(tsv_arap_create(&G->g, roles, &paper_weights, &a, NULL));
+    CHECK_OK(ffd_tsv_arap_solver_create(&G->g, roles, &paper_weights, &a, NULL));
     memcpy(x, G->p, 3 * n * sizeof *x);
-    CHECK_OK(tsv_arap_solve(a, q, x, 5, NULL));
+    CHECK_OK(ffd_tsv_arap_solver_solve(a, q, x, 5, NULL));
     int finite = 1;
     for (size_t k = 0; k < 3 * n; k++)
         finite &= isfinite(x[k]) != 0;
@@ -639,7 +639,7 @@ static void test_drag_symmetric(void)
                 asym = fmax(asym, fabs(x[3 * v + 2] - x[3 * m + 2]));
             }
     CHECK(asym <= 1e-9);
-    tsv_arap_destroy(a);
+    ffd_tsv_arap_solver_destroy(a);
     free(roles);
     free(q);
     free(x);
@@ -667,10 +667,10 @@ static void test_hexagon_proxy(void)
         q[3 * hd] += 0.4;
         q[3 * hd + 2] += 0.9;
         tsv_arap *a = NULL;
-        CHECK_OK(tsv_arap_create(&G->g, roles, &paper_weights, &a, NULL));
+        CHECK_OK(ffd_tsv_arap_solver_create(&G->g, roles, &paper_weights, &a, NULL));
         memcpy(xs[hex], G->p, 3 * n * sizeof *q);
-        CHECK_OK(tsv_arap_solve(a, q, xs[hex], 5, NULL));
-        tsv_arap_destroy(a);
+        CHECK_OK(ffd_tsv_arap_solver_solve(a, q, xs[hex], 5, NULL));
+        ffd_tsv_arap_solver_destroy(a);
         free(roles);
         free(q);
         grid_free(G);
@@ -700,12 +700,12 @@ static void test_out_of_memory(void)
         ffd_set_allocator(&al);
         tsv_arap *a = NULL;
         ffd_error e = {{0}};
-        ffd_status st = tsv_arap_create(&G->g, roles, &paper_weights, &a, &e);
+        ffd_status st = ffd_tsv_arap_solver_create(&G->g, roles, &paper_weights, &a, &e);
         memcpy(x, G->p, 3 * n * sizeof *x);
         if (st == FFD_OK)
-            st = tsv_arap_solve(a, q, x, 3, &e);
+            st = ffd_tsv_arap_solver_solve(a, q, x, 3, &e);
         in_cholmod += st == FFD_ERR_NOMEM && strstr(e.message, "CHOLMOD") != NULL;
-        tsv_arap_destroy(a);
+        ffd_tsv_arap_solver_destroy(a);
         ffd_set_allocator(NULL);
         CHECK(st == FFD_OK || st == FFD_ERR_NOMEM);
         if (st == FFD_OK)

@@ -204,7 +204,7 @@ static tsv_lattice *make_lattice(uint32_t r0, uint32_t r1, uint32_t r2)
 {
     uint32_t res[3] = {r0, r1, r2};
     tsv_lattice *L = NULL;
-    CHECK_E(tsv_lattice_create(BOX_MIN, BOX_MAX, res, &L, &e_));
+    CHECK_E(ffd_tsv_lattice_create(BOX_MIN, BOX_MAX, res, &L, &e_));
     return L;
 }
 
@@ -212,14 +212,14 @@ static tsv_lattice *make_lattice(uint32_t r0, uint32_t r1, uint32_t r2)
 static void gamma_pos(const tsv_lattice *L, uint32_t v, double g[3])
 {
     for (int a = 0; a < 3; a++)
-        g[a] = tsv_gamma(L, a, L->verts[v].sg[a]);
+        g[a] = ffd_tsv_gamma(L, a, L->verts[v].sg[a]);
 }
 
 static void cell_gbox(const tsv_lattice *L, size_t c, double lo[3], double hi[3])
 {
     for (int a = 0; a < 3; a++) {
-        lo[a] = tsv_gamma(L, a, L->cells[c].lo[a]);
-        hi[a] = tsv_gamma(L, a, L->cells[c].hi[a]);
+        lo[a] = ffd_tsv_gamma(L, a, L->cells[c].lo[a]);
+        hi[a] = ffd_tsv_gamma(L, a, L->cells[c].hi[a]);
     }
 }
 
@@ -235,11 +235,11 @@ static void octree_split(tsv_lattice *L, uint32_t c)
         if (!(khi > klo))
             continue;
         double x;
-        CHECK_E(tsv_registry_get(L, a, 0.5 * (klo + khi), &x, &e_));
+        CHECK_E(ffd_tsv_registry_get(L, a, 0.5 * (klo + khi), &x, &e_));
         size_t cur = np;
         for (size_t i = 0; i < cur; i++) {
             size_t before = L->nc;
-            CHECK_E(tsv_split_cell(L, parts[i], a, x, &e_));
+            CHECK_E(ffd_tsv_split_cell(L, parts[i], a, x, &e_));
             CHECK(L->nc == before + 1);
             parts[np++] = (uint32_t)before;
         }
@@ -574,7 +574,7 @@ static void test_sphere(void)
     tsv_object ob = obj_view(&o);
     tsv_proxy P;
     memset(&P, 0, sizeof P);
-    CHECK_E(tsv_proxy_build(L, &ob, &P, &e_));
+    CHECK_E(ffd_tsv_proxy_build(L, &ob, &P, &e_));
     proxy_stats s = check_proxy(L, &P, &o);
     CHECK(occupancy_mismatches(L, &o) == 0);
     /* the centre cell lies inside the sphere: not met, enclosed, not outside */
@@ -595,15 +595,15 @@ static void test_sphere(void)
     /* rebuilding replaces the contents and gives the same proxy */
     tsv_proxy Q;
     memset(&Q, 0, sizeof Q);
-    CHECK_E(tsv_proxy_build(L, &ob, &Q, &e_));
-    CHECK_E(tsv_proxy_build(L, &ob, &Q, &e_));
+    CHECK_E(ffd_tsv_proxy_build(L, &ob, &Q, &e_));
+    CHECK_E(ffd_tsv_proxy_build(L, &ob, &Q, &e_));
     CHECK(Q.face_count == P.face_count && Q.vertex_count == P.vertex_count);
     if (Q.face_count == P.face_count)
         CHECK(memcmp(Q.face_indices, P.face_indices,
                      P.face_offsets[P.face_count] * sizeof *P.face_indices) == 0);
-    tsv_proxy_free(&Q);
-    tsv_proxy_free(&P);
-    tsv_lattice_destroy(L);
+    ffd_tsv_proxy_free(&Q);
+    ffd_tsv_proxy_free(&P);
+    ffd_tsv_lattice_destroy(L);
     obj_free(&o);
 }
 
@@ -620,11 +620,11 @@ static void test_bunny(void)
         tsv_object ob = obj_view(&o);
         tsv_proxy P;
         memset(&P, 0, sizeof P);
-        CHECK_E(tsv_proxy_build(L, &ob, &P, &e_));
+        CHECK_E(ffd_tsv_proxy_build(L, &ob, &P, &e_));
         check_proxy(L, &P, &o);
         CHECK(occupancy_mismatches(L, &o) == 0);
-        tsv_proxy_free(&P);
-        tsv_lattice_destroy(L);
+        ffd_tsv_proxy_free(&P);
+        ffd_tsv_lattice_destroy(L);
     }
     obj_free(&o);
 }
@@ -642,7 +642,7 @@ static void test_refined(void)
     tsv_object ob = obj_view(&o);
     tsv_proxy P;
     memset(&P, 0, sizeof P);
-    CHECK_E(tsv_proxy_build(L, &ob, &P, &e_));
+    CHECK_E(ffd_tsv_proxy_build(L, &ob, &P, &e_));
     /* split a few occupied cells, an end-layer cell among them when occupied */
     uint32_t todo[6];
     size_t nt = 0;
@@ -655,9 +655,9 @@ static void test_refined(void)
     CHECK(nt >= 3);
     for (size_t i = 0; i < nt; i++)
         octree_split(L, todo[i]);
-    CHECK_E(tsv_lattice_validate(L, &e_));
+    CHECK_E(ffd_tsv_lattice_validate(L, &e_));
     positions_at_gamma(L);
-    CHECK_E(tsv_proxy_build(L, &ob, &P, &e_));
+    CHECK_E(ffd_tsv_proxy_build(L, &ob, &P, &e_));
     proxy_stats s = check_proxy(L, &P, &o);
     CHECK(s.ngons > 0);
     CHECK(occupancy_mismatches(L, &o) == 0);
@@ -668,17 +668,17 @@ static void test_refined(void)
             todo[nt++] = (uint32_t)c;
     for (size_t i = 0; i < nt; i++)
         octree_split(L, todo[i]);
-    CHECK_E(tsv_lattice_validate(L, &e_));
-    CHECK_E(tsv_proxy_build(L, &ob, &P, &e_));
+    CHECK_E(ffd_tsv_lattice_validate(L, &e_));
+    CHECK_E(ffd_tsv_proxy_build(L, &ob, &P, &e_));
     s = check_proxy(L, &P, &o);
     CHECK(s.ngons > 0);
     CHECK(occupancy_mismatches(L, &o) == 0);
-    tsv_proxy_free(&P);
-    tsv_lattice_destroy(L);
+    ffd_tsv_proxy_free(&P);
+    ffd_tsv_lattice_destroy(L);
     obj_free(&o);
 }
 
-/* (2b) the same through tsv_refine (the closure moves and adds points):
+/* (2b) the same through ffd_tsv_lattice_refine (the closure moves and adds points):
  * cell octrees, a face 1->4 and an edge point on the proxy. */
 static void test_refined_closure(void)
 {
@@ -691,7 +691,7 @@ static void test_refined_closure(void)
     tsv_object ob = obj_view(&o);
     tsv_proxy P;
     memset(&P, 0, sizeof P);
-    CHECK_E(tsv_proxy_build(L, &ob, &P, &e_));
+    CHECK_E(ffd_tsv_proxy_build(L, &ob, &P, &e_));
     ffd_tsv_insertion ins[8];
     size_t ni = 0;
     for (size_t c = 3; c < L->nc && ni < 4; c += 11)
@@ -716,21 +716,21 @@ static void test_refined_closure(void)
     size_t nv0 = L->nv;
     tsv_refine_stats rs;
     memset(&rs, 0, sizeof rs);
-    CHECK_E(tsv_refine(L, ins, ni, &rs, &e_));
+    CHECK_E(ffd_tsv_lattice_refine(L, ins, ni, &rs, &e_));
     CHECK(L->nv > nv0);
-    CHECK_E(tsv_lattice_validate(L, &e_));
-    CHECK_E(tsv_proxy_build(L, &ob, &P, &e_));
+    CHECK_E(ffd_tsv_lattice_validate(L, &e_));
+    CHECK_E(ffd_tsv_proxy_build(L, &ob, &P, &e_));
     proxy_stats s = check_proxy(L, &P, &o);
     CHECK(s.ngons > 0);
     CHECK(occupancy_mismatches(L, &o) == 0);
     /* at rest the proxy stays outward (rest points near their gamma points) */
     CHECK(proxy_volume(L, &P, TSV_REST) > 0);
     tsv_arap_graph g;
-    CHECK_E(tsv_arap_graph_build(L, &P, &g, &e_));
+    CHECK_E(ffd_tsv_arap_graph_build(L, &P, &g, &e_));
     check_graph_common(L, &P, &g);
-    tsv_arap_graph_free(&g);
-    tsv_proxy_free(&P);
-    tsv_lattice_destroy(L);
+    ffd_tsv_arap_graph_free(&g);
+    ffd_tsv_proxy_free(&P);
+    ffd_tsv_lattice_destroy(L);
     obj_free(&o);
 }
 
@@ -742,20 +742,20 @@ static void test_points(void)
     tsv_object ob = obj_view(&o);
     tsv_proxy P;
     memset(&P, 0, sizeof P);
-    CHECK_E(tsv_proxy_build(L, &ob, &P, &e_));
+    CHECK_E(ffd_tsv_proxy_build(L, &ob, &P, &e_));
     check_proxy(L, &P, &o);
     CHECK(occupancy_mismatches(L, &o) == 0);
     /* a point on a shared face or corner occupies every cell around it */
-    double q[3] = {tsv_gamma(L, 0, L->cells[0].hi[0]), tsv_gamma(L, 1, L->cells[0].hi[1]),
-                   tsv_gamma(L, 2, L->cells[0].hi[2])};
+    double q[3] = {ffd_tsv_gamma(L, 0, L->cells[0].hi[0]), ffd_tsv_gamma(L, 1, L->cells[0].hi[1]),
+                   ffd_tsv_gamma(L, 2, L->cells[0].hi[2])};
     tsv_object one = {q, 1, NULL, NULL, 0};
-    CHECK_E(tsv_proxy_build(L, &one, &P, &e_));
+    CHECK_E(ffd_tsv_proxy_build(L, &one, &P, &e_));
     CHECK(P.occupied_cells == 8);
     CHECK(P.inside_cells == 8);
     check_proxy(L, &P, NULL);
     /* nothing at all: an empty proxy */
     tsv_object none = {NULL, 0, NULL, NULL, 0};
-    CHECK_E(tsv_proxy_build(L, &none, &P, &e_));
+    CHECK_E(ffd_tsv_proxy_build(L, &none, &P, &e_));
     CHECK(P.face_count == 0 && P.vertex_count == 0 && P.occupied_cells == 0 &&
           P.inside_cells == 0);
     for (size_t c = 0; c < L->nc; c++)
@@ -764,10 +764,10 @@ static void test_points(void)
     uint32_t off[2] = {0, 3}, idx[3] = {0, 1, 7};
     tsv_object bad = {o.params, 3, off, idx, 1};
     ffd_error err = {{0}};
-    CHECK(tsv_proxy_build(L, &bad, &P, &err) == FFD_ERR_RANGE);
+    CHECK(ffd_tsv_proxy_build(L, &bad, &P, &err) == FFD_ERR_RANGE);
     CHECK(strlen(err.message) > 0);
-    tsv_proxy_free(&P);
-    tsv_lattice_destroy(L);
+    ffd_tsv_proxy_free(&P);
+    ffd_tsv_lattice_destroy(L);
     obj_free(&o);
 }
 
@@ -780,7 +780,7 @@ static void test_torus_and_cavity(void)
     tsv_object ob = obj_view(&o);
     tsv_proxy P;
     memset(&P, 0, sizeof P);
-    CHECK_E(tsv_proxy_build(L, &ob, &P, &e_));
+    CHECK_E(ffd_tsv_proxy_build(L, &ob, &P, &e_));
     proxy_stats s = check_proxy(L, &P, &o);
     CHECK(s.enclosed > 0);
     /* the hole's axis is outside; the proxy does not wind around it */
@@ -806,8 +806,8 @@ static void test_torus_and_cavity(void)
     CHECK(hole_cells >= 1 && tube_cells >= 1);
     CHECK(fabs(winding(L, &P, hole)) < 1e-9);
     CHECK(fabs(winding(L, &P, tube) - 1.0) < 1e-9);
-    tsv_proxy_free(&P);
-    tsv_lattice_destroy(L);
+    ffd_tsv_proxy_free(&P);
+    ffd_tsv_lattice_destroy(L);
     obj_free(&o);
 
     /* a closed box shell (outer quads outwards, no inner surface) whose
@@ -836,7 +836,7 @@ static void test_torus_and_cavity(void)
     p[0] = p[1] = p[2] = 1.0;
     ob = obj_view(&shell);
     memset(&P, 0, sizeof P);
-    CHECK_E(tsv_proxy_build(L, &ob, &P, &e_));
+    CHECK_E(ffd_tsv_proxy_build(L, &ob, &P, &e_));
     s = check_proxy(L, &P, &shell);
     CHECK(s.enclosed > 0);
     size_t centre_inside = 0;
@@ -864,7 +864,7 @@ static void test_torus_and_cavity(void)
     }
     shell.n = m;
     ob = obj_view(&shell);
-    CHECK_E(tsv_proxy_build(L, &ob, &P, &e_));
+    CHECK_E(ffd_tsv_proxy_build(L, &ob, &P, &e_));
     s = check_proxy(L, &P, &shell);
     for (size_t c = 0; c < L->nc; c++) {
         double lo[3], hi[3];
@@ -873,8 +873,8 @@ static void test_torus_and_cavity(void)
             hi[2] >= 0.5)
             CHECK(L->cells[c].outside);
     }
-    tsv_proxy_free(&P);
-    tsv_lattice_destroy(L);
+    ffd_tsv_proxy_free(&P);
+    ffd_tsv_lattice_destroy(L);
     obj_free(&shell);
 }
 
@@ -912,7 +912,7 @@ static void check_graph_common(const tsv_lattice *L, const tsv_proxy *P, const t
     for (size_t c = 0; c < L->nc; c++) {
         uint32_t *pts = NULL;
         size_t m = 0;
-        CHECK_E(tsv_cell_points(L, (uint32_t)c, &pts, &m, &e_));
+        CHECK_E(ffd_tsv_cell_points(L, (uint32_t)c, &pts, &m, &e_));
         uint32_t corner[8];
         int nk = 0;
         for (size_t i = 0; i < m; i++) {
@@ -941,7 +941,7 @@ static void check_graph_common(const tsv_lattice *L, const tsv_proxy *P, const t
         for (uint32_t q = b0; q < b1; q++) {
             uint32_t v = P->face_indices[q];
             CHECK(g->proxy_indices[q] == v);
-            double ga = tsv_gamma(L, a, L->verts[v].sg[a]), gb = tsv_gamma(L, b, L->verts[v].sg[b]);
+            double ga = ffd_tsv_gamma(L, a, L->verts[v].sg[a]), gb = ffd_tsv_gamma(L, b, L->verts[v].sg[b]);
             int sw = g->proxy_uv[2 * q] == gb && g->proxy_uv[2 * q + 1] == ga;
             int st = g->proxy_uv[2 * q] == ga && g->proxy_uv[2 * q + 1] == gb;
             CHECK(sw || st);
@@ -966,9 +966,9 @@ static void test_arap_graph(void)
     tsv_object ob = obj_view(&o);
     tsv_proxy P;
     memset(&P, 0, sizeof P);
-    CHECK_E(tsv_proxy_build(L, &ob, &P, &e_));
+    CHECK_E(ffd_tsv_proxy_build(L, &ob, &P, &e_));
     tsv_arap_graph g;
-    CHECK_E(tsv_arap_graph_build(L, &P, &g, &e_));
+    CHECK_E(ffd_tsv_arap_graph_build(L, &P, &g, &e_));
     check_graph_common(L, &P, &g);
     size_t *dv = calloc(L->nv, sizeof *dv), *de = calloc(L->nv, sizeof *de);
     for (size_t q = 0; q < g.vol_count; q++)
@@ -994,8 +994,8 @@ static void test_arap_graph(void)
     CHECK(g.vol_count == expect);
     free(dv);
     free(de);
-    tsv_arap_graph_free(&g);
-    tsv_arap_graph_free(&g); /* idempotent */
+    ffd_tsv_arap_graph_free(&g);
+    ffd_tsv_arap_graph_free(&g); /* idempotent */
 
     /* after splits: hanging points joined to the corners of the cells whose
      * boundary holds them (checked in check_graph_common) */
@@ -1003,22 +1003,22 @@ static void test_arap_graph(void)
     octree_split(L, centre);
     octree_split(L, 0);
     positions_at_gamma(L);
-    CHECK_E(tsv_proxy_build(L, &ob, &P, &e_));
-    CHECK_E(tsv_arap_graph_build(L, &P, &g, &e_));
+    CHECK_E(ffd_tsv_proxy_build(L, &ob, &P, &e_));
+    CHECK_E(ffd_tsv_arap_graph_build(L, &P, &g, &e_));
     check_graph_common(L, &P, &g);
     /* the split cells' neighbours now hold hanging points */
     size_t hanging_links = 0;
     for (size_t c = 0; c < L->nc; c++) {
         uint32_t *pts = NULL;
         size_t m = 0;
-        CHECK_E(tsv_cell_points(L, (uint32_t)c, &pts, &m, &e_));
+        CHECK_E(ffd_tsv_cell_points(L, (uint32_t)c, &pts, &m, &e_));
         hanging_links += m > 8 ? m - 8 : 0;
         free(pts);
     }
     CHECK(hanging_links > 0);
-    tsv_arap_graph_free(&g);
-    tsv_proxy_free(&P);
-    tsv_lattice_destroy(L);
+    ffd_tsv_arap_graph_free(&g);
+    ffd_tsv_proxy_free(&P);
+    ffd_tsv_lattice_destroy(L);
     obj_free(&o);
 }
 
@@ -1192,7 +1192,7 @@ static manifold_stats contact_case(tsv_lattice *L, const uint32_t *cells, size_t
     memset(&o, 0, sizeof o);
     o.params = params;
     o.n = n;
-    CHECK_E(tsv_proxy_build(L, &ob, P, &e_));
+    CHECK_E(ffd_tsv_proxy_build(L, &ob, P, &e_));
     CHECK(P->occupied_cells == n);
     check_proxy(L, P, &o);
     manifold_stats m = check_manifold(L, P);
@@ -1277,8 +1277,8 @@ static void test_manifold_contacts(void)
     CHECK(ngons > 0);
     CHECK(m.points == P.vertex_count + 3); /* the edge's ends and its hanging point */
     CHECK(m.components == 2 && m.euler == 4);
-    tsv_proxy_free(&P);
-    tsv_lattice_destroy(L);
+    ffd_tsv_proxy_free(&P);
+    ffd_tsv_lattice_destroy(L);
 }
 
 /* Random sets of occupied cells (some after octree splits): the proxy is
@@ -1306,9 +1306,9 @@ static void test_manifold_random(void)
         if (m.points == P.vertex_count) /* nothing split: points are the vertices */
             for (size_t k = 0; k < P.point_count; k++)
                 CHECK(P.point_controls[k] == P.vertices[k]);
-        tsv_proxy_free(&P);
+        ffd_tsv_proxy_free(&P);
         free(cells);
-        tsv_lattice_destroy(L);
+        ffd_tsv_lattice_destroy(L);
     }
 }
 
@@ -1332,23 +1332,23 @@ static void arap_rigid_check(const tsv_arap_graph *g, size_t nv, int expect_same
     }
     tsv_arap_weights w = {1.0, 2.0 / 3.0, 0.5, 1.0};
     tsv_arap *a = NULL;
-    CHECK_E(tsv_arap_create(g, roles, &w, &a, &e_));
+    CHECK_E(ffd_tsv_arap_solver_create(g, roles, &w, &a, &e_));
     /* the identity at rest */
     memcpy(x, g->ref, 3 * nv * sizeof *x);
-    CHECK_E(tsv_arap_solve(a, g->ref, x, 3, &e_));
+    CHECK_E(ffd_tsv_arap_solver_solve(a, g->ref, x, 3, &e_));
     double worst = 0.0;
     for (size_t i = 0; i < 3 * nv; i++)
         worst = fmax(worst, fabs(x[i] - g->ref[i]));
     CHECK(worst <= 1e-10);
-    tsv_arap_destroy(a);
-    CHECK_E(tsv_arap_create(g, roles, &w, &a, &e_));
+    ffd_tsv_arap_solver_destroy(a);
+    CHECK_E(ffd_tsv_arap_solver_create(g, roles, &w, &a, &e_));
     memcpy(x, g->ref, 3 * nv * sizeof *x);
-    CHECK_E(tsv_arap_solve(a, tg, x, 100, &e_));
+    CHECK_E(ffd_tsv_arap_solver_solve(a, tg, x, 100, &e_));
     worst = 0.0;
     for (size_t i = 0; i < 3 * nv; i++)
         worst = fmax(worst, fabs(x[i] - tg[i]));
     CHECK(worst <= 1e-6); /* converged to the rigid motion */
-    tsv_arap_destroy(a);
+    ffd_tsv_arap_solver_destroy(a);
     /* the same graph without its points (one row per lattice id) */
     tsv_arap_graph ids = *g;
     ids.proxy_points = NULL;
@@ -1356,14 +1356,14 @@ static void arap_rigid_check(const tsv_arap_graph *g, size_t nv, int expect_same
     ids.proxy_point_count = 0;
     for (size_t v = 0; v < nv; v++)
         tg[3 * v] += v % 5 == 0 ? 0.05 * sin((double)v) : 0.0; /* not rigid */
-    CHECK_E(tsv_arap_create(g, roles, &w, &a, &e_));
+    CHECK_E(ffd_tsv_arap_solver_create(g, roles, &w, &a, &e_));
     memcpy(x, g->ref, 3 * nv * sizeof *x);
-    CHECK_E(tsv_arap_solve(a, tg, x, 5, &e_));
-    tsv_arap_destroy(a);
-    CHECK_E(tsv_arap_create(&ids, roles, &w, &a, &e_));
+    CHECK_E(ffd_tsv_arap_solver_solve(a, tg, x, 5, &e_));
+    ffd_tsv_arap_solver_destroy(a);
+    CHECK_E(ffd_tsv_arap_solver_create(&ids, roles, &w, &a, &e_));
     memcpy(x2, g->ref, 3 * nv * sizeof *x2);
-    CHECK_E(tsv_arap_solve(a, tg, x2, 5, &e_));
-    tsv_arap_destroy(a);
+    CHECK_E(ffd_tsv_arap_solver_solve(a, tg, x2, 5, &e_));
+    ffd_tsv_arap_solver_destroy(a);
     int same = memcmp(x, x2, 3 * nv * sizeof *x) == 0;
     CHECK(same == expect_same_as_ids);
     for (size_t i = 0; i < 3 * nv; i++)
@@ -1383,18 +1383,18 @@ static void test_manifold_arap(void)
     tsv_object ob = obj_view(&o);
     tsv_proxy P;
     memset(&P, 0, sizeof P);
-    CHECK_E(tsv_proxy_build(L, &ob, &P, &e_));
+    CHECK_E(ffd_tsv_proxy_build(L, &ob, &P, &e_));
     CHECK(P.point_count == P.vertex_count);
     tsv_arap_graph g;
-    CHECK_E(tsv_arap_graph_build(L, &P, &g, &e_));
+    CHECK_E(ffd_tsv_arap_graph_build(L, &P, &g, &e_));
     CHECK(g.proxy_point_count == P.point_count);
     arap_rigid_check(&g, L->nv, 1);
-    tsv_arap_graph_free(&g);
+    ffd_tsv_arap_graph_free(&g);
     /* an edge and a vertex contact */
     uint32_t cells[3] = {cell_id(r, 1, 1, 1), cell_id(r, 2, 2, 1), cell_id(r, 3, 3, 2)};
     manifold_stats m = contact_case(L, cells, 3, &P);
     CHECK(m.points == P.vertex_count + 3);
-    CHECK_E(tsv_arap_graph_build(L, &P, &g, &e_));
+    CHECK_E(ffd_tsv_arap_graph_build(L, &P, &g, &e_));
     CHECK(g.proxy_point_count == P.point_count);
     size_t nidx = P.face_offsets[P.face_count];
     for (size_t q = 0; q < nidx; q++)
@@ -1410,7 +1410,7 @@ static void test_manifold_arap(void)
     tsv_arap_weights w = {1.0, 2.0 / 3.0, 0.5, 1.0};
     tsv_arap *a = NULL;
     ffd_error err = {{0}};
-    CHECK(tsv_arap_create(&g, roles, &w, &a, &err) == FFD_ERR_INVALID && a == NULL);
+    CHECK(ffd_tsv_arap_solver_create(&g, roles, &w, &a, &err) == FFD_ERR_INVALID && a == NULL);
     CHECK(strstr(err.message, "proxy corner 0") != NULL);
     bad[0] = keep;
     /* a point whose control id is out of range, even one no corner uses */
@@ -1418,13 +1418,13 @@ static void test_manifold_arap(void)
     size_t last = g.proxy_point_count - 1;
     keep = ctl[last];
     ctl[last] = (uint32_t)L->nv;
-    CHECK(tsv_arap_create(&g, roles, &w, &a, &err) == FFD_ERR_RANGE && a == NULL);
+    CHECK(ffd_tsv_arap_solver_create(&g, roles, &w, &a, &err) == FFD_ERR_RANGE && a == NULL);
     CHECK(strstr(err.message, "proxy point") != NULL);
     ctl[last] = keep;
     free(roles);
-    tsv_arap_graph_free(&g);
-    tsv_proxy_free(&P);
-    tsv_lattice_destroy(L);
+    ffd_tsv_arap_graph_free(&g);
+    ffd_tsv_proxy_free(&P);
+    ffd_tsv_lattice_destroy(L);
     obj_free(&o);
 }
 
@@ -1438,7 +1438,7 @@ static void test_failing_allocations(void)
     tsv_object ob = obj_view(&o), old = obj_view(&pts);
     tsv_proxy P;
     memset(&P, 0, sizeof P);
-    CHECK_E(tsv_proxy_build(L, &old, &P, &e_));
+    CHECK_E(ffd_tsv_proxy_build(L, &old, &P, &e_));
     size_t old_faces = P.face_count, old_occ = P.occupied_cells;
     uint8_t *flags = malloc(2 * L->nc);
     for (size_t c = 0; c < L->nc; c++)
@@ -1452,16 +1452,16 @@ static void test_failing_allocations(void)
         ffd_error err = {{0}};
         tsv_arap_graph g;
         memset(&g, 0, sizeof g);
-        ffd_status st = tsv_arap_graph_build(L, &P, &g, &err);
+        ffd_status st = ffd_tsv_arap_graph_build(L, &P, &g, &err);
         ffd_set_allocator(NULL);
         CHECK(st == FFD_OK || st == FFD_ERR_NOMEM);
         if (st == FFD_OK)
             check_graph_common(L, &P, &g);
         else
             CHECK(g.ref == NULL && g.vol == NULL && strlen(err.message) > 0);
-        tsv_arap_graph_free(&g);
+        ffd_tsv_arap_graph_free(&g);
         ffd_set_allocator(&al);
-        st = tsv_proxy_build(L, &ob, &P, &err);
+        st = ffd_tsv_proxy_build(L, &ob, &P, &err);
         ffd_set_allocator(NULL);
         CHECK(st == FFD_OK || st == FFD_ERR_NOMEM);
         if (st == FFD_OK) {
@@ -1479,8 +1479,8 @@ static void test_failing_allocations(void)
     }
     CHECK(done && failures > 5);
     free(flags);
-    tsv_proxy_free(&P);
-    tsv_lattice_destroy(L);
+    ffd_tsv_proxy_free(&P);
+    ffd_tsv_lattice_destroy(L);
     obj_free(&o);
     obj_free(&pts);
 }
@@ -1502,12 +1502,12 @@ static void test_timing(void)
         double best = 1e30, gbest = 1e30;
         for (int rep = 0; rep < 3; rep++) {
             double t0 = ffd_now();
-            CHECK_E(tsv_proxy_build(L, &ob, &P, &e_));
+            CHECK_E(ffd_tsv_proxy_build(L, &ob, &P, &e_));
             double t1 = ffd_now();
             tsv_arap_graph g;
-            CHECK_E(tsv_arap_graph_build(L, &P, &g, &e_));
+            CHECK_E(ffd_tsv_arap_graph_build(L, &P, &g, &e_));
             double t2 = ffd_now();
-            tsv_arap_graph_free(&g);
+            ffd_tsv_arap_graph_free(&g);
             best = t1 - t0 < best ? t1 - t0 : best;
             gbest = t2 - t1 < gbest ? t2 - t1 : gbest;
         }
@@ -1517,8 +1517,8 @@ static void test_timing(void)
                (size_t)o.off[o.nf] - 2 * o.nf, o.nf, R[r], L->nc, 1e3 * best, P.occupied_cells,
                P.inside_cells, P.face_count, P.vertex_count, 1e3 * gbest);
         check_proxy(L, &P, &o);
-        tsv_proxy_free(&P);
-        tsv_lattice_destroy(L);
+        ffd_tsv_proxy_free(&P);
+        ffd_tsv_lattice_destroy(L);
     }
     obj_free(&o);
 }

@@ -36,7 +36,7 @@ static tsv_lattice *make_lattice(uint32_t r0, uint32_t r1, uint32_t r2)
 {
     uint32_t res[3] = {r0, r1, r2};
     tsv_lattice *L = NULL;
-    CHECK_OK(tsv_lattice_create(BOX_MIN, BOX_MAX, res, &L, NULL));
+    CHECK_OK(ffd_tsv_lattice_create(BOX_MIN, BOX_MAX, res, &L, NULL));
     return L;
 }
 
@@ -186,8 +186,8 @@ static void test_piece_split(void)
                               : (tsv_kappa(p[4]) - tsv_kappa(k)) / (tsv_kappa(p[4]) - tsv_kappa(p[1]));
         for (int s = 0; s <= 1000; s++) {
             double x = s / 1000.0, d0, dl, dr;
-            double N = tsv_basis(p, x, &d0);
-            double r = N - cL * tsv_basis(q, x, &dl) - cR * tsv_basis(q + 1, x, &dr);
+            double N = ffd_tsv_basis(p, x, &d0);
+            double r = N - cL * ffd_tsv_basis(q, x, &dl) - cR * ffd_tsv_basis(q + 1, x, &dr);
             if (fabs(r) > worst)
                 worst = fabs(r);
             CHECK(N >= 0.0);
@@ -207,7 +207,7 @@ static void test_initial_bspline(void)
         tsv_lattice *L = make_lattice(R[t][0], R[t][1], R[t][2]);
         if (!L)
             return;
-        CHECK_OK(tsv_lattice_validate(L, NULL));
+        CHECK_OK(ffd_tsv_lattice_validate(L, NULL));
         uint32_t *n = L->res;
         CHECK(L->nc == (size_t)(n[0] - 1) * (n[1] - 1) * (n[2] - 1));
         /* knot windows: plane i sits at registry index i + 2 */
@@ -217,11 +217,11 @@ static void test_initial_bspline(void)
                 for (uint32_t l = 0; l < n[2]; l++) {
                     uint32_t v = (i * n[1] + j) * n[2] + l, idx[3] = {i, j, l};
                     double K[3][5];
-                    tsv_infer_knots(L, v, K);
+                    ffd_tsv_infer_knots(L, v, K);
                     for (int a = 0; a < 3; a++)
                         for (int q = 0; q < 5; q++)
                             bad += K[a][q] != L->reg[a].v[idx[a] + q];
-                    CHECK(tsv_vertex_find(L, L->verts[v].sg) == v);
+                    CHECK(ffd_tsv_vertex_find(L, L->verts[v].sg) == v);
                 }
         CHECK(bad == 0);
         /* cell ids (i*(n_t-1)+j)*(n_u-1)+k */
@@ -229,9 +229,9 @@ static void test_initial_bspline(void)
         CHECK(C->lo[0] == L->reg[0].v[3] && C->lo[1] == L->reg[1].v[4] && C->lo[2] == L->reg[2].v[3]);
         add_noise(L);
         tsv_support *S = NULL;
-        CHECK_OK(tsv_support_build(L, &S, NULL));
+        CHECK_OK(ffd_tsv_support_build(L, &S, NULL));
         if (!S) {
-            tsv_lattice_destroy(L);
+            ffd_tsv_lattice_destroy(L);
             return;
         }
         double worst = 0.0, wjac = 0.0;
@@ -244,7 +244,7 @@ static void test_initial_bspline(void)
             }
         for (size_t p = 0; p < np; p++) {
             double F[3], G[3], jac[9];
-            tsv_eval_point(L, S, TSV_CURRENT, pts + 3 * p, F, jac);
+            ffd_tsv_eval_point(L, S, TSV_CURRENT, pts + 3 * p, F, jac);
             tensor_eval(L, pts + 3 * p, G);
             for (int a = 0; a < 3; a++)
                 if (fabs(F[a] - G[a]) > worst)
@@ -257,8 +257,8 @@ static void test_initial_bspline(void)
                     double xp[3] = {x[0], x[1], x[2]}, xm[3] = {x[0], x[1], x[2]}, Fp[3], Fm[3];
                     xp[c] += 1e-6;
                     xm[c] -= 1e-6;
-                    tsv_eval_point(L, S, TSV_CURRENT, xp, Fp, NULL);
-                    tsv_eval_point(L, S, TSV_CURRENT, xm, Fm, NULL);
+                    ffd_tsv_eval_point(L, S, TSV_CURRENT, xp, Fp, NULL);
+                    ffd_tsv_eval_point(L, S, TSV_CURRENT, xm, Fm, NULL);
                     for (int r = 0; r < 3; r++) {
                         double fd = (Fp[r] - Fm[r]) / 2e-6;
                         if (fabs(fd - jac[r * 3 + c]) > wjac)
@@ -271,9 +271,9 @@ static void test_initial_bspline(void)
         CHECK_NEAR(wjac, 0.0, 1e-5);
         /* the same through Phi */
         tsv_phi phi;
-        CHECK_OK(tsv_phi_build(L, S, pts, np, &phi, NULL));
+        CHECK_OK(ffd_tsv_phi_build(L, S, pts, np, &phi, NULL));
         double *out = malloc(3 * np * sizeof *out);
-        tsv_phi_apply(&phi, L, TSV_CURRENT, out);
+        ffd_tsv_phi_apply(&phi, L, TSV_CURRENT, out);
         double wphi = 0.0;
         for (size_t p = 0; p < np; p++) {
             double G[3];
@@ -284,10 +284,10 @@ static void test_initial_bspline(void)
         }
         CHECK_NEAR(wphi, 0.0, 1e-14 * box_diag());
         free(out);
-        tsv_phi_free(&phi);
+        ffd_tsv_phi_free(&phi);
         free(pts);
-        tsv_support_destroy(S);
-        tsv_lattice_destroy(L);
+        ffd_tsv_support_destroy(S);
+        ffd_tsv_lattice_destroy(L);
     }
 }
 
@@ -295,13 +295,13 @@ static void test_basis_right_closed(void)
 {
     double k1[5] = {-3, -2, -1, 0, 0.5}, k2[5] = {0.5, 1, 2, 3, 4}, k3[5] = {0, 0.25, 0.5, 0.75, 1};
     double d;
-    CHECK_NEAR(tsv_basis(k1, 0.0, &d), 1.0, 0);
+    CHECK_NEAR(ffd_tsv_basis(k1, 0.0, &d), 1.0, 0);
     CHECK_NEAR(d, -6.0, 1e-12);
-    CHECK_NEAR(tsv_basis(k2, 1.0, &d), 1.0, 0);
+    CHECK_NEAR(ffd_tsv_basis(k2, 1.0, &d), 1.0, 0);
     CHECK_NEAR(d, 6.0, 1e-12);
-    CHECK_NEAR(tsv_basis(k3, 1.0, NULL), 0.0, 0);
-    CHECK_NEAR(tsv_basis(k3, 0.5, NULL), 2.0 / 3.0, 1e-15);
-    CHECK_NEAR(tsv_basis(k3, 1.5, &d), 0.0, 0);
+    CHECK_NEAR(ffd_tsv_basis(k3, 1.0, NULL), 0.0, 0);
+    CHECK_NEAR(ffd_tsv_basis(k3, 0.5, NULL), 2.0 / 3.0, 1e-15);
+    CHECK_NEAR(ffd_tsv_basis(k3, 1.5, &d), 0.0, 0);
 }
 
 /* ---------------------------------------------------------------------
@@ -345,7 +345,7 @@ static ffd_tsv_insertion random_insertion(const tsv_lattice *L)
 static void check_consistency(const tsv_lattice *L)
 {
     ffd_error err = {{0}};
-    ffd_status st = tsv_lattice_validate(L, &err);
+    ffd_status st = ffd_tsv_lattice_validate(L, &err);
     if (st != FFD_OK)
         fprintf(stderr, "validate: %s\n", err.message);
     CHECK(st == FFD_OK);
@@ -364,7 +364,7 @@ static void check_consistency(const tsv_lattice *L)
         /* rest position = Greville point of its own knots (design §4.5) */
         for (size_t v = 0; v < L->nv; v++) {
             double K[3][5];
-            tsv_infer_knots(L, (uint32_t)v, K);
+            ffd_tsv_infer_knots(L, (uint32_t)v, K);
             for (int a = 0; a < 3; a++) {
                 double g = (tsv_kappa(K[a][1]) + tsv_kappa(K[a][2]) + tsv_kappa(K[a][3])) / 3.0;
                 double x = BOX_MIN[a] + g * (BOX_MAX[a] - BOX_MIN[a]);
@@ -409,14 +409,14 @@ static void compare_maps(const tsv_lattice *L0, const tsv_lattice *L1, const sam
                          double *worst_out)
 {
     tsv_support *S0 = NULL, *S1 = NULL;
-    CHECK_OK(tsv_support_build(L0, &S0, NULL));
-    CHECK_OK(tsv_support_build(L1, &S1, NULL));
+    CHECK_OK(ffd_tsv_support_build(L0, &S0, NULL));
+    CHECK_OK(ffd_tsv_support_build(L1, &S1, NULL));
     if (!S0 || !S1) {
-        tsv_support_destroy(S0);
-        tsv_support_destroy(S1);
+        ffd_tsv_support_destroy(S0);
+        ffd_tsv_support_destroy(S1);
         return;
     }
-    size_t mx = tsv_support_max(S1);
+    size_t mx = ffd_tsv_support_max(S1);
     uint32_t *ids = malloc(mx * sizeof *ids);
     double *w = malloc(mx * sizeof *w), *g = malloc(3 * mx * sizeof *g);
     double diag = box_diag(), worst = 0.0, pu = 0.0, lin = 0.0, gsum = 0.0;
@@ -424,9 +424,9 @@ static void compare_maps(const tsv_lattice *L0, const tsv_lattice *L1, const sam
     for (size_t i = 0; i < X->n; i++) {
         const double *x = X->p + 3 * i;
         double F0[3], F1[3], R[3];
-        tsv_eval_point(L0, S0, TSV_CURRENT, x, F0, NULL);
-        tsv_eval_point(L1, S1, TSV_CURRENT, x, F1, NULL);
-        tsv_eval_point(L1, S1, TSV_REST, x, R, NULL);
+        ffd_tsv_eval_point(L0, S0, TSV_CURRENT, x, F0, NULL);
+        ffd_tsv_eval_point(L1, S1, TSV_CURRENT, x, F1, NULL);
+        ffd_tsv_eval_point(L1, S1, TSV_REST, x, R, NULL);
         for (int a = 0; a < 3; a++) {
             if (fabs(F0[a] - F1[a]) > worst)
                 worst = fabs(F0[a] - F1[a]);
@@ -434,7 +434,7 @@ static void compare_maps(const tsv_lattice *L0, const tsv_lattice *L1, const sam
             if (fabs(R[a] - want) > lin)
                 lin = fabs(R[a] - want);
         }
-        size_t m = tsv_support_eval(S1, x, ids, w, g);
+        size_t m = ffd_tsv_support_eval(S1, x, ids, w, g);
         double sum = 0.0, gs[3] = {0, 0, 0};
         for (size_t k = 0; k < m; k++) {
             sum += w[k];
@@ -455,13 +455,13 @@ static void compare_maps(const tsv_lattice *L0, const tsv_lattice *L1, const sam
     CHECK(neg == 0);
     /* Phi: the same map, rows sum to 1 */
     tsv_phi phi;
-    CHECK_OK(tsv_phi_build(L1, S1, X->p, X->n, &phi, NULL));
+    CHECK_OK(ffd_tsv_phi_build(L1, S1, X->p, X->n, &phi, NULL));
     double *out = malloc(3 * X->n * sizeof *out);
-    tsv_phi_apply(&phi, L1, TSV_CURRENT, out);
+    ffd_tsv_phi_apply(&phi, L1, TSV_CURRENT, out);
     double wphi = 0.0, rows = 0.0;
     for (size_t i = 0; i < X->n; i++) {
         double F0[3], rs = 0.0;
-        tsv_eval_point(L0, S0, TSV_CURRENT, X->p + 3 * i, F0, NULL);
+        ffd_tsv_eval_point(L0, S0, TSV_CURRENT, X->p + 3 * i, F0, NULL);
         for (int a = 0; a < 3; a++)
             if (fabs(F0[a] - out[3 * i + a]) > wphi)
                 wphi = fabs(F0[a] - out[3 * i + a]);
@@ -475,12 +475,12 @@ static void compare_maps(const tsv_lattice *L0, const tsv_lattice *L1, const sam
     if (worst_out && worst > *worst_out)
         *worst_out = worst;
     free(out);
-    tsv_phi_free(&phi);
+    ffd_tsv_phi_free(&phi);
     free(ids);
     free(w);
     free(g);
-    tsv_support_destroy(S0);
-    tsv_support_destroy(S1);
+    ffd_tsv_support_destroy(S0);
+    ffd_tsv_support_destroy(S1);
 }
 
 static void test_exactness(void)
@@ -492,7 +492,7 @@ static void test_exactness(void)
         if (!L)
             return;
         add_noise(L);
-        tsv_lattice *L0 = tsv_lattice_clone(L);
+        tsv_lattice *L0 = ffd_tsv_lattice_clone(L);
         int nedits = 1 + (int)rndi(trial < 4 ? 10 : 50);
         for (int e = 0; e < nedits; e++) {
             ffd_tsv_insertion ins[8];
@@ -514,7 +514,7 @@ static void test_exactness(void)
             }
             tsv_refine_stats st;
             ffd_error err = {{0}};
-            ffd_status s = tsv_refine(L, ins, n, &st, &err);
+            ffd_status s = ffd_tsv_lattice_refine(L, ins, n, &st, &err);
             if (s != FFD_OK) {
                 fprintf(stderr, "refine failed (trial %d edit %d): %s\n", trial, e, err.message);
                 CHECK(s == FFD_OK);
@@ -532,8 +532,8 @@ static void test_exactness(void)
         sample_set X = make_samples(L, trial < 3 ? 10000 : 2000);
         compare_maps(L0, L, &X, &worst);
         free(X.p);
-        tsv_lattice_destroy(L0);
-        tsv_lattice_destroy(L);
+        ffd_tsv_lattice_destroy(L0);
+        ffd_tsv_lattice_destroy(L);
     }
     printf("    exactness: %zu edits, max |F_after - F_before| = %.3g, max |W-1| = %.3g\n",
            total_edits, worst, max_w_dev_seen);
@@ -548,14 +548,14 @@ static void test_each_type(void)
             if (!L)
                 return;
             add_noise(L);
-            tsv_lattice *L0 = tsv_lattice_clone(L);
+            tsv_lattice *L0 = ffd_tsv_lattice_clone(L);
             ffd_tsv_insertion in = random_insertion(L);
             while ((int)in.kind != kind)
                 in = random_insertion(L);
             size_t nv = L->nv;
             tsv_refine_stats st;
             ffd_error err = {{0}};
-            ffd_status s = tsv_refine(L, &in, 1, &st, &err);
+            ffd_status s = ffd_tsv_lattice_refine(L, &in, 1, &st, &err);
             if (s != FFD_OK)
                 fprintf(stderr, "%s\n", err.message);
             CHECK(s == FFD_OK);
@@ -565,8 +565,8 @@ static void test_each_type(void)
             sample_set X = make_samples(L, 3000);
             compare_maps(L0, L, &X, NULL);
             free(X.p);
-            tsv_lattice_destroy(L0);
-            tsv_lattice_destroy(L);
+            ffd_tsv_lattice_destroy(L0);
+            ffd_tsv_lattice_destroy(L);
         }
 }
 
@@ -577,18 +577,18 @@ static void test_idempotence(void)
         return;
     add_noise(L);
     ffd_tsv_insertion in = {FFD_TSV_CELL, 62, 0.0};
-    CHECK_OK(tsv_refine(L, &in, 1, NULL, NULL));
-    tsv_lattice *L1 = tsv_lattice_clone(L);
+    CHECK_OK(ffd_tsv_lattice_refine(L, &in, 1, NULL, NULL));
+    tsv_lattice *L1 = ffd_tsv_lattice_clone(L);
     /* an empty edit and an edge point that lands on an existing knot */
     tsv_refine_stats st;
-    CHECK_OK(tsv_refine(L, NULL, 0, &st, NULL));
+    CHECK_OK(ffd_tsv_lattice_refine(L, NULL, 0, &st, NULL));
     CHECK(st.added_points == 0 && st.moved_points == 0);
     uint32_t e = 0;
     for (e = 0; e < L->ne; e++)
         if (L->edges[e].lo == 0.0 && L->edges[e].hi > 0.0)
             break;
     ffd_tsv_insertion snap = {FFD_TSV_EDGE, e, 1e-15};
-    CHECK_OK(tsv_refine(L, &snap, 1, &st, NULL));
+    CHECK_OK(ffd_tsv_lattice_refine(L, &snap, 1, &st, NULL));
     CHECK(st.added_points == 0 && st.moved_points == 0);
     CHECK(L->nv == L1->nv && L->ne == L1->ne && L->nf == L1->nf && L->nc == L1->nc);
     CHECK(L->version == L1->version);
@@ -598,13 +598,13 @@ static void test_idempotence(void)
                 L->verts[v].W != L1->verts[v].W;
     CHECK(diff == 0);
     /* the octree split of the same region again (its lower part): the map stays */
-    CHECK_OK(tsv_refine(L, &in, 1, NULL, NULL));
+    CHECK_OK(ffd_tsv_lattice_refine(L, &in, 1, NULL, NULL));
     sample_set X = make_samples(L, 2000);
     compare_maps(L1, L, &X, NULL);
     free(X.p);
     check_consistency(L);
-    tsv_lattice_destroy(L1);
-    tsv_lattice_destroy(L);
+    ffd_tsv_lattice_destroy(L1);
+    ffd_tsv_lattice_destroy(L);
 }
 
 static void test_bad_input(void)
@@ -613,29 +613,29 @@ static void test_bad_input(void)
     if (!L)
         return;
     CHECK(L->nc == 36);
-    tsv_lattice *L0 = tsv_lattice_clone(L);
+    tsv_lattice *L0 = ffd_tsv_lattice_clone(L);
     ffd_error err = {{0}};
     ffd_tsv_insertion in = {FFD_TSV_CELL, 40, 0.0};
-    CHECK(tsv_refine(L, &in, 1, NULL, &err) == FFD_ERR_RANGE);
+    CHECK(ffd_tsv_lattice_refine(L, &in, 1, NULL, &err) == FFD_ERR_RANGE);
     CHECK(strcmp(err.message, "cell 40: there are 36 cells") == 0);
     in.kind = FFD_TSV_EDGE;
     in.id = (uint32_t)L->ne;
-    CHECK(tsv_refine(L, &in, 1, NULL, &err) == FFD_ERR_RANGE);
+    CHECK(ffd_tsv_lattice_refine(L, &in, 1, NULL, &err) == FFD_ERR_RANGE);
     CHECK(strstr(err.message, "edge") != NULL);
     in.kind = FFD_TSV_FACE;
     in.id = (uint32_t)L->nf + 3;
-    CHECK(tsv_refine(L, &in, 1, NULL, &err) == FFD_ERR_RANGE);
+    CHECK(ffd_tsv_lattice_refine(L, &in, 1, NULL, &err) == FFD_ERR_RANGE);
     /* edge 0 runs from sigma -1 to 0: zero knot interval */
     in.kind = FFD_TSV_EDGE;
     in.id = 0;
-    CHECK(tsv_refine(L, &in, 1, NULL, &err) == FFD_ERR_INVALID);
+    CHECK(ffd_tsv_lattice_refine(L, &in, 1, NULL, &err) == FFD_ERR_INVALID);
     CHECK(strcmp(err.message, "edge 0: zero knot interval") == 0);
     /* face 0 (normal s at -1, t and u in [-1,0]) and the corner cell 0 */
     in.kind = FFD_TSV_FACE;
-    CHECK(tsv_refine(L, &in, 1, NULL, &err) == FFD_ERR_INVALID);
+    CHECK(ffd_tsv_lattice_refine(L, &in, 1, NULL, &err) == FFD_ERR_INVALID);
     CHECK(strstr(err.message, "zero knot interval") != NULL);
     in.kind = FFD_TSV_CELL;
-    CHECK(tsv_refine(L, &in, 1, NULL, &err) == FFD_ERR_INVALID);
+    CHECK(ffd_tsv_lattice_refine(L, &in, 1, NULL, &err) == FFD_ERR_INVALID);
     /* bad ratios on an interior edge */
     uint32_t e = 0;
     while (tsv_kappa(L->edges[e].lo) == tsv_kappa(L->edges[e].hi))
@@ -643,11 +643,11 @@ static void test_bad_input(void)
     const double bad[4] = {1.0, -0.5, 1.5, NAN};
     for (int i = 0; i < 4; i++) {
         ffd_tsv_insertion b = {FFD_TSV_EDGE, e, bad[i]};
-        CHECK(tsv_refine(L, &b, 1, NULL, &err) == FFD_ERR_INVALID);
+        CHECK(ffd_tsv_lattice_refine(L, &b, 1, NULL, &err) == FFD_ERR_INVALID);
     }
     /* a batch with one bad element: all or nothing */
     ffd_tsv_insertion batch[2] = {{FFD_TSV_CELL, 13, 0.0}, {FFD_TSV_CELL, 99, 0.0}};
-    CHECK(tsv_refine(L, batch, 2, NULL, &err) == FFD_ERR_RANGE);
+    CHECK(ffd_tsv_lattice_refine(L, batch, 2, NULL, &err) == FFD_ERR_RANGE);
     CHECK(L->nv == L0->nv && L->nc == L0->nc && L->version == L0->version);
     /* a face across an end layer splits 1 -> 2 */
     for (uint32_t f = 0; f < L->nf; f++) {
@@ -655,14 +655,14 @@ static void test_bad_input(void)
         if (F->normal == 2 && F->lo[0] == -1.0 && F->lo[1] == 0.0 && F->c == 0.0) {
             size_t nf = L->nf;
             ffd_tsv_insertion fi = {FFD_TSV_FACE, f, 0.0};
-            CHECK_OK(tsv_refine(L, &fi, 1, NULL, NULL));
+            CHECK_OK(ffd_tsv_lattice_refine(L, &fi, 1, NULL, NULL));
             CHECK(L->nf >= nf + 1);
             check_consistency(L);
             break;
         }
     }
-    tsv_lattice_destroy(L0);
-    tsv_lattice_destroy(L);
+    ffd_tsv_lattice_destroy(L0);
+    ffd_tsv_lattice_destroy(L);
 }
 
 /* Out of memory anywhere in an edit rolls back to the old lattice. */
@@ -672,14 +672,14 @@ static void test_nomem_rollback(void)
     if (!L)
         return;
     add_noise(L);
-    tsv_lattice *L0 = tsv_lattice_clone(L);
+    tsv_lattice *L0 = ffd_tsv_lattice_clone(L);
     ffd_tsv_insertion ins[2] = {{FFD_TSV_CELL, 31, 0.0}, {FFD_TSV_FACE, 40, 0.0}};
     int nomem = 0, ok = 0;
     for (long k = 0; k < 4000 && !ok; k += (k < 200 ? 1 : 37)) {
         fail_alloc fa = {k, 0};
         ffd_allocator a = {fa_malloc, fa_realloc, fa_free, &fa};
         ffd_set_allocator(&a);
-        ffd_status s = tsv_refine(L, ins, 2, NULL, NULL);
+        ffd_status s = ffd_tsv_lattice_refine(L, ins, 2, NULL, NULL);
         ffd_set_allocator(NULL);
         if (s == FFD_OK) {
             ok = 1;
@@ -688,13 +688,13 @@ static void test_nomem_rollback(void)
         CHECK(s == FFD_ERR_NOMEM);
         nomem++;
         CHECK(L->nv == L0->nv && L->ne == L0->ne && L->nf == L0->nf && L->nc == L0->nc);
-        CHECK_OK(tsv_lattice_validate(L, NULL));
+        CHECK_OK(ffd_tsv_lattice_validate(L, NULL));
     }
     CHECK(ok);
     CHECK(nomem > 10);
     check_consistency(L);
-    tsv_lattice_destroy(L0);
-    tsv_lattice_destroy(L);
+    ffd_tsv_lattice_destroy(L0);
+    ffd_tsv_lattice_destroy(L);
 }
 
 static void test_phi_threads(void)
@@ -709,29 +709,29 @@ static void test_phi_threads(void)
         do
             ins[i] = random_insertion(L);
         while ((int)ins[i].kind != i);
-    CHECK_OK(tsv_refine(L, ins, 3, NULL, NULL));
+    CHECK_OK(ffd_tsv_lattice_refine(L, ins, 3, NULL, NULL));
     tsv_support *S = NULL;
-    CHECK_OK(tsv_support_build(L, &S, NULL));
+    CHECK_OK(ffd_tsv_support_build(L, &S, NULL));
     sample_set X = make_samples(L, 5000);
     double *o1 = malloc(3 * X.n * sizeof *o1), *o2 = malloc(3 * X.n * sizeof *o2);
     int nt = omp_get_max_threads();
     tsv_phi p1, p2;
     omp_set_num_threads(1);
-    CHECK_OK(tsv_phi_build(L, S, X.p, X.n, &p1, NULL));
-    tsv_phi_apply(&p1, L, TSV_CURRENT, o1);
+    CHECK_OK(ffd_tsv_phi_build(L, S, X.p, X.n, &p1, NULL));
+    ffd_tsv_phi_apply(&p1, L, TSV_CURRENT, o1);
     omp_set_num_threads(nt > 1 ? nt : 3);
-    CHECK_OK(tsv_phi_build(L, S, X.p, X.n, &p2, NULL));
-    tsv_phi_apply(&p2, L, TSV_CURRENT, o2);
+    CHECK_OK(ffd_tsv_phi_build(L, S, X.p, X.n, &p2, NULL));
+    ffd_tsv_phi_apply(&p2, L, TSV_CURRENT, o2);
     omp_set_num_threads(nt);
     CHECK(memcmp(o1, o2, 3 * X.n * sizeof *o1) == 0);
     CHECK(p1.rowptr[X.n] == p2.rowptr[X.n]);
     free(o1);
     free(o2);
     free(X.p);
-    tsv_phi_free(&p1);
-    tsv_phi_free(&p2);
-    tsv_support_destroy(S);
-    tsv_lattice_destroy(L);
+    ffd_tsv_phi_free(&p1);
+    ffd_tsv_phi_free(&p2);
+    ffd_tsv_support_destroy(S);
+    ffd_tsv_lattice_destroy(L);
 #endif
 }
 
@@ -747,7 +747,7 @@ static void test_lattice_queries(void)
     while (!(L->faces[f].normal == 2 && L->faces[f].c > 0.0 && L->faces[f].lo[0] > 0.0 &&
              L->faces[f].lo[1] > 0.0))
         f++;
-    CHECK_OK(tsv_face_ring(L, f, &ids, &n, NULL));
+    CHECK_OK(ffd_tsv_face_ring(L, f, &ids, &n, NULL));
     CHECK(n == 4);
     if (n == 4) {
         const tsv_face *F = &L->faces[f];
@@ -760,24 +760,24 @@ static void test_lattice_queries(void)
     tsv_cell C = L->cells[f % L->nc];
     (void)C;
     uint32_t c = (uint32_t)((2 * 4 + 2) * 4 + 2);
-    CHECK_OK(tsv_cell_points(L, c, &ids, &n, NULL));
+    CHECK_OK(ffd_tsv_cell_points(L, c, &ids, &n, NULL));
     CHECK(n == 8);
     ffd_free(ids);
     ffd_tsv_insertion in = {FFD_TSV_CELL, c, 0.0};
-    CHECK_OK(tsv_refine(L, &in, 1, NULL, NULL));
+    CHECK_OK(ffd_tsv_lattice_refine(L, &in, 1, NULL, NULL));
     /* the neighbour above in u: its cell points include the hanging ones */
     uint32_t up = c + 1;
-    CHECK_OK(tsv_cell_points(L, up, &ids, &n, NULL));
+    CHECK_OK(ffd_tsv_cell_points(L, up, &ids, &n, NULL));
     CHECK(n >= 9);
     ffd_free(ids);
     /* side cells of all faces stay right (validate), gamma is monotone */
     check_consistency(L);
     for (int a = 0; a < 3; a++) {
-        CHECK_NEAR(tsv_gamma(L, a, -1.0), 0.0, 0);
-        CHECK_NEAR(tsv_gamma(L, a, 2.0), 1.0, 0);
+        CHECK_NEAR(ffd_tsv_gamma(L, a, -1.0), 0.0, 0);
+        CHECK_NEAR(ffd_tsv_gamma(L, a, 2.0), 1.0, 0);
         double prev = -1.0;
         for (size_t i = 2; i + 2 < L->reg[a].n; i++) {
-            double g = tsv_gamma(L, a, L->reg[a].v[i]);
+            double g = ffd_tsv_gamma(L, a, L->reg[a].v[i]);
             CHECK(g >= prev);
             prev = g;
         }
@@ -785,12 +785,12 @@ static void test_lattice_queries(void)
     /* locate: a vertex, an edge interior, a cell interior */
     int dim;
     uint32_t id;
-    tsv_locate(L, L->verts[7].sg, &dim, &id);
+    ffd_tsv_lattice_locate(L, L->verts[7].sg, &dim, &id);
     CHECK(dim == 0 && id == 7);
     double q[3] = {0.2, 0.3, 0.1};
-    tsv_locate(L, q, &dim, &id);
+    ffd_tsv_lattice_locate(L, q, &dim, &id);
     CHECK(dim == 3);
-    tsv_lattice_destroy(L);
+    ffd_tsv_lattice_destroy(L);
 }
 
 /* Not a timed test: prints the cost of a 12^3 lattice octree split of 50 cells. */
@@ -808,11 +808,11 @@ static void test_octree_batch_cost(void)
         ins[i].id = (ci * 11 + cj) * 11 + ck;
         ins[i].ratio = 0.0;
     }
-    tsv_lattice *L0 = tsv_lattice_clone(L);
+    tsv_lattice *L0 = ffd_tsv_lattice_clone(L);
     tsv_refine_stats st;
     struct timespec t0, t1;
     clock_gettime(CLOCK_MONOTONIC, &t0);
-    CHECK_OK(tsv_refine(L, ins, 50, &st, NULL));
+    CHECK_OK(ffd_tsv_lattice_refine(L, ins, 50, &st, NULL));
     clock_gettime(CLOCK_MONOTONIC, &t1);
     double ms = (double)(t1.tv_sec - t0.tv_sec) * 1e3 + (double)(t1.tv_nsec - t0.tv_nsec) * 1e-6;
     printf("    12^3 octree of 50 cells: %.2f ms, %zu points added, %zu moved, %zu steps, "
@@ -822,8 +822,8 @@ static void test_octree_batch_cost(void)
     sample_set X = make_samples(L, 2000);
     compare_maps(L0, L, &X, NULL);
     free(X.p);
-    tsv_lattice_destroy(L0);
-    tsv_lattice_destroy(L);
+    ffd_tsv_lattice_destroy(L0);
+    ffd_tsv_lattice_destroy(L);
 }
 
 int main(int argc, char **argv)

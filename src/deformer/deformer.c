@@ -39,9 +39,9 @@ ffd_status ffd_deformer_create(const ffd_rig *rig, const ffd_mesh *mesh, const f
     if (!d)
         return ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory", rig->name);
     d->method = method;
-    ffd_status st = sess_clone_mesh(mesh, &d->mesh, err);
+    ffd_status st = ffd_sess_clone_mesh(mesh, &d->mesh, err);
     if (!st) {
-        sess_ctx_init(&d->ctx, d->mesh, 0, limits);
+        ffd_sess_ctx_init(&d->ctx, d->mesh, 0, limits);
         st = method->load(&d->ctx, rig, &d->m, err);
     }
     if (!st)
@@ -226,16 +226,16 @@ ffd_status ffd_deformer_report(const ffd_deformer *d, char **json, size_t *size,
     cJSON *root = cJSON_CreateObject(), *params = cJSON_CreateObject();
     cJSON *controls = cJSON_CreateObject();
     int ok = root && params && controls && cJSON_AddStringToObject(root, "method", d->method->name)
-             && sess_add_item(root, "points", sess_number((double)d->point_count))
-             && sess_add_item(controls, "count",
-                              sess_number((double)ffd_deformer_control_count(d)));
+             && ffd_sess_add_item(root, "points", ffd_sess_number((double)d->point_count))
+             && ffd_sess_add_item(controls, "count",
+                              ffd_sess_number((double)ffd_deformer_control_count(d)));
     ffd_status st = ok ? d->m->vt->describe(d->m, params, controls, err)
                        : ffd_fail(err, FFD_ERR_NOMEM, "report: out of memory");
     if (!st) {
-        int added = sess_add_item(root, "controls", controls); /* takes controls, even on failure */
+        int added = ffd_sess_add_item(root, "controls", controls); /* takes controls, even on failure */
         controls = NULL;
         if (added) {
-            added = sess_add_item(root, "params", params);
+            added = ffd_sess_add_item(root, "params", params);
             params = NULL;
         }
         if (!added)

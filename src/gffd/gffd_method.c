@@ -7,6 +7,6 @@ const ffd_method ffd_method_gffd = {
     .name = "gffd",
     .id = FFD_RIG_GFFD,
     .apply = ffd_rig_apply_gffd,
-    .load = sess_gffd_load,
-    .create = sess_gffd_create,
+    .load = ffd_sess_gffd_load,
+    .create = ffd_sess_gffd_create,
 };

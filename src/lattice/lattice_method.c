@@ -7,6 +7,6 @@ const ffd_method ffd_method_lattice = {
     .name = "lattice",
     .id = FFD_RIG_LATTICE,
     .apply = ffd_rig_apply_lattice,
-    .load = sess_lattice_load,
-    .create = sess_lattice_create,
+    .load = ffd_sess_lattice_load,
+    .create = ffd_sess_lattice_create,
 };

@@ -7,6 +7,6 @@ const ffd_method ffd_method_pbffd = {
     .name = "pbffd",
     .id = FFD_RIG_PBFFD,
     .apply = ffd_rig_apply_pbffd,
-    .load = sess_pbffd_load,
-    .create = sess_pbffd_create,
+    .load = ffd_sess_pbffd_load,
+    .create = ffd_sess_pbffd_create,
 };

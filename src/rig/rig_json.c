@@ -135,15 +135,15 @@ static ffd_status syntax_error(const char *name, const char *text, size_t size, 
  * ====================================================================== */
 
 
-ffd_status rig_expected(const parser *p, const char *path, const char *what)
+ffd_status ffd_rig_expected(const parser *p, const char *path, const char *what)
 {
     return ffd_fail(p->err, FFD_ERR_PARSE, "%s: %s: expected %s", p->name, path, what);
 }
 
-ffd_status rig_read_number(const parser *p, const cJSON *item, const char *path, double *out)
+ffd_status ffd_rig_read_number(const parser *p, const cJSON *item, const char *path, double *out)
 {
     if (!cJSON_IsNumber(item))
-        return rig_expected(p, path, "a number");
+        return ffd_rig_expected(p, path, "a number");
     if (!isfinite(item->valuedouble))
         return ffd_fail(p->err, FFD_ERR_NONFINITE, "%s: %s: expected a finite number, got %g",
                         p->name, path, item->valuedouble);
@@ -152,16 +152,16 @@ ffd_status rig_read_number(const parser *p, const cJSON *item, const char *path,
 }
 
 /* An array of exactly 3 finite numbers. */
-ffd_status rig_read_vec3(const parser *p, const cJSON *item, const char *path, double out[3])
+ffd_status ffd_rig_read_vec3(const parser *p, const cJSON *item, const char *path, double out[3])
 {
     if (!cJSON_IsArray(item) || cJSON_GetArraySize(item) != 3)
-        return rig_expected(p, path, "an array of 3 finite numbers");
+        return ffd_rig_expected(p, path, "an array of 3 finite numbers");
     int i = 0;
     const cJSON *v;
     cJSON_ArrayForEach(v, item)
     {
         if (!cJSON_IsNumber(v))
-            return rig_expected(p, path, "an array of 3 finite numbers");
+            return ffd_rig_expected(p, path, "an array of 3 finite numbers");
         if (!isfinite(v->valuedouble))
             return ffd_fail(p->err, FFD_ERR_NONFINITE,
                             "%s: %s[%d]: expected a finite number, got %g", p->name, path, i,
@@ -171,30 +171,30 @@ ffd_status rig_read_vec3(const parser *p, const cJSON *item, const char *path, d
     return FFD_OK;
 }
 
-int rig_is_uint32(const cJSON *item)
+int ffd_rig_is_uint32(const cJSON *item)
 {
     return cJSON_IsNumber(item) && item->valuedouble >= 0 && item->valuedouble <= 4294967295.0 &&
            floor(item->valuedouble) == item->valuedouble;
 }
 
 /* An array of exactly 3 non-negative integers. */
-ffd_status rig_read_uint3(const parser *p, const cJSON *item, const char *path, uint32_t out[3])
+ffd_status ffd_rig_read_uint3(const parser *p, const cJSON *item, const char *path, uint32_t out[3])
 {
     if (!cJSON_IsArray(item) || cJSON_GetArraySize(item) != 3)
-        return rig_expected(p, path, "an array of 3 non-negative integers");
+        return ffd_rig_expected(p, path, "an array of 3 non-negative integers");
     int i = 0;
     const cJSON *v;
     cJSON_ArrayForEach(v, item)
     {
-        if (!rig_is_uint32(v))
-            return rig_expected(p, path, "an array of 3 non-negative integers");
+        if (!ffd_rig_is_uint32(v))
+            return ffd_rig_expected(p, path, "an array of 3 non-negative integers");
         out[i++] = (uint32_t)v->valuedouble;
     }
     return FFD_OK;
 }
 
 /* Index of s in the NULL-terminated list, or -1. */
-int rig_lookup(const char *s, const char *const *names)
+int ffd_rig_lookup(const char *s, const char *const *names)
 {
     for (int i = 0; names[i]; i++)
         if (strcmp(s, names[i]) == 0)
@@ -203,25 +203,25 @@ int rig_lookup(const char *s, const char *const *names)
 }
 
 /* One of a fixed set of strings; what describes the set for the message. */
-ffd_status rig_read_enum(const parser *p, const cJSON *item, const char *path,
+ffd_status ffd_rig_read_enum(const parser *p, const cJSON *item, const char *path,
                             const char *const *names, const char *what, int *out)
 {
-    int v = cJSON_IsString(item) ? rig_lookup(item->valuestring, names) : -1;
+    int v = cJSON_IsString(item) ? ffd_rig_lookup(item->valuestring, names) : -1;
     if (v < 0)
-        return rig_expected(p, path, what);
+        return ffd_rig_expected(p, path, what);
     *out = v;
     return FFD_OK;
 }
 
 /* Rejects keys outside allowed (NULL-terminated) and keys given twice. */
-ffd_status rig_check_keys(const parser *p, const cJSON *object, const char *path,
+ffd_status ffd_rig_check_keys(const parser *p, const cJSON *object, const char *path,
                              const char *const *allowed, const char *allowed_text)
 {
     const cJSON *a;
     cJSON_ArrayForEach(a, object)
     {
         char where[RIG_PATH_MAX + 80];
-        if (rig_lookup(a->string, allowed) < 0) {
+        if (ffd_rig_lookup(a->string, allowed) < 0) {
             snprintf(where, sizeof where, "%s%s%.64s", path, *path ? "." : "", a->string);
             return ffd_fail(p->err, FFD_ERR_PARSE, "%s: %s: unknown key, expected one of %s",
                             p->name, where, allowed_text);
@@ -244,35 +244,35 @@ static ffd_status read_box(const parser *p, const cJSON *item, ffd_rig *rig)
 {
     if (cJSON_IsString(item)) {
         if (strcmp(item->valuestring, "auto") != 0)
-            return rig_expected(p, "box", "\"auto\" or an object {\"origin\": [x,y,z], \"axes\": "
+            return ffd_rig_expected(p, "box", "\"auto\" or an object {\"origin\": [x,y,z], \"axes\": "
                                       "[[..],[..],[..]]}");
         rig->box_auto = 1;
         return FFD_OK;
     }
     if (!cJSON_IsObject(item))
-        return rig_expected(p, "box",
+        return ffd_rig_expected(p, "box",
                         "\"auto\" or an object {\"origin\": [x,y,z], \"axes\": [[..],[..],[..]]}");
     static const char *const keys[] = {"origin", "axes", NULL};
-    ffd_status s = rig_check_keys(p, item, "box", keys, "\"origin\", \"axes\"");
+    ffd_status s = ffd_rig_check_keys(p, item, "box", keys, "\"origin\", \"axes\"");
     if (s)
         return s;
     const cJSON *origin = cJSON_GetObjectItemCaseSensitive(item, "origin");
     const cJSON *axes = cJSON_GetObjectItemCaseSensitive(item, "axes");
     if (!origin)
-        return rig_expected(p, "box.origin", "an array of 3 finite numbers (missing)");
+        return ffd_rig_expected(p, "box.origin", "an array of 3 finite numbers (missing)");
     if (!axes)
-        return rig_expected(p, "box.axes", "an array of 3 axes (missing)");
-    if ((s = rig_read_vec3(p, origin, "box.origin", rig->box.origin)))
+        return ffd_rig_expected(p, "box.axes", "an array of 3 axes (missing)");
+    if ((s = ffd_rig_read_vec3(p, origin, "box.origin", rig->box.origin)))
         return s;
     if (!cJSON_IsArray(axes) || cJSON_GetArraySize(axes) != 3)
-        return rig_expected(p, "box.axes", "an array of 3 axes, each an array of 3 finite numbers");
+        return ffd_rig_expected(p, "box.axes", "an array of 3 axes, each an array of 3 finite numbers");
     int i = 0;
     const cJSON *axis;
     cJSON_ArrayForEach(axis, axes)
     {
         char path[RIG_PATH_MAX];
         snprintf(path, sizeof path, "box.axes[%d]", i);
-        if ((s = rig_read_vec3(p, axis, path, rig->box.axes[i])))
+        if ((s = ffd_rig_read_vec3(p, axis, path, rig->box.axes[i])))
             return s;
         i++;
     }
@@ -283,7 +283,7 @@ static ffd_status read_box(const parser *p, const cJSON *item, ffd_rig *rig)
 static ffd_status read_moves(const parser *p, const cJSON *item, ffd_rig *rig)
 {
     if (!cJSON_IsArray(item))
-        return rig_expected(p, "moves", "an array of {\"index\": [i,j,k], \"delta\": [dx,dy,dz]}");
+        return ffd_rig_expected(p, "moves", "an array of {\"index\": [i,j,k], \"delta\": [dx,dy,dz]}");
     size_t n = (size_t)cJSON_GetArraySize(item);
     if (n) {
         rig->moves = ffd_calloc(n, sizeof *rig->moves);
@@ -298,8 +298,8 @@ static ffd_status read_moves(const parser *p, const cJSON *item, ffd_rig *rig)
         char path[RIG_PATH_MAX], sub[RIG_PATH_MAX + 16];
         snprintf(path, sizeof path, "moves[%zu]", i);
         if (!cJSON_IsObject(m))
-            return rig_expected(p, path, "an object {\"index\": [i,j,k], \"delta\": [dx,dy,dz]}");
-        ffd_status s = rig_check_keys(p, m, path, keys, "\"index\", \"delta\"");
+            return ffd_rig_expected(p, path, "an object {\"index\": [i,j,k], \"delta\": [dx,dy,dz]}");
+        ffd_status s = ffd_rig_check_keys(p, m, path, keys, "\"index\", \"delta\"");
         if (s)
             return s;
         ffd_rig_move *move = &rig->moves[i];
@@ -307,13 +307,13 @@ static ffd_status read_moves(const parser *p, const cJSON *item, ffd_rig *rig)
         const cJSON *delta = cJSON_GetObjectItemCaseSensitive(m, "delta");
         snprintf(sub, sizeof sub, "%s.index", path);
         if (!index)
-            return rig_expected(p, sub, "an array of 3 non-negative integers (missing)");
-        if ((s = rig_read_uint3(p, index, sub, move->index)))
+            return ffd_rig_expected(p, sub, "an array of 3 non-negative integers (missing)");
+        if ((s = ffd_rig_read_uint3(p, index, sub, move->index)))
             return s;
         snprintf(sub, sizeof sub, "%s.delta", path);
         if (!delta)
-            return rig_expected(p, sub, "an array of 3 finite numbers (missing)");
-        if ((s = rig_read_vec3(p, delta, sub, move->delta)))
+            return ffd_rig_expected(p, sub, "an array of 3 finite numbers (missing)");
+        if ((s = ffd_rig_read_vec3(p, delta, sub, move->delta)))
             return s;
         i++;
     }
@@ -322,44 +322,44 @@ static ffd_status read_moves(const parser *p, const cJSON *item, ffd_rig *rig)
 }
 
 /* "version", if given, is 1. */
-ffd_status rig_read_version(const parser *p, const cJSON *root)
+ffd_status ffd_rig_read_version(const parser *p, const cJSON *root)
 {
     const cJSON *item = cJSON_GetObjectItemCaseSensitive(root, "version");
     if (item && (!cJSON_IsNumber(item) || item->valuedouble != 1.0))
-        return rig_expected(p, "version", "1 (the only rig version)");
+        return ffd_rig_expected(p, "version", "1 (the only rig version)");
     return FFD_OK;
 }
 
 /* The top-level keys of a rig of one deformer: each in keys (else "not a
  * key of "deformer": "NAME" rigs, expected one of TEXT"), none twice; and
  * the version. */
-ffd_status rig_check_deformer_root(const parser *p, const cJSON *root, const char *deformer,
+ffd_status ffd_rig_check_deformer_root(const parser *p, const cJSON *root, const char *deformer,
                                    const char *const *keys, const char *keys_text)
 {
     const cJSON *item;
     cJSON_ArrayForEach(item, root)
     {
-        if (rig_lookup(item->string, keys) < 0)
+        if (ffd_rig_lookup(item->string, keys) < 0)
             return ffd_fail(p->err, FFD_ERR_PARSE,
                             "%s: %.64s: not a key of \"deformer\": \"%s\" rigs, expected one of %s",
                             p->name, item->string, deformer, keys_text);
     }
-    ffd_status s = rig_check_keys(p, root, "", keys, "");
-    return s ? s : rig_read_version(p, root);
+    ffd_status s = ffd_rig_check_keys(p, root, "", keys, "");
+    return s ? s : ffd_rig_read_version(p, root);
 }
 
 /* {"axis": [x,y,z], "angle": radians} and, when center is not NULL, an
  * optional "center": [x,y,z] (*has_center says whether it was given). */
-ffd_status rig_read_rotation(const parser *p, const cJSON *item, const char *path,
+ffd_status ffd_rig_read_rotation(const parser *p, const cJSON *item, const char *path,
                              double axis[3], double *angle, double center[3], int *has_center)
 {
     static const char *const keys[] = {"axis", "angle", "center", NULL};
     static const char *const keys_no_center[] = {"axis", "angle", NULL};
     if (!cJSON_IsObject(item))
-        return rig_expected(p, path, center ? "an object {\"axis\": [x,y,z], \"angle\": radians, "
+        return ffd_rig_expected(p, path, center ? "an object {\"axis\": [x,y,z], \"angle\": radians, "
                                               "\"center\": [x,y,z] (optional)}"
                                             : "an object {\"axis\": [x,y,z], \"angle\": radians}");
-    ffd_status s = rig_check_keys(p, item, path, center ? keys : keys_no_center,
+    ffd_status s = ffd_rig_check_keys(p, item, path, center ? keys : keys_no_center,
                                   center ? "\"axis\", \"angle\", \"center\"" : "\"axis\", \"angle\"");
     if (s)
         return s;
@@ -367,8 +367,8 @@ ffd_status rig_read_rotation(const parser *p, const cJSON *item, const char *pat
     const cJSON *v = cJSON_GetObjectItemCaseSensitive(item, "axis");
     snprintf(leaf, sizeof leaf, "%.100s.axis", path);
     if (!v)
-        return rig_expected(p, leaf, "an array of 3 finite numbers (missing)");
-    if ((s = rig_read_vec3(p, v, leaf, axis)))
+        return ffd_rig_expected(p, leaf, "an array of 3 finite numbers (missing)");
+    if ((s = ffd_rig_read_vec3(p, v, leaf, axis)))
         return s;
     if (axis[0] == 0 && axis[1] == 0 && axis[2] == 0)
         return ffd_fail(p->err, FFD_ERR_INVALID, "%s: %s: the zero vector is no axis", p->name,
@@ -376,22 +376,22 @@ ffd_status rig_read_rotation(const parser *p, const cJSON *item, const char *pat
     v = cJSON_GetObjectItemCaseSensitive(item, "angle");
     snprintf(leaf, sizeof leaf, "%.100s.angle", path);
     if (!v)
-        return rig_expected(p, leaf, "an angle in radians (missing)");
-    if ((s = rig_read_number(p, v, leaf, angle)))
+        return ffd_rig_expected(p, leaf, "an angle in radians (missing)");
+    if ((s = ffd_rig_read_number(p, v, leaf, angle)))
         return s;
     if (center && (v = cJSON_GetObjectItemCaseSensitive(item, "center"))) {
         snprintf(leaf, sizeof leaf, "%.100s.center", path);
         *has_center = 1;
-        return rig_read_vec3(p, v, leaf, center);
+        return ffd_rig_read_vec3(p, v, leaf, center);
     }
     return FFD_OK;
 }
 
-ffd_status rig_read_constraints(const parser *p, const cJSON *item, const char *where,
+ffd_status ffd_rig_read_constraints(const parser *p, const cJSON *item, const char *where,
                                 ffd_rig_constraint **out, size_t *count)
 {
     if (!cJSON_IsArray(item))
-        return rig_expected(p, where,
+        return ffd_rig_expected(p, where,
                         "an array of {\"vertex\": id, \"target\": [x,y,z]} or "
                         "{\"point\": [x,y,z], \"target\": [x,y,z]}");
     size_t n = (size_t)cJSON_GetArraySize(item);
@@ -409,10 +409,10 @@ ffd_status rig_read_constraints(const parser *p, const cJSON *item, const char *
         char path[RIG_PATH_MAX], sub[RIG_PATH_MAX + 16];
         snprintf(path, sizeof path, "%.60s[%zu]", where, i);
         if (!cJSON_IsObject(c))
-            return rig_expected(p, path,
+            return ffd_rig_expected(p, path,
                             "an object {\"vertex\": id, \"target\": [x,y,z]} or "
                             "{\"point\": [x,y,z], \"target\": [x,y,z]}");
-        ffd_status s = rig_check_keys(p, c, path, keys, "\"vertex\", \"point\", \"target\"");
+        ffd_status s = ffd_rig_check_keys(p, c, path, keys, "\"vertex\", \"point\", \"target\"");
         if (s)
             return s;
         ffd_rig_constraint *con = &(*out)[i];
@@ -420,24 +420,24 @@ ffd_status rig_read_constraints(const parser *p, const cJSON *item, const char *
         const cJSON *point = cJSON_GetObjectItemCaseSensitive(c, "point");
         const cJSON *target = cJSON_GetObjectItemCaseSensitive(c, "target");
         if ((vertex != NULL) == (point != NULL))
-            return rig_expected(p, path, vertex ? "either \"vertex\" or \"point\", not both"
+            return ffd_rig_expected(p, path, vertex ? "either \"vertex\" or \"point\", not both"
                                             : "a \"vertex\" or a \"point\" key");
         if (vertex) {
             snprintf(sub, sizeof sub, "%s.vertex", path);
-            if (!rig_is_uint32(vertex))
-                return rig_expected(p, sub, "a vertex id (a non-negative integer)");
+            if (!ffd_rig_is_uint32(vertex))
+                return ffd_rig_expected(p, sub, "a vertex id (a non-negative integer)");
             con->kind = FFD_RIG_CONSTRAINT_VERTEX;
             con->vertex = (uint32_t)vertex->valuedouble;
         } else {
             snprintf(sub, sizeof sub, "%s.point", path);
             con->kind = FFD_RIG_CONSTRAINT_POINT;
-            if ((s = rig_read_vec3(p, point, sub, con->point)))
+            if ((s = ffd_rig_read_vec3(p, point, sub, con->point)))
                 return s;
         }
         snprintf(sub, sizeof sub, "%s.target", path);
         if (!target)
-            return rig_expected(p, sub, "an array of 3 finite numbers (missing)");
-        if ((s = rig_read_vec3(p, target, sub, con->target)))
+            return ffd_rig_expected(p, sub, "an array of 3 finite numbers (missing)");
+        if ((s = ffd_rig_read_vec3(p, target, sub, con->target)))
             return s;
         i++;
     }
@@ -450,18 +450,18 @@ ffd_status rig_read_constraints(const parser *p, const cJSON *item, const char *
  * ====================================================================== */
 
 /* A non-negative integer that fits uint32_t. */
-ffd_status rig_read_index(const parser *p, const cJSON *item, const char *path,
+ffd_status ffd_rig_read_index(const parser *p, const cJSON *item, const char *path,
                              const char *what, uint32_t *out)
 {
-    if (!rig_is_uint32(item))
-        return rig_expected(p, path, what);
+    if (!ffd_rig_is_uint32(item))
+        return ffd_rig_expected(p, path, what);
     *out = (uint32_t)item->valuedouble;
     return FFD_OK;
 }
 
-ffd_status rig_read_positive(const parser *p, const cJSON *item, const char *path, double *out)
+ffd_status ffd_rig_read_positive(const parser *p, const cJSON *item, const char *path, double *out)
 {
-    ffd_status s = rig_read_number(p, item, path, out);
+    ffd_status s = ffd_rig_read_number(p, item, path, out);
     if (!s && !(*out > 0))
         return ffd_fail(p->err, FFD_ERR_INVALID, "%s: %s: %g: expected a number > 0", p->name,
                         path, *out);
@@ -473,14 +473,14 @@ static ffd_status read_frame(const parser *p, const cJSON *item, const char *pat
                              double frame[3][3])
 {
     if (!cJSON_IsArray(item) || cJSON_GetArraySize(item) != 3)
-        return rig_expected(p, path, "an array of 3 axes, each an array of 3 finite numbers");
+        return ffd_rig_expected(p, path, "an array of 3 axes, each an array of 3 finite numbers");
     int i = 0;
     const cJSON *axis;
     cJSON_ArrayForEach(axis, item)
     {
         char sub[RIG_PATH_MAX + 8];
         snprintf(sub, sizeof sub, "%s[%d]", path, i);
-        ffd_status s = rig_read_vec3(p, axis, sub, frame[i]);
+        ffd_status s = ffd_rig_read_vec3(p, axis, sub, frame[i]);
         if (s)
             return s;
         i++;
@@ -493,7 +493,7 @@ static ffd_status read_placement(const parser *p, const cJSON *item, ffd_rig_pbf
     static const char *const keys[] = {"interior", "exterior", "offset", "radius_factor",
                                        "surface",  "voronoi_sites", "cover", NULL};
     static const char *const surfaces[] = {"auto", "closed", "open", NULL};
-    ffd_status s = rig_check_keys(p, item, "controls", keys,
+    ffd_status s = ffd_rig_check_keys(p, item, "controls", keys,
                               "\"interior\", \"exterior\", \"offset\", \"radius_factor\", "
                               "\"surface\", \"voronoi_sites\", \"cover\"");
     if (s)
@@ -502,21 +502,21 @@ static ffd_status read_placement(const parser *p, const cJSON *item, ffd_rig_pbf
     const cJSON *v;
     uint32_t count = 0;
     if ((v = cJSON_GetObjectItemCaseSensitive(item, "interior"))) {
-        if ((s = rig_read_index(p, v, "controls.interior", "a positive integer", &count)))
+        if ((s = ffd_rig_read_index(p, v, "controls.interior", "a positive integer", &count)))
             return s;
         if (count == 0)
-            return rig_expected(p, "controls.interior", "a positive integer");
+            return ffd_rig_expected(p, "controls.interior", "a positive integer");
         o->interior_count = count;
     }
     if ((v = cJSON_GetObjectItemCaseSensitive(item, "exterior"))) {
-        if ((s = rig_read_index(p, v, "controls.exterior", "a positive integer", &count)))
+        if ((s = ffd_rig_read_index(p, v, "controls.exterior", "a positive integer", &count)))
             return s;
         if (count == 0)
-            return rig_expected(p, "controls.exterior", "a positive integer");
+            return ffd_rig_expected(p, "controls.exterior", "a positive integer");
         o->exterior_count = count;
     }
     if ((v = cJSON_GetObjectItemCaseSensitive(item, "offset"))) {
-        if ((s = rig_read_positive(p, v, "controls.offset", &o->offset)))
+        if ((s = ffd_rig_read_positive(p, v, "controls.offset", &o->offset)))
             return s;
         if (o->offset > 1)
             return ffd_fail(p->err, FFD_ERR_INVALID,
@@ -525,7 +525,7 @@ static ffd_status read_placement(const parser *p, const cJSON *item, ffd_rig_pbf
                             p->name, o->offset);
     }
     if ((v = cJSON_GetObjectItemCaseSensitive(item, "radius_factor"))) {
-        if ((s = rig_read_positive(p, v, "controls.radius_factor", &o->radius_factor)))
+        if ((s = ffd_rig_read_positive(p, v, "controls.radius_factor", &o->radius_factor)))
             return s;
         if (o->radius_factor > 100)
             return ffd_fail(p->err, FFD_ERR_INVALID,
@@ -534,13 +534,13 @@ static ffd_status read_placement(const parser *p, const cJSON *item, ffd_rig_pbf
     }
     if ((v = cJSON_GetObjectItemCaseSensitive(item, "surface"))) {
         int k = 0;
-        if ((s = rig_read_enum(p, v, "controls.surface", surfaces,
+        if ((s = ffd_rig_read_enum(p, v, "controls.surface", surfaces,
                            "\"auto\", \"closed\" or \"open\"", &k)))
             return s;
         o->surface = k == 0 ? FFD_SURFACE_AUTO : k == 1 ? FFD_SURFACE_CLOSED : FFD_SURFACE_OPEN;
     }
     if ((v = cJSON_GetObjectItemCaseSensitive(item, "voronoi_sites"))) {
-        if ((s = rig_read_index(p, v, "controls.voronoi_sites", "a positive integer", &count)))
+        if ((s = ffd_rig_read_index(p, v, "controls.voronoi_sites", "a positive integer", &count)))
             return s;
         if (count < 5)
             return ffd_fail(p->err, FFD_ERR_INVALID,
@@ -549,7 +549,7 @@ static ffd_status read_placement(const parser *p, const cJSON *item, ffd_rig_pbf
     }
     if ((v = cJSON_GetObjectItemCaseSensitive(item, "cover"))) {
         if (!cJSON_IsBool(v))
-            return rig_expected(p, "controls.cover", "true or false");
+            return ffd_rig_expected(p, "controls.cover", "true or false");
         o->no_cover = cJSON_IsFalse(v);
     }
     pb->controls_auto = 1;
@@ -561,8 +561,8 @@ static ffd_status read_control(const parser *p, const cJSON *c, const char *path
     static const char *const keys[] = {"center", "radius", "frame", "enabled", NULL};
     char sub[RIG_PATH_MAX + 16];
     if (!cJSON_IsObject(c))
-        return rig_expected(p, path, "an object {\"center\": [x,y,z], \"radius\": r}");
-    ffd_status s = rig_check_keys(p, c, path, keys,
+        return ffd_rig_expected(p, path, "an object {\"center\": [x,y,z], \"radius\": r}");
+    ffd_status s = ffd_rig_check_keys(p, c, path, keys,
                               "\"center\", \"radius\", \"frame\", \"enabled\"");
     if (s)
         return s;
@@ -572,17 +572,17 @@ static ffd_status read_control(const parser *p, const cJSON *c, const char *path
     const cJSON *enabled = cJSON_GetObjectItemCaseSensitive(c, "enabled");
     snprintf(sub, sizeof sub, "%s.center", path);
     if (!center)
-        return rig_expected(p, sub, "an array of 3 finite numbers (missing)");
-    if ((s = rig_read_vec3(p, center, sub, ebf->center)))
+        return ffd_rig_expected(p, sub, "an array of 3 finite numbers (missing)");
+    if ((s = ffd_rig_read_vec3(p, center, sub, ebf->center)))
         return s;
     snprintf(sub, sizeof sub, "%s.radius", path);
     if (!radius)
-        return rig_expected(p, sub, "a number > 0 or an array of 3 (missing)");
+        return ffd_rig_expected(p, sub, "a number > 0 or an array of 3 (missing)");
     if (cJSON_IsArray(radius)) {
-        if ((s = rig_read_vec3(p, radius, sub, ebf->radius)))
+        if ((s = ffd_rig_read_vec3(p, radius, sub, ebf->radius)))
             return s;
     } else {
-        if ((s = rig_read_number(p, radius, sub, &ebf->radius[0])))
+        if ((s = ffd_rig_read_number(p, radius, sub, &ebf->radius[0])))
             return s;
         ebf->radius[1] = ebf->radius[2] = ebf->radius[0];
     }
@@ -603,7 +603,7 @@ static ffd_status read_control(const parser *p, const cJSON *c, const char *path
     if (enabled) {
         snprintf(sub, sizeof sub, "%s.enabled", path);
         if (!cJSON_IsBool(enabled))
-            return rig_expected(p, sub, "true or false");
+            return ffd_rig_expected(p, sub, "true or false");
         ebf->disabled = cJSON_IsFalse(enabled);
     }
     return FFD_OK;
@@ -616,17 +616,17 @@ static ffd_status read_controls(const parser *p, const cJSON *item, ffd_rig_pbff
         "{\"center\": [x,y,z], \"radius\": r, \"frame\": [[..],[..],[..]]}";
     if (cJSON_IsString(item)) {
         if (strcmp(item->valuestring, "auto") != 0)
-            return rig_expected(p, "controls", what);
+            return ffd_rig_expected(p, "controls", what);
         pb->controls_auto = 1;
         return FFD_OK;
     }
     if (cJSON_IsObject(item))
         return read_placement(p, item, pb);
     if (!cJSON_IsArray(item))
-        return rig_expected(p, "controls", what);
+        return ffd_rig_expected(p, "controls", what);
     size_t n = (size_t)cJSON_GetArraySize(item);
     if (n == 0)
-        return rig_expected(p, "controls", "at least one control point (or \"auto\")");
+        return ffd_rig_expected(p, "controls", "at least one control point (or \"auto\")");
     pb->controls = ffd_calloc(n, sizeof *pb->controls);
     if (!pb->controls)
         return ffd_fail(p->err, FFD_ERR_NOMEM, "%s: out of memory for %zu controls", p->name, n);
@@ -653,14 +653,14 @@ static ffd_status read_master(const parser *p, const cJSON *item, ffd_pbffd_opti
         return FFD_OK;
     }
     if (!cJSON_IsObject(item))
-        return rig_expected(p, "master", "true, false or {\"radius\": r, \"weight\": w}");
+        return ffd_rig_expected(p, "master", "true, false or {\"radius\": r, \"weight\": w}");
     static const char *const keys[] = {"radius", "weight", NULL};
-    ffd_status s = rig_check_keys(p, item, "master", keys, "\"radius\", \"weight\"");
+    ffd_status s = ffd_rig_check_keys(p, item, "master", keys, "\"radius\", \"weight\"");
     if (s)
         return s;
     const cJSON *v;
     if ((v = cJSON_GetObjectItemCaseSensitive(item, "radius"))) {
-        if ((s = rig_read_number(p, v, "master.radius", &o->master_radius)))
+        if ((s = ffd_rig_read_number(p, v, "master.radius", &o->master_radius)))
             return s;
         if (o->master_radius < 1)
             return ffd_fail(p->err, FFD_ERR_INVALID,
@@ -669,7 +669,7 @@ static ffd_status read_master(const parser *p, const cJSON *item, ffd_pbffd_opti
                             p->name, o->master_radius);
     }
     if ((v = cJSON_GetObjectItemCaseSensitive(item, "weight")) &&
-        (s = rig_read_positive(p, v, "master.weight", &o->master_weight)))
+        (s = ffd_rig_read_positive(p, v, "master.weight", &o->master_weight)))
         return s;
     return FFD_OK;
 }
@@ -688,7 +688,7 @@ static ffd_status read_pb_edits(const parser *p, const cJSON *item, const char *
                                      "[[..],[..],[..]]} or {\"control\": i, \"rotate\": "
                                      "{\"axis\": [x,y,z], \"angle\": a}, \"scale\": [sx,sy,sz]}";
     if (!cJSON_IsArray(item))
-        return rig_expected(p, key, frames ? frame_what : move_what);
+        return ffd_rig_expected(p, key, frames ? frame_what : move_what);
     size_t n = (size_t)cJSON_GetArraySize(item);
     if (n && !(*out = ffd_calloc(n, sizeof **out)))
         return ffd_fail(p->err, FFD_ERR_NOMEM, "%s: out of memory for %zu %s", p->name, n, key);
@@ -699,11 +699,11 @@ static ffd_status read_pb_edits(const parser *p, const cJSON *item, const char *
         char path[RIG_PATH_MAX], sub[RIG_PATH_MAX + 24];
         snprintf(path, sizeof path, "%s[%zu]", key, i);
         if (!cJSON_IsObject(m))
-            return rig_expected(p, path, frames ? frame_what + 12 : move_what + 12);
-        ffd_status s = frames ? rig_check_keys(p, m, path, frame_keys,
+            return ffd_rig_expected(p, path, frames ? frame_what + 12 : move_what + 12);
+        ffd_status s = frames ? ffd_rig_check_keys(p, m, path, frame_keys,
                                            "\"control\", \"near\", \"level\", \"frame\", "
                                            "\"rotate\", \"scale\"")
-                              : rig_check_keys(p, m, path, move_keys,
+                              : ffd_rig_check_keys(p, m, path, move_keys,
                                            "\"control\", \"near\", \"level\", \"delta\"");
         if (s)
             return s;
@@ -711,29 +711,29 @@ static ffd_status read_pb_edits(const parser *p, const cJSON *item, const char *
         const cJSON *v = cJSON_GetObjectItemCaseSensitive(m, "control");
         const cJSON *near = cJSON_GetObjectItemCaseSensitive(m, "near");
         if ((v != NULL) == (near != NULL))
-            return rig_expected(p, path, v ? "either \"control\" or \"near\", not both"
+            return ffd_rig_expected(p, path, v ? "either \"control\" or \"near\", not both"
                                        : "a \"control\" index or a \"near\" point");
         if (v) {
             snprintf(sub, sizeof sub, "%s.control", path);
-            if ((s = rig_read_index(p, v, sub, "a control index (a non-negative integer)",
+            if ((s = ffd_rig_read_index(p, v, sub, "a control index (a non-negative integer)",
                                 &e->control)))
                 return s;
         } else {
             snprintf(sub, sizeof sub, "%s.near", path);
-            if ((s = rig_read_vec3(p, near, sub, e->near)))
+            if ((s = ffd_rig_read_vec3(p, near, sub, e->near)))
                 return s;
             e->by_near = 1;
         }
         if ((v = cJSON_GetObjectItemCaseSensitive(m, "level"))) {
             snprintf(sub, sizeof sub, "%s.level", path);
-            if ((s = rig_read_index(p, v, sub, "a level (0 = finest)", &e->level)))
+            if ((s = ffd_rig_read_index(p, v, sub, "a level (0 = finest)", &e->level)))
                 return s;
         }
         if (!frames) {
             snprintf(sub, sizeof sub, "%s.delta", path);
             if (!(v = cJSON_GetObjectItemCaseSensitive(m, "delta")))
-                return rig_expected(p, sub, "an array of 3 finite numbers (missing)");
-            if ((s = rig_read_vec3(p, v, sub, e->delta)))
+                return ffd_rig_expected(p, sub, "an array of 3 finite numbers (missing)");
+            if ((s = ffd_rig_read_vec3(p, v, sub, e->delta)))
                 return s;
             e->has_delta = 1;
             i++;
@@ -743,9 +743,9 @@ static ffd_status read_pb_edits(const parser *p, const cJSON *item, const char *
         const cJSON *rotate = cJSON_GetObjectItemCaseSensitive(m, "rotate");
         const cJSON *scale = cJSON_GetObjectItemCaseSensitive(m, "scale");
         if (frame && (rotate || scale))
-            return rig_expected(p, path, "either \"frame\" or \"rotate\"/\"scale\", not both");
+            return ffd_rig_expected(p, path, "either \"frame\" or \"rotate\"/\"scale\", not both");
         if (!frame && !rotate && !scale)
-            return rig_expected(p, path, "a \"frame\", \"rotate\" or \"scale\" key");
+            return ffd_rig_expected(p, path, "a \"frame\", \"rotate\" or \"scale\" key");
         if (frame) {
             snprintf(sub, sizeof sub, "%s.frame", path);
             if ((s = read_frame(p, frame, sub, e->frame)))
@@ -759,12 +759,12 @@ static ffd_status read_pb_edits(const parser *p, const cJSON *item, const char *
         e->axis[2] = 1;
         if (rotate) {
             snprintf(sub, sizeof sub, "%s.rotate", path);
-            if ((s = rig_read_rotation(p, rotate, sub, e->axis, &e->angle, NULL, NULL)))
+            if ((s = ffd_rig_read_rotation(p, rotate, sub, e->axis, &e->angle, NULL, NULL)))
                 return s;
         }
         if (scale) {
             snprintf(sub, sizeof sub, "%s.scale", path);
-            if ((s = rig_read_vec3(p, scale, sub, e->scale)))
+            if ((s = ffd_rig_read_vec3(p, scale, sub, e->scale)))
                 return s;
             for (int a = 0; a < 3; a++)
                 if (e->scale[a] == 0)
@@ -784,15 +784,15 @@ static ffd_status read_curve(const parser *p, const cJSON *c, const char *path, 
     static const char *const move_keys[] = {"index", "delta", NULL};
     char sub[RIG_PATH_MAX + 16];
     if (!cJSON_IsObject(c))
-        return rig_expected(p, path, "an object {\"points\": [[x,y,z], ...], \"radius\": r, "
+        return ffd_rig_expected(p, path, "an object {\"points\": [[x,y,z], ...], \"radius\": r, "
                                  "\"moves\": [...]}");
-    ffd_status s = rig_check_keys(p, c, path, keys, "\"points\", \"radius\", \"samples\", \"moves\"");
+    ffd_status s = ffd_rig_check_keys(p, c, path, keys, "\"points\", \"radius\", \"samples\", \"moves\"");
     if (s)
         return s;
     const cJSON *v = cJSON_GetObjectItemCaseSensitive(c, "points");
     snprintf(sub, sizeof sub, "%s.points", path);
     if (!v || !cJSON_IsArray(v) || cJSON_GetArraySize(v) < 2)
-        return rig_expected(p, sub, "an array of at least 2 points [x,y,z]");
+        return ffd_rig_expected(p, sub, "an array of at least 2 points [x,y,z]");
     size_t n = (size_t)cJSON_GetArraySize(v);
     if (!(curve->points = ffd_malloc_array(n, 3 * sizeof(double))))
         return ffd_fail(p->err, FFD_ERR_NOMEM, "%s: out of memory", p->name);
@@ -803,24 +803,24 @@ static ffd_status read_curve(const parser *p, const cJSON *c, const char *path, 
     {
         char leaf[RIG_PATH_MAX + 40];
         snprintf(leaf, sizeof leaf, "%s[%zu]", sub, i);
-        if ((s = rig_read_vec3(p, pt, leaf, curve->points + 3 * i)))
+        if ((s = ffd_rig_read_vec3(p, pt, leaf, curve->points + 3 * i)))
             return s;
         i++;
     }
     snprintf(sub, sizeof sub, "%s.radius", path);
     if (!(v = cJSON_GetObjectItemCaseSensitive(c, "radius")))
-        return rig_expected(p, sub, "a number > 0 (missing)");
-    if ((s = rig_read_positive(p, v, sub, &curve->radius)))
+        return ffd_rig_expected(p, sub, "a number > 0 (missing)");
+    if ((s = ffd_rig_read_positive(p, v, sub, &curve->radius)))
         return s;
     if ((v = cJSON_GetObjectItemCaseSensitive(c, "samples"))) {
         snprintf(sub, sizeof sub, "%s.samples", path);
-        if ((s = rig_read_index(p, v, sub, "a non-negative integer (0: automatic)", &curve->samples)))
+        if ((s = ffd_rig_read_index(p, v, sub, "a non-negative integer (0: automatic)", &curve->samples)))
             return s;
     }
     if ((v = cJSON_GetObjectItemCaseSensitive(c, "moves"))) {
         snprintf(sub, sizeof sub, "%s.moves", path);
         if (!cJSON_IsArray(v))
-            return rig_expected(p, sub, "an array of {\"index\": i, \"delta\": [dx,dy,dz]}");
+            return ffd_rig_expected(p, sub, "an array of {\"index\": i, \"delta\": [dx,dy,dz]}");
         size_t k = (size_t)cJSON_GetArraySize(v);
         if (k && !(curve->moves = ffd_calloc(k, sizeof *curve->moves)))
             return ffd_fail(p->err, FFD_ERR_NOMEM, "%s: out of memory", p->name);
@@ -831,15 +831,15 @@ static ffd_status read_curve(const parser *p, const cJSON *c, const char *path, 
             char mp[RIG_PATH_MAX + 40], leaf[RIG_PATH_MAX + 64];
             snprintf(mp, sizeof mp, "%s[%zu]", sub, j);
             if (!cJSON_IsObject(m))
-                return rig_expected(p, mp, "an object {\"index\": i, \"delta\": [dx,dy,dz]}");
-            if ((s = rig_check_keys(p, m, mp, move_keys, "\"index\", \"delta\"")))
+                return ffd_rig_expected(p, mp, "an object {\"index\": i, \"delta\": [dx,dy,dz]}");
+            if ((s = ffd_rig_check_keys(p, m, mp, move_keys, "\"index\", \"delta\"")))
                 return s;
             const cJSON *ix = cJSON_GetObjectItemCaseSensitive(m, "index");
             const cJSON *d = cJSON_GetObjectItemCaseSensitive(m, "delta");
             snprintf(leaf, sizeof leaf, "%s.index", mp);
             if (!ix)
-                return rig_expected(p, leaf, "a curve point index (missing)");
-            if ((s = rig_read_index(p, ix, leaf, "a curve point index", &curve->moves[j].index)))
+                return ffd_rig_expected(p, leaf, "a curve point index (missing)");
+            if ((s = ffd_rig_read_index(p, ix, leaf, "a curve point index", &curve->moves[j].index)))
                 return s;
             if (curve->moves[j].index >= n)
                 return ffd_fail(p->err, FFD_ERR_RANGE,
@@ -847,8 +847,8 @@ static ffd_status read_curve(const parser *p, const cJSON *c, const char *path, 
                                 leaf, curve->moves[j].index, n);
             snprintf(leaf, sizeof leaf, "%s.delta", mp);
             if (!d)
-                return rig_expected(p, leaf, "an array of 3 finite numbers (missing)");
-            if ((s = rig_read_vec3(p, d, leaf, curve->moves[j].delta)))
+                return ffd_rig_expected(p, leaf, "an array of 3 finite numbers (missing)");
+            if ((s = ffd_rig_read_vec3(p, d, leaf, curve->moves[j].delta)))
                 return s;
             j++;
         }
@@ -860,7 +860,7 @@ static ffd_status read_curve(const parser *p, const cJSON *c, const char *path, 
 static ffd_status read_curves(const parser *p, const cJSON *item, ffd_rig_pbffd *pb)
 {
     if (!cJSON_IsArray(item))
-        return rig_expected(p, "curves", "an array of {\"points\": [[x,y,z], ...], \"radius\": r, "
+        return ffd_rig_expected(p, "curves", "an array of {\"points\": [[x,y,z], ...], \"radius\": r, "
                                      "\"moves\": [...]}");
     size_t n = (size_t)cJSON_GetArraySize(item);
     if (n && !(pb->curves = ffd_calloc(n, sizeof *pb->curves)))
@@ -918,7 +918,7 @@ static ffd_status read_pbffd_key(const parser *p, const cJSON *item, ffd_rig *ri
     if (strcmp(key, "controls") == 0)
         return read_controls(p, item, pb);
     if (strcmp(key, "sigma") == 0) {
-        if ((s = rig_read_positive(p, item, "sigma", &pb->options.sigma)))
+        if ((s = ffd_rig_read_positive(p, item, "sigma", &pb->options.sigma)))
             return s;
         if (pb->options.sigma < 0.05 || pb->options.sigma > 1e6)
             return ffd_fail(p->err, FFD_ERR_INVALID,
@@ -930,7 +930,7 @@ static ffd_status read_pbffd_key(const parser *p, const cJSON *item, ffd_rig *ri
     if (strcmp(key, "master") == 0)
         return read_master(p, item, &pb->options);
     if (strcmp(key, "levels") == 0) {
-        if ((s = rig_read_index(p, item, "levels", "a positive integer", &pb->options.levels)))
+        if ((s = ffd_rig_read_index(p, item, "levels", "a positive integer", &pb->options.levels)))
             return s;
         if (pb->options.levels < 1 || pb->options.levels > 32)
             return ffd_fail(p->err, FFD_ERR_INVALID, "%s: levels: %u: expected 1 to 32", p->name,
@@ -938,7 +938,7 @@ static ffd_status read_pbffd_key(const parser *p, const cJSON *item, ffd_rig *ri
         return FFD_OK;
     }
     if (strcmp(key, "constraint_level") == 0)
-        return rig_read_index(p, item, "constraint_level", "a level (0 = finest)",
+        return ffd_rig_read_index(p, item, "constraint_level", "a level (0 = finest)",
                           &pb->constraint_level);
     if (strcmp(key, "moves") == 0)
         return read_pb_edits(p, item, "moves", 0, &pb->moves, &pb->move_count);
@@ -969,7 +969,7 @@ static char *resolve_path(const char *name, const char *file)
     return out;
 }
 
-/* Lists the "file"s of a skeleton array that was read (rig_read_skeleton)
+/* Lists the "file"s of a skeleton array that was read (ffd_rig_read_skeleton)
  * in rig->input_files, resolved as they were read, so that tools can refuse
  * to write over them (ffd_rig_input_path). */
 static ffd_status list_skeleton_files(const parser *p, const cJSON *array, ffd_rig *rig)
@@ -1001,7 +1001,7 @@ static ffd_status read_points(const parser *p, const cJSON *item, const char *pa
     char what[64];
     snprintf(what, sizeof what, "an array of at least %zu points [x,y,z]", min);
     if (!cJSON_IsArray(item) || (size_t)cJSON_GetArraySize(item) < min)
-        return rig_expected(p, path, what);
+        return ffd_rig_expected(p, path, what);
     size_t n = (size_t)cJSON_GetArraySize(item);
     if (n && !(*out = ffd_malloc_array(n, 3 * sizeof(double))))
         return ffd_fail(p->err, FFD_ERR_NOMEM, "%s: out of memory", p->name);
@@ -1012,7 +1012,7 @@ static ffd_status read_points(const parser *p, const cJSON *item, const char *pa
     {
         char leaf[RIG_PATH_MAX + 40];
         snprintf(leaf, sizeof leaf, "%s[%zu]", path, i);
-        ffd_status s = rig_read_vec3(p, pt, leaf, *out + 3 * i);
+        ffd_status s = ffd_rig_read_vec3(p, pt, leaf, *out + 3 * i);
         if (s)
             return s;
         i++;
@@ -1026,17 +1026,17 @@ static ffd_status read_faces(const parser *p, const cJSON *item, const char *pat
 {
     static const char what[] = "an array of faces, each an array of >= 3 vertex indices";
     if (!cJSON_IsArray(item) || cJSON_GetArraySize(item) < 1)
-        return rig_expected(p, path, what);
+        return ffd_rig_expected(p, path, what);
     size_t n = (size_t)cJSON_GetArraySize(item), corners = 0;
     const cJSON *f;
     cJSON_ArrayForEach(f, item)
     {
         if (!cJSON_IsArray(f) || cJSON_GetArraySize(f) < 3)
-            return rig_expected(p, path, what);
+            return ffd_rig_expected(p, path, what);
         corners += (size_t)cJSON_GetArraySize(f);
     }
     if (corners > UINT32_MAX)
-        return rig_expected(p, path, "fewer corners");
+        return ffd_rig_expected(p, path, "fewer corners");
     prim->face_offsets = ffd_malloc_array(n + 1, sizeof(uint32_t));
     prim->face_indices = ffd_malloc_array(corners, sizeof(uint32_t));
     if (!prim->face_offsets || !prim->face_indices)
@@ -1048,10 +1048,10 @@ static ffd_status read_faces(const parser *p, const cJSON *item, const char *pat
         const cJSON *v;
         cJSON_ArrayForEach(v, f)
         {
-            if (!rig_is_uint32(v)) {
+            if (!ffd_rig_is_uint32(v)) {
                 char leaf[RIG_PATH_MAX + 40];
                 snprintf(leaf, sizeof leaf, "%s[%zu]", path, i);
-                return rig_expected(p, leaf, "vertex indices (non-negative integers)");
+                return ffd_rig_expected(p, leaf, "vertex indices (non-negative integers)");
             }
             prim->face_indices[c++] = (uint32_t)v->valuedouble;
         }
@@ -1061,7 +1061,7 @@ static ffd_status read_faces(const parser *p, const cJSON *item, const char *pat
     return FFD_OK;
 }
 
-ffd_status rig_read_primitive(const parser *p, const cJSON *item, const char *path,
+ffd_status ffd_rig_read_primitive(const parser *p, const cJSON *item, const char *path,
                               ffd_rig_primitive *prim)
 {
     static const char *const keys[] = {"type", "radius", "position", "vertices", "faces", "file",
@@ -1069,9 +1069,9 @@ ffd_status rig_read_primitive(const parser *p, const cJSON *item, const char *pa
     static const char *const kinds[] = {"point", "polyline", "patch", "polyhedron", NULL};
     char sub[RIG_PATH_MAX + 24];
     if (!cJSON_IsObject(item))
-        return rig_expected(p, path, "a primitive {\"type\": \"point\"|\"polyline\"|\"patch\"|"
+        return ffd_rig_expected(p, path, "a primitive {\"type\": \"point\"|\"polyline\"|\"patch\"|"
                                  "\"polyhedron\", \"radius\": r, ...}");
-    ffd_status s = rig_check_keys(p, item, path, keys,
+    ffd_status s = ffd_rig_check_keys(p, item, path, keys,
                               "\"type\", \"radius\", \"position\", \"vertices\", \"faces\", "
                               "\"file\", \"name\"");
     if (s)
@@ -1080,19 +1080,19 @@ ffd_status rig_read_primitive(const parser *p, const cJSON *item, const char *pa
     snprintf(sub, sizeof sub, "%s.type", path);
     int kind = 0;
     if (!v)
-        return rig_expected(p, sub, "\"point\", \"polyline\", \"patch\" or \"polyhedron\" (missing)");
-    if ((s = rig_read_enum(p, v, sub, kinds, "\"point\", \"polyline\", \"patch\" or \"polyhedron\"",
+        return ffd_rig_expected(p, sub, "\"point\", \"polyline\", \"patch\" or \"polyhedron\" (missing)");
+    if ((s = ffd_rig_read_enum(p, v, sub, kinds, "\"point\", \"polyline\", \"patch\" or \"polyhedron\"",
                        &kind)))
         return s;
     prim->kind = (ffd_gffd_kind)kind;
     snprintf(sub, sizeof sub, "%s.radius", path);
     if (!(v = cJSON_GetObjectItemCaseSensitive(item, "radius")))
-        return rig_expected(p, sub, "the influence radius r_s > 0 (missing)");
-    if ((s = rig_read_positive(p, v, sub, &prim->radius)))
+        return ffd_rig_expected(p, sub, "the influence radius r_s > 0 (missing)");
+    if ((s = ffd_rig_read_positive(p, v, sub, &prim->radius)))
         return s;
     if ((v = cJSON_GetObjectItemCaseSensitive(item, "name")) && !cJSON_IsString(v)) {
         snprintf(sub, sizeof sub, "%s.name", path);
-        return rig_expected(p, sub, "a string");
+        return ffd_rig_expected(p, sub, "a string");
     }
     const cJSON *pos = cJSON_GetObjectItemCaseSensitive(item, "position");
     const cJSON *verts = cJSON_GetObjectItemCaseSensitive(item, "vertices");
@@ -1100,23 +1100,23 @@ ffd_status rig_read_primitive(const parser *p, const cJSON *item, const char *pa
     const cJSON *file = cJSON_GetObjectItemCaseSensitive(item, "file");
     if (prim->kind == FFD_GFFD_POINT) {
         if (verts || faces || file)
-            return rig_expected(p, path, "a point with a \"position\" only");
+            return ffd_rig_expected(p, path, "a point with a \"position\" only");
         snprintf(sub, sizeof sub, "%s.position", path);
         if (!pos)
-            return rig_expected(p, sub, "an array of 3 finite numbers (missing)");
+            return ffd_rig_expected(p, sub, "an array of 3 finite numbers (missing)");
         if (!(prim->vertices = ffd_malloc(3 * sizeof(double))))
             return ffd_fail(p->err, FFD_ERR_NOMEM, "%s: out of memory", p->name);
         prim->vertex_count = 1;
-        return rig_read_vec3(p, pos, sub, prim->vertices);
+        return ffd_rig_read_vec3(p, pos, sub, prim->vertices);
     }
     if (pos)
-        return rig_expected(p, path, "\"vertices\" or \"file\" (\"position\" is for points)");
+        return ffd_rig_expected(p, path, "\"vertices\" or \"file\" (\"position\" is for points)");
     if (file) {
         if (verts || faces)
-            return rig_expected(p, path, "either \"file\" or \"vertices\", not both");
+            return ffd_rig_expected(p, path, "either \"file\" or \"vertices\", not both");
         snprintf(sub, sizeof sub, "%s.file", path);
         if (!cJSON_IsString(file) || !file->valuestring[0])
-            return rig_expected(p, sub, "a file name");
+            return ffd_rig_expected(p, sub, "a file name");
         char *resolved = resolve_path(p->name, file->valuestring);
         if (!resolved)
             return ffd_fail(p->err, FFD_ERR_NOMEM, "%s: out of memory", p->name);
@@ -1128,7 +1128,7 @@ ffd_status rig_read_primitive(const parser *p, const cJSON *item, const char *pa
             return ffd_fail(p->err, s, "%s: %s: %s", p->name, sub, inner.message);
         if ((prim->kind == FFD_GFFD_POLYLINE) != (loaded.face_count == 0)) {
             ffd_rig_primitive_free(&loaded);
-            return rig_expected(p, sub, prim->kind == FFD_GFFD_POLYLINE
+            return ffd_rig_expected(p, sub, prim->kind == FFD_GFFD_POLYLINE
                                         ? "a polyline file (OBJ v and l lines), not a mesh"
                                         : "a mesh file with faces");
         }
@@ -1139,26 +1139,26 @@ ffd_status rig_read_primitive(const parser *p, const cJSON *item, const char *pa
     }
     snprintf(sub, sizeof sub, "%s.vertices", path);
     if (!verts)
-        return rig_expected(p, sub, "an array of points [x,y,z], or a \"file\" (missing)");
+        return ffd_rig_expected(p, sub, "an array of points [x,y,z], or a \"file\" (missing)");
     size_t min = prim->kind == FFD_GFFD_POLYLINE ? 2 : 3;
     if ((s = read_points(p, verts, sub, min, &prim->vertices, &prim->vertex_count)))
         return s;
     snprintf(sub, sizeof sub, "%s.faces", path);
     if (prim->kind == FFD_GFFD_POLYLINE) {
         if (faces)
-            return rig_expected(p, sub, "no faces: a polyline joins its vertices in order");
+            return ffd_rig_expected(p, sub, "no faces: a polyline joins its vertices in order");
         return FFD_OK;
     }
     if (!faces)
-        return rig_expected(p, sub, "an array of faces (missing)");
+        return ffd_rig_expected(p, sub, "an array of faces (missing)");
     return read_faces(p, faces, sub, prim);
 }
 
-ffd_status rig_read_skeleton(const parser *p, const cJSON *item, const char *key,
+ffd_status ffd_rig_read_skeleton(const parser *p, const cJSON *item, const char *key,
                              ffd_rig_primitive **out, size_t *count)
 {
     if (!cJSON_IsArray(item) || cJSON_GetArraySize(item) < 1)
-        return rig_expected(p, key, "an array of at least one primitive {\"type\": ..., \"radius\": "
+        return ffd_rig_expected(p, key, "an array of at least one primitive {\"type\": ..., \"radius\": "
                                 "r, ...}");
     size_t n = (size_t)cJSON_GetArraySize(item);
     if (!(*out = ffd_calloc(n, sizeof **out)))
@@ -1170,7 +1170,7 @@ ffd_status rig_read_skeleton(const parser *p, const cJSON *item, const char *key
     {
         char path[RIG_PATH_MAX];
         snprintf(path, sizeof path, "%s[%zu]", key, i);
-        ffd_status s = rig_read_primitive(p, c, path, &(*out)[i]);
+        ffd_status s = ffd_rig_read_primitive(p, c, path, &(*out)[i]);
         if (s)
             return s;
         i++;
@@ -1185,9 +1185,9 @@ static ffd_status read_gffd_edit(const parser *p, const cJSON *m, const char *pa
                                        "vertex",    "move",      "vertices", NULL};
     char sub[RIG_PATH_MAX + 40];
     if (!cJSON_IsObject(m))
-        return rig_expected(p, path, "an edit {\"primitive\": i or \"all\", and one of "
+        return ffd_rig_expected(p, path, "an edit {\"primitive\": i or \"all\", and one of "
                                  "\"translate\", \"rotate\", \"scale\", \"move\", \"vertices\"}");
-    ffd_status s = rig_check_keys(p, m, path, keys,
+    ffd_status s = ffd_rig_check_keys(p, m, path, keys,
                               "\"primitive\", \"translate\", \"rotate\", \"scale\", \"center\", "
                               "\"vertex\", \"move\", \"vertices\"");
     if (s)
@@ -1195,32 +1195,32 @@ static ffd_status read_gffd_edit(const parser *p, const cJSON *m, const char *pa
     const cJSON *v = cJSON_GetObjectItemCaseSensitive(m, "primitive");
     snprintf(sub, sizeof sub, "%s.primitive", path);
     if (!v)
-        return rig_expected(p, sub, "a primitive index or \"all\" (missing)");
+        return ffd_rig_expected(p, sub, "a primitive index or \"all\" (missing)");
     if (cJSON_IsString(v) && strcmp(v->valuestring, "all") == 0)
         e->all = 1;
-    else if ((s = rig_read_index(p, v, sub, "a primitive index or \"all\"", &e->primitive)))
+    else if ((s = ffd_rig_read_index(p, v, sub, "a primitive index or \"all\"", &e->primitive)))
         return s;
     const char *ops[] = {"translate", "rotate", "scale", "move", "vertices"};
     int op = -1;
     for (int k = 0; k < 5; k++)
         if (cJSON_GetObjectItemCaseSensitive(m, ops[k])) {
             if (op >= 0)
-                return rig_expected(p, path, "one of \"translate\", \"rotate\", \"scale\", \"move\", "
+                return ffd_rig_expected(p, path, "one of \"translate\", \"rotate\", \"scale\", \"move\", "
                                          "\"vertices\" per edit");
             op = k;
         }
     if (op < 0)
-        return rig_expected(p, path, "one of \"translate\", \"rotate\", \"scale\", \"move\", "
+        return ffd_rig_expected(p, path, "one of \"translate\", \"rotate\", \"scale\", \"move\", "
                                  "\"vertices\"");
     const cJSON *center = cJSON_GetObjectItemCaseSensitive(m, "center");
     const cJSON *vertex = cJSON_GetObjectItemCaseSensitive(m, "vertex");
     if (center && op != 1 && op != 2)
-        return rig_expected(p, path, "\"center\" only with \"rotate\" or \"scale\"");
+        return ffd_rig_expected(p, path, "\"center\" only with \"rotate\" or \"scale\"");
     if ((vertex != NULL) != (op == 3))
-        return rig_expected(p, path, "\"vertex\" together with \"move\"");
+        return ffd_rig_expected(p, path, "\"vertex\" together with \"move\"");
     if (center) {
         snprintf(sub, sizeof sub, "%s.center", path);
-        if ((s = rig_read_vec3(p, center, sub, e->center)))
+        if ((s = ffd_rig_read_vec3(p, center, sub, e->center)))
             return s;
         e->has_center = 1;
     }
@@ -1229,33 +1229,33 @@ static ffd_status read_gffd_edit(const parser *p, const cJSON *m, const char *pa
     switch (op) {
     case 0:
         e->kind = FFD_RIG_EDIT_TRANSLATE;
-        return rig_read_vec3(p, v, sub, e->delta);
+        return ffd_rig_read_vec3(p, v, sub, e->delta);
     case 1:
         e->kind = FFD_RIG_EDIT_ROTATE;
-        return rig_read_rotation(p, v, sub, e->axis, &e->angle, NULL, NULL);
+        return ffd_rig_read_rotation(p, v, sub, e->axis, &e->angle, NULL, NULL);
     case 2:
         e->kind = FFD_RIG_EDIT_SCALE;
         if (cJSON_IsNumber(v)) {
-            if ((s = rig_read_number(p, v, sub, &e->scale[0])))
+            if ((s = ffd_rig_read_number(p, v, sub, &e->scale[0])))
                 return s;
             e->scale[1] = e->scale[2] = e->scale[0];
-        } else if ((s = rig_read_vec3(p, v, sub, e->scale))) {
+        } else if ((s = ffd_rig_read_vec3(p, v, sub, e->scale))) {
             return s;
         }
         return FFD_OK;
     case 3:
         e->kind = FFD_RIG_EDIT_MOVE;
         if (e->all)
-            return rig_expected(p, path, "a primitive index with \"move\" (not \"all\")");
+            return ffd_rig_expected(p, path, "a primitive index with \"move\" (not \"all\")");
         snprintf(sub, sizeof sub, "%s.vertex", path);
-        if ((s = rig_read_index(p, vertex, sub, "a vertex index of the primitive", &e->vertex)))
+        if ((s = ffd_rig_read_index(p, vertex, sub, "a vertex index of the primitive", &e->vertex)))
             return s;
         snprintf(sub, sizeof sub, "%s.move", path);
-        return rig_read_vec3(p, v, sub, e->delta);
+        return ffd_rig_read_vec3(p, v, sub, e->delta);
     default:
         e->kind = FFD_RIG_EDIT_VERTICES;
         if (e->all)
-            return rig_expected(p, path, "a primitive index with \"vertices\" (not \"all\")");
+            return ffd_rig_expected(p, path, "a primitive index with \"vertices\" (not \"all\")");
         return read_points(p, v, sub, 1, &e->vertices, &e->vertex_count);
     }
 }
@@ -1263,7 +1263,7 @@ static ffd_status read_gffd_edit(const parser *p, const cJSON *m, const char *pa
 static ffd_status read_gffd_edits(const parser *p, const cJSON *item, ffd_rig_gffd *g)
 {
     if (!cJSON_IsArray(item))
-        return rig_expected(p, "edits", "an array of skeleton edits");
+        return ffd_rig_expected(p, "edits", "an array of skeleton edits");
     size_t n = (size_t)cJSON_GetArraySize(item);
     if (n && !(g->edits = ffd_calloc(n, sizeof *g->edits)))
         return ffd_fail(p->err, FFD_ERR_NOMEM, "%s: out of memory", p->name);
@@ -1287,7 +1287,7 @@ static ffd_status read_correspondences(const parser *p, const cJSON *item, ffd_r
     static const char *const keys[] = {"from", "to", NULL};
     static const char what[] = "an array of {\"from\": [x,y,z], \"to\": [x,y,z]}";
     if (!cJSON_IsArray(item) || cJSON_GetArraySize(item) < 1)
-        return rig_expected(p, "correspondences", what);
+        return ffd_rig_expected(p, "correspondences", what);
     size_t n = (size_t)cJSON_GetArraySize(item);
     g->corr_from = ffd_malloc_array(n, 3 * sizeof(double));
     g->corr_to = ffd_malloc_array(n, 3 * sizeof(double));
@@ -1300,21 +1300,21 @@ static ffd_status read_correspondences(const parser *p, const cJSON *item, ffd_r
         char path[RIG_PATH_MAX], sub[RIG_PATH_MAX + 8];
         snprintf(path, sizeof path, "correspondences[%zu]", i);
         if (!cJSON_IsObject(c))
-            return rig_expected(p, path, what + 12);
-        ffd_status s = rig_check_keys(p, c, path, keys, "\"from\", \"to\"");
+            return ffd_rig_expected(p, path, what + 12);
+        ffd_status s = ffd_rig_check_keys(p, c, path, keys, "\"from\", \"to\"");
         if (s)
             return s;
         const cJSON *f = cJSON_GetObjectItemCaseSensitive(c, "from");
         const cJSON *t = cJSON_GetObjectItemCaseSensitive(c, "to");
         snprintf(sub, sizeof sub, "%s.from", path);
         if (!f)
-            return rig_expected(p, sub, "a point [x,y,z] on the rest skeleton (missing)");
-        if ((s = rig_read_vec3(p, f, sub, g->corr_from + 3 * i)))
+            return ffd_rig_expected(p, sub, "a point [x,y,z] on the rest skeleton (missing)");
+        if ((s = ffd_rig_read_vec3(p, f, sub, g->corr_from + 3 * i)))
             return s;
         snprintf(sub, sizeof sub, "%s.to", path);
         if (!t)
-            return rig_expected(p, sub, "a point [x,y,z] on the new skeleton (missing)");
-        if ((s = rig_read_vec3(p, t, sub, g->corr_to + 3 * i)))
+            return ffd_rig_expected(p, sub, "a point [x,y,z] on the new skeleton (missing)");
+        if ((s = ffd_rig_read_vec3(p, t, sub, g->corr_to + 3 * i)))
             return s;
         i++;
     }
@@ -1330,34 +1330,34 @@ static ffd_status read_resample(const parser *p, const cJSON *item, ffd_rig_gffd
         return FFD_OK;
     }
     if (!cJSON_IsObject(item))
-        return rig_expected(p, "resample", "true, false or {\"ratio\": 1.8, \"max_rounds\": 8, "
+        return ffd_rig_expected(p, "resample", "true, false or {\"ratio\": 1.8, \"max_rounds\": 8, "
                                        "\"max_vertices\": n}");
-    ffd_status s = rig_check_keys(p, item, "resample", keys,
+    ffd_status s = ffd_rig_check_keys(p, item, "resample", keys,
                               "\"ratio\", \"max_rounds\", \"max_vertices\"");
     if (s)
         return s;
     g->resample = 1;
     const cJSON *v;
     if ((v = cJSON_GetObjectItemCaseSensitive(item, "ratio"))) {
-        if ((s = rig_read_number(p, v, "resample.ratio", &g->resample_options.ratio)))
+        if ((s = ffd_rig_read_number(p, v, "resample.ratio", &g->resample_options.ratio)))
             return s;
         if (!(g->resample_options.ratio > 1) || g->resample_options.ratio > 1e6)
-            return rig_expected(p, "resample.ratio", "a number > 1 (an edge splits when its length "
+            return ffd_rig_expected(p, "resample.ratio", "a number > 1 (an edge splits when its length "
                                                  "grows by this factor)");
     }
     if ((v = cJSON_GetObjectItemCaseSensitive(item, "max_rounds"))) {
-        if ((s = rig_read_index(p, v, "resample.max_rounds", "an integer in 1..64",
+        if ((s = ffd_rig_read_index(p, v, "resample.max_rounds", "an integer in 1..64",
                             &g->resample_options.max_rounds)))
             return s;
         if (g->resample_options.max_rounds < 1 || g->resample_options.max_rounds > 64)
-            return rig_expected(p, "resample.max_rounds", "an integer in 1..64");
+            return ffd_rig_expected(p, "resample.max_rounds", "an integer in 1..64");
     }
     if ((v = cJSON_GetObjectItemCaseSensitive(item, "max_vertices"))) {
         uint32_t mv = 0;
-        if ((s = rig_read_index(p, v, "resample.max_vertices", "a positive integer", &mv)))
+        if ((s = ffd_rig_read_index(p, v, "resample.max_vertices", "a positive integer", &mv)))
             return s;
         if (mv == 0)
-            return rig_expected(p, "resample.max_vertices", "a positive integer");
+            return ffd_rig_expected(p, "resample.max_vertices", "a positive integer");
         g->resample_options.max_vertices = mv;
     }
     return FFD_OK;
@@ -1372,7 +1372,7 @@ static ffd_status read_gffd_root(const parser *p, const cJSON *root, ffd_rig *ri
     static const char *const trackings[] = {"gradient", "warp", NULL};
     ffd_rig_gffd *g = &rig->gffd;
     const cJSON *item;
-    ffd_status s = rig_check_deformer_root(p, root, "gffd", keys,
+    ffd_status s = ffd_rig_check_deformer_root(p, root, "gffd", keys,
                                            "\"skeleton\", \"unit\", \"tolerance\", "
                                            "\"max_iterations\", \"tracking\", \"max_samples\", "
                                            "\"edits\", \"replace\", \"correspondences\", "
@@ -1380,17 +1380,17 @@ static ffd_status read_gffd_root(const parser *p, const cJSON *root, ffd_rig *ri
     if (s)
         return s;
     if (!(item = cJSON_GetObjectItemCaseSensitive(root, "skeleton")))
-        return rig_expected(p, "skeleton", "an array of primitives (missing)");
-    if ((s = rig_read_skeleton(p, item, "skeleton", &g->skeleton, &g->skeleton_count)) ||
+        return ffd_rig_expected(p, "skeleton", "an array of primitives (missing)");
+    if ((s = ffd_rig_read_skeleton(p, item, "skeleton", &g->skeleton, &g->skeleton_count)) ||
         (s = list_skeleton_files(p, item, rig)))
         return s;
     ffd_gffd_options *o = &g->options;
     if ((item = cJSON_GetObjectItemCaseSensitive(root, "unit"))) {
-        if ((s = rig_read_positive(p, item, "unit", &o->unit)))
+        if ((s = ffd_rig_read_positive(p, item, "unit", &o->unit)))
             return s;
     }
     if ((item = cJSON_GetObjectItemCaseSensitive(root, "tolerance"))) {
-        if ((s = rig_read_positive(p, item, "tolerance", &o->tolerance)))
+        if ((s = ffd_rig_read_positive(p, item, "tolerance", &o->tolerance)))
             return s;
         if (o->tolerance > 1)
             return ffd_fail(p->err, FFD_ERR_INVALID,
@@ -1399,23 +1399,23 @@ static ffd_status read_gffd_root(const parser *p, const cJSON *root, ffd_rig *ri
                             p->name, o->tolerance);
     }
     if ((item = cJSON_GetObjectItemCaseSensitive(root, "max_iterations"))) {
-        if ((s = rig_read_index(p, item, "max_iterations", "an integer in 1..100000",
+        if ((s = ffd_rig_read_index(p, item, "max_iterations", "an integer in 1..100000",
                             &o->max_iterations)))
             return s;
         if (o->max_iterations < 1 || o->max_iterations > 100000)
-            return rig_expected(p, "max_iterations", "an integer in 1..100000");
+            return ffd_rig_expected(p, "max_iterations", "an integer in 1..100000");
     }
     if ((item = cJSON_GetObjectItemCaseSensitive(root, "max_samples"))) {
         uint32_t ms = 0;
-        if ((s = rig_read_index(p, item, "max_samples", "an integer in 1..20000", &ms)))
+        if ((s = ffd_rig_read_index(p, item, "max_samples", "an integer in 1..20000", &ms)))
             return s;
         if (ms < 1 || ms > 20000)
-            return rig_expected(p, "max_samples", "an integer in 1..20000");
+            return ffd_rig_expected(p, "max_samples", "an integer in 1..20000");
         o->max_samples = ms;
     }
     if ((item = cJSON_GetObjectItemCaseSensitive(root, "tracking"))) {
         int t = 0;
-        if ((s = rig_read_enum(p, item, "tracking", trackings, "\"gradient\" or \"warp\"", &t)))
+        if ((s = ffd_rig_read_enum(p, item, "tracking", trackings, "\"gradient\" or \"warp\"", &t)))
             return s;
         o->tracking = t ? FFD_GFFD_TRACK_WARP : FFD_GFFD_TRACK_GRADIENT;
     }
@@ -1427,7 +1427,7 @@ static ffd_status read_gffd_root(const parser *p, const cJSON *root, ffd_rig *ri
                         p->name);
     if (edits && (s = read_gffd_edits(p, edits, g)))
         return s;
-    if (replace && (s = rig_read_skeleton(p, replace, "replace", &g->replace, &g->replace_count)))
+    if (replace && (s = ffd_rig_read_skeleton(p, replace, "replace", &g->replace, &g->replace_count)))
         return s;
     if (replace && (s = list_skeleton_files(p, replace, rig)))
         return s;
@@ -1527,27 +1527,27 @@ static ffd_status read_root(const parser *p, const cJSON *root, ffd_rig *rig)
     }
     if (cJSON_IsString(which) && strcmp(which->valuestring, "tspline") == 0) {
         rig->deformer = FFD_RIG_TSPLINE;
-        return rig_read_tspline_root(p, root, rig);
+        return ffd_rig_read_tspline_root(p, root, rig);
     }
     cJSON_ArrayForEach(item, root)
     {
-        if (rig_lookup(item->string, gffd_only) >= 0)
+        if (ffd_rig_lookup(item->string, gffd_only) >= 0)
             return ffd_fail(p->err, FFD_ERR_PARSE,
                             "%s: %.64s: only for \"deformer\": \"gffd\" rigs", p->name,
                             item->string);
     }
-    ffd_status s = rig_check_keys(p, root, "", keys,
+    ffd_status s = ffd_rig_check_keys(p, root, "", keys,
                               "\"version\", \"deformer\", \"rcond\", \"moves\", \"constraints\", "
                               "lattice: \"basis\", \"resolution\", \"box\", \"margin\", "
                               "\"outside\"; pbffd: \"controls\", \"sigma\", \"master\", "
                               "\"levels\", \"frames\", \"curves\", \"constraint_level\"");
     if (s)
         return s;
-    if ((s = rig_read_version(p, root)))
+    if ((s = ffd_rig_read_version(p, root)))
         return s;
     if ((item = cJSON_GetObjectItemCaseSensitive(root, "deformer"))) {
         int d = 0;
-        if ((s = rig_read_enum(p, item, "deformer", deformers,
+        if ((s = ffd_rig_read_enum(p, item, "deformer", deformers,
                            "\"lattice\", \"pbffd\", \"gffd\" or \"tspline\"", &d)))
             return s;
         rig->deformer = d ? FFD_RIG_PBFFD : FFD_RIG_LATTICE;
@@ -1555,7 +1555,7 @@ static ffd_status read_root(const parser *p, const cJSON *root, ffd_rig *rig)
     const char *const *foreign = rig->deformer == FFD_RIG_PBFFD ? lattice_only : pbffd_only;
     cJSON_ArrayForEach(item, root)
     {
-        if (rig_lookup(item->string, foreign) >= 0)
+        if (ffd_rig_lookup(item->string, foreign) >= 0)
             return ffd_fail(p->err, FFD_ERR_PARSE,
                             "%s: %.64s: only for \"deformer\": \"%s\" rigs (this rig's deformer "
                             "is \"%s\")",
@@ -1564,13 +1564,13 @@ static ffd_status read_root(const parser *p, const cJSON *root, ffd_rig *rig)
                             rig->deformer == FFD_RIG_PBFFD ? "pbffd" : "lattice");
     }
     if ((item = cJSON_GetObjectItemCaseSensitive(root, "rcond"))) {
-        if ((s = rig_read_number(p, item, "rcond", &rig->rcond)))
+        if ((s = ffd_rig_read_number(p, item, "rcond", &rig->rcond)))
             return s;
         if (rig->rcond < 0 || rig->rcond >= 1)
-            return rig_expected(p, "rcond", "a number in [0, 1) (0: the solver's default)");
+            return ffd_rig_expected(p, "rcond", "a number in [0, 1) (0: the solver's default)");
     }
     if ((item = cJSON_GetObjectItemCaseSensitive(root, "constraints"))) {
-        if ((s = rig_read_constraints(p, item, "constraints", &rig->constraints, &rig->constraint_count)))
+        if ((s = ffd_rig_read_constraints(p, item, "constraints", &rig->constraints, &rig->constraint_count)))
             return s;
     }
     if (rig->deformer == FFD_RIG_PBFFD) {
@@ -1584,12 +1584,12 @@ static ffd_status read_root(const parser *p, const cJSON *root, ffd_rig *rig)
     }
     if ((item = cJSON_GetObjectItemCaseSensitive(root, "basis"))) {
         int b = 0;
-        if ((s = rig_read_enum(p, item, "basis", bases, "\"bspline\" or \"bernstein\"", &b)))
+        if ((s = ffd_rig_read_enum(p, item, "basis", bases, "\"bspline\" or \"bernstein\"", &b)))
             return s;
         rig->basis = b ? FFD_BASIS_BERNSTEIN : FFD_BASIS_BSPLINE;
     }
     if ((item = cJSON_GetObjectItemCaseSensitive(root, "resolution"))) {
-        if ((s = rig_read_uint3(p, item, "resolution", rig->resolution)))
+        if ((s = ffd_rig_read_uint3(p, item, "resolution", rig->resolution)))
             return s;
     }
     if ((item = cJSON_GetObjectItemCaseSensitive(root, "box"))) {
@@ -1597,14 +1597,14 @@ static ffd_status read_root(const parser *p, const cJSON *root, ffd_rig *rig)
             return s;
     }
     if ((item = cJSON_GetObjectItemCaseSensitive(root, "margin"))) {
-        if ((s = rig_read_number(p, item, "margin", &rig->margin)))
+        if ((s = ffd_rig_read_number(p, item, "margin", &rig->margin)))
             return s;
         if (rig->margin < 0)
-            return rig_expected(p, "margin", "a number >= 0");
+            return ffd_rig_expected(p, "margin", "a number >= 0");
     }
     if ((item = cJSON_GetObjectItemCaseSensitive(root, "outside"))) {
         int o = 0;
-        if ((s = rig_read_enum(p, item, "outside", outsides,
+        if ((s = ffd_rig_read_enum(p, item, "outside", outsides,
                            "\"fixed\", \"clamp\" or \"extrapolate\"", &o)))
             return s;
         rig->outside = o == 0 ? FFD_OUTSIDE_FIXED : o == 1 ? FFD_OUTSIDE_CLAMP

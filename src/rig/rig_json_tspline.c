@@ -40,7 +40,7 @@ static ffd_status read_ids(const parser *p, const cJSON *item, const char *path,
                            size_t *count)
 {
     if (!cJSON_IsArray(item) || cJSON_GetArraySize(item) == 0)
-        return rig_expected(p, path, "a non-empty array of ids (non-negative integers)");
+        return ffd_rig_expected(p, path, "a non-empty array of ids (non-negative integers)");
     size_t n = (size_t)cJSON_GetArraySize(item);
     *ids = ffd_malloc_array(n, sizeof(uint32_t));
     if (!*ids)
@@ -49,12 +49,12 @@ static ffd_status read_ids(const parser *p, const cJSON *item, const char *path,
     const cJSON *v;
     cJSON_ArrayForEach(v, item)
     {
-        if (!rig_is_uint32(v)) {
+        if (!ffd_rig_is_uint32(v)) {
             ffd_free(*ids);
             *ids = NULL;
             char sub[RIG_PATH_MAX + 64];
             snprintf(sub, sizeof sub, "%.100s[%zu]", path, i);
-            return rig_expected(p, sub, "an id (a non-negative integer)");
+            return ffd_rig_expected(p, sub, "an id (a non-negative integer)");
         }
         (*ids)[i++] = (uint32_t)v->valuedouble;
     }
@@ -73,12 +73,12 @@ static ffd_status read_selection(const parser *p, const cJSON *obj, const char *
         if (!it)
             continue;
         if (found)
-            return rig_expected(p, path, "exactly one of " SELECTOR_TEXT);
+            return ffd_rig_expected(p, path, "exactly one of " SELECTOR_TEXT);
         found = it;
         kind = k;
     }
     if (!found)
-        return rig_expected(p, path, "one of " SELECTOR_TEXT " (which control points)");
+        return ffd_rig_expected(p, path, "one of " SELECTOR_TEXT " (which control points)");
     char sub[RIG_PATH_MAX + 64];
     snprintf(sub, sizeof sub, "%.100s.%s", path, selector_keys[kind]);
     memset(sel, 0, sizeof *sel);
@@ -89,26 +89,26 @@ static ffd_status read_selection(const parser *p, const cJSON *obj, const char *
         return read_ids(p, found, sub, &sel->ids, &sel->id_count);
     case 1:
         sel->kind = FFD_RIG_SELECT_NEAR;
-        return rig_read_vec3(p, found, sub, sel->near);
+        return ffd_rig_read_vec3(p, found, sub, sel->near);
     case 2: {
         static const char *const keys[] = {"min", "max", NULL};
         sel->kind = FFD_RIG_SELECT_BOX;
         if (!cJSON_IsObject(found))
-            return rig_expected(p, sub, "an object {\"min\": [x,y,z], \"max\": [x,y,z]}");
-        if ((s = rig_check_keys(p, found, sub, keys, "\"min\", \"max\"")))
+            return ffd_rig_expected(p, sub, "an object {\"min\": [x,y,z], \"max\": [x,y,z]}");
+        if ((s = ffd_rig_check_keys(p, found, sub, keys, "\"min\", \"max\"")))
             return s;
         char k2[RIG_PATH_MAX + 128];
         snprintf(k2, sizeof k2, "%.100s.min", sub);
         const cJSON *mn = cJSON_GetObjectItemCaseSensitive(found, "min");
         const cJSON *mx = cJSON_GetObjectItemCaseSensitive(found, "max");
         if (!mn)
-            return rig_expected(p, k2, "an array of 3 finite numbers (missing)");
-        if ((s = rig_read_vec3(p, mn, k2, sel->box_min)))
+            return ffd_rig_expected(p, k2, "an array of 3 finite numbers (missing)");
+        if ((s = ffd_rig_read_vec3(p, mn, k2, sel->box_min)))
             return s;
         snprintf(k2, sizeof k2, "%.100s.max", sub);
         if (!mx)
-            return rig_expected(p, k2, "an array of 3 finite numbers (missing)");
-        if ((s = rig_read_vec3(p, mx, k2, sel->box_max)))
+            return ffd_rig_expected(p, k2, "an array of 3 finite numbers (missing)");
+        if ((s = ffd_rig_read_vec3(p, mx, k2, sel->box_max)))
             return s;
         for (int a = 0; a < 3; a++)
             if (sel->box_min[a] > sel->box_max[a])
@@ -129,7 +129,7 @@ static ffd_status read_selections(const parser *p, const cJSON *item, const char
                                   ffd_rig_tsv_selection **out, size_t *count)
 {
     if (!cJSON_IsArray(item))
-        return rig_expected(p, path, "an array of selections {" SELECTOR_TEXT ": ...}");
+        return ffd_rig_expected(p, path, "an array of selections {" SELECTOR_TEXT ": ...}");
     size_t n = (size_t)cJSON_GetArraySize(item);
     if (!n)
         return FFD_OK;
@@ -144,8 +144,8 @@ static ffd_status read_selections(const parser *p, const cJSON *item, const char
         char sub[RIG_PATH_MAX + 64];
         snprintf(sub, sizeof sub, "%.100s[%zu]", path, i);
         if (!cJSON_IsObject(c))
-            return rig_expected(p, sub, "an object {" SELECTOR_TEXT ": ...}");
-        ffd_status s = rig_check_keys(p, c, sub, selector_keys, SELECTOR_TEXT);
+            return ffd_rig_expected(p, sub, "an object {" SELECTOR_TEXT ": ...}");
+        ffd_status s = ffd_rig_check_keys(p, c, sub, selector_keys, SELECTOR_TEXT);
         if (s || (s = read_selection(p, c, sub, &(*out)[i])))
             return s;
         i++;
@@ -160,7 +160,7 @@ static ffd_status read_handles(const parser *p, const cJSON *item, const char *p
     static const char *const keys[] = {"points", "near", "box", "edges", "faces", "cells",
                                        "delta",  "rotate", NULL};
     if (!cJSON_IsArray(item) || cJSON_GetArraySize(item) == 0)
-        return rig_expected(p, path, "a non-empty array of {selection, \"delta\": [x,y,z]} or "
+        return ffd_rig_expected(p, path, "a non-empty array of {selection, \"delta\": [x,y,z]} or "
                                      "{selection, \"rotate\": {\"axis\", \"angle\"}}");
     size_t n = (size_t)cJSON_GetArraySize(item);
     *out = ffd_calloc(n, sizeof **out);
@@ -174,25 +174,25 @@ static ffd_status read_handles(const parser *p, const cJSON *item, const char *p
         char sub[RIG_PATH_MAX + 64], k2[RIG_PATH_MAX + 192];
         snprintf(sub, sizeof sub, "%.100s[%zu]", path, i);
         if (!cJSON_IsObject(c))
-            return rig_expected(p, sub, "an object {selection, \"delta\" or \"rotate\"}");
+            return ffd_rig_expected(p, sub, "an object {selection, \"delta\" or \"rotate\"}");
         ffd_rig_tsv_handle *h = &(*out)[i];
-        ffd_status s = rig_check_keys(p, c, sub, keys,
+        ffd_status s = ffd_rig_check_keys(p, c, sub, keys,
                                       SELECTOR_TEXT ", \"delta\", \"rotate\"");
         if (s || (s = read_selection(p, c, sub, &h->sel)))
             return s;
         const cJSON *delta = cJSON_GetObjectItemCaseSensitive(c, "delta");
         const cJSON *rotate = cJSON_GetObjectItemCaseSensitive(c, "rotate");
         if ((delta != NULL) == (rotate != NULL))
-            return rig_expected(p, sub, "either \"delta\" or \"rotate\" (one of them)");
+            return ffd_rig_expected(p, sub, "either \"delta\" or \"rotate\" (one of them)");
         if (delta) {
             snprintf(k2, sizeof k2, "%.100s.delta", sub);
             h->has_delta = 1;
-            if ((s = rig_read_vec3(p, delta, k2, h->delta)))
+            if ((s = ffd_rig_read_vec3(p, delta, k2, h->delta)))
                 return s;
         } else {
             snprintf(k2, sizeof k2, "%.100s.rotate", sub);
             h->has_rotate = 1;
-            if ((s = rig_read_rotation(p, rotate, k2, h->axis, &h->angle, h->center,
+            if ((s = ffd_rig_read_rotation(p, rotate, k2, h->axis, &h->angle, h->center,
                                        &h->has_center)))
                 return s;
         }
@@ -201,12 +201,12 @@ static ffd_status read_handles(const parser *p, const cJSON *item, const char *p
     return FFD_OK;
 }
 
-ffd_status rig_read_tsv_refinements(const parser *p, const cJSON *item, const char *path,
+ffd_status ffd_rig_read_tsv_refinements(const parser *p, const cJSON *item, const char *path,
                                    ffd_rig_tsv_step *st)
 {
     static const char *const keys[] = {"cell", "face", "edge", "cells", "ratio", NULL};
     if (!cJSON_IsArray(item) || cJSON_GetArraySize(item) == 0)
-        return rig_expected(p, path, "a non-empty array of {\"cell\"|\"face\"|\"edge\": id or "
+        return ffd_rig_expected(p, path, "a non-empty array of {\"cell\"|\"face\"|\"edge\": id or "
                                      "{\"near\": [x,y,z]}} or {\"cells\": \"proxy\"}");
     size_t n = (size_t)cJSON_GetArraySize(item);
     st->refinements = ffd_calloc(n, sizeof *st->refinements);
@@ -221,8 +221,8 @@ ffd_status rig_read_tsv_refinements(const parser *p, const cJSON *item, const ch
         snprintf(sub, sizeof sub, "%.100s[%zu]", path, i);
         ffd_rig_tsv_refinement *r = &st->refinements[i];
         if (!cJSON_IsObject(c))
-            return rig_expected(p, sub, "an object {\"cell\"|\"face\"|\"edge\": id}");
-        ffd_status s = rig_check_keys(p, c, sub, keys,
+            return ffd_rig_expected(p, sub, "an object {\"cell\"|\"face\"|\"edge\": id}");
+        ffd_status s = ffd_rig_check_keys(p, c, sub, keys,
                                       "\"cell\", \"face\", \"edge\", \"cells\", \"ratio\"");
         if (s)
             return s;
@@ -238,24 +238,24 @@ ffd_status rig_read_tsv_refinements(const parser *p, const cJSON *item, const ch
             }
         }
         if (count != 1)
-            return rig_expected(p, sub, "exactly one of \"cell\", \"face\", \"edge\", \"cells\"");
+            return ffd_rig_expected(p, sub, "exactly one of \"cell\", \"face\", \"edge\", \"cells\"");
         snprintf(k2, sizeof k2, "%.100s.%s", sub, which->string);
         if (r->proxy_cells) {
             if (!cJSON_IsString(which) || strcmp(which->valuestring, "proxy") != 0)
-                return rig_expected(p, k2, "\"proxy\" (octree-split every cell inside the proxy)");
+                return ffd_rig_expected(p, k2, "\"proxy\" (octree-split every cell inside the proxy)");
         } else if (cJSON_IsObject(which)) {
             static const char *const near_keys[] = {"near", NULL};
-            if ((s = rig_check_keys(p, which, k2, near_keys, "\"near\"")))
+            if ((s = ffd_rig_check_keys(p, which, k2, near_keys, "\"near\"")))
                 return s;
             const cJSON *near = cJSON_GetObjectItemCaseSensitive(which, "near");
             char k3[RIG_PATH_MAX + 256];
             snprintf(k3, sizeof k3, "%.100s.near", k2);
             if (!near)
-                return rig_expected(p, k3, "an array of 3 finite numbers (missing)");
+                return ffd_rig_expected(p, k3, "an array of 3 finite numbers (missing)");
             r->by_near = 1;
-            if ((s = rig_read_vec3(p, near, k3, r->near)))
+            if ((s = ffd_rig_read_vec3(p, near, k3, r->near)))
                 return s;
-        } else if ((s = rig_read_index(p, which, k2, "an id or {\"near\": [x,y,z]}", &r->id))) {
+        } else if ((s = ffd_rig_read_index(p, which, k2, "an id or {\"near\": [x,y,z]}", &r->id))) {
             return s;
         }
         const cJSON *ratio = cJSON_GetObjectItemCaseSensitive(c, "ratio");
@@ -264,7 +264,7 @@ ffd_status rig_read_tsv_refinements(const parser *p, const cJSON *item, const ch
             if (r->kind != FFD_TSV_EDGE)
                 return ffd_fail(p->err, FFD_ERR_PARSE, "%s: %s: only for an \"edge\" insertion",
                                 p->name, k2);
-            if ((s = rig_read_number(p, ratio, k2, &r->ratio)))
+            if ((s = ffd_rig_read_number(p, ratio, k2, &r->ratio)))
                 return s;
             if (!(r->ratio > 0 && r->ratio < 1))
                 return ffd_fail(p->err, FFD_ERR_INVALID,
@@ -282,8 +282,8 @@ static ffd_status read_weights(const parser *p, const cJSON *item, const char *p
 {
     static const char *const keys[] = {"one_form", "proxy", "volume", "target", NULL};
     if (!cJSON_IsObject(item))
-        return rig_expected(p, path, "an object {\"one_form\", \"proxy\", \"volume\", \"target\"}");
-    ffd_status s = rig_check_keys(p, item, path, keys,
+        return ffd_rig_expected(p, path, "an object {\"one_form\", \"proxy\", \"volume\", \"target\"}");
+    ffd_status s = ffd_rig_check_keys(p, item, path, keys,
                                   "\"one_form\", \"proxy\", \"volume\", \"target\"");
     if (s)
         return s;
@@ -294,7 +294,7 @@ static ffd_status read_weights(const parser *p, const cJSON *item, const char *p
             continue;
         char sub[RIG_PATH_MAX + 64];
         snprintf(sub, sizeof sub, "%.100s.%s", path, keys[k]);
-        if ((s = rig_read_positive(p, w, sub, dst[k])))
+        if ((s = ffd_rig_read_positive(p, w, sub, dst[k])))
             return s;
         if (*dst[k] > 1e6)
             return ffd_fail(p->err, FFD_ERR_INVALID, "%s: %s: %g: expected a weight in (0, 1e6]",
@@ -306,7 +306,7 @@ static ffd_status read_weights(const parser *p, const cJSON *item, const char *p
 static ffd_status read_bool(const parser *p, const cJSON *item, const char *path, int *out)
 {
     if (!cJSON_IsBool(item))
-        return rig_expected(p, path, "true or false");
+        return ffd_rig_expected(p, path, "true or false");
     *out = cJSON_IsTrue(item) ? 1 : 0;
     return FFD_OK;
 }
@@ -317,8 +317,8 @@ static ffd_status read_deform(const parser *p, const cJSON *item, const char *pa
     static const char *const keys[] = {"handles", "freeze", "weights", "iterations",
                                        "soft",    "only_target", NULL};
     if (!cJSON_IsObject(item))
-        return rig_expected(p, path, "an object {\"handles\": [..], \"freeze\": [..], ...}");
-    ffd_status s = rig_check_keys(p, item, path, keys,
+        return ffd_rig_expected(p, path, "an object {\"handles\": [..], \"freeze\": [..], ...}");
+    ffd_status s = ffd_rig_check_keys(p, item, path, keys,
                                   "\"handles\", \"freeze\", \"weights\", \"iterations\", "
                                   "\"soft\", \"only_target\"");
     if (s)
@@ -327,7 +327,7 @@ static ffd_status read_deform(const parser *p, const cJSON *item, const char *pa
     const cJSON *it = cJSON_GetObjectItemCaseSensitive(item, "handles");
     snprintf(sub, sizeof sub, "%.100s.handles", path);
     if (!it)
-        return rig_expected(p, sub, "an array of handles (missing: a deformation moves something)");
+        return ffd_rig_expected(p, sub, "an array of handles (missing: a deformation moves something)");
     if ((s = read_handles(p, it, sub, &st->handles, &st->handle_count)))
         return s;
     if ((it = cJSON_GetObjectItemCaseSensitive(item, "freeze"))) {
@@ -342,10 +342,10 @@ static ffd_status read_deform(const parser *p, const cJSON *item, const char *pa
     }
     if ((it = cJSON_GetObjectItemCaseSensitive(item, "iterations"))) {
         snprintf(sub, sizeof sub, "%.100s.iterations", path);
-        if ((s = rig_read_index(p, it, sub, "an integer in 1..1000", &st->arap.iterations)))
+        if ((s = ffd_rig_read_index(p, it, sub, "an integer in 1..1000", &st->arap.iterations)))
             return s;
         if (st->arap.iterations < 1 || st->arap.iterations > 1000)
-            return rig_expected(p, sub, "an integer in 1..1000");
+            return ffd_rig_expected(p, sub, "an integer in 1..1000");
     }
     if ((it = cJSON_GetObjectItemCaseSensitive(item, "soft"))) {
         snprintf(sub, sizeof sub, "%.100s.soft", path);
@@ -365,17 +365,17 @@ static ffd_status read_constrain(const parser *p, const cJSON *item, const char 
 {
     static const char *const keys[] = {"targets", "freeze", NULL};
     if (!cJSON_IsObject(item))
-        return rig_expected(p, path, "an object {\"targets\": [{\"vertex\", \"target\"}], "
+        return ffd_rig_expected(p, path, "an object {\"targets\": [{\"vertex\", \"target\"}], "
                                      "\"freeze\": [..]}");
-    ffd_status s = rig_check_keys(p, item, path, keys, "\"targets\", \"freeze\"");
+    ffd_status s = ffd_rig_check_keys(p, item, path, keys, "\"targets\", \"freeze\"");
     if (s)
         return s;
     char sub[RIG_PATH_MAX + 128];
     const cJSON *it = cJSON_GetObjectItemCaseSensitive(item, "targets");
     snprintf(sub, sizeof sub, "%.100s.targets", path);
     if (!it)
-        return rig_expected(p, sub, "an array of {\"vertex\": id, \"target\": [x,y,z]} (missing)");
-    if ((s = rig_read_constraints(p, it, sub, &st->constraints, &st->constraint_count)))
+        return ffd_rig_expected(p, sub, "an array of {\"vertex\": id, \"target\": [x,y,z]} (missing)");
+    if ((s = ffd_rig_read_constraints(p, it, sub, &st->constraints, &st->constraint_count)))
         return s;
     for (size_t i = 0; i < st->constraint_count; i++)
         if (st->constraints[i].kind != FFD_RIG_CONSTRAINT_VERTEX)
@@ -395,7 +395,7 @@ static ffd_status read_steps(const parser *p, const cJSON *item, ffd_rig_tspline
 {
     static const char *const kinds[] = {"refine", "deform", "move", "constraints", NULL};
     if (!cJSON_IsArray(item))
-        return rig_expected(p, "steps", "an array of steps {\"refine\"|\"deform\"|\"move\"|"
+        return ffd_rig_expected(p, "steps", "an array of steps {\"refine\"|\"deform\"|\"move\"|"
                                         "\"constraints\": ...}");
     size_t n = (size_t)cJSON_GetArraySize(item);
     if (!n)
@@ -411,19 +411,19 @@ static ffd_status read_steps(const parser *p, const cJSON *item, ffd_rig_tspline
         char sub[RIG_PATH_MAX], k2[RIG_PATH_MAX + 64];
         snprintf(sub, sizeof sub, "steps[%zu]", i);
         if (!cJSON_IsObject(c) || cJSON_GetArraySize(c) != 1)
-            return rig_expected(p, sub, "an object with one key: \"refine\", \"deform\", "
+            return ffd_rig_expected(p, sub, "an object with one key: \"refine\", \"deform\", "
                                         "\"move\" or \"constraints\"");
-        ffd_status s = rig_check_keys(p, c, sub, kinds,
+        ffd_status s = ffd_rig_check_keys(p, c, sub, kinds,
                                       "\"refine\", \"deform\", \"move\", \"constraints\"");
         if (s)
             return s;
         const cJSON *body = c->child;
         ffd_rig_tsv_step *st = &t->steps[i];
-        int k = rig_lookup(body->string, kinds);
+        int k = ffd_rig_lookup(body->string, kinds);
         snprintf(k2, sizeof k2, "%.100s.%s", sub, body->string);
         st->kind = (ffd_rig_tsv_step_kind)k;
         if (k == 0)
-            s = rig_read_tsv_refinements(p, body, k2, st);
+            s = ffd_rig_read_tsv_refinements(p, body, k2, st);
         else if (k == 1)
             s = read_deform(p, body, k2, st);
         else if (k == 2)
@@ -437,20 +437,20 @@ static ffd_status read_steps(const parser *p, const cJSON *item, ffd_rig_tspline
     return FFD_OK;
 }
 
-ffd_status rig_read_tspline_root(const parser *p, const cJSON *root, ffd_rig *rig)
+ffd_status ffd_rig_read_tspline_root(const parser *p, const cJSON *root, ffd_rig *rig)
 {
     static const char *const keys[] = {"version", "deformer", "resolution", "padding",
                                        "steps",   "fold_samples", NULL};
     ffd_rig_tspline *t = &rig->tsv;
     t->resolution[0] = t->resolution[1] = t->resolution[2] = 6;
     const cJSON *item;
-    ffd_status s = rig_check_deformer_root(p, root, "tspline", keys,
+    ffd_status s = ffd_rig_check_deformer_root(p, root, "tspline", keys,
                                            "\"resolution\", \"padding\", \"steps\", "
                                            "\"fold_samples\"");
     if (s)
         return s;
     if ((item = cJSON_GetObjectItemCaseSensitive(root, "resolution"))) {
-        if ((s = rig_read_uint3(p, item, "resolution", t->resolution)))
+        if ((s = ffd_rig_read_uint3(p, item, "resolution", t->resolution)))
             return s;
         for (int a = 0; a < 3; a++)
             if (t->resolution[a] < 4 || t->resolution[a] > TSV_RIG_MAX_RES)
@@ -460,16 +460,16 @@ ffd_status rig_read_tspline_root(const parser *p, const cJSON *root, ffd_rig *ri
                                 p->name, a, t->resolution[a], TSV_RIG_MAX_RES);
     }
     if ((item = cJSON_GetObjectItemCaseSensitive(root, "padding"))) {
-        if ((s = rig_read_number(p, item, "padding", &t->options.padding)))
+        if ((s = ffd_rig_read_number(p, item, "padding", &t->options.padding)))
             return s;
         if (t->options.padding < 0 || t->options.padding > 100)
-            return rig_expected(p, "padding", "a number in [0, 100] (fraction of the extent)");
+            return ffd_rig_expected(p, "padding", "a number in [0, 100] (fraction of the extent)");
     }
     if ((item = cJSON_GetObjectItemCaseSensitive(root, "fold_samples"))) {
-        if ((s = rig_read_index(p, item, "fold_samples", "an integer in 1..64", &t->fold_samples)))
+        if ((s = ffd_rig_read_index(p, item, "fold_samples", "an integer in 1..64", &t->fold_samples)))
             return s;
         if (t->fold_samples < 1 || t->fold_samples > 64)
-            return rig_expected(p, "fold_samples", "an integer in 1..64");
+            return ffd_rig_expected(p, "fold_samples", "an integer in 1..64");
     }
     if ((item = cJSON_GetObjectItemCaseSensitive(root, "steps")) && (s = read_steps(p, item, t)))
         return s;

@@ -224,7 +224,7 @@ ffd_status ffd_rig_tsv_charge_refine(const ffd_tsv *t, const ffd_tsv_insertion *
                                      ffd_budget *budget, ffd_error *err)
 {
     tsv_estimate e;
-    tsv_estimate_refine(t->L, ins, count, &e);
+    ffd_tsv_estimate_refine(t->L, ins, count, &e);
     char have[32], cells[32];
     return ffd_budget_charge(budget, e.bytes, e.work, err,
                              "refining %s cells would make %s cells",
@@ -258,7 +258,7 @@ ffd_status ffd_rig_tsv_charge_arap(const ffd_tsv *t, uint32_t iterations, ffd_bu
 {
     tsv_estimate e;
     size_t nv = ffd_tsv_control_count(t);
-    tsv_estimate_arap(nv, iterations, &e);
+    ffd_tsv_estimate_arap(nv, iterations, &e);
     char count[32];
     return ffd_budget_charge(budget, e.bytes, e.work, err,
                              "the ARAP system of %s control points",
@@ -527,7 +527,7 @@ ffd_status ffd_rig_apply_tspline(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_rep
         s = ffd_tsv_jacobian(t, jac, &inner);
     if (!s) {
         tsv_estimate e;
-        tsv_estimate_folds(t->L, rt->fold_samples, &e);
+        ffd_tsv_estimate_folds(t->L, rt->fold_samples, &e);
         uint32_t fs = rt->fold_samples ? rt->fold_samples : 3;
         char cells[32];
         if ((s = ffd_budget_charge(budget, e.bytes, e.work, &inner,

@@ -338,7 +338,7 @@ static ffd_status op_create(ffd_session *s, const parser *p, const cJSON *body, 
     ffd_method_names(names, sizeof names - 16);
     const ffd_method *method = cJSON_IsString(name) ? ffd_method_find(name->valuestring) : NULL;
     if (!method)
-        return rig_expected(p, "method", name ? names : strcat(names, " (missing)"));
+        return ffd_rig_expected(p, "method", name ? names : strcat(names, " (missing)"));
     sess_method *m = NULL;
     ffd_status st = method->create(&s->ctx, body, &m, err);
     if (st)
@@ -529,7 +529,7 @@ static ffd_status read_mode(const parser *p, const cJSON *body, int *mode)
     static const char *const modes[] = {"translate", "rotate", "scale", NULL};
     const cJSON *item = cJSON_GetObjectItemCaseSensitive(body, "mode");
     *mode = MODE_TRANSLATE;
-    return item ? rig_read_enum(p, item, "mode", modes, "\"translate\", \"rotate\" or \"scale\"",
+    return item ? ffd_rig_read_enum(p, item, "mode", modes, "\"translate\", \"rotate\" or \"scale\"",
                                 mode)
                 : FFD_OK;
 }
@@ -538,18 +538,18 @@ static ffd_status drag_begin_controls(ffd_session *s, const parser *p, const cJS
                                       ffd_error *err)
 {
     static const char *const keys[] = {"points", "mode", "center", "arap", NULL};
-    ffd_status st = rig_check_keys(p, body, "body", keys, "points, mode, center, arap");
+    ffd_status st = ffd_rig_check_keys(p, body, "body", keys, "points, mode, center, arap");
     drag_state *d = &s->drag;
     sess_method *m = s->method;
     size_t count = m->vt->control_count(m);
     if (!st)
-        st = sess_read_ids(p, cJSON_GetObjectItemCaseSensitive(body, "points"), "points", count,
+        st = ffd_sess_read_ids(p, cJSON_GetObjectItemCaseSensitive(body, "points"), "points", count,
                            &d->ids, &d->k);
     if (!st)
         st = read_mode(p, body, &d->mode);
     const cJSON *arap = cJSON_GetObjectItemCaseSensitive(body, "arap");
     if (!st && arap && !cJSON_IsBool(arap))
-        st = rig_expected(p, "arap", "true or false");
+        st = ffd_rig_expected(p, "arap", "true or false");
     if (st)
         return st;
     double *all = ffd_malloc_array(count, 3 * sizeof *all);
@@ -567,7 +567,7 @@ static ffd_status drag_begin_controls(ffd_session *s, const parser *p, const cJS
         }
     ffd_free(all);
     const cJSON *center = cJSON_GetObjectItemCaseSensitive(body, "center");
-    if (center && ((st = rig_read_vec3(p, center, "center", c)) ||
+    if (center && ((st = ffd_rig_read_vec3(p, center, "center", c)) ||
                    (st = check_coords(c, 1, "drag_begin", "center", err))))
         return st;
     memcpy(d->center, c, sizeof c);
@@ -591,8 +591,8 @@ static ffd_status op_drag_begin(ffd_session *s, const parser *p, const cJSON *bo
     if (vertex) {
         static const char *const keys[] = {"vertex", NULL};
         uint32_t v = 0;
-        if (!(st = rig_check_keys(p, body, "body", keys, "vertex")) &&
-            !(st = rig_read_index(p, vertex, "vertex", "a vertex id", &v)) && v >= s->ctx.n)
+        if (!(st = ffd_rig_check_keys(p, body, "body", keys, "vertex")) &&
+            !(st = ffd_rig_read_index(p, vertex, "vertex", "a vertex id", &v)) && v >= s->ctx.n)
             st = ffd_fail(err, FFD_ERR_RANGE, "drag_begin: vertex: %u out of range (%zu vertices)",
                           v, s->ctx.n);
         if (!st && !(st = s->method->vt->begin(s->method, NULL, 0, 0, err))) {
@@ -621,17 +621,17 @@ static ffd_status control_targets(ffd_session *s, const parser *p, const cJSON *
     ffd_status st;
     if (d->mode == MODE_TRANSLATE) {
         static const char *const keys[] = {"delta", NULL};
-        if ((st = rig_check_keys(p, body, "body", keys, "delta")))
+        if ((st = ffd_rig_check_keys(p, body, "body", keys, "delta")))
             return st;
         const cJSON *delta = cJSON_GetObjectItemCaseSensitive(body, "delta");
         if (!delta)
-            return rig_expected(p, "delta", "an array of 3 finite numbers (missing)");
-        if ((st = rig_read_vec3(p, delta, "delta", t)))
+            return ffd_rig_expected(p, "delta", "an array of 3 finite numbers (missing)");
+        if ((st = ffd_rig_read_vec3(p, delta, "delta", t)))
             return st;
     } else if (d->mode == MODE_ROTATE) {
         static const char *const keys[] = {"axis", "angle", NULL};
-        if ((st = rig_check_keys(p, body, "body", keys, "axis, angle")) ||
-            (st = rig_read_rotation(p, body, "body", axis, angle, NULL, NULL)))
+        if ((st = ffd_rig_check_keys(p, body, "body", keys, "axis, angle")) ||
+            (st = ffd_rig_read_rotation(p, body, "body", axis, angle, NULL, NULL)))
             return st;
         for (int c = 0; c < 3; c++) {
             double e[3] = {c == 0, c == 1, c == 2}, r[3];
@@ -641,13 +641,13 @@ static ffd_status control_targets(ffd_session *s, const parser *p, const cJSON *
         }
     } else {
         static const char *const keys[] = {"scale", NULL};
-        if ((st = rig_check_keys(p, body, "body", keys, "scale")))
+        if ((st = ffd_rig_check_keys(p, body, "body", keys, "scale")))
             return st;
         double sc[3];
         const cJSON *scale = cJSON_GetObjectItemCaseSensitive(body, "scale");
         if (!scale)
-            return rig_expected(p, "scale", "an array of 3 finite numbers (missing)");
-        if ((st = rig_read_vec3(p, scale, "scale", sc)))
+            return ffd_rig_expected(p, "scale", "an array of 3 finite numbers (missing)");
+        if ((st = ffd_rig_read_vec3(p, scale, "scale", sc)))
             return st;
         for (int a = 0; a < 3; a++)
             M[a][a] = sc[a];
@@ -672,11 +672,11 @@ static ffd_status op_drag(ffd_session *s, const parser *p, const cJSON *body, ff
         static const char *const keys[] = {"target", NULL};
         double target[3];
         const cJSON *t = cJSON_GetObjectItemCaseSensitive(body, "target");
-        if ((st = rig_check_keys(p, body, "body", keys, "target")))
+        if ((st = ffd_rig_check_keys(p, body, "body", keys, "target")))
             return st;
         if (!t)
-            return rig_expected(p, "target", "an array of 3 finite numbers (missing)");
-        if ((st = rig_read_vec3(p, t, "target", target)) ||
+            return ffd_rig_expected(p, "target", "an array of 3 finite numbers (missing)");
+        if ((st = ffd_rig_read_vec3(p, t, "target", target)) ||
             (st = check_coords(target, 1, "drag", "target", err)))
             return st;
         if (d->constraints > s->pin_count)
@@ -741,19 +741,19 @@ static ffd_status op_pin(ffd_session *s, const parser *p, const cJSON *body, ffd
     ffd_status st = need_method(s, "pin", err);
     uint32_t v = 0;
     double target[3];
-    if (st || (st = rig_check_keys(p, body, "body", keys, "vertex, target")))
+    if (st || (st = ffd_rig_check_keys(p, body, "body", keys, "vertex, target")))
         return st;
     const cJSON *vertex = cJSON_GetObjectItemCaseSensitive(body, "vertex");
     if (!vertex)
-        return rig_expected(p, "vertex", "a vertex id (missing)");
-    if ((st = rig_read_index(p, vertex, "vertex", "a vertex id", &v)))
+        return ffd_rig_expected(p, "vertex", "a vertex id (missing)");
+    if ((st = ffd_rig_read_index(p, vertex, "vertex", "a vertex id", &v)))
         return st;
     if (v >= s->ctx.n)
         return ffd_fail(err, FFD_ERR_RANGE, "pin: vertex: %u out of range (%zu vertices)", v,
                         s->ctx.n);
     const cJSON *t = cJSON_GetObjectItemCaseSensitive(body, "target");
     memcpy(target, s->positions + 3 * (size_t)v, sizeof target);
-    if (t && ((st = rig_read_vec3(p, t, "target", target)) ||
+    if (t && ((st = ffd_rig_read_vec3(p, t, "target", target)) ||
               (st = check_coords(target, 1, "pin", "target", err))))
         return st;
     if (!s->method->vt->linear_map)
@@ -796,19 +796,19 @@ static ffd_status op_unpin(ffd_session *s, const parser *p, const cJSON *body, f
     static const char *const keys[] = {"vertex", "all", NULL};
     ffd_status st = need_method(s, "unpin", err);
     if (!st)
-        st = rig_check_keys(p, body, "body", keys, "vertex, all");
+        st = ffd_rig_check_keys(p, body, "body", keys, "vertex, all");
     if (st)
         return st;
     const cJSON *all = cJSON_GetObjectItemCaseSensitive(body, "all");
     const cJSON *vertex = cJSON_GetObjectItemCaseSensitive(body, "vertex");
     if ((all != NULL) == (vertex != NULL))
-        return rig_expected(p, "body", "{\"vertex\": id} or {\"all\": true}");
+        return ffd_rig_expected(p, "body", "{\"vertex\": id} or {\"all\": true}");
     if (all && !cJSON_IsTrue(all))
-        return rig_expected(p, "all", "true");
+        return ffd_rig_expected(p, "all", "true");
     uint32_t v = 0;
     size_t i = 0;
     if (vertex) {
-        if ((st = rig_read_index(p, vertex, "vertex", "a vertex id", &v)))
+        if ((st = ffd_rig_read_index(p, vertex, "vertex", "a vertex id", &v)))
             return st;
         while (i < s->pin_count && s->pins[i].vertex != v)
             i++;
@@ -855,8 +855,8 @@ static ffd_status op_influence(ffd_session *s, const parser *p, const cJSON *bod
     ffd_status st = need_method(s, "influence", err);
     uint32_t *ids = NULL;
     size_t k = 0;
-    if (st || (st = rig_check_keys(p, body, "body", keys, "points")) ||
-        (st = sess_read_ids(p, cJSON_GetObjectItemCaseSensitive(body, "points"), "points",
+    if (st || (st = ffd_rig_check_keys(p, body, "body", keys, "points")) ||
+        (st = ffd_sess_read_ids(p, cJSON_GetObjectItemCaseSensitive(body, "points"), "points",
                             s->method->vt->control_count(s->method), &ids, &k)))
         return st;
     size_t n = s->ctx.n;
@@ -972,7 +972,7 @@ ffd_status ffd_session_command(ffd_session *s, const char *op, const char *body,
         st = op_drag(s, &p, doc, err);
         is_drag_step = 1;
     } else if (!strcmp(op, "drag_end") || !strcmp(op, "drag_cancel"))
-        st = empty ? op_drag_end(s, op[5] == 'e', err) : rig_expected(&p, "body", "{}");
+        st = empty ? op_drag_end(s, op[5] == 'e', err) : ffd_rig_expected(&p, "body", "{}");
     else if (!strcmp(op, "move")) {
         /* a whole drag: drag_begin with the points and mode, one step, drag_end */
         cJSON *begin = cJSON_CreateObject(), *step = cJSON_CreateObject();
@@ -1009,11 +1009,11 @@ ffd_status ffd_session_command(ffd_session *s, const char *op, const char *body,
     else if (!strcmp(op, "unpin"))
         st = op_unpin(s, &p, doc, err);
     else if (!strcmp(op, "reset"))
-        st = empty ? op_reset(s, err) : rig_expected(&p, "body", "{}");
+        st = empty ? op_reset(s, err) : ffd_rig_expected(&p, "body", "{}");
     else if (!strcmp(op, "undo"))
-        st = empty ? undo_redo(s, &s->undo, &s->redo, op, err) : rig_expected(&p, "body", "{}");
+        st = empty ? undo_redo(s, &s->undo, &s->redo, op, err) : ffd_rig_expected(&p, "body", "{}");
     else if (!strcmp(op, "redo"))
-        st = empty ? undo_redo(s, &s->redo, &s->undo, op, err) : rig_expected(&p, "body", "{}");
+        st = empty ? undo_redo(s, &s->redo, &s->undo, op, err) : ffd_rig_expected(&p, "body", "{}");
     else if (!strcmp(op, "influence")) {
         st = op_influence(s, &p, doc, reply, reply_size, err);
         cJSON_Delete(doc);
@@ -1115,8 +1115,8 @@ static cJSON *pins_json(const ffd_session *s)
         double d = sqrt((x[0] - t[0]) * (x[0] - t[0]) + (x[1] - t[1]) * (x[1] - t[1]) +
                         (x[2] - t[2]) * (x[2] - t[2]));
         if (!cJSON_AddNumberToObject(o, "vertex", s->pins[i].vertex) ||
-            !sess_add_item(o, "target", sess_vec3(t)) ||
-            !sess_add_item(o, "position", sess_vec3(x)) ||
+            !ffd_sess_add_item(o, "target", ffd_sess_vec3(t)) ||
+            !ffd_sess_add_item(o, "position", ffd_sess_vec3(x)) ||
             !cJSON_AddNumberToObject(o, "residual", d)) {
             cJSON_Delete(arr);
             return NULL;
@@ -1136,8 +1136,8 @@ ffd_status ffd_session_state(const ffd_session *s, char **json, size_t *size, ff
          cJSON_AddStringToObject(mesh, "name", s->name) &&
          cJSON_AddNumberToObject(mesh, "vertices", (double)s->ctx.n) &&
          cJSON_AddNumberToObject(mesh, "faces", (double)ffd_mesh_face_count(s->mesh)) &&
-         sess_add_item(mesh, "min", sess_vec3(s->ctx.min)) &&
-         sess_add_item(mesh, "max", sess_vec3(s->ctx.max));
+         ffd_sess_add_item(mesh, "min", ffd_sess_vec3(s->ctx.min)) &&
+         ffd_sess_add_item(mesh, "max", ffd_sess_vec3(s->ctx.max));
     if (ok && s->method) {
         cJSON *params = cJSON_CreateObject(), *controls = cJSON_CreateObject();
         ok = params && controls && cJSON_AddItemToObject(root, "params", params);
@@ -1159,14 +1159,14 @@ ffd_status ffd_session_state(const ffd_session *s, char **json, size_t *size, ff
     cJSON *drag = NULL;
     if (ok && s->drag.kind) {
         drag = cJSON_CreateObject();
-        ok = sess_add_item(root, "drag", drag) &&
+        ok = ffd_sess_add_item(root, "drag", drag) &&
              cJSON_AddStringToObject(drag, "kind", s->drag.kind == DRAG_VERTEX ? "vertex"
                                                                                 : "controls");
     } else if (ok) {
         ok = cJSON_AddNullToObject(root, "drag") != NULL;
     }
     cJSON *pins = ok ? pins_json(s) : NULL;
-    ok = ok && sess_add_item(root, "pins", pins); /* deletes pins it could not add */
+    ok = ok && ffd_sess_add_item(root, "pins", pins); /* deletes pins it could not add */
     ok = ok && cJSON_AddNumberToObject(root, "undo", (double)s->undo.count) &&
          cJSON_AddNumberToObject(root, "redo", (double)s->redo.count) &&
          cJSON_AddNumberToObject(root, "busy_ms", s->busy_ms);
@@ -1200,7 +1200,7 @@ ffd_status ffd_session_deformed(const ffd_session *s, ffd_mesh **out, ffd_error 
 {
     *out = NULL;
     ffd_mesh *copy = NULL;
-    ffd_status st = sess_clone_mesh(s->mesh, &copy, err);
+    ffd_status st = ffd_sess_clone_mesh(s->mesh, &copy, err);
     if (st || !s->method) {
         *out = copy;
         return st;
@@ -1270,7 +1270,7 @@ ffd_status ffd_session_create(ffd_mesh *mesh, const char *name, const ffd_sessio
         return ffd_fail(err, FFD_ERR_NOMEM, "out of memory for %zu vertices", n);
     }
     s->mesh = mesh;
-    sess_ctx_init(&s->ctx, mesh, s->options.max_controls, &s->options.limits);
+    ffd_sess_ctx_init(&s->ctx, mesh, s->options.max_controls, &s->options.limits);
     memcpy(s->positions, s->ctx.rest, n * 3 * sizeof *s->positions);
     *out = s;
     return FFD_OK;

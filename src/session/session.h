@@ -30,12 +30,12 @@ typedef struct sess_ctx {
 
 /* Fills ctx for mesh (borrowed: it must outlive ctx): its vertices, their
  * bounding box and diagonal; max_controls 0: no bound but the limits. */
-void sess_ctx_init(sess_ctx *ctx, const ffd_mesh *mesh, size_t max_controls,
+void ffd_sess_ctx_init(sess_ctx *ctx, const ffd_mesh *mesh, size_t max_controls,
                    const ffd_limits *limits);
 
 /* FFD_ERR_INVALID when count (a product of resolutions, computed without
  * overflow by the caller) exceeds ctx->max_controls. */
-ffd_status sess_check_controls(const sess_ctx *ctx, double count, const char *what,
+ffd_status ffd_sess_check_controls(const sess_ctx *ctx, double count, const char *what,
                                ffd_error *err);
 
 typedef struct sess_method sess_method; /* each method's own struct begins with this */
@@ -136,52 +136,52 @@ struct sess_vtable {
  * defaults per docs/editor.md). load: from a parsed rig of this method
  * (the whole rig replayed; the result must describe the same positions as
  * ffd_rig_apply of that rig). */
-ffd_status sess_lattice_create(const sess_ctx *ctx, const cJSON *body, sess_method **out,
+ffd_status ffd_sess_lattice_create(const sess_ctx *ctx, const cJSON *body, sess_method **out,
                                ffd_error *err);
-ffd_status sess_lattice_load(const sess_ctx *ctx, const ffd_rig *rig, sess_method **out,
+ffd_status ffd_sess_lattice_load(const sess_ctx *ctx, const ffd_rig *rig, sess_method **out,
                              ffd_error *err);
-ffd_status sess_pbffd_create(const sess_ctx *ctx, const cJSON *body, sess_method **out,
+ffd_status ffd_sess_pbffd_create(const sess_ctx *ctx, const cJSON *body, sess_method **out,
                              ffd_error *err);
-ffd_status sess_pbffd_load(const sess_ctx *ctx, const ffd_rig *rig, sess_method **out,
+ffd_status ffd_sess_pbffd_load(const sess_ctx *ctx, const ffd_rig *rig, sess_method **out,
                            ffd_error *err);
-ffd_status sess_gffd_create(const sess_ctx *ctx, const cJSON *body, sess_method **out,
+ffd_status ffd_sess_gffd_create(const sess_ctx *ctx, const cJSON *body, sess_method **out,
                             ffd_error *err);
-ffd_status sess_gffd_load(const sess_ctx *ctx, const ffd_rig *rig, sess_method **out,
+ffd_status ffd_sess_gffd_load(const sess_ctx *ctx, const ffd_rig *rig, sess_method **out,
                           ffd_error *err);
-ffd_status sess_tspline_create(const sess_ctx *ctx, const cJSON *body, sess_method **out,
+ffd_status ffd_sess_tspline_create(const sess_ctx *ctx, const cJSON *body, sess_method **out,
                                ffd_error *err);
-ffd_status sess_tspline_load(const sess_ctx *ctx, const ffd_rig *rig, sess_method **out,
+ffd_status ffd_sess_tspline_load(const sess_ctx *ctx, const ffd_rig *rig, sess_method **out,
                              ffd_error *err);
 
 /* Shared helpers (session_util.c). */
 /* A JSON array of uint32 control ids, each < count, no repeats; *ids is
  * ffd_malloc'd (NULL when k == 0). */
-ffd_status sess_read_ids(const parser *p, const cJSON *item, const char *path, size_t count,
+ffd_status ffd_sess_read_ids(const parser *p, const cJSON *item, const char *path, size_t count,
                          uint32_t **ids, size_t *k);
 /* cJSON builders that report allocation failure (NULL). Numbers are exact
  * (17 digits, raw items: print them, do not read them back). */
-cJSON *sess_number(double v);
-cJSON *sess_array(const double *v, size_t n);
-cJSON *sess_vec3(const double v[3]);
-cJSON *sess_matrix3(const double m[3][3]);
-cJSON *sess_uint_array(const uint32_t *v, size_t n);
+cJSON *ffd_sess_number(double v);
+cJSON *ffd_sess_array(const double *v, size_t n);
+cJSON *ffd_sess_vec3(const double v[3]);
+cJSON *ffd_sess_matrix3(const double m[3][3]);
+cJSON *ffd_sess_uint_array(const uint32_t *v, size_t n);
 /* Adds item (which may be NULL: an allocation failed) to an object or an
  * array; on failure deletes it and returns 0. */
-int sess_add_item(cJSON *object, const char *key, cJSON *item);
-int sess_add_to_array(cJSON *array, cJSON *item);
+int ffd_sess_add_item(cJSON *object, const char *key, cJSON *item);
+int ffd_sess_add_to_array(cJSON *array, cJSON *item);
 /* Adds [a, b] to an edge array. */
-int sess_add_edge(cJSON *edges, uint32_t a, uint32_t b);
+int ffd_sess_add_edge(cJSON *edges, uint32_t a, uint32_t b);
 /* Linear-map influence: per row (vertex) the sum of the weights of the
  * controls in ids (clamped to [0, 1]); the controls are the map's columns
  * (by_column) or the variables the columns are tied to (the B-spline
  * lattice's tripled border). */
-ffd_status sess_map_influence(const ffd_linear_map *map, int by_column, size_t n,
+ffd_status ffd_sess_map_influence(const ffd_linear_map *map, int by_column, size_t n,
                               const uint32_t *ids, size_t k, float *w, ffd_error *err);
 
 /* A deep copy of a mesh (through its own format in memory). */
-ffd_status sess_clone_mesh(const ffd_mesh *mesh, ffd_mesh **out, ffd_error *err);
+ffd_status ffd_sess_clone_mesh(const ffd_mesh *mesh, ffd_mesh **out, ffd_error *err);
 /* Applies rig to a copy of the rest mesh (the report says what it did). */
-ffd_status sess_apply_rig(const sess_ctx *ctx, const ffd_rig *rig, ffd_rig_report *report,
+ffd_status ffd_sess_apply_rig(const sess_ctx *ctx, const ffd_rig *rig, ffd_rig_report *report,
                           ffd_error *err);
 
 #endif

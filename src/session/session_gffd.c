@@ -307,19 +307,19 @@ static ffd_status read_body_skeleton(const parser *p, const cJSON *item, ffd_rig
                                 p->name, i);
             i++;
         }
-    return rig_read_skeleton(p, item, "skeleton", out, count);
+    return ffd_rig_read_skeleton(p, item, "skeleton", out, count);
 }
 
 static ffd_status read_tracking(const parser *p, const cJSON *item, ffd_gffd_options *opt)
 {
     static const char *const trackings[] = {"gradient", "warp", NULL};
     int t = 0;
-    ffd_status s = rig_read_enum(p, item, "tracking", trackings, "\"gradient\" or \"warp\"", &t);
+    ffd_status s = ffd_rig_read_enum(p, item, "tracking", trackings, "\"gradient\" or \"warp\"", &t);
     opt->tracking = t ? FFD_GFFD_TRACK_WARP : FFD_GFFD_TRACK_GRADIENT;
     return s;
 }
 
-ffd_status sess_gffd_create(const sess_ctx *ctx, const cJSON *body, sess_method **out,
+ffd_status ffd_sess_gffd_create(const sess_ctx *ctx, const cJSON *body, sess_method **out,
                             ffd_error *err)
 {
     static const char *const keys[] = {"method", "skeleton", "unit", "tracking", "resample", NULL};
@@ -330,8 +330,8 @@ ffd_status sess_gffd_create(const sess_ctx *ctx, const cJSON *body, sess_method 
     ffd_rig_primitive *rest = NULL;
     size_t count = 0;
     const cJSON *v;
-    ffd_status s = body && !cJSON_IsObject(body) ? rig_expected(&p, "body", "a JSON object")
-                   : body                        ? rig_check_keys(&p, body, "", keys,
+    ffd_status s = body && !cJSON_IsObject(body) ? ffd_rig_expected(&p, "body", "a JSON object")
+                   : body                        ? ffd_rig_check_keys(&p, body, "", keys,
                                                                   "\"method\", \"skeleton\", \"unit\", \"tracking\"")
                                                  : FFD_OK;
     if (!s && body && cJSON_GetObjectItemCaseSensitive(body, "resample"))
@@ -339,7 +339,7 @@ ffd_status sess_gffd_create(const sess_ctx *ctx, const cJSON *body, sess_method 
                      "create: resample: adaptive resampling adds vertices, which an editing "
                      "session cannot; use ffd deform with a rig for that");
     if (!s && body && (v = cJSON_GetObjectItemCaseSensitive(body, "unit")))
-        s = rig_read_positive(&p, v, "unit", &opt.unit);
+        s = ffd_rig_read_positive(&p, v, "unit", &opt.unit);
     if (!s && body && (v = cJSON_GetObjectItemCaseSensitive(body, "tracking")))
         s = read_tracking(&p, v, &opt);
     if (!s && body && (v = cJSON_GetObjectItemCaseSensitive(body, "skeleton")))
@@ -374,7 +374,7 @@ static ffd_status copy_correspondences(gf_method *m, const ffd_rig_gffd *r, ffd_
     return FFD_OK;
 }
 
-ffd_status sess_gffd_load(const sess_ctx *ctx, const ffd_rig *rig, sess_method **out,
+ffd_status ffd_sess_gffd_load(const sess_ctx *ctx, const ffd_rig *rig, sess_method **out,
                           ffd_error *err)
 {
     *out = NULL;
@@ -525,7 +525,7 @@ static int add_edges(const gf_method *m, cJSON *edges)
     int ok = 1;
     for (size_t j = 0; ok && j < k; j++)
         if (j == 0 || cmp_edge(e + 2 * j, e + 2 * (j - 1)) != 0)
-            ok = sess_add_edge(edges, e[2 * j], e[2 * j + 1]);
+            ok = ffd_sess_add_edge(edges, e[2 * j], e[2 * j + 1]);
     ffd_free(e);
     return ok;
 }
@@ -535,9 +535,9 @@ static cJSON *faces_json(const ffd_rig_primitive *p, size_t offset)
     cJSON *a = cJSON_CreateArray();
     for (size_t f = 0; a && f < p->face_count; f++) {
         cJSON *face = cJSON_CreateArray();
-        int ok = sess_add_to_array(a, face);
+        int ok = ffd_sess_add_to_array(a, face);
         for (uint32_t c = p->face_offsets[f]; ok && c < p->face_offsets[f + 1]; c++)
-            ok = sess_add_to_array(face, cJSON_CreateNumber((double)(offset + p->face_indices[c])));
+            ok = ffd_sess_add_to_array(face, cJSON_CreateNumber((double)(offset + p->face_indices[c])));
         if (!ok) {
             cJSON_Delete(a);
             return NULL;
@@ -562,11 +562,11 @@ static ffd_status gf_describe(const sess_method *base, cJSON *params, cJSON *con
     for (size_t i = 0; ok && i < m->count; i++) {
         const ffd_rig_primitive *p = &m->rest[i];
         cJSON *o = cJSON_CreateObject();
-        ok = sess_add_to_array(prims, o) && cJSON_AddStringToObject(o, "type", kind_names[p->kind]) &&
+        ok = ffd_sess_add_to_array(prims, o) && cJSON_AddStringToObject(o, "type", kind_names[p->kind]) &&
              cJSON_AddNumberToObject(o, "radius", p->radius) &&
              cJSON_AddNumberToObject(o, "offset", (double)m->offset[i]) &&
              cJSON_AddNumberToObject(o, "count", (double)p->vertex_count) &&
-             sess_add_item(o, "faces", faces_json(p, m->offset[i]));
+             ffd_sess_add_item(o, "faces", faces_json(p, m->offset[i]));
     }
     return ok ? FFD_OK : ffd_fail(err, FFD_ERR_NOMEM, "state: out of memory");
 }
@@ -807,7 +807,7 @@ static cJSON *points_json(const double *v, size_t n)
 {
     cJSON *a = cJSON_CreateArray();
     for (size_t i = 0; a && i < n; i++)
-        if (!sess_add_to_array(a, sess_array(v + 3 * i, 3))) {
+        if (!ffd_sess_add_to_array(a, ffd_sess_array(v + 3 * i, 3))) {
             cJSON_Delete(a);
             return NULL;
         }
@@ -818,12 +818,12 @@ static cJSON *primitive_json(const ffd_rig_primitive *p)
 {
     cJSON *o = cJSON_CreateObject();
     int ok = o && cJSON_AddStringToObject(o, "type", kind_names[p->kind]) &&
-             sess_add_item(o, "radius", sess_number(p->radius));
+             ffd_sess_add_item(o, "radius", ffd_sess_number(p->radius));
     if (ok && p->kind == FFD_GFFD_POINT)
-        ok = sess_add_item(o, "position", sess_array(p->vertices, 3));
+        ok = ffd_sess_add_item(o, "position", ffd_sess_array(p->vertices, 3));
     else if (ok)
-        ok = sess_add_item(o, "vertices", points_json(p->vertices, p->vertex_count)) &&
-             (!p->face_count || sess_add_item(o, "faces", faces_json(p, 0)));
+        ok = ffd_sess_add_item(o, "vertices", points_json(p->vertices, p->vertex_count)) &&
+             (!p->face_count || ffd_sess_add_item(o, "faces", faces_json(p, 0)));
     if (!ok) {
         cJSON_Delete(o);
         return NULL;
@@ -833,10 +833,10 @@ static cJSON *primitive_json(const ffd_rig_primitive *p)
 
 static int add_options(cJSON *root, const ffd_gffd_options *o)
 {
-    return sess_add_item(root, "unit", sess_number(o->unit)) &&
+    return ffd_sess_add_item(root, "unit", ffd_sess_number(o->unit)) &&
            cJSON_AddStringToObject(root, "tracking",
                                    o->tracking == FFD_GFFD_TRACK_WARP ? "warp" : "gradient") &&
-           (!(o->tolerance > 0) || sess_add_item(root, "tolerance", sess_number(o->tolerance))) &&
+           (!(o->tolerance > 0) || ffd_sess_add_item(root, "tolerance", ffd_sess_number(o->tolerance))) &&
            (!o->max_iterations ||
             cJSON_AddNumberToObject(root, "max_iterations", o->max_iterations)) &&
            (!o->max_samples ||
@@ -848,8 +848,8 @@ static cJSON *correspondences_json(const gf_method *m)
     cJSON *a = cJSON_CreateArray();
     for (size_t i = 0; a && i < m->corr_count; i++) {
         cJSON *o = cJSON_CreateObject();
-        if (!sess_add_to_array(a, o) || !sess_add_item(o, "from", sess_array(m->corr_from + 3 * i, 3)) ||
-            !sess_add_item(o, "to", sess_array(m->corr_to + 3 * i, 3))) {
+        if (!ffd_sess_add_to_array(a, o) || !ffd_sess_add_item(o, "from", ffd_sess_array(m->corr_from + 3 * i, 3)) ||
+            !ffd_sess_add_item(o, "to", ffd_sess_array(m->corr_to + 3 * i, 3))) {
             cJSON_Delete(a);
             return NULL;
         }
@@ -863,23 +863,23 @@ static ffd_status gf_rig(const sess_method *base, cJSON *root, ffd_error *err)
     cJSON *skeleton = NULL, *edits = NULL;
     int ok = (skeleton = cJSON_AddArrayToObject(root, "skeleton")) && add_options(root, &m->opt) &&
              (edits = cJSON_AddArrayToObject(root, "edits")) &&
-             (!m->corr_count || sess_add_item(root, "correspondences", correspondences_json(m)));
+             (!m->corr_count || ffd_sess_add_item(root, "correspondences", correspondences_json(m)));
     for (size_t i = 0; ok && i < m->count; i++)
-        ok = sess_add_to_array(skeleton, primitive_json(&m->rest[i]));
+        ok = ffd_sess_add_to_array(skeleton, primitive_json(&m->rest[i]));
     for (size_t i = 0; ok && i < m->edit_count; i++) {
         const ffd_rig_gffd_edit *d = &m->edits[i];
         cJSON *e = cJSON_CreateObject(), *r = NULL;
-        ok = sess_add_to_array(edits, e) &&
+        ok = ffd_sess_add_to_array(edits, e) &&
              cJSON_AddNumberToObject(e, "primitive", (double)d->primitive);
         if (ok && d->kind == FFD_RIG_EDIT_ROTATE)
             ok = (r = cJSON_AddObjectToObject(e, "rotate")) &&
-                 sess_add_item(r, "axis", sess_array(d->axis, 3)) &&
-                 sess_add_item(r, "angle", sess_number(d->angle)) &&
-                 sess_add_item(e, "center", sess_array(d->center, 3));
+                 ffd_sess_add_item(r, "axis", ffd_sess_array(d->axis, 3)) &&
+                 ffd_sess_add_item(r, "angle", ffd_sess_number(d->angle)) &&
+                 ffd_sess_add_item(e, "center", ffd_sess_array(d->center, 3));
         else if (ok && d->kind == FFD_RIG_EDIT_TRANSLATE)
-            ok = sess_add_item(e, "translate", sess_array(d->delta, 3));
+            ok = ffd_sess_add_item(e, "translate", ffd_sess_array(d->delta, 3));
         else if (ok)
-            ok = sess_add_item(e, "vertices", points_json(d->vertices, d->vertex_count));
+            ok = ffd_sess_add_item(e, "vertices", points_json(d->vertices, d->vertex_count));
     }
     return ok ? FFD_OK : ffd_fail(err, FFD_ERR_NOMEM, "rig: out of memory");
 }
@@ -1012,7 +1012,7 @@ static ffd_status read_index(const parser *p, const cJSON *body, const char *key
                              size_t *index)
 {
     uint32_t i = 0;
-    ffd_status s = rig_read_index(p, cJSON_GetObjectItemCaseSensitive(body, key), key,
+    ffd_status s = ffd_rig_read_index(p, cJSON_GetObjectItemCaseSensitive(body, key), key,
                                   "a primitive index", &i);
     if (!s && i >= count)
         s = ffd_fail(p->err, FFD_ERR_RANGE, "%s: %s: %u out of range (%zu primitives)", p->name,
@@ -1029,11 +1029,11 @@ static ffd_status op_primitive(gf_method *m, const cJSON *body, int *undo, ffd_e
     const cJSON *index = cJSON_GetObjectItemCaseSensitive(body, "index");
     const cJSON *radius = cJSON_GetObjectItemCaseSensitive(body, "radius");
     const cJSON *remove = cJSON_GetObjectItemCaseSensitive(body, "remove");
-    ffd_status s = rig_check_keys(&p, body, "", keys, "\"add\", \"index\", \"radius\", \"remove\"");
+    ffd_status s = ffd_rig_check_keys(&p, body, "", keys, "\"add\", \"index\", \"radius\", \"remove\"");
     if (s)
         return s;
     if ((add != NULL) + (remove != NULL) + (index != NULL || radius != NULL) != 1)
-        return rig_expected(&p, "body",
+        return ffd_rig_expected(&p, "body",
                             "one of {\"add\": primitive}, {\"index\": i, "
                             "\"radius\": r} or {\"remove\": i}");
     size_t i = 0;
@@ -1045,7 +1045,7 @@ static ffd_status op_primitive(gf_method *m, const cJSON *body, int *undo, ffd_e
                             "here; give the geometry inline (\"vertices\", \"faces\")");
         ffd_rig_primitive prim;
         memset(&prim, 0, sizeof prim);
-        if (!(s = rig_read_primitive(&p, add, "add", &prim)))
+        if (!(s = ffd_rig_read_primitive(&p, add, "add", &prim)))
             s = primitive_op(m, &prim, 0, 0, 0, err);
         ffd_rig_primitive_free(&prim);
     } else if (remove) {
@@ -1057,11 +1057,11 @@ static ffd_status op_primitive(gf_method *m, const cJSON *body, int *undo, ffd_e
             s = primitive_op(m, NULL, i, 0, 1, err);
     } else {
         if (!index)
-            return rig_expected(&p, "index", "a primitive index (missing)");
+            return ffd_rig_expected(&p, "index", "a primitive index (missing)");
         if (!radius)
-            return rig_expected(&p, "radius", "the influence radius r_s > 0 (missing)");
+            return ffd_rig_expected(&p, "radius", "the influence radius r_s > 0 (missing)");
         if (!(s = read_index(&p, body, "index", m->count, &i)) &&
-            !(s = rig_read_positive(&p, radius, "radius", &r)))
+            !(s = ffd_rig_read_positive(&p, radius, "radius", &r)))
             s = primitive_op(m, NULL, i, r, 0, err);
     }
     if (!s)

@@ -64,15 +64,15 @@ static ffd_status lat_describe(const sess_method *m, cJSON *params, cJSON *contr
         for (uint32_t j = 0; ok && j < r[1]; j++)
             for (uint32_t k = 0; ok && k < r[2]; k++) {
                 uint32_t id = (i * r[1] + j) * r[2] + k;
-                ok = (i + 1 == r[0] || sess_add_edge(edges, id, id + r[1] * r[2])) &&
-                     (j + 1 == r[1] || sess_add_edge(edges, id, id + r[2])) &&
-                     (k + 1 == r[2] || sess_add_edge(edges, id, id + 1));
+                ok = (i + 1 == r[0] || ffd_sess_add_edge(edges, id, id + r[1] * r[2])) &&
+                     (j + 1 == r[1] || ffd_sess_add_edge(edges, id, id + r[2])) &&
+                     (k + 1 == r[2] || ffd_sess_add_edge(edges, id, id + 1));
             }
-    ok = ok && sess_add_item(params, "resolution", sess_uint_array(r, 3)) &&
+    ok = ok && ffd_sess_add_item(params, "resolution", ffd_sess_uint_array(r, 3)) &&
          cJSON_AddStringToObject(params, "basis", basis) &&
          cJSON_AddNumberToObject(params, "margin", l->margin) &&
          cJSON_AddStringToObject(params, "outside", outside_names[l->outside]) &&
-         sess_add_item(controls, "resolution", sess_uint_array(r, 3)) &&
+         ffd_sess_add_item(controls, "resolution", ffd_sess_uint_array(r, 3)) &&
          cJSON_AddStringToObject(controls, "basis", basis);
     return ok ? FFD_OK : ffd_fail(err, FFD_ERR_NOMEM, "state: out of memory");
 }
@@ -173,19 +173,19 @@ static ffd_status lat_rig(const sess_method *m, cJSON *root, ffd_error *err)
     ffd_lattice_box(l->lattice, &box);
     const double *p = ffd_lattice_control_points(l->lattice);
     cJSON *jbox = cJSON_CreateObject(), *moves = cJSON_CreateArray();
-    /* sess_add_item deletes an item it could not add */
-    int ok = sess_add_item(root, "box", jbox);
+    /* ffd_sess_add_item deletes an item it could not add */
+    int ok = ffd_sess_add_item(root, "box", jbox);
     if (ok)
-        ok = sess_add_item(root, "moves", moves);
+        ok = ffd_sess_add_item(root, "moves", moves);
     else
         cJSON_Delete(moves);
     ok = ok &&
          cJSON_AddStringToObject(root, "basis",
                                  basis_names[ffd_lattice_basis(l->lattice) == FFD_BASIS_BERNSTEIN]) &&
-         sess_add_item(root, "resolution", sess_uint_array(r, 3)) &&
+         ffd_sess_add_item(root, "resolution", ffd_sess_uint_array(r, 3)) &&
          cJSON_AddStringToObject(root, "outside", outside_names[l->outside]) &&
-         sess_add_item(jbox, "origin", sess_vec3(box.origin)) &&
-         sess_add_item(jbox, "axes", sess_matrix3((const double(*)[3])box.axes));
+         ffd_sess_add_item(jbox, "origin", ffd_sess_vec3(box.origin)) &&
+         ffd_sess_add_item(jbox, "axes", ffd_sess_matrix3((const double(*)[3])box.axes));
     for (uint32_t i = 0; ok && i < r[0]; i++)
         for (uint32_t j = 0; ok && j < r[1]; j++)
             for (uint32_t k = 0; ok && k < r[2]; k++) {
@@ -201,8 +201,8 @@ static ffd_status lat_rig(const sess_method *m, cJSON *root, ffd_error *err)
                 ok = move && cJSON_AddItemToArray(moves, move);
                 if (!ok)
                     cJSON_Delete(move);
-                ok = ok && sess_add_item(move, "index", sess_uint_array(index, 3)) &&
-                     sess_add_item(move, "delta", sess_vec3(d));
+                ok = ok && ffd_sess_add_item(move, "index", ffd_sess_uint_array(index, 3)) &&
+                     ffd_sess_add_item(move, "delta", ffd_sess_vec3(d));
             }
     return ok ? FFD_OK : ffd_fail(err, FFD_ERR_NOMEM, "rig: out of memory");
 }
@@ -212,7 +212,7 @@ static ffd_status lat_influence(sess_method *m, const uint32_t *ids, size_t k, f
 {
     ffd_linear_map map;
     ffd_status st = lat_linear_map(m, &map, err);
-    return st ? st : sess_map_influence(&map, 0, m->ctx->n, ids, k, w, err);
+    return st ? st : ffd_sess_map_influence(&map, 0, m->ctx->n, ids, k, w, err);
 }
 
 static ffd_status lat_op(sess_method *m, const char *op, const cJSON *body, int *undo_kind,
@@ -247,7 +247,7 @@ static ffd_status lattice_build(const sess_ctx *ctx, ffd_basis basis, const uint
                                 const ffd_box *box, ffd_outside outside, double margin,
                                 const char *what, sess_method **out, ffd_error *err)
 {
-    ffd_status st = sess_check_controls(ctx, (double)res[0] * res[1] * res[2], what, err);
+    ffd_status st = ffd_sess_check_controls(ctx, (double)res[0] * res[1] * res[2], what, err);
     if (st)
         return st;
     lattice_method *l = ffd_calloc(1, sizeof *l);
@@ -269,25 +269,25 @@ static ffd_status lattice_build(const sess_ctx *ctx, ffd_basis basis, const uint
     return FFD_OK;
 }
 
-ffd_status sess_lattice_create(const sess_ctx *ctx, const cJSON *body, sess_method **out,
+ffd_status ffd_sess_lattice_create(const sess_ctx *ctx, const cJSON *body, sess_method **out,
                                ffd_error *err)
 {
     static const char *const keys[] = {"method", "resolution", "basis", "margin", "outside", NULL};
     parser p = {"create", err};
-    ffd_status st = rig_check_keys(&p, body, "body", keys, "method, resolution, basis, margin, outside");
+    ffd_status st = ffd_rig_check_keys(&p, body, "body", keys, "method, resolution, basis, margin, outside");
     uint32_t res[3] = {5, 5, 5};
     int basis = 0, outside = 0;
     double margin = 0.05;
     const cJSON *item;
     if (!st && (item = cJSON_GetObjectItemCaseSensitive(body, "resolution")))
-        st = rig_read_uint3(&p, item, "resolution", res);
+        st = ffd_rig_read_uint3(&p, item, "resolution", res);
     if (!st && (item = cJSON_GetObjectItemCaseSensitive(body, "basis")))
-        st = rig_read_enum(&p, item, "basis", basis_names, "\"bspline\" or \"bernstein\"", &basis);
+        st = ffd_rig_read_enum(&p, item, "basis", basis_names, "\"bspline\" or \"bernstein\"", &basis);
     if (!st && (item = cJSON_GetObjectItemCaseSensitive(body, "outside")))
-        st = rig_read_enum(&p, item, "outside", outside_names,
+        st = ffd_rig_read_enum(&p, item, "outside", outside_names,
                            "\"fixed\", \"clamp\" or \"extrapolate\"", &outside);
     if (!st && (item = cJSON_GetObjectItemCaseSensitive(body, "margin"))) {
-        st = rig_read_number(&p, item, "margin", &margin);
+        st = ffd_rig_read_number(&p, item, "margin", &margin);
         if (!st && margin < 0)
             st = ffd_fail(err, FFD_ERR_INVALID, "create: margin: %g: expected >= 0", margin);
     }
@@ -305,7 +305,7 @@ ffd_status sess_lattice_create(const sess_ctx *ctx, const cJSON *body, sess_meth
                          (ffd_outside)outside, margin, "create", out, err);
 }
 
-ffd_status sess_lattice_load(const sess_ctx *ctx, const ffd_rig *rig, sess_method **out,
+ffd_status ffd_sess_lattice_load(const sess_ctx *ctx, const ffd_rig *rig, sess_method **out,
                              ffd_error *err)
 {
     ffd_box box = rig->box;
@@ -314,11 +314,11 @@ ffd_status sess_lattice_load(const sess_ctx *ctx, const ffd_rig *rig, sess_metho
     if (rig->box_auto && (st = ffd_box_fit(ctx->rest, ctx->n, rig->margin, &box, &inner)))
         return ffd_fail(err, st, "%s: box \"auto\": %s", rig->name, inner.message);
     const uint32_t *r = rig->resolution;
-    if ((st = sess_check_controls(ctx, (double)r[0] * r[1] * r[2], rig->name, err)))
+    if ((st = ffd_sess_check_controls(ctx, (double)r[0] * r[1] * r[2], rig->name, err)))
         return st;
     /* The rig's moves and constraints, as ffd deform applies them. */
     ffd_rig_report report = {0};
-    if ((st = sess_apply_rig(ctx, rig, &report, err)))
+    if ((st = ffd_sess_apply_rig(ctx, rig, &report, err)))
         return st;
     sess_method *m = NULL;
     st = lattice_build(ctx, rig->basis, rig->resolution, &box, rig->outside, rig->margin,

@@ -326,9 +326,9 @@ static ffd_status read_count(const parser *p, const cJSON *body, const char *key
     uint32_t n = 0;
     if (!v)
         return FFD_OK;
-    ffd_status s = rig_read_index(p, v, key, "a positive integer", &n);
+    ffd_status s = ffd_rig_read_index(p, v, key, "a positive integer", &n);
     if (!s && n == 0)
-        return rig_expected(p, key, "a positive integer");
+        return ffd_rig_expected(p, key, "a positive integer");
     if (!s)
         *out = n;
     return s;
@@ -340,7 +340,7 @@ static ffd_status read_create_body(const parser *p, const cJSON *body, ffd_place
     static const char *const keys[] = {"method",        "interior",      "exterior",
                                        "levels",        "sigma",         "offset",
                                        "radius_factor", "voronoi_sites", NULL};
-    ffd_status s = rig_check_keys(p, body, "", keys,
+    ffd_status s = ffd_rig_check_keys(p, body, "", keys,
                                   "\"method\", \"interior\", \"exterior\", \"levels\", "
                                   "\"sigma\", \"offset\", \"radius_factor\", \"voronoi_sites\"");
     size_t levels = 1, sites = 0;
@@ -360,7 +360,7 @@ static ffd_status read_create_body(const parser *p, const cJSON *body, ffd_place
     po->voronoi_sites = sites;
     const cJSON *v;
     if ((v = cJSON_GetObjectItemCaseSensitive(body, "sigma"))) {
-        if ((s = rig_read_positive(p, v, "sigma", &opt->sigma)))
+        if ((s = ffd_rig_read_positive(p, v, "sigma", &opt->sigma)))
             return s;
         if (opt->sigma < 0.05 || opt->sigma > 1e6)
             return ffd_fail(p->err, FFD_ERR_INVALID,
@@ -369,7 +369,7 @@ static ffd_status read_create_body(const parser *p, const cJSON *body, ffd_place
                             p->name, opt->sigma);
     }
     if ((v = cJSON_GetObjectItemCaseSensitive(body, "offset"))) {
-        if ((s = rig_read_positive(p, v, "offset", &po->offset)))
+        if ((s = ffd_rig_read_positive(p, v, "offset", &po->offset)))
             return s;
         if (po->offset > 1)
             return ffd_fail(p->err, FFD_ERR_INVALID,
@@ -378,7 +378,7 @@ static ffd_status read_create_body(const parser *p, const cJSON *body, ffd_place
                             p->name, po->offset);
     }
     if ((v = cJSON_GetObjectItemCaseSensitive(body, "radius_factor"))) {
-        if ((s = rig_read_positive(p, v, "radius_factor", &po->radius_factor)))
+        if ((s = ffd_rig_read_positive(p, v, "radius_factor", &po->radius_factor)))
             return s;
         if (po->radius_factor > 100)
             return ffd_fail(p->err, FFD_ERR_INVALID,
@@ -389,7 +389,7 @@ static ffd_status read_create_body(const parser *p, const cJSON *body, ffd_place
     return FFD_OK;
 }
 
-ffd_status sess_pbffd_create(const sess_ctx *ctx, const cJSON *body, sess_method **out,
+ffd_status ffd_sess_pbffd_create(const sess_ctx *ctx, const cJSON *body, sess_method **out,
                              ffd_error *err)
 {
     *out = NULL;
@@ -399,7 +399,7 @@ ffd_status sess_pbffd_create(const sess_ctx *ctx, const cJSON *body, sess_method
     memset(&po, 0, sizeof po);
     memset(&opt, 0, sizeof opt);
     if (body && !cJSON_IsObject(body))
-        return rig_expected(&p, "body", "a JSON object");
+        return ffd_rig_expected(&p, "body", "a JSON object");
     ffd_status s = body ? read_create_body(&p, body, &po, &opt) : FFD_OK;
     if (s)
         return s;
@@ -526,7 +526,7 @@ static ffd_status load_edits(pb_method *m, const ffd_rig *rig, ffd_error *err)
     return s;
 }
 
-ffd_status sess_pbffd_load(const sess_ctx *ctx, const ffd_rig *rig, sess_method **out,
+ffd_status ffd_sess_pbffd_load(const sess_ctx *ctx, const ffd_rig *rig, sess_method **out,
                            ffd_error *err)
 {
     *out = NULL;
@@ -623,9 +623,9 @@ static cJSON *ebf_json(const ffd_ebf *e, int rig)
     }
     cJSON *o = cJSON_CreateObject();
     const double(*f)[3] = (const double(*)[3])frame;
-    int ok = o && (!rig || sess_add_item(o, "center", sess_array(e->center, 3))) &&
-             sess_add_item(o, "radius", rig ? sess_array(e->radius, 3) : sess_vec3(e->radius)) &&
-             sess_add_item(o, "frame", rig ? sess_matrix3(f) : sess_matrix3(f)) &&
+    int ok = o && (!rig || ffd_sess_add_item(o, "center", ffd_sess_array(e->center, 3))) &&
+             ffd_sess_add_item(o, "radius", rig ? ffd_sess_array(e->radius, 3) : ffd_sess_vec3(e->radius)) &&
+             ffd_sess_add_item(o, "frame", rig ? ffd_sess_matrix3(f) : ffd_sess_matrix3(f)) &&
              ((rig && !e->disabled) || cJSON_AddBoolToObject(o, "enabled", !e->disabled));
     if (!ok) {
         cJSON_Delete(o);
@@ -641,14 +641,14 @@ static cJSON *curves_json(const pb_method *m, cJSON *edges)
     for (size_t c = 0; a && c < m->curve_count; c++) {
         const pb_curve *cv = &m->curves[c];
         cJSON *o = cJSON_CreateObject();
-        if (!sess_add_to_array(a, o) || !cJSON_AddNumberToObject(o, "offset", (double)off) ||
+        if (!ffd_sess_add_to_array(a, o) || !cJSON_AddNumberToObject(o, "offset", (double)off) ||
             !cJSON_AddNumberToObject(o, "count", (double)cv->count) ||
             !cJSON_AddNumberToObject(o, "radius", cv->radius)) {
             cJSON_Delete(a);
             return NULL;
         }
         for (size_t i = 0; i + 1 < cv->count; i++)
-            if (!sess_add_edge(edges, (uint32_t)(off + i), (uint32_t)(off + i + 1))) {
+            if (!ffd_sess_add_edge(edges, (uint32_t)(off + i), (uint32_t)(off + i + 1))) {
                 cJSON_Delete(a);
                 return NULL;
             }
@@ -671,15 +671,15 @@ static ffd_status pb_describe(const sess_method *base, cJSON *params, cJSON *con
              cJSON_AddNumberToObject(controls, "level", (double)m->level) &&
              cJSON_AddNumberToObject(controls, "levels", (double)levels);
     cJSON *ebfs = ok ? cJSON_CreateArray() : NULL;
-    ok = ok && sess_add_item(controls, "ebfs", ebfs);
+    ok = ok && ffd_sess_add_item(controls, "ebfs", ebfs);
     for (size_t j = 0; ok && j < k; j++) {
         ffd_ebf e;
         ok = ffd_pbffd_control(m->pb, m->level, j, &e, NULL) == FFD_OK &&
-             sess_add_to_array(ebfs, ebf_json(&e, 0));
+             ffd_sess_add_to_array(ebfs, ebf_json(&e, 0));
     }
     cJSON *edges = ok ? cJSON_CreateArray() : NULL;
-    ok = ok && sess_add_item(controls, "edges", edges);
-    ok = ok && sess_add_item(controls, "curves", curves_json(m, edges));
+    ok = ok && ffd_sess_add_item(controls, "edges", edges);
+    ok = ok && ffd_sess_add_item(controls, "curves", curves_json(m, edges));
     return ok ? FFD_OK : ffd_fail(err, FFD_ERR_NOMEM, "state: out of memory");
 }
 
@@ -992,7 +992,7 @@ static cJSON *controls_json(const pb_method *m)
 {
     cJSON *a = cJSON_CreateArray();
     for (size_t j = 0; a && j < m->control_count; j++)
-        if (!sess_add_to_array(a, ebf_json(&m->controls[j], 1))) {
+        if (!ffd_sess_add_to_array(a, ebf_json(&m->controls[j], 1))) {
             cJSON_Delete(a);
             return NULL;
         }
@@ -1005,9 +1005,9 @@ static cJSON *moves_json(const pb_method *m)
     for (size_t i = 0; a && i < m->move_count; i++) {
         const pb_move *e = &m->moves[i];
         cJSON *o = cJSON_CreateObject();
-        if (!sess_add_to_array(a, o) || !cJSON_AddNumberToObject(o, "control", e->index) ||
+        if (!ffd_sess_add_to_array(a, o) || !cJSON_AddNumberToObject(o, "control", e->index) ||
             !cJSON_AddNumberToObject(o, "level", e->level) ||
-            !sess_add_item(o, "delta", sess_array(e->delta, 3))) {
+            !ffd_sess_add_item(o, "delta", ffd_sess_array(e->delta, 3))) {
             cJSON_Delete(a);
             return NULL;
         }
@@ -1021,9 +1021,9 @@ static cJSON *frames_json(const pb_method *m)
     for (size_t i = 0; a && i < m->frame_count; i++) {
         const pb_frame *f = &m->frames[i];
         cJSON *o = cJSON_CreateObject();
-        if (!sess_add_to_array(a, o) || !cJSON_AddNumberToObject(o, "control", f->index) ||
+        if (!ffd_sess_add_to_array(a, o) || !cJSON_AddNumberToObject(o, "control", f->index) ||
             !cJSON_AddNumberToObject(o, "level", f->level) ||
-            !sess_add_item(o, "frame", sess_matrix3((const double(*)[3])f->frame))) {
+            !ffd_sess_add_item(o, "frame", ffd_sess_matrix3((const double(*)[3])f->frame))) {
             cJSON_Delete(a);
             return NULL;
         }
@@ -1035,14 +1035,14 @@ static cJSON *curve_json(const pb_curve *cv)
 {
     cJSON *o = cJSON_CreateObject();
     cJSON *pts = cJSON_AddArrayToObject(o, "points"), *mv = cJSON_AddArrayToObject(o, "moves");
-    int ok = pts && mv && sess_add_item(o, "radius", sess_number(cv->radius)) &&
+    int ok = pts && mv && ffd_sess_add_item(o, "radius", ffd_sess_number(cv->radius)) &&
              (!cv->samples || cJSON_AddNumberToObject(o, "samples", cv->samples));
     for (size_t i = 0; ok && i < cv->count; i++)
-        ok = sess_add_to_array(pts, sess_array(cv->points + 3 * i, 3));
+        ok = ffd_sess_add_to_array(pts, ffd_sess_array(cv->points + 3 * i, 3));
     for (size_t k = 0; ok && k < cv->move_count; k++) {
         cJSON *e = cJSON_CreateObject();
-        ok = sess_add_to_array(mv, e) && cJSON_AddNumberToObject(e, "index", cv->moves[k].index) &&
-             sess_add_item(e, "delta", sess_array(cv->moves[k].delta, 3));
+        ok = ffd_sess_add_to_array(mv, e) && cJSON_AddNumberToObject(e, "index", cv->moves[k].index) &&
+             ffd_sess_add_item(e, "delta", ffd_sess_array(cv->moves[k].delta, 3));
     }
     if (!ok) {
         cJSON_Delete(o);
@@ -1053,7 +1053,7 @@ static cJSON *curve_json(const pb_curve *cv)
 
 static int add_options(cJSON *root, const ffd_pbffd_options *o)
 {
-    if (o->sigma > 0 && !sess_add_item(root, "sigma", sess_number(o->sigma)))
+    if (o->sigma > 0 && !ffd_sess_add_item(root, "sigma", ffd_sess_number(o->sigma)))
         return 0;
     if (o->levels > 1 && !cJSON_AddNumberToObject(root, "levels", o->levels))
         return 0;
@@ -1061,9 +1061,9 @@ static int add_options(cJSON *root, const ffd_pbffd_options *o)
         return cJSON_AddFalseToObject(root, "master") != NULL;
     if (o->master_radius > 0 || o->master_weight > 0) {
         cJSON *ms = cJSON_CreateObject();
-        return sess_add_item(root, "master", ms) &&
-               (!(o->master_radius > 0) || sess_add_item(ms, "radius", sess_number(o->master_radius))) &&
-               (!(o->master_weight > 0) || sess_add_item(ms, "weight", sess_number(o->master_weight)));
+        return ffd_sess_add_item(root, "master", ms) &&
+               (!(o->master_radius > 0) || ffd_sess_add_item(ms, "radius", ffd_sess_number(o->master_radius))) &&
+               (!(o->master_weight > 0) || ffd_sess_add_item(ms, "weight", ffd_sess_number(o->master_weight)));
     }
     return 1;
 }
@@ -1072,11 +1072,11 @@ static ffd_status pb_rig(const sess_method *base, cJSON *root, ffd_error *err)
 {
     const pb_method *m = (const pb_method *)base;
     cJSON *curves = NULL;
-    int ok = sess_add_item(root, "controls", controls_json(m)) && add_options(root, &m->opt) &&
-             sess_add_item(root, "moves", moves_json(m)) && sess_add_item(root, "frames", frames_json(m)) &&
+    int ok = ffd_sess_add_item(root, "controls", controls_json(m)) && add_options(root, &m->opt) &&
+             ffd_sess_add_item(root, "moves", moves_json(m)) && ffd_sess_add_item(root, "frames", frames_json(m)) &&
              (curves = cJSON_AddArrayToObject(root, "curves")) != NULL;
     for (size_t c = 0; ok && c < m->curve_count; c++)
-        ok = sess_add_to_array(curves, curve_json(&m->curves[c]));
+        ok = ffd_sess_add_to_array(curves, curve_json(&m->curves[c]));
     return ok ? FFD_OK : ffd_fail(err, FFD_ERR_NOMEM, "rig: out of memory");
 }
 
@@ -1104,7 +1104,7 @@ static ffd_status pb_influence(sess_method *base, const uint32_t *ids, size_t k,
     if (!s && !ke)
         memset(w, 0, n * sizeof *w);
     else if (!s && !(s = pb_linear_map(base, &map, err)))
-        s = sess_map_influence(&map, 1, n, ebf_ids, ke, w, err); /* sum of weights (eq. 5) */
+        s = ffd_sess_map_influence(&map, 1, n, ebf_ids, ke, w, err); /* sum of weights (eq. 5) */
     if (!s && m->curve_count)
         s = build_curves(m, err);
     for (size_t c = 0; !s && c < m->curve_count; c++)
@@ -1124,11 +1124,11 @@ static ffd_status op_level(pb_method *m, const cJSON *body, int *undo, ffd_error
     parser p = {"level", err};
     const cJSON *v = cJSON_GetObjectItemCaseSensitive(body, "level");
     uint32_t level = 0;
-    ffd_status s = rig_check_keys(&p, body, "", keys, "\"level\"");
+    ffd_status s = ffd_rig_check_keys(&p, body, "", keys, "\"level\"");
     if (!s && !v)
-        s = rig_expected(&p, "level", "a level (0 = finest) (missing)");
+        s = ffd_rig_expected(&p, "level", "a level (0 = finest) (missing)");
     if (!s)
-        s = rig_read_index(&p, v, "level", "a level (0 = finest)", &level);
+        s = ffd_rig_read_index(&p, v, "level", "a level (0 = finest)", &level);
     if (!s && level >= ffd_pbffd_level_count(m->pb))
         s = ffd_fail(err, FFD_ERR_RANGE,
                      "level: level: %u out of range (%zu levels; 0 is the "
@@ -1146,7 +1146,7 @@ static ffd_status op_level(pb_method *m, const cJSON *body, int *undo, ffd_error
 static ffd_status read_frame_edit(const parser *p, const cJSON *body, ffd_rig_pb_edit *e)
 {
     static const char *const keys[] = {"points", "axis", "angle", "scale", NULL};
-    ffd_status s = rig_check_keys(p, body, "", keys, "\"points\", \"axis\", \"angle\", \"scale\"");
+    ffd_status s = ffd_rig_check_keys(p, body, "", keys, "\"points\", \"axis\", \"angle\", \"scale\"");
     const cJSON *axis = cJSON_GetObjectItemCaseSensitive(body, "axis");
     const cJSON *angle = cJSON_GetObjectItemCaseSensitive(body, "angle");
     const cJSON *scale = cJSON_GetObjectItemCaseSensitive(body, "scale");
@@ -1157,17 +1157,17 @@ static ffd_status read_frame_edit(const parser *p, const cJSON *body, ffd_rig_pb
     if (s)
         return s;
     if (!axis && !scale)
-        return rig_expected(p, "axis", "\"axis\" and \"angle\", or \"scale\" (missing)");
+        return ffd_rig_expected(p, "axis", "\"axis\" and \"angle\", or \"scale\" (missing)");
     if ((axis != NULL) != (angle != NULL))
-        return rig_expected(p, axis ? "angle" : "axis",
+        return ffd_rig_expected(p, axis ? "angle" : "axis",
                             axis ? "an angle in radians (missing)"
                                  : "an array of 3 finite numbers (missing)");
-    if (axis && ((s = rig_read_vec3(p, axis, "axis", e->axis)) ||
-                 (s = rig_read_number(p, angle, "angle", &e->angle))))
+    if (axis && ((s = ffd_rig_read_vec3(p, axis, "axis", e->axis)) ||
+                 (s = ffd_rig_read_number(p, angle, "angle", &e->angle))))
         return s;
     if (axis && !nonzero3(e->axis))
         return ffd_fail(p->err, FFD_ERR_INVALID, "%s: axis: the zero vector is no axis", p->name);
-    if (scale && (s = rig_read_vec3(p, scale, "scale", e->scale)))
+    if (scale && (s = ffd_rig_read_vec3(p, scale, "scale", e->scale)))
         return s;
     for (int a = 0; a < 3; a++)
         if (e->scale[a] == 0)
@@ -1187,9 +1187,9 @@ static ffd_status op_frame(pb_method *m, const cJSON *body, int *undo, ffd_error
     uint32_t *ids = NULL;
     size_t k = 0, e_count = ebf_count(m);
     if (!s && !points)
-        s = rig_expected(&p, "points", "an array of control ids (missing)");
+        s = ffd_rig_expected(&p, "points", "an array of control ids (missing)");
     if (!s)
-        s = sess_read_ids(&p, points, "points", pb_control_count(&m->base), &ids, &k);
+        s = ffd_sess_read_ids(&p, points, "points", pb_control_count(&m->base), &ids, &k);
     for (size_t i = 0; !s && i < k; i++)
         if (ids[i] >= e_count)
             s = ffd_fail(err, FFD_ERR_INVALID,
@@ -1236,12 +1236,12 @@ static ffd_status op_frame(pb_method *m, const cJSON *body, int *undo, ffd_error
 static ffd_status read_curve_body(const parser *p, const cJSON *body, double diag, pb_curve *cv)
 {
     static const char *const keys[] = {"points", "radius", "samples", NULL};
-    ffd_status s = rig_check_keys(p, body, "", keys, "\"points\", \"radius\", \"samples\"");
+    ffd_status s = ffd_rig_check_keys(p, body, "", keys, "\"points\", \"radius\", \"samples\"");
     if (s)
         return s;
     const cJSON *pts = cJSON_GetObjectItemCaseSensitive(body, "points"), *v;
     if (!cJSON_IsArray(pts) || cJSON_GetArraySize(pts) < 2)
-        return rig_expected(p, "points", "an array of at least 2 points [x,y,z]");
+        return ffd_rig_expected(p, "points", "an array of at least 2 points [x,y,z]");
     cv->count = (size_t)cJSON_GetArraySize(pts);
     if (!(cv->points = ffd_malloc_array(cv->count, 3 * sizeof *cv->points)))
         return ffd_fail(p->err, FFD_ERR_NOMEM, "curve: out of memory");
@@ -1250,15 +1250,15 @@ static ffd_status read_curve_body(const parser *p, const cJSON *body, double dia
     {
         char where[32];
         snprintf(where, sizeof where, "points[%zu]", i);
-        if ((s = rig_read_vec3(p, v, where, cv->points + 3 * i++)))
+        if ((s = ffd_rig_read_vec3(p, v, where, cv->points + 3 * i++)))
             return s;
     }
     cv->radius = CURVE_RADIUS_FACTOR * diag;
     if ((v = cJSON_GetObjectItemCaseSensitive(body, "radius")) &&
-        (s = rig_read_positive(p, v, "radius", &cv->radius)))
+        (s = ffd_rig_read_positive(p, v, "radius", &cv->radius)))
         return s;
     if ((v = cJSON_GetObjectItemCaseSensitive(body, "samples")))
-        return rig_read_index(p, v, "samples", "a non-negative integer (0: automatic)",
+        return ffd_rig_read_index(p, v, "samples", "a non-negative integer (0: automatic)",
                               &cv->samples);
     return FFD_OK;
 }

@@ -68,9 +68,9 @@ static void tsv_controls(const sess_method *m, double *out)
 static int add_faces(cJSON *o, const char *key, const uint32_t *index, const ffd_tsv_proxy *proxy)
 {
     cJSON *faces = cJSON_CreateArray();
-    int ok = sess_add_item(o, key, faces);
+    int ok = ffd_sess_add_item(o, key, faces);
     for (size_t f = 0; ok && f < proxy->face_count; f++)
-        ok = sess_add_to_array(faces, sess_uint_array(index + proxy->face_offsets[f],
+        ok = ffd_sess_add_to_array(faces, ffd_sess_uint_array(index + proxy->face_offsets[f],
                                                       proxy->face_offsets[f + 1] -
                                                           proxy->face_offsets[f]));
     return ok;
@@ -86,9 +86,9 @@ static cJSON *proxy_json(const ffd_tsv *t)
      * "point_controls", one entry per sheet of each control point (all at
      * its position; dragging the control point moves them all) */
     ok = ok && add_faces(o, "face_points", proxy.face_points, &proxy);
-    ok = ok && sess_add_item(o, "point_controls",
-                             sess_uint_array(proxy.point_controls, proxy.point_count));
-    ok = ok && sess_add_item(o, "points", sess_uint_array(proxy.vertices,
+    ok = ok && ffd_sess_add_item(o, "point_controls",
+                             ffd_sess_uint_array(proxy.point_controls, proxy.point_count));
+    ok = ok && ffd_sess_add_item(o, "points", ffd_sess_uint_array(proxy.vertices,
                                                                   proxy.vertex_count)) &&
          cJSON_AddNumberToObject(o, "inside_cells", (double)proxy.inside_cells);
     if (!ok) {
@@ -104,17 +104,17 @@ static ffd_status tsv_describe(const sess_method *m, cJSON *params, cJSON *contr
     const tspline_method *t = as_tsv(m);
     size_t ne = ffd_tsv_element_count(t->t, FFD_TSV_EDGE), nv = tsv_count(m);
     cJSON *edges = cJSON_CreateArray(), *frozen = cJSON_CreateArray();
-    /* sess_add_item deletes an item it could not add */
-    int ok = sess_add_item(controls, "edges", edges);
+    /* ffd_sess_add_item deletes an item it could not add */
+    int ok = ffd_sess_add_item(controls, "edges", edges);
     if (ok)
-        ok = sess_add_item(controls, "frozen", frozen);
+        ok = ffd_sess_add_item(controls, "frozen", frozen);
     else
         cJSON_Delete(frozen);
     for (size_t e = 0; ok && e < ne; e++) {
         uint32_t ends[2];
         int axis;
         ok = ffd_tsv_edge(t->t, (uint32_t)e, ends, &axis, NULL) == FFD_OK &&
-             sess_add_edge(edges, ends[0], ends[1]);
+             ffd_sess_add_edge(edges, ends[0], ends[1]);
     }
     for (size_t v = 0; ok && v < nv; v++) {
         cJSON *id;
@@ -132,7 +132,7 @@ static ffd_status tsv_describe(const sess_method *m, cJSON *params, cJSON *contr
          cJSON_AddNumberToObject(controls, "max_weight_deviation",
                                  ffd_tsv_max_weight_deviation(t->t)) &&
          cJSON_AddNumberToObject(controls, "refinements", (double)t->edit_count) &&
-         sess_add_item(params, "resolution", sess_uint_array(t->res, 3)) &&
+         ffd_sess_add_item(params, "resolution", ffd_sess_uint_array(t->res, 3)) &&
          cJSON_AddNumberToObject(params, "padding", t->padding);
     return ok ? FFD_OK : ffd_fail(err, FFD_ERR_NOMEM, "state: out of memory");
 }
@@ -273,7 +273,7 @@ static ffd_status tsv_rig(const sess_method *m, cJSON *root, ffd_error *err)
     int ok = steps && cJSON_AddItemToObject(root, "steps", steps);
     if (!ok)
         cJSON_Delete(steps);
-    ok = ok && sess_add_item(root, "resolution", sess_uint_array(t->res, 3)) &&
+    ok = ok && ffd_sess_add_item(root, "resolution", ffd_sess_uint_array(t->res, 3)) &&
          cJSON_AddNumberToObject(root, "padding", t->padding);
     for (size_t e = 0; ok && e < t->edit_count; e++) {
         cJSON *step = cJSON_CreateObject(), *list = cJSON_CreateArray();
@@ -281,7 +281,7 @@ static ffd_status tsv_rig(const sess_method *m, cJSON *root, ffd_error *err)
         if (!ok)
             cJSON_Delete(step);
         if (ok)
-            ok = sess_add_item(step, "refine", list);
+            ok = ffd_sess_add_item(step, "refine", list);
         else
             cJSON_Delete(list);
         for (size_t i = 0; ok && i < t->edits[e].count; i++)
@@ -308,8 +308,8 @@ static ffd_status tsv_rig(const sess_method *m, cJSON *root, ffd_error *err)
         ok = h && cJSON_AddItemToArray(moves, h);
         if (!ok)
             cJSON_Delete(h);
-        ok = ok && sess_add_item(h, "points", sess_uint_array(&id, 1)) &&
-             sess_add_item(h, "delta", sess_vec3(d));
+        ok = ok && ffd_sess_add_item(h, "points", ffd_sess_uint_array(&id, 1)) &&
+             ffd_sess_add_item(h, "delta", ffd_sess_vec3(d));
     }
     return ok ? FFD_OK : ffd_fail(err, FFD_ERR_NOMEM, "rig: out of memory");
 }
@@ -319,7 +319,7 @@ static ffd_status tsv_influence(sess_method *m, const uint32_t *ids, size_t k, f
 {
     ffd_linear_map map;
     ffd_status st = tsv_linear_map(m, &map, err);
-    return st ? st : sess_map_influence(&map, 1, m->ctx->n, ids, k, w, err);
+    return st ? st : ffd_sess_map_influence(&map, 1, m->ctx->n, ids, k, w, err);
 }
 
 /* One refinement edit (§3.2-3.3): insertions resolved, applied, logged. */
@@ -357,13 +357,13 @@ static ffd_status op_refine(tspline_method *t, const cJSON *body, ffd_error *err
 {
     static const char *const keys[] = {"insertions", NULL};
     parser p = {"refine", err};
-    ffd_status st = rig_check_keys(&p, body, "body", keys, "insertions");
+    ffd_status st = ffd_rig_check_keys(&p, body, "body", keys, "insertions");
     const cJSON *list = cJSON_GetObjectItemCaseSensitive(body, "insertions");
     if (!st && !list)
-        st = rig_expected(&p, "insertions", "an array of insertions (missing)");
+        st = ffd_rig_expected(&p, "insertions", "an array of insertions (missing)");
     ffd_rig_tsv_step step = {0};
     if (!st)
-        st = rig_read_tsv_refinements(&p, list, "insertions", &step);
+        st = ffd_rig_read_tsv_refinements(&p, list, "insertions", &step);
     if (!st)
         st = refine_apply(t, &step, "refine", err);
     ffd_free(step.refinements);
@@ -376,12 +376,12 @@ static ffd_status op_freeze(tspline_method *t, const cJSON *body, ffd_error *err
     parser p = {"freeze", err};
     uint32_t *ids = NULL;
     size_t k = 0;
-    ffd_status st = rig_check_keys(&p, body, "body", keys, "points, frozen");
+    ffd_status st = ffd_rig_check_keys(&p, body, "body", keys, "points, frozen");
     const cJSON *frozen = cJSON_GetObjectItemCaseSensitive(body, "frozen");
     if (!st && frozen && !cJSON_IsBool(frozen))
-        st = rig_expected(&p, "frozen", "true or false");
+        st = ffd_rig_expected(&p, "frozen", "true or false");
     if (!st)
-        st = sess_read_ids(&p, cJSON_GetObjectItemCaseSensitive(body, "points"), "points",
+        st = ffd_sess_read_ids(&p, cJSON_GetObjectItemCaseSensitive(body, "points"), "points",
                            tsv_count(&t->base), &ids, &k);
     for (size_t i = 0; !st && i < k; i++)
         st = ffd_tsv_set_frozen(t->t, ids[i], !frozen || cJSON_IsTrue(frozen), err);
@@ -435,7 +435,7 @@ static ffd_status tspline_build(const sess_ctx *ctx, const uint32_t res[3], doub
                                 const char *what, tspline_method **out, ffd_error *err)
 {
     /* refinements add points later; the initial lattice is what set-up costs */
-    ffd_status st = sess_check_controls(ctx, (double)res[0] * res[1] * res[2], what, err);
+    ffd_status st = ffd_sess_check_controls(ctx, (double)res[0] * res[1] * res[2], what, err);
     if (st)
         return st;
     tspline_method *t = ffd_calloc(1, sizeof *t);
@@ -458,19 +458,19 @@ static ffd_status tspline_build(const sess_ctx *ctx, const uint32_t res[3], doub
     return FFD_OK;
 }
 
-ffd_status sess_tspline_create(const sess_ctx *ctx, const cJSON *body, sess_method **out,
+ffd_status ffd_sess_tspline_create(const sess_ctx *ctx, const cJSON *body, sess_method **out,
                                ffd_error *err)
 {
     static const char *const keys[] = {"method", "resolution", "padding", NULL};
     parser p = {"create", err};
-    ffd_status st = rig_check_keys(&p, body, "body", keys, "method, resolution, padding");
+    ffd_status st = ffd_rig_check_keys(&p, body, "body", keys, "method, resolution, padding");
     uint32_t res[3] = {6, 6, 6};
     double padding = 0;
     const cJSON *item;
     if (!st && (item = cJSON_GetObjectItemCaseSensitive(body, "resolution")))
-        st = rig_read_uint3(&p, item, "resolution", res);
+        st = ffd_rig_read_uint3(&p, item, "resolution", res);
     if (!st && (item = cJSON_GetObjectItemCaseSensitive(body, "padding"))) {
-        st = rig_read_number(&p, item, "padding", &padding);
+        st = ffd_rig_read_number(&p, item, "padding", &padding);
         if (!st && (padding < 0 || padding > 100))
             st = ffd_fail(err, FFD_ERR_INVALID, "create: padding: %g: expected 0..100", padding);
     }
@@ -486,7 +486,7 @@ ffd_status sess_tspline_create(const sess_ctx *ctx, const cJSON *body, sess_meth
     return st;
 }
 
-ffd_status sess_tspline_load(const sess_ctx *ctx, const ffd_rig *rig, sess_method **out,
+ffd_status ffd_sess_tspline_load(const sess_ctx *ctx, const ffd_rig *rig, sess_method **out,
                              ffd_error *err)
 {
     const ffd_rig_tspline *rt = &rig->tsv;
@@ -502,7 +502,7 @@ ffd_status sess_tspline_load(const sess_ctx *ctx, const ffd_rig *rig, sess_metho
     /* where its deform, move and constraints steps leave the points */
     ffd_rig_report report = {0};
     if (!st)
-        st = sess_apply_rig(ctx, rig, &report, err);
+        st = ffd_sess_apply_rig(ctx, rig, &report, err);
     if (!st && report.control_count != tsv_count(&t->base))
         st = ffd_fail(err, FFD_ERR_INVALID, "%s: the rig's T-lattice does not match", rig->name);
     if (!st)

@@ -7,13 +7,13 @@
 #include <stdio.h>
 #include <string.h>
 
-ffd_status sess_read_ids(const parser *p, const cJSON *item, const char *path, size_t count,
+ffd_status ffd_sess_read_ids(const parser *p, const cJSON *item, const char *path, size_t count,
                          uint32_t **ids, size_t *k)
 {
     *ids = NULL;
     *k = 0;
     if (!cJSON_IsArray(item))
-        return rig_expected(p, path, "an array of control ids");
+        return ffd_rig_expected(p, path, "an array of control ids");
     size_t m = (size_t)cJSON_GetArraySize(item);
     if (m == 0)
         return ffd_fail(p->err, FFD_ERR_INVALID, "%s: %s: expected at least one control id",
@@ -32,8 +32,8 @@ ffd_status sess_read_ids(const parser *p, const cJSON *item, const char *path, s
         char where[RIG_PATH_MAX];
         snprintf(where, sizeof where, "%s[%zu]", path, i);
         ffd_status s;
-        if (!rig_is_uint32(v))
-            s = rig_expected(p, where, "a control id (a non-negative integer)");
+        if (!ffd_rig_is_uint32(v))
+            s = ffd_rig_expected(p, where, "a control id (a non-negative integer)");
         else if ((size_t)v->valuedouble >= count)
             s = ffd_fail(p->err, FFD_ERR_RANGE, "%s: %s: control %.0f out of range (%zu controls)",
                          p->name, where, v->valuedouble, count);
@@ -60,18 +60,18 @@ ffd_status sess_read_ids(const parser *p, const cJSON *item, const char *path, s
  * epsilon, which is not always the same double; a rig must replay to the
  * same positions (a straight PB-FFD curve's frames turn with the last bit of
  * its points), so numbers are printed with 17 digits. */
-cJSON *sess_number(double v)
+cJSON *ffd_sess_number(double v)
 {
     char text[40];
     snprintf(text, sizeof text, "%.17g", v);
     return cJSON_CreateRaw(text);
 }
 
-cJSON *sess_array(const double *v, size_t n)
+cJSON *ffd_sess_array(const double *v, size_t n)
 {
     cJSON *a = cJSON_CreateArray();
     for (size_t i = 0; a && i < n; i++) {
-        cJSON *x = sess_number(v[i]);
+        cJSON *x = ffd_sess_number(v[i]);
         if (!x || !cJSON_AddItemToArray(a, x)) {
             cJSON_Delete(x);
             cJSON_Delete(a);
@@ -81,16 +81,16 @@ cJSON *sess_array(const double *v, size_t n)
     return a;
 }
 
-cJSON *sess_vec3(const double v[3])
+cJSON *ffd_sess_vec3(const double v[3])
 {
-    return sess_array(v, 3);
+    return ffd_sess_array(v, 3);
 }
 
-cJSON *sess_matrix3(const double m[3][3])
+cJSON *ffd_sess_matrix3(const double m[3][3])
 {
     cJSON *a = cJSON_CreateArray();
     for (int r = 0; a && r < 3; r++) {
-        cJSON *row = sess_vec3(m[r]);
+        cJSON *row = ffd_sess_vec3(m[r]);
         if (!row || !cJSON_AddItemToArray(a, row)) {
             cJSON_Delete(row);
             cJSON_Delete(a);
@@ -100,7 +100,7 @@ cJSON *sess_matrix3(const double m[3][3])
     return a;
 }
 
-cJSON *sess_uint_array(const uint32_t *v, size_t n)
+cJSON *ffd_sess_uint_array(const uint32_t *v, size_t n)
 {
     cJSON *a = cJSON_CreateArray();
     for (size_t i = 0; a && i < n; i++) {
@@ -114,10 +114,10 @@ cJSON *sess_uint_array(const uint32_t *v, size_t n)
     return a;
 }
 
-int sess_add_edge(cJSON *edges, uint32_t a, uint32_t b)
+int ffd_sess_add_edge(cJSON *edges, uint32_t a, uint32_t b)
 {
     uint32_t e[2] = {a, b};
-    cJSON *x = sess_uint_array(e, 2);
+    cJSON *x = ffd_sess_uint_array(e, 2);
     if (!x || !cJSON_AddItemToArray(edges, x)) {
         cJSON_Delete(x);
         return 0;
@@ -125,7 +125,7 @@ int sess_add_edge(cJSON *edges, uint32_t a, uint32_t b)
     return 1;
 }
 
-ffd_status sess_map_influence(const ffd_linear_map *map, int by_column, size_t n,
+ffd_status ffd_sess_map_influence(const ffd_linear_map *map, int by_column, size_t n,
                               const uint32_t *ids, size_t k, float *w, ffd_error *err)
 {
     size_t range = by_column ? map->column_count : map->variable_count;
@@ -157,7 +157,7 @@ ffd_status sess_map_influence(const ffd_linear_map *map, int by_column, size_t n
     return FFD_OK;
 }
 
-ffd_status sess_clone_mesh(const ffd_mesh *mesh, ffd_mesh **out, ffd_error *err)
+ffd_status ffd_sess_clone_mesh(const ffd_mesh *mesh, ffd_mesh **out, ffd_error *err)
 {
     ffd_write_options o = {ffd_mesh_source_format(mesh), FFD_ENCODING_SAME};
     if (o.format == FFD_FORMAT_AUTO)
@@ -171,18 +171,18 @@ ffd_status sess_clone_mesh(const ffd_mesh *mesh, ffd_mesh **out, ffd_error *err)
     return st;
 }
 
-ffd_status sess_apply_rig(const sess_ctx *ctx, const ffd_rig *rig, ffd_rig_report *report,
+ffd_status ffd_sess_apply_rig(const sess_ctx *ctx, const ffd_rig *rig, ffd_rig_report *report,
                           ffd_error *err)
 {
     ffd_mesh *copy = NULL;
-    ffd_status st = sess_clone_mesh(ctx->mesh, &copy, err);
+    ffd_status st = ffd_sess_clone_mesh(ctx->mesh, &copy, err);
     if (!st)
         st = ffd_rig_apply_limited(rig, copy, &ctx->limits, report, err);
     ffd_mesh_destroy(copy);
     return st;
 }
 
-int sess_add_item(cJSON *object, const char *key, cJSON *item)
+int ffd_sess_add_item(cJSON *object, const char *key, cJSON *item)
 {
     if (!item || !cJSON_AddItemToObject(object, key, item)) {
         cJSON_Delete(item);
@@ -191,7 +191,7 @@ int sess_add_item(cJSON *object, const char *key, cJSON *item)
     return 1;
 }
 
-int sess_add_to_array(cJSON *array, cJSON *item)
+int ffd_sess_add_to_array(cJSON *array, cJSON *item)
 {
     if (!item || !cJSON_AddItemToArray(array, item)) {
         cJSON_Delete(item);
@@ -200,7 +200,7 @@ int sess_add_to_array(cJSON *array, cJSON *item)
     return 1;
 }
 
-void sess_ctx_init(sess_ctx *ctx, const ffd_mesh *mesh, size_t max_controls,
+void ffd_sess_ctx_init(sess_ctx *ctx, const ffd_mesh *mesh, size_t max_controls,
                    const ffd_limits *limits)
 {
     memset(ctx, 0, sizeof *ctx);
@@ -226,7 +226,7 @@ void sess_ctx_init(sess_ctx *ctx, const ffd_mesh *mesh, size_t max_controls,
         ctx->limits = *limits;
 }
 
-ffd_status sess_check_controls(const sess_ctx *ctx, double count, const char *what,
+ffd_status ffd_sess_check_controls(const sess_ctx *ctx, double count, const char *what,
                                ffd_error *err)
 {
     if (count > (double)ctx->max_controls)

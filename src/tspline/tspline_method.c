@@ -7,6 +7,6 @@ const ffd_method ffd_method_tspline = {
     .name = "tspline",
     .id = FFD_RIG_TSPLINE,
     .apply = ffd_rig_apply_tspline,
-    .load = sess_tspline_load,
-    .create = sess_tspline_create,
+    .load = ffd_sess_tspline_load,
+    .create = ffd_sess_tspline_create,
 };

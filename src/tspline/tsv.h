@@ -95,55 +95,55 @@ typedef struct tsv_lattice {
 /* The initial clamped uniform lattice (design §1.4): res[a] >= 4 vertex
  * planes per axis, all channels at the Greville points, W = 1. Element ids
  * as documented in ffd.h (cells (i*(n_t-1)+j)*(n_u-1)+k). */
-ffd_status tsv_lattice_create(const double box_min[3], const double box_max[3],
+ffd_status ffd_tsv_lattice_create(const double box_min[3], const double box_max[3],
                               const uint32_t res[3], tsv_lattice **out, ffd_error *err);
-void tsv_lattice_destroy(tsv_lattice *L);
+void ffd_tsv_lattice_destroy(tsv_lattice *L);
 /* Deep copy (snapshot for roll-back). NULL on OOM. */
-tsv_lattice *tsv_lattice_clone(const tsv_lattice *L);
+tsv_lattice *ffd_tsv_lattice_clone(const tsv_lattice *L);
 /* Moves src's contents into dst (dst's old contents freed); src is left empty and freed. */
-void tsv_lattice_swap_in(tsv_lattice *dst, tsv_lattice *src);
+void ffd_tsv_lattice_swap_in(tsv_lattice *dst, tsv_lattice *src);
 
 /* Registry: the canonical sigma for parameter value v in (0,1) on axis a
  * (an existing one within TSV_REGISTRY_SNAP, else inserted). */
-ffd_status tsv_registry_get(tsv_lattice *L, int axis, double v, double *sigma, ffd_error *err);
+ffd_status ffd_tsv_registry_get(tsv_lattice *L, int axis, double v, double *sigma, ffd_error *err);
 /* Registry neighbours of an existing sigma (frame planes beyond the ends). */
-double tsv_registry_prev(const tsv_lattice *L, int axis, double sigma);
-double tsv_registry_next(const tsv_lattice *L, int axis, double sigma);
+double ffd_tsv_registry_prev(const tsv_lattice *L, int axis, double sigma);
+double ffd_tsv_registry_next(const tsv_lattice *L, int axis, double sigma);
 /* Global Greville coordinate gamma(sigma) = (kappa(prev) + kappa(sigma) + kappa(next))/3
  * of a registry value (design §5.1): monotone, gamma(-1) = 0, gamma(2) = 1. */
-double tsv_gamma(const tsv_lattice *L, int axis, double sigma);
+double ffd_tsv_gamma(const tsv_lattice *L, int axis, double sigma);
 
 /* Lookups (exact sigma compare). -1 / UINT32_MAX when absent. */
-uint32_t tsv_vertex_find(const tsv_lattice *L, const double sg[3]);
+uint32_t ffd_tsv_vertex_find(const tsv_lattice *L, const double sg[3]);
 
 /* Lowest-dimensional element whose closed box contains q: *dim = 0 vertex,
  * 1 edge, 2 face, 3 cell; *id its index. q must lie in [-1,2]^3. */
-void tsv_locate(const tsv_lattice *L, const double q[3], int *dim, uint32_t *id);
+void ffd_tsv_lattice_locate(const tsv_lattice *L, const double q[3], int *dim, uint32_t *id);
 
 /* Local knot vectors of vertex v by ray casting (design §1.3, paper eq. 1):
  * knots[d][0..4] in sigma (frame-padded). */
-void tsv_infer_knots(const tsv_lattice *L, uint32_t v, double knots[3][5]);
+void ffd_tsv_infer_knots(const tsv_lattice *L, uint32_t v, double knots[3][5]);
 
 /* Topological splits (design §3.1) at registry value x. The element keeps
  * its id for the part below x; new parts are appended. New vertices get
  * W = 1 and zero positions (the closure fills them). */
-ffd_status tsv_split_edge(tsv_lattice *L, uint32_t e, double x, uint32_t *new_vertex,
+ffd_status ffd_tsv_split_edge(tsv_lattice *L, uint32_t e, double x, uint32_t *new_vertex,
                           ffd_error *err);
-ffd_status tsv_split_face(tsv_lattice *L, uint32_t f, int axis, double x, ffd_error *err);
-ffd_status tsv_split_cell(tsv_lattice *L, uint32_t c, int axis, double x, ffd_error *err);
+ffd_status ffd_tsv_split_face(tsv_lattice *L, uint32_t f, int axis, double x, ffd_error *err);
+ffd_status ffd_tsv_split_cell(tsv_lattice *L, uint32_t c, int axis, double x, ffd_error *err);
 
 /* Vertex ids on face f's closed boundary, counter-clockwise seen from +normal
  * (in the in-plane axes (a,b) = the two other axes in increasing order),
  * starting at the (lo,lo) corner. *ids: ffd_malloc'd. */
-ffd_status tsv_face_ring(const tsv_lattice *L, uint32_t f, uint32_t **ids, size_t *count,
+ffd_status ffd_tsv_face_ring(const tsv_lattice *L, uint32_t f, uint32_t **ids, size_t *count,
                          ffd_error *err);
 /* Vertex ids on cell c's closed boundary (corners and hanging), ascending. */
-ffd_status tsv_cell_points(const tsv_lattice *L, uint32_t c, uint32_t **ids, size_t *count,
+ffd_status ffd_tsv_cell_points(const tsv_lattice *L, uint32_t c, uint32_t **ids, size_t *count,
                            ffd_error *err);
 /* max |W_v - 1| over the vertices (design §1.5's diagnostic). */
-double tsv_max_weight_deviation(const tsv_lattice *L);
+double ffd_tsv_lattice_max_weight_deviation(const tsv_lattice *L);
 /* Checks invariants 1-4 of design §1.2 (tests). FFD_ERR_NUMERIC with the first violation. */
-ffd_status tsv_lattice_validate(const tsv_lattice *L, ffd_error *err);
+ffd_status ffd_tsv_lattice_validate(const tsv_lattice *L, ffd_error *err);
 
 /* ---------------------------------------------------------------------
  * tsv_refine.c
@@ -157,12 +157,12 @@ typedef struct tsv_refine_stats {
 /* One edit = the public insertions (ids as before the edit): apply all the
  * topology, then the closure of design §3.3 carrying every channel; on any
  * error the lattice is restored from a snapshot. Updates L->version. */
-ffd_status tsv_refine(tsv_lattice *L, const ffd_tsv_insertion *ins, size_t count,
+ffd_status ffd_tsv_lattice_refine(tsv_lattice *L, const ffd_tsv_insertion *ins, size_t count,
                       tsv_refine_stats *stats, ffd_error *err);
 /* The same; on success *undo (may be NULL when count == 0) is the lattice as
  * it was before the edit, for a caller whose own follow-up work can fail
- * (tsv_lattice_swap_in it back, or tsv_lattice_destroy it). */
-ffd_status tsv_refine_undoable(tsv_lattice *L, const ffd_tsv_insertion *ins, size_t count,
+ * (ffd_tsv_lattice_swap_in it back, or ffd_tsv_lattice_destroy it). */
+ffd_status ffd_tsv_lattice_refine_undoable(tsv_lattice *L, const ffd_tsv_insertion *ins, size_t count,
                                tsv_refine_stats *stats, tsv_lattice **undo, ffd_error *err);
 
 /* What a step will cost, estimated before it runs (ffd_limits; docs/rig.md
@@ -177,13 +177,13 @@ typedef struct tsv_estimate {
 /* A refinement: the cells its requested topology makes (a cell split makes
  * 2^a cells for its a axes of nonzero knot interval; face and edge
  * insertions make none), which the closure rarely grows. */
-void tsv_estimate_refine(const tsv_lattice *L, const ffd_tsv_insertion *ins, size_t count,
+void ffd_tsv_estimate_refine(const tsv_lattice *L, const ffd_tsv_insertion *ins, size_t count,
                          tsv_estimate *out);
 /* An ARAP drag begun on a lattice of nv control points (factor: nested
  * dissection of a 3D graph, fill ~ nv^(4/3), flops ~ nv^1.7 as measured). */
-void tsv_estimate_arap(size_t nv, uint32_t iterations, tsv_estimate *out);
+void ffd_tsv_estimate_arap(size_t nv, uint32_t iterations, tsv_estimate *out);
 /* The fold check: samples^3 Jacobians in each cell of nonzero volume. */
-void tsv_estimate_folds(const tsv_lattice *L, uint32_t samples, tsv_estimate *out);
+void ffd_tsv_estimate_folds(const tsv_lattice *L, uint32_t samples, tsv_estimate *out);
 
 /* ---------------------------------------------------------------------
  * tsv_eval.c
@@ -192,18 +192,18 @@ void tsv_estimate_folds(const tsv_lattice *L, uint32_t samples, tsv_estimate *ou
 /* Cubic B-spline N[k0..k4](x) on five sigma knots evaluated at parameter x
  * (Cox-de Boor on their kappa values; right-closed at x = 1); *dx its
  * derivative (may be NULL). */
-double tsv_basis(const double knots[5], double x, double *dx);
+double ffd_tsv_basis(const double knots[5], double x, double *dx);
 
 /* Per-vertex cached knot vectors and a uniform support grid over [0,1]^3. */
 typedef struct tsv_support tsv_support;
-ffd_status tsv_support_build(const tsv_lattice *L, tsv_support **out, ffd_error *err);
-void tsv_support_destroy(tsv_support *S);
+ffd_status ffd_tsv_support_build(const tsv_lattice *L, tsv_support **out, ffd_error *err);
+void ffd_tsv_support_destroy(tsv_support *S);
 /* Entries (vertex, W_v B_v, and d(W_v B_v)/d(s,t,u) when grad != NULL) of the
  * blending functions nonzero at stu in [0,1]^3; returns the count; arrays
- * need tsv_support_max(S) entries (grad 3 per entry). */
-size_t tsv_support_eval(const tsv_support *S, const double stu[3], uint32_t *ids, double *w,
+ * need ffd_tsv_support_max(S) entries (grad 3 per entry). */
+size_t ffd_tsv_support_eval(const tsv_support *S, const double stu[3], uint32_t *ids, double *w,
                         double *grad);
-size_t tsv_support_max(const tsv_support *S);
+size_t ffd_tsv_support_max(const tsv_support *S);
 
 /* Transfer matrix Phi (design §2), CSR: Phi[p][v] = W_v B_v(params_p). */
 typedef struct tsv_phi {
@@ -212,21 +212,21 @@ typedef struct tsv_phi {
     uint32_t *col;
     double *val;
 } tsv_phi;
-ffd_status tsv_phi_build(const tsv_lattice *L, const tsv_support *S, const double *params,
+ffd_status ffd_tsv_phi_build(const tsv_lattice *L, const tsv_support *S, const double *params,
                          size_t n, tsv_phi *phi, ffd_error *err);
-void tsv_phi_free(tsv_phi *phi);
+void ffd_tsv_phi_free(tsv_phi *phi);
 /* out (rows by 3) = Phi P[channel]; parallel over rows, bitwise independent of threads. */
-void tsv_phi_apply(const tsv_phi *phi, const tsv_lattice *L, int channel, double *out);
+void ffd_tsv_phi_apply(const tsv_phi *phi, const tsv_lattice *L, int channel, double *out);
 /* F at stu (clamped) for a channel; jac (9, row-major dF/d(s,t,u), may be NULL). */
-void tsv_eval_point(const tsv_lattice *L, const tsv_support *S, int channel, const double stu[3],
+void ffd_tsv_eval_point(const tsv_lattice *L, const tsv_support *S, int channel, const double stu[3],
                     double out[3], double *jac);
 /* The same for the displacement sum_v W_v B_v (P_current - P_rest)_v. */
-void tsv_eval_displacement(const tsv_lattice *L, const tsv_support *S, const double stu[3],
+void ffd_tsv_eval_displacement(const tsv_lattice *L, const tsv_support *S, const double stu[3],
                            double out[3], double *jac);
 /* out (rows by 3) = points + Phi (P_current - P_rest): eq. 1 in displacement
  * form (points are the bound points, which the rest channel reproduces);
  * a zero displacement leaves a point bitwise. Parallel over rows. */
-void tsv_phi_apply_displacement(const tsv_phi *phi, const tsv_lattice *L, const double *points,
+void ffd_tsv_phi_apply_displacement(const tsv_phi *phi, const tsv_lattice *L, const double *points,
                                 double *out);
 
 /* ---------------------------------------------------------------------
@@ -259,9 +259,9 @@ typedef struct tsv_proxy {
 /* Sets cells[].occupied (triangle-box SAT in gamma coordinates, design §5.1;
  * points in boxes when there are no faces) and cells[].outside (flood fill),
  * then extracts the proxy faces (design §5.3). Replaces *proxy's contents. */
-ffd_status tsv_proxy_build(tsv_lattice *L, const tsv_object *obj, tsv_proxy *proxy,
+ffd_status ffd_tsv_proxy_build(tsv_lattice *L, const tsv_object *obj, tsv_proxy *proxy,
                            ffd_error *err);
-void tsv_proxy_free(tsv_proxy *proxy);
+void ffd_tsv_proxy_free(tsv_proxy *proxy);
 
 /* ---------------------------------------------------------------------
  * tsv_arap.c — works on plain arrays (design §6)
@@ -288,10 +288,10 @@ typedef struct tsv_arap_graph {
 
 /* Builds the graph arrays from the lattice (reference channel) and its
  * proxy (tsv_proxy.c). Arrays are owned by the graph; free with
- * tsv_arap_graph_free. */
-ffd_status tsv_arap_graph_build(const tsv_lattice *L, const tsv_proxy *proxy,
+ * ffd_tsv_arap_graph_free. */
+ffd_status ffd_tsv_arap_graph_build(const tsv_lattice *L, const tsv_proxy *proxy,
                                 tsv_arap_graph *g, ffd_error *err);
-void tsv_arap_graph_free(tsv_arap_graph *g);
+void ffd_tsv_arap_graph_free(tsv_arap_graph *g);
 
 enum { TSV_FREE = 0, TSV_HARD = 1, TSV_SOFT = 2 };
 
@@ -303,13 +303,13 @@ typedef struct tsv_arap tsv_arap;
 /* Factorises A (design §6) for roles (n: TSV_FREE, TSV_HARD fixed at its
  * target, TSV_SOFT penalty w.target). FFD_ERR_INVALID when nothing is
  * constrained; FFD_ERR_NUMERIC when CHOLMOD fails. The graph is copied. */
-ffd_status tsv_arap_create(const tsv_arap_graph *g, const uint8_t *roles,
+ffd_status ffd_tsv_arap_solver_create(const tsv_arap_graph *g, const uint8_t *roles,
                            const tsv_arap_weights *w, tsv_arap **out, ffd_error *err);
-void tsv_arap_destroy(tsv_arap *a);
+void ffd_tsv_arap_solver_destroy(tsv_arap *a);
 /* iterations x (assemble rotated B, solve, refit rotations). targets: n by 3,
  * read at constrained rows. x: n by 3, in: warm start, out: solution.
  * Rotations persist between calls (warm start). */
-ffd_status tsv_arap_solve(tsv_arap *a, const double *targets, double *x, uint32_t iterations,
+ffd_status ffd_tsv_arap_solver_solve(tsv_arap *a, const double *targets, double *x, uint32_t iterations,
                           ffd_error *err);
 
 /* ---------------------------------------------------------------------

@@ -953,7 +953,7 @@ static void assemble_rhs(tsv_arap *a, const double *q)
  * Create / destroy / solve
  * --------------------------------------------------------------------- */
 
-void tsv_arap_destroy(tsv_arap *a)
+void ffd_tsv_arap_solver_destroy(tsv_arap *a)
 {
     if (!a)
         return;
@@ -1105,14 +1105,14 @@ static ffd_status factorize(tsv_arap *a, const arap_csr *one_form, ffd_error *er
     return FFD_OK;
 }
 
-ffd_status tsv_arap_create(const tsv_arap_graph *g, const uint8_t *roles,
+ffd_status ffd_tsv_arap_solver_create(const tsv_arap_graph *g, const uint8_t *roles,
                            const tsv_arap_weights *w, tsv_arap **out, ffd_error *err)
 {
     if (!out)
-        return ffd_fail(err, FFD_ERR_INVALID, "tsv_arap_create: out is NULL");
+        return ffd_fail(err, FFD_ERR_INVALID, "ffd_tsv_arap_solver_create: out is NULL");
     *out = NULL;
     if (!g || !w)
-        return ffd_fail(err, FFD_ERR_INVALID, "tsv_arap_create: NULL graph or weights");
+        return ffd_fail(err, FFD_ERR_INVALID, "ffd_tsv_arap_solver_create: NULL graph or weights");
     ffd_status st = check_graph(g, roles, w, err);
     if (st != FFD_OK)
         return st;
@@ -1217,20 +1217,20 @@ nomem:
 fail:
     ffd_free(all_pairs);
     csr_free(&one_form);
-    tsv_arap_destroy(a);
+    ffd_tsv_arap_solver_destroy(a);
     return st;
 }
 
-ffd_status tsv_arap_solve(tsv_arap *a, const double *targets, double *x, uint32_t iterations,
+ffd_status ffd_tsv_arap_solver_solve(tsv_arap *a, const double *targets, double *x, uint32_t iterations,
                           ffd_error *err)
 {
     if (!a || !x || (!targets && (a->hard_count || a->soft_count)))
-        return ffd_fail(err, FFD_ERR_INVALID, "tsv_arap_solve: NULL argument");
+        return ffd_fail(err, FFD_ERR_INVALID, "ffd_tsv_arap_solver_solve: NULL argument");
     for (size_t i = 0; i < a->n; i++)
         if (a->roles[i] != TSV_FREE)
             for (int c = 0; c < 3; c++)
                 if (!isfinite(targets[3 * i + c]))
-                    return ffd_fail(err, FFD_ERR_NONFINITE, "tsv_arap_solve: target of point %zu "
+                    return ffd_fail(err, FFD_ERR_NONFINITE, "ffd_tsv_arap_solver_solve: target of point %zu "
                                     "is not finite", i);
     size_t n = a->n;
     if (a->free_count == 0) {
@@ -1246,7 +1246,7 @@ ffd_status tsv_arap_solve(tsv_arap *a, const double *targets, double *x, uint32_
         if (!cholmod_solve2(CHOLMOD_A, a->L, a->B, NULL, &a->X, NULL, &a->Y, &a->E, &a->cc))
             return ffd_fail(err, a->cc.status == CHOLMOD_OUT_OF_MEMORY ? FFD_ERR_NOMEM
                                                                        : FFD_ERR_NUMERIC,
-                            "tsv_arap_solve: CHOLMOD solve failed (status %d)", a->cc.status);
+                            "ffd_tsv_arap_solver_solve: CHOLMOD solve failed (status %d)", a->cc.status);
         const double *Xx = a->X->x;
         for (size_t i = 0; i < n; i++)
             for (int c = 0; c < 3; c++)
@@ -1258,7 +1258,7 @@ ffd_status tsv_arap_solve(tsv_arap *a, const double *targets, double *x, uint32_
         }
         for (size_t i = 0; i < 3 * n; i++)
             if (!isfinite(a->sv[i]))
-                return ffd_fail(err, FFD_ERR_NUMERIC, "tsv_arap_solve: the solution is not finite");
+                return ffd_fail(err, FFD_ERR_NUMERIC, "ffd_tsv_arap_solver_solve: the solution is not finite");
         fit_rotations(a, a->sv);
     }
     if (iterations)

@@ -33,24 +33,24 @@ static ffd_status rebuild_derived(ffd_tsv *t, ffd_error *err)
     tsv_support *S = NULL;
     tsv_phi phi = {0};
     tsv_proxy proxy = {0};
-    ffd_status st = tsv_support_build(t->L, &S, err);
+    ffd_status st = ffd_tsv_support_build(t->L, &S, err);
     if (st == FFD_OK)
-        st = tsv_phi_build(t->L, S, t->params, t->n, &phi, err);
+        st = ffd_tsv_phi_build(t->L, S, t->params, t->n, &phi, err);
     if (st == FFD_OK) {
         tsv_object obj = {t->params, t->n, t->face_offsets, t->face_indices, t->face_count};
-        st = tsv_proxy_build(t->L, &obj, &proxy, err);
+        st = ffd_tsv_proxy_build(t->L, &obj, &proxy, err);
     }
     if (st == FFD_OK)
         st = sync_current(t, err);
     if (st != FFD_OK) {
-        tsv_support_destroy(S);
-        tsv_phi_free(&phi);
-        tsv_proxy_free(&proxy);
+        ffd_tsv_support_destroy(S);
+        ffd_tsv_phi_free(&phi);
+        ffd_tsv_proxy_free(&proxy);
         return st;
     }
-    tsv_support_destroy(t->S);
-    tsv_phi_free(&t->phi);
-    tsv_proxy_free(&t->proxy);
+    ffd_tsv_support_destroy(t->S);
+    ffd_tsv_phi_free(&t->phi);
+    ffd_tsv_proxy_free(&t->proxy);
     t->S = S;
     t->phi = phi;
     t->proxy = proxy;
@@ -171,7 +171,7 @@ ffd_status ffd_tsv_create(const double *points, size_t n, const uint32_t *face_o
         memcpy(t->face_indices, face_indices, corners * sizeof(uint32_t));
         t->face_count = face_count;
     }
-    st = tsv_lattice_create(mn, mx, res, &t->L, err);
+    st = ffd_tsv_lattice_create(mn, mx, res, &t->L, err);
     if (st == FFD_OK)
         st = rebuild_derived(t, err);
     if (st != FFD_OK) {
@@ -186,10 +186,10 @@ void ffd_tsv_destroy(ffd_tsv *t)
 {
     if (!t)
         return;
-    tsv_lattice_destroy(t->L);
-    tsv_support_destroy(t->S);
-    tsv_phi_free(&t->phi);
-    tsv_proxy_free(&t->proxy);
+    ffd_tsv_lattice_destroy(t->L);
+    ffd_tsv_support_destroy(t->S);
+    ffd_tsv_phi_free(&t->phi);
+    ffd_tsv_proxy_free(&t->proxy);
     ffd_free(t->params);
     ffd_free(t->points);
     ffd_free(t->face_offsets);
@@ -259,7 +259,7 @@ ffd_status ffd_tsv_knots(const ffd_tsv *t, uint32_t v, double knots[3][5], ffd_e
     ffd_status st = check_vertex(t, v, err);
     if (st != FFD_OK)
         return st;
-    tsv_infer_knots(t->L, v, knots);
+    ffd_tsv_infer_knots(t->L, v, knots);
     for (int d = 0; d < 3; d++)
         for (int k = 0; k < 5; k++)
             knots[d][k] = tsv_kappa(knots[d][k]);
@@ -268,7 +268,7 @@ ffd_status ffd_tsv_knots(const ffd_tsv *t, uint32_t v, double knots[3][5], ffd_e
 
 double ffd_tsv_max_weight_deviation(const ffd_tsv *t)
 {
-    return tsv_max_weight_deviation(t->L);
+    return ffd_tsv_lattice_max_weight_deviation(t->L);
 }
 
 ffd_status ffd_tsv_set_control_points(ffd_tsv *t, const double *points, ffd_error *err)
@@ -432,9 +432,9 @@ ffd_status ffd_tsv_element_points(const ffd_tsv *t, ffd_tsv_element kind, uint32
     if (st != FFD_OK)
         return st;
     if (kind == FFD_TSV_FACE)
-        return tsv_face_ring(t->L, id, ids, count, err);
+        return ffd_tsv_face_ring(t->L, id, ids, count, err);
     if (kind == FFD_TSV_CELL)
-        return tsv_cell_points(t->L, id, ids, count, err);
+        return ffd_tsv_cell_points(t->L, id, ids, count, err);
     uint32_t *e = ffd_malloc_array(2, sizeof(uint32_t));
     if (!e)
         return ffd_fail(err, FFD_ERR_NOMEM, "out of memory");
@@ -511,17 +511,17 @@ ffd_status ffd_tsv_refine(ffd_tsv *t, const ffd_tsv_insertion *insertions, size_
     tsv_refine_stats stats = {0};
     tsv_lattice *before = NULL;
     /* validates the insertions, and rolls the lattice back itself on failure */
-    ffd_status st = tsv_refine_undoable(t->L, insertions, count, &stats, &before, err);
+    ffd_status st = ffd_tsv_lattice_refine_undoable(t->L, insertions, count, &stats, &before, err);
     if (st != FFD_OK)
         return st;
     st = rebuild_derived(t, err);
     if (st != FFD_OK) {
         /* the derived data still describe the lattice before the edit */
         if (before)
-            tsv_lattice_swap_in(t->L, before);
+            ffd_tsv_lattice_swap_in(t->L, before);
         return st;
     }
-    tsv_lattice_destroy(before);
+    ffd_tsv_lattice_destroy(before);
     if (report) {
         report->added_points = stats.added_points;
         report->moved_points = stats.moved_points;
@@ -537,7 +537,7 @@ ffd_status ffd_tsv_refine(ffd_tsv *t, const ffd_tsv_insertion *insertions, size_
 ffd_status ffd_tsv_eval(const ffd_tsv *t, double *out, ffd_error *err)
 {
     (void)err;
-    tsv_phi_apply_displacement(&t->phi, t->L, t->points, out);
+    ffd_tsv_phi_apply_displacement(&t->phi, t->L, t->points, out);
     return FFD_OK;
 }
 
@@ -557,7 +557,7 @@ ffd_status ffd_tsv_jacobian(const ffd_tsv *t, double *out, ffd_error *err)
     for (size_t i = 0; i < n; i++) {
         /* displacement form, like ffd_tsv_eval: the identity where nothing moved */
         double d[3], *J = out + 9 * i;
-        tsv_eval_displacement(t->L, t->S, t->params + 3 * i, d, J);
+        ffd_tsv_eval_displacement(t->L, t->S, t->params + 3 * i, d, J);
         world_jacobian(t->L, J);
         J[0] += 1.0;
         J[4] += 1.0;
@@ -568,14 +568,14 @@ ffd_status ffd_tsv_jacobian(const ffd_tsv *t, double *out, ffd_error *err)
 
 void ffd_tsv_eval_params(const ffd_tsv *t, const double stu[3], double out[3], double *jacobian)
 {
-    tsv_eval_point(t->L, t->S, TSV_CURRENT, stu, out, jacobian);
+    ffd_tsv_eval_point(t->L, t->S, TSV_CURRENT, stu, out, jacobian);
     if (jacobian)
         world_jacobian(t->L, jacobian);
 }
 
 double ffd_tsv_weight_sum(const ffd_tsv *t, const double stu[3])
 {
-    size_t m = tsv_support_max(t->S);
+    size_t m = ffd_tsv_support_max(t->S);
     uint32_t ids[512];
     double w[512];
     if (m > 512)
@@ -583,7 +583,7 @@ double ffd_tsv_weight_sum(const ffd_tsv *t, const double stu[3])
     double p[3];
     for (int a = 0; a < 3; a++)
         p[a] = stu[a] < 0 ? 0 : (stu[a] > 1 ? 1 : stu[a]);
-    size_t k = tsv_support_eval(t->S, p, ids, w, NULL);
+    size_t k = ffd_tsv_support_eval(t->S, p, ids, w, NULL);
     double s = 0;
     for (size_t i = 0; i < k; i++)
         s += w[i];
@@ -694,7 +694,7 @@ void ffd_tsv_arap_destroy(ffd_tsv_arap *arap)
 {
     if (!arap)
         return;
-    tsv_arap_destroy(arap->solver);
+    ffd_tsv_arap_solver_destroy(arap->solver);
     ffd_free(arap->handles);
     ffd_free(arap->targets);
     ffd_free(arap->x);
@@ -766,12 +766,12 @@ ffd_status ffd_tsv_arap_begin(ffd_tsv *t, const uint32_t *handles, size_t k,
         memcpy(a->targets + 3 * v, L->verts[v].P[TSV_CURRENT], 3 * sizeof(double));
     }
     tsv_arap_graph g = {0};
-    st = tsv_arap_graph_build(L, &t->proxy, &g, err);
+    st = ffd_tsv_arap_graph_build(L, &t->proxy, &g, err);
     if (st == FFD_OK) {
         tsv_arap_weights w = {opt.w_one_form, opt.w_proxy, opt.w_volume, opt.w_target};
-        st = tsv_arap_create(&g, roles, &w, &a->solver, err);
+        st = ffd_tsv_arap_solver_create(&g, roles, &w, &a->solver, err);
     }
-    tsv_arap_graph_free(&g);
+    ffd_tsv_arap_graph_free(&g);
     ffd_free(roles);
     if (st != FFD_OK) {
         ffd_tsv_arap_destroy(a);
@@ -804,7 +804,7 @@ ffd_status ffd_tsv_arap_solve(ffd_tsv_arap *a, const double *targets,
     size_t nv = L->nv;
     for (size_t v = 0; v < nv; v++)
         memcpy(a->x + 3 * v, L->verts[v].P[TSV_CURRENT], 3 * sizeof(double));
-    ffd_status st = tsv_arap_solve(a->solver, a->targets, a->x, a->opt.iterations, err);
+    ffd_status st = ffd_tsv_arap_solver_solve(a->solver, a->targets, a->x, a->opt.iterations, err);
     if (st != FFD_OK)
         return st;
     for (size_t i = 0; i < 3 * nv; i++)
@@ -906,7 +906,7 @@ ffd_status ffd_tsv_check_folds(const ffd_tsv *t, uint32_t samples, ffd_tsv_fold_
                     uint32_t ijl[3] = {i, j, l};
                     for (int a = 0; a < 3; a++)
                         p[a] = lo[a] + (hi[a] - lo[a]) * (ijl[a] + 0.5) / samples;
-                    tsv_eval_point(L, t->S, TSV_CURRENT, p, x, J);
+                    ffd_tsv_eval_point(L, t->S, TSV_CURRENT, p, x, J);
                     world_jacobian(L, J);
                     double d = det3(J);
                     if (d < cell_min[c])
@@ -948,7 +948,7 @@ ffd_status ffd_tsv_check_folds(const ffd_tsv *t, uint32_t samples, ffd_tsv_fold_
         ffd_tsv_fold_report_free(report);
         return ffd_fail(err, FFD_ERR_NOMEM, "out of memory");
     }
-    tsv_phi_apply(&t->phi, L, TSV_CURRENT, x);
+    ffd_tsv_phi_apply(&t->phi, L, TSV_CURRENT, x);
     const size_t nfaces = t->face_count;
 #pragma omp parallel for schedule(dynamic, 64)
     for (size_t f = 0; f < nfaces; f++) {
@@ -977,7 +977,7 @@ ffd_status ffd_tsv_check_folds(const ffd_tsv *t, uint32_t samples, ffd_tsv_fold_
         if (rest_area2 == 0)
             continue; /* degenerate at rest: nothing to invert */
         double y[3], J[9], expect[3];
-        tsv_eval_point(L, t->S, TSV_CURRENT, centre, y, J);
+        ffd_tsv_eval_point(L, t->S, TSV_CURRENT, centre, y, J);
         world_jacobian(L, J);
         /* cof(J) n is the image of an infinitesimal face's normal; times sign(det J)
            it is the normal an orientation-preserving map would give (J^-T n) */

@@ -28,7 +28,7 @@ static int thick_axes(const double lo[3], const double hi[3])
     return a3;
 }
 
-void tsv_estimate_refine(const tsv_lattice *L, const ffd_tsv_insertion *ins, size_t count,
+void ffd_tsv_estimate_refine(const tsv_lattice *L, const ffd_tsv_insertion *ins, size_t count,
                          tsv_estimate *out)
 {
     double cells = (double)L->nc;
@@ -45,7 +45,7 @@ void tsv_estimate_refine(const tsv_lattice *L, const ffd_tsv_insertion *ins, siz
                 REFINE_OPS_PER_POINT * 2.0 * cells;
 }
 
-void tsv_estimate_arap(size_t nv, uint32_t iterations, tsv_estimate *out)
+void ffd_tsv_estimate_arap(size_t nv, uint32_t iterations, tsv_estimate *out)
 {
     double n = (double)nv, fill = pow(n, 4.0 / 3.0);
     out->cells = 0;
@@ -53,7 +53,7 @@ void tsv_estimate_arap(size_t nv, uint32_t iterations, tsv_estimate *out)
     out->work = ARAP_OPS * pow(n, 1.7) + ARAP_SOLVE_OPS * fill * (iterations ? iterations : 5);
 }
 
-void tsv_estimate_folds(const tsv_lattice *L, uint32_t samples, tsv_estimate *out)
+void ffd_tsv_estimate_folds(const tsv_lattice *L, uint32_t samples, tsv_estimate *out)
 {
     double s = samples ? samples : 3, volume_cells = 0;
     for (size_t c = 0; c < L->nc; c++)

@@ -55,7 +55,7 @@ static double basis_kappa(const double t[5], double x, double *dx)
     return (dl > 0.0 ? (x - t[0]) / dl * N[0] : 0.0) + (dr > 0.0 ? (t[4] - x) / dr * N[1] : 0.0);
 }
 
-double tsv_basis(const double knots[5], double x, double *dx)
+double ffd_tsv_basis(const double knots[5], double x, double *dx)
 {
     double t[5];
     for (int i = 0; i < 5; i++)
@@ -71,7 +71,7 @@ static uint32_t bin1(uint32_t G, double x)
     return b >= G ? G - 1 : b;
 }
 
-ffd_status tsv_support_build(const tsv_lattice *L, tsv_support **out, ffd_error *err)
+ffd_status ffd_tsv_support_build(const tsv_lattice *L, tsv_support **out, ffd_error *err)
 {
     *out = NULL;
     tsv_support *S = ffd_calloc(1, sizeof *S);
@@ -89,7 +89,7 @@ ffd_status tsv_support_build(const tsv_lattice *L, tsv_support **out, ffd_error 
         goto nomem;
     for (size_t v = 0; v < L->nv; v++) {
         double k[3][5];
-        tsv_infer_knots(L, (uint32_t)v, k);
+        ffd_tsv_infer_knots(L, (uint32_t)v, k);
         for (int d = 0; d < 3; d++)
             for (int i = 0; i < 5; i++)
                 S->kv[v][d][i] = tsv_kappa(k[d][i]);
@@ -132,11 +132,11 @@ ffd_status tsv_support_build(const tsv_lattice *L, tsv_support **out, ffd_error 
     *out = S;
     return FFD_OK;
 nomem:
-    tsv_support_destroy(S);
+    ffd_tsv_support_destroy(S);
     return ffd_fail(err, FFD_ERR_NOMEM, "tsv support: out of memory");
 }
 
-void tsv_support_destroy(tsv_support *S)
+void ffd_tsv_support_destroy(tsv_support *S)
 {
     if (!S)
         return;
@@ -147,7 +147,7 @@ void tsv_support_destroy(tsv_support *S)
     ffd_free(S);
 }
 
-size_t tsv_support_max(const tsv_support *S)
+size_t ffd_tsv_support_max(const tsv_support *S)
 {
     return S->max;
 }
@@ -180,7 +180,7 @@ static const uint32_t *candidates(const tsv_support *S, const double x[3], size_
     return S->binv + S->binptr[id];
 }
 
-size_t tsv_support_eval(const tsv_support *S, const double stu[3], uint32_t *ids, double *w,
+size_t ffd_tsv_support_eval(const tsv_support *S, const double stu[3], uint32_t *ids, double *w,
                         double *grad)
 {
     size_t nc, m = 0;
@@ -231,13 +231,13 @@ static void eval_sum(const tsv_lattice *L, const tsv_support *S, int channel, bo
     }
 }
 
-void tsv_eval_point(const tsv_lattice *L, const tsv_support *S, int channel, const double stu[3],
+void ffd_tsv_eval_point(const tsv_lattice *L, const tsv_support *S, int channel, const double stu[3],
                     double out[3], double *jac)
 {
     eval_sum(L, S, channel, false, stu, out, jac);
 }
 
-void tsv_eval_displacement(const tsv_lattice *L, const tsv_support *S, const double stu[3],
+void ffd_tsv_eval_displacement(const tsv_lattice *L, const tsv_support *S, const double stu[3],
                            double out[3], double *jac)
 {
     eval_sum(L, S, TSV_CURRENT, true, stu, out, jac);
@@ -253,7 +253,7 @@ static void clamp01(const double *in, double x[3])
         x[d] = in[d] < 0.0 ? 0.0 : (in[d] > 1.0 ? 1.0 : in[d]);
 }
 
-ffd_status tsv_phi_build(const tsv_lattice *L, const tsv_support *S, const double *params,
+ffd_status ffd_tsv_phi_build(const tsv_lattice *L, const tsv_support *S, const double *params,
                          size_t n, tsv_phi *phi, ffd_error *err)
 {
     (void)L;
@@ -284,7 +284,7 @@ ffd_status tsv_phi_build(const tsv_lattice *L, const tsv_support *S, const doubl
     phi->col = ffd_malloc_array(nnz ? nnz : 1, sizeof *phi->col);
     phi->val = ffd_malloc_array(nnz ? nnz : 1, sizeof *phi->val);
     if (!phi->col || !phi->val) {
-        tsv_phi_free(phi);
+        ffd_tsv_phi_free(phi);
         return ffd_fail(err, FFD_ERR_NOMEM, "tsv phi: out of memory");
     }
 #pragma omp parallel for schedule(static)
@@ -305,7 +305,7 @@ ffd_status tsv_phi_build(const tsv_lattice *L, const tsv_support *S, const doubl
     return FFD_OK;
 }
 
-void tsv_phi_free(tsv_phi *phi)
+void ffd_tsv_phi_free(tsv_phi *phi)
 {
     if (!phi)
         return;
@@ -315,7 +315,7 @@ void tsv_phi_free(tsv_phi *phi)
     memset(phi, 0, sizeof *phi);
 }
 
-void tsv_phi_apply_displacement(const tsv_phi *phi, const tsv_lattice *L, const double *points,
+void ffd_tsv_phi_apply_displacement(const tsv_phi *phi, const tsv_lattice *L, const double *points,
                                 double *out)
 {
     long long nn = (long long)phi->rows;
@@ -335,7 +335,7 @@ void tsv_phi_apply_displacement(const tsv_phi *phi, const tsv_lattice *L, const 
     }
 }
 
-void tsv_phi_apply(const tsv_phi *phi, const tsv_lattice *L, int channel, double *out)
+void ffd_tsv_phi_apply(const tsv_phi *phi, const tsv_lattice *L, int channel, double *out)
 {
     long long nn = (long long)phi->rows;
 #pragma omp parallel for schedule(static)

@@ -368,7 +368,7 @@ static size_t reg_lower_bound(const tsv_registry *r, double x)
     return lo;
 }
 
-ffd_status tsv_registry_get(tsv_lattice *L, int axis, double v, double *sigma, ffd_error *err)
+ffd_status ffd_tsv_registry_get(tsv_lattice *L, int axis, double v, double *sigma, ffd_error *err)
 {
     tsv_registry *r = &L->reg[axis];
     if (!(v > 0.0 && v < 1.0))
@@ -399,14 +399,14 @@ ffd_status tsv_registry_get(tsv_lattice *L, int axis, double v, double *sigma, f
     return FFD_OK;
 }
 
-double tsv_registry_prev(const tsv_lattice *L, int axis, double sigma)
+double ffd_tsv_registry_prev(const tsv_lattice *L, int axis, double sigma)
 {
     const tsv_registry *r = &L->reg[axis];
     size_t i = reg_lower_bound(r, sigma);
     return i > 0 ? r->v[i - 1] : r->v[0] - 1.0;
 }
 
-double tsv_registry_next(const tsv_lattice *L, int axis, double sigma)
+double ffd_tsv_registry_next(const tsv_lattice *L, int axis, double sigma)
 {
     const tsv_registry *r = &L->reg[axis];
     size_t i = reg_lower_bound(r, sigma);
@@ -415,11 +415,11 @@ double tsv_registry_next(const tsv_lattice *L, int axis, double sigma)
     return i < r->n ? r->v[i] : r->v[r->n - 1] + 1.0;
 }
 
-double tsv_gamma(const tsv_lattice *L, int axis, double sigma)
+double ffd_tsv_gamma(const tsv_lattice *L, int axis, double sigma)
 {
     /* design §5.1: the global Greville coordinate */
-    return (tsv_kappa(tsv_registry_prev(L, axis, sigma)) + tsv_kappa(sigma) +
-            tsv_kappa(tsv_registry_next(L, axis, sigma))) /
+    return (tsv_kappa(ffd_tsv_registry_prev(L, axis, sigma)) + tsv_kappa(sigma) +
+            tsv_kappa(ffd_tsv_registry_next(L, axis, sigma))) /
            3.0;
 }
 
@@ -439,7 +439,7 @@ static double plane_sigma(uint32_t i, uint32_t n)
     return (double)(i - 1) / (double)(n - 3);
 }
 
-ffd_status tsv_lattice_create(const double box_min[3], const double box_max[3],
+ffd_status ffd_tsv_lattice_create(const double box_min[3], const double box_max[3],
                               const uint32_t res[3], tsv_lattice **out, ffd_error *err)
 {
     *out = NULL;
@@ -587,10 +587,10 @@ ffd_status tsv_lattice_create(const double box_min[3], const double box_max[3],
     *out = L;
     return FFD_OK;
 toobig:
-    tsv_lattice_destroy(L);
+    ffd_tsv_lattice_destroy(L);
     return ffd_fail(err, FFD_ERR_INVALID, "tsv lattice: too many control points");
 nomem:
-    tsv_lattice_destroy(L);
+    ffd_tsv_lattice_destroy(L);
     return ffd_fail(err, FFD_ERR_NOMEM, "tsv lattice: out of memory");
 }
 
@@ -605,7 +605,7 @@ static void lattice_free_contents(tsv_lattice *L)
     index_free(L->index);
 }
 
-void tsv_lattice_destroy(tsv_lattice *L)
+void ffd_tsv_lattice_destroy(tsv_lattice *L)
 {
     if (!L)
         return;
@@ -621,7 +621,7 @@ static void *dup_array(const void *p, size_t n, size_t elem)
     return q;
 }
 
-tsv_lattice *tsv_lattice_clone(const tsv_lattice *L)
+tsv_lattice *ffd_tsv_lattice_clone(const tsv_lattice *L)
 {
     tsv_lattice *C = ffd_calloc(1, sizeof *C);
     if (!C)
@@ -654,11 +654,11 @@ tsv_lattice *tsv_lattice_clone(const tsv_lattice *L)
         goto fail;
     return C;
 fail:
-    tsv_lattice_destroy(C);
+    ffd_tsv_lattice_destroy(C);
     return NULL;
 }
 
-void tsv_lattice_swap_in(tsv_lattice *dst, tsv_lattice *src)
+void ffd_tsv_lattice_swap_in(tsv_lattice *dst, tsv_lattice *src)
 {
     lattice_free_contents(dst);
     *dst = *src;
@@ -669,7 +669,7 @@ void tsv_lattice_swap_in(tsv_lattice *dst, tsv_lattice *src)
  * Lookups
  * =================================================================== */
 
-uint32_t tsv_vertex_find(const tsv_lattice *L, const double sg[3])
+uint32_t ffd_tsv_vertex_find(const tsv_lattice *L, const double sg[3])
 {
     return htab_get(&L->index->vhash, 0, sg);
 }
@@ -737,9 +737,9 @@ static bool face_hit(const tsv_lattice *L, int d, const double q[3])
     return false;
 }
 
-void tsv_locate(const tsv_lattice *L, const double q[3], int *dim, uint32_t *id)
+void ffd_tsv_lattice_locate(const tsv_lattice *L, const double q[3], int *dim, uint32_t *id)
 {
-    uint32_t v = tsv_vertex_find(L, q);
+    uint32_t v = ffd_tsv_vertex_find(L, q);
     if (v != UINT32_MAX) {
         *dim = 0;
         *id = v;
@@ -782,7 +782,7 @@ void tsv_locate(const tsv_lattice *L, const double q[3], int *dim, uint32_t *id)
 /* Is plane sigma_d = s hit at the point q (q[d] == s)? */
 static bool covered(const tsv_lattice *L, int d, const double q[3])
 {
-    if (tsv_vertex_find(L, q) != UINT32_MAX)
+    if (ffd_tsv_vertex_find(L, q) != UINT32_MAX)
         return true;
     if (face_hit(L, d, q))
         return true;
@@ -792,7 +792,7 @@ static bool covered(const tsv_lattice *L, int d, const double q[3])
     return false;
 }
 
-void tsv_infer_knots(const tsv_lattice *L, uint32_t v, double knots[3][5])
+void ffd_tsv_infer_knots(const tsv_lattice *L, uint32_t v, double knots[3][5])
 {
     const tsv_vertex *V = &L->verts[v];
     for (int d = 0; d < 3; d++) {
@@ -898,10 +898,10 @@ static ffd_status add_face(tsv_lattice *L, const tsv_face *F, uint32_t *out)
 
 /* ===================================================================
  * Splits (design §3.1). On FFD_ERR_NOMEM a split may leave partial
- * structure behind; tsv_refine works on a snapshot and rolls back.
+ * structure behind; ffd_tsv_lattice_refine works on a snapshot and rolls back.
  * =================================================================== */
 
-ffd_status tsv_split_edge(tsv_lattice *L, uint32_t e, double x, uint32_t *new_vertex,
+ffd_status ffd_tsv_split_edge(tsv_lattice *L, uint32_t e, double x, uint32_t *new_vertex,
                           ffd_error *err)
 {
     if (e >= L->ne)
@@ -936,17 +936,17 @@ ffd_status tsv_split_edge(tsv_lattice *L, uint32_t e, double x, uint32_t *new_ve
 /* Vertex at q on a line along axis a: the existing one, or a split of the edge containing it. */
 static ffd_status vertex_on_line(tsv_lattice *L, int a, const double q[3], uint32_t *v, ffd_error *err)
 {
-    *v = tsv_vertex_find(L, q);
+    *v = ffd_tsv_vertex_find(L, q);
     if (*v != UINT32_MAX)
         return FFD_OK;
     uint32_t e = edge_on_line(L, a, q);
     if (e == UINT32_MAX)
         return ffd_fail(err, FFD_ERR_NUMERIC, "tsv lattice: no edge along axis %d at (%g, %g, %g)", a,
                         q[0], q[1], q[2]);
-    return tsv_split_edge(L, e, q[a], v, err);
+    return ffd_tsv_split_edge(L, e, q[a], v, err);
 }
 
-ffd_status tsv_split_face(tsv_lattice *L, uint32_t f, int axis, double x, ffd_error *err)
+ffd_status ffd_tsv_split_face(tsv_lattice *L, uint32_t f, int axis, double x, ffd_error *err)
 {
     if (f >= L->nf)
         return ffd_fail(err, FFD_ERR_RANGE, "face %u: there are %zu faces", f, L->nf);
@@ -995,7 +995,7 @@ ffd_status tsv_split_face(tsv_lattice *L, uint32_t f, int axis, double x, ffd_er
     return FFD_OK;
 }
 
-ffd_status tsv_split_cell(tsv_lattice *L, uint32_t c, int axis, double x, ffd_error *err)
+ffd_status ffd_tsv_split_cell(tsv_lattice *L, uint32_t c, int axis, double x, ffd_error *err)
 {
     if (c >= L->nc)
         return ffd_fail(err, FFD_ERR_RANGE, "cell %u: there are %zu cells", c, L->nc);
@@ -1026,7 +1026,7 @@ ffd_status tsv_split_cell(tsv_lattice *L, uint32_t c, int axis, double x, ffd_er
                 const tsv_face *G = &L->faces[g];
                 if (G->lo[ia] < x && x < G->hi[ia] && G->lo[io] >= C.lo[other] &&
                     G->hi[io] <= C.hi[other]) {
-                    st = tsv_split_face(L, g, axis, x, err);
+                    st = ffd_tsv_split_face(L, g, axis, x, err);
                     if (st != FFD_OK)
                         return st;
                     p = plane_get(L->index, n, cval); /* the list may have moved */
@@ -1158,7 +1158,7 @@ static bool face_ring_append(const tsv_lattice *L, const tsv_face *F, idlist *ou
     return side_vertices(L, b, q, F->lo[1], F->hi[1], true, out);
 }
 
-ffd_status tsv_face_ring(const tsv_lattice *L, uint32_t f, uint32_t **ids, size_t *count,
+ffd_status ffd_tsv_face_ring(const tsv_lattice *L, uint32_t f, uint32_t **ids, size_t *count,
                          ffd_error *err)
 {
     *ids = NULL;
@@ -1181,7 +1181,7 @@ static int cmp_u32(const void *x, const void *y)
     return a < b ? -1 : a > b;
 }
 
-ffd_status tsv_cell_points(const tsv_lattice *L, uint32_t c, uint32_t **ids, size_t *count,
+ffd_status ffd_tsv_cell_points(const tsv_lattice *L, uint32_t c, uint32_t **ids, size_t *count,
                            ffd_error *err)
 {
     *ids = NULL;
@@ -1228,12 +1228,12 @@ static double box_area(const double lo[2], const double hi[2])
     return (hi[0] - lo[0]) * (hi[1] - lo[1]);
 }
 
-ffd_status tsv_lattice_validate(const tsv_lattice *L, ffd_error *err)
+ffd_status ffd_tsv_lattice_validate(const tsv_lattice *L, ffd_error *err)
 {
     const double tol = 1e-9;
     /* vertices: hash agreement */
     for (size_t v = 0; v < L->nv; v++)
-        if (tsv_vertex_find(L, L->verts[v].sg) != v)
+        if (ffd_tsv_vertex_find(L, L->verts[v].sg) != v)
             return ffd_fail(err, FFD_ERR_NUMERIC, "vertex %zu: not in the vertex hash", v);
     /* 1. cells tile [-1,2]^3: total volume 27 and no two overlap */
     double vol = 0.0;
@@ -1387,7 +1387,7 @@ ffd_status tsv_lattice_validate(const tsv_lattice *L, ffd_error *err)
     return FFD_OK;
 }
 
-double tsv_max_weight_deviation(const tsv_lattice *L)
+double ffd_tsv_lattice_max_weight_deviation(const tsv_lattice *L)
 {
     double m = 0;
     for (size_t v = 0; v < L->nv; v++) {

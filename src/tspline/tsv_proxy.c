@@ -11,10 +11,10 @@
  * (2001). Cells are independent, so the loop runs in parallel and the result
  * does not depend on the thread count.
  *
- * tsv_proxy_build is all or nothing: on an error neither cells[].occupied /
+ * ffd_tsv_proxy_build is all or nothing: on an error neither cells[].occupied /
  * cells[].outside nor *proxy change. The proxy polygons start at the ring's
  * (lo,lo) corner and run so that their normal points to the outside side.
- * tsv_arap_graph_build's proxy_uv polygons are counter-clockwise (positive
+ * ffd_tsv_arap_graph_build's proxy_uv polygons are counter-clockwise (positive
  * signed area) in index order: (gamma_a, gamma_b) on the face's in-plane axes
  * a < b, or (gamma_b, gamma_a) where that order would be clockwise. */
 #include "tspline/tsv.h"
@@ -182,13 +182,13 @@ static ffd_status tsv_prims_build(const tsv_object *obj, tsv_prims *P, ffd_error
     P->params = obj->params;
     const size_t nf = obj->face_offsets ? obj->face_count : 0;
     if (nf > 0 && obj->face_offsets[0] != 0)
-        return ffd_fail(err, FFD_ERR_INVALID, "tsv_proxy_build: face_offsets[0] is %u, not 0",
+        return ffd_fail(err, FFD_ERR_INVALID, "ffd_tsv_proxy_build: face_offsets[0] is %u, not 0",
                         (unsigned)obj->face_offsets[0]);
     uint8_t *used = NULL;
     if (nf > 0 && obj->n > 0) {
         used = ffd_calloc(obj->n, 1);
         if (!used)
-            return ffd_fail(err, FFD_ERR_NOMEM, "tsv_proxy_build: out of memory");
+            return ffd_fail(err, FFD_ERR_NOMEM, "ffd_tsv_proxy_build: out of memory");
     }
     size_t count = 0;
     for (size_t f = 0; f < nf; f++) {
@@ -196,14 +196,14 @@ static ffd_status tsv_prims_build(const tsv_object *obj, tsv_prims *P, ffd_error
         if (e < b) {
             ffd_free(used);
             return ffd_fail(err, FFD_ERR_INVALID,
-                            "tsv_proxy_build: face_offsets decrease at face %zu", f);
+                            "ffd_tsv_proxy_build: face_offsets decrease at face %zu", f);
         }
         for (uint32_t k = b; k < e; k++) {
             uint32_t i = obj->face_indices[k];
             if (i >= obj->n) {
                 ffd_free(used);
                 return ffd_fail(err, FFD_ERR_RANGE,
-                                "tsv_proxy_build: face %zu uses point %u: there are %zu points", f,
+                                "ffd_tsv_proxy_build: face %zu uses point %u: there are %zu points", f,
                                 (unsigned)i, obj->n);
             }
             used[i] = 1;
@@ -216,7 +216,7 @@ static ffd_status tsv_prims_build(const tsv_object *obj, tsv_prims *P, ffd_error
             count++;
     if (count > UINT32_MAX) {
         ffd_free(used);
-        return ffd_fail(err, FFD_ERR_NOMEM, "tsv_proxy_build: too many primitives (%zu)", count);
+        return ffd_fail(err, FFD_ERR_NOMEM, "ffd_tsv_proxy_build: too many primitives (%zu)", count);
     }
     if (count > 0) {
         P->vid = ffd_malloc_array(count, 3 * sizeof *P->vid);
@@ -225,7 +225,7 @@ static ffd_status tsv_prims_build(const tsv_object *obj, tsv_prims *P, ffd_error
         if (!P->vid || !P->bound || !P->bin) {
             ffd_free(used);
             tsv_prims_free(P);
-            return ffd_fail(err, FFD_ERR_NOMEM, "tsv_proxy_build: out of memory");
+            return ffd_fail(err, FFD_ERR_NOMEM, "ffd_tsv_proxy_build: out of memory");
         }
     }
     size_t k = 0;
@@ -294,7 +294,7 @@ static ffd_status tsv_grid_build(tsv_prims *P, tsv_grid *G, ffd_error *err)
     G->item = ffd_malloc_array(total ? total : 1, sizeof *G->item);
     if (!G->start || !G->item) {
         tsv_grid_free(G);
-        return ffd_fail(err, FFD_ERR_NOMEM, "tsv_proxy_build: out of memory (primitive grid)");
+        return ffd_fail(err, FFD_ERR_NOMEM, "ffd_tsv_proxy_build: out of memory (primitive grid)");
     }
     for (size_t k = 0; k < P->n; k++)
         for (int a = 0; a < 3; a++) {
@@ -385,7 +385,7 @@ static ffd_status tsv_occupancy(const tsv_lattice *L, const tsv_object *obj, uin
     st = tsv_grid_build(&P, &G, err);
     double *box = st == FFD_OK ? ffd_malloc_array(L->nc ? L->nc : 1, 6 * sizeof(double)) : NULL;
     if (st == FFD_OK && !box)
-        st = ffd_fail(err, FFD_ERR_NOMEM, "tsv_proxy_build: out of memory");
+        st = ffd_fail(err, FFD_ERR_NOMEM, "ffd_tsv_proxy_build: out of memory");
     if (st != FFD_OK) {
         tsv_grid_free(&G);
         tsv_prims_free(&P);
@@ -394,8 +394,8 @@ static ffd_status tsv_occupancy(const tsv_lattice *L, const tsv_object *obj, uin
     /* cell boxes in parameter space: sigma box mapped by gamma per axis (design §5.1) */
     for (size_t c = 0; c < L->nc; c++)
         for (int a = 0; a < 3; a++) {
-            box[6 * c + a] = tsv_gamma(L, a, L->cells[c].lo[a]);
-            box[6 * c + 3 + a] = tsv_gamma(L, a, L->cells[c].hi[a]);
+            box[6 * c + a] = ffd_tsv_gamma(L, a, L->cells[c].lo[a]);
+            box[6 * c + 3 + a] = ffd_tsv_gamma(L, a, L->cells[c].hi[a]);
         }
     const long long nc = (long long)L->nc;
 #pragma omp parallel for schedule(dynamic, 16) if (nc > 64)
@@ -435,7 +435,7 @@ static ffd_status tsv_flood_outside(const tsv_lattice *L, const uint8_t *occ, ui
         ffd_free(start);
         ffd_free(queue);
         ffd_free(nbr);
-        return ffd_fail(err, FFD_ERR_NOMEM, "tsv_proxy_build: out of memory (flood fill)");
+        return ffd_fail(err, FFD_ERR_NOMEM, "ffd_tsv_proxy_build: out of memory (flood fill)");
     }
     /* cell adjacency across shared faces, CSR */
     for (size_t f = 0; f < nf; f++) {
@@ -486,7 +486,7 @@ static ffd_status tsv_flood_outside(const tsv_lattice *L, const uint8_t *occ, ui
  * Proxy faces (design §5.3)
  * --------------------------------------------------------------------- */
 
-void tsv_proxy_free(tsv_proxy *proxy)
+void ffd_tsv_proxy_free(tsv_proxy *proxy)
 {
     if (!proxy)
         return;
@@ -535,9 +535,9 @@ static ffd_status tsv_proxy_faces(const tsv_lattice *L, const uint8_t *out, tsv_
     P->lattice_face = ffd_malloc_array(count ? count : 1, sizeof *P->lattice_face);
     cap_f = count;
     if (!P->face_offsets || !P->face_cells || !P->lattice_face)
-        return ffd_fail(err, FFD_ERR_NOMEM, "tsv_proxy_build: out of memory (proxy faces)");
+        return ffd_fail(err, FFD_ERR_NOMEM, "ffd_tsv_proxy_build: out of memory (proxy faces)");
     if (!ffd_grow((void **)&P->face_indices, &cap_i, 4 * count + 1, sizeof *P->face_indices))
-        return ffd_fail(err, FFD_ERR_NOMEM, "tsv_proxy_build: out of memory (proxy faces)");
+        return ffd_fail(err, FFD_ERR_NOMEM, "ffd_tsv_proxy_build: out of memory (proxy faces)");
     P->face_offsets[0] = 0;
     size_t k = 0;
     for (size_t f = 0; f < L->nf && k < cap_f; f++) {
@@ -548,16 +548,16 @@ static ffd_status tsv_proxy_faces(const tsv_lattice *L, const uint8_t *out, tsv_
             continue;
         uint32_t *ring = NULL;
         size_t m = 0;
-        ffd_status st = tsv_face_ring(L, (uint32_t)f, &ring, &m, err);
+        ffd_status st = ffd_tsv_face_ring(L, (uint32_t)f, &ring, &m, err);
         if (st != FFD_OK)
             return st;
         if (nidx + m > UINT32_MAX) {
             ffd_free(ring);
-            return ffd_fail(err, FFD_ERR_NOMEM, "tsv_proxy_build: proxy too large");
+            return ffd_fail(err, FFD_ERR_NOMEM, "ffd_tsv_proxy_build: proxy too large");
         }
         if (!ffd_grow((void **)&P->face_indices, &cap_i, nidx + m, sizeof *P->face_indices)) {
             ffd_free(ring);
-            return ffd_fail(err, FFD_ERR_NOMEM, "tsv_proxy_build: out of memory (proxy faces)");
+            return ffd_fail(err, FFD_ERR_NOMEM, "ffd_tsv_proxy_build: out of memory (proxy faces)");
         }
         /* the ring's normal along the face normal: sign of its (a,b) area
          * times the handedness of (normal, a, b); outward = towards the outside side */
@@ -585,7 +585,7 @@ static ffd_status tsv_proxy_faces(const tsv_lattice *L, const uint8_t *out, tsv_
     /* the proxy vertices: distinct ids ascending (design §5.4) */
     P->vertices = ffd_malloc_array(nidx ? nidx : 1, sizeof *P->vertices);
     if (!P->vertices)
-        return ffd_fail(err, FFD_ERR_NOMEM, "tsv_proxy_build: out of memory (proxy vertices)");
+        return ffd_fail(err, FFD_ERR_NOMEM, "ffd_tsv_proxy_build: out of memory (proxy vertices)");
     if (nidx)
         memcpy(P->vertices, P->face_indices, nidx * sizeof *P->vertices);
     P->vertex_count = tsv_sort_unique_u32(P->vertices, nidx);
@@ -688,7 +688,7 @@ static ffd_status tsv_proxy_sheets(tsv_proxy *P, ffd_error *err)
     ffd_status st = FFD_OK;
     size_t nquad = 0;
     if (!next || !twin || !face || !parent || !quad || !he || !P->face_points) {
-        st = ffd_fail(err, FFD_ERR_NOMEM, "tsv_proxy_build: out of memory (proxy sheets)");
+        st = ffd_fail(err, FFD_ERR_NOMEM, "ffd_tsv_proxy_build: out of memory (proxy sheets)");
         goto done;
     }
     for (size_t f = 0; f < nf; f++) {
@@ -732,7 +732,7 @@ static ffd_status tsv_proxy_sheets(tsv_proxy *P, ffd_error *err)
             if (he[i].key != UINT64_MAX) {
                 uint32_t q = he[i].q;
                 st = ffd_fail(err, FFD_ERR_INVALID,
-                              "tsv_proxy_build: proxy edge (%u, %u) of face %u has no reverse "
+                              "ffd_tsv_proxy_build: proxy edge (%u, %u) of face %u has no reverse "
                               "half-edge: the proxy is not closed",
                               (unsigned)P->face_indices[q], (unsigned)P->face_indices[next[q]],
                               (unsigned)face[q]);
@@ -763,7 +763,7 @@ static ffd_status tsv_proxy_sheets(tsv_proxy *P, ffd_error *err)
             if (tsv_edge_doubled(parent, next, quad[2 * k], quad[2 * k + 1])) {
                 uint32_t q = quad[2 * k];
                 st = ffd_fail(err, FFD_ERR_INVALID,
-                              "tsv_proxy_build: proxy edge (%u, %u) cannot be split into two "
+                              "ffd_tsv_proxy_build: proxy edge (%u, %u) cannot be split into two "
                               "sheets",
                               (unsigned)P->face_indices[q], (unsigned)P->face_indices[next[q]]);
                 goto done;
@@ -778,7 +778,7 @@ static ffd_status tsv_proxy_sheets(tsv_proxy *P, ffd_error *err)
     qsort(key, np, sizeof *key, cmp_u64);
     P->point_controls = ffd_malloc_array(np ? np : 1, sizeof *P->point_controls);
     if (!P->point_controls) {
-        st = ffd_fail(err, FFD_ERR_NOMEM, "tsv_proxy_build: out of memory (proxy sheets)");
+        st = ffd_fail(err, FFD_ERR_NOMEM, "ffd_tsv_proxy_build: out of memory (proxy sheets)");
         goto done;
     }
     uint32_t *point_of_root = twin; /* reused: the twins are no longer needed */
@@ -799,16 +799,16 @@ done:
     return st;
 }
 
-ffd_status tsv_proxy_build(tsv_lattice *L, const tsv_object *obj, tsv_proxy *proxy,
+ffd_status ffd_tsv_proxy_build(tsv_lattice *L, const tsv_object *obj, tsv_proxy *proxy,
                            ffd_error *err)
 {
     if (!L || !obj || !proxy || (obj->n > 0 && !obj->params) ||
         (obj->face_offsets && obj->face_count > 0 && !obj->face_indices))
-        return ffd_fail(err, FFD_ERR_INVALID, "tsv_proxy_build: NULL argument");
+        return ffd_fail(err, FFD_ERR_INVALID, "ffd_tsv_proxy_build: NULL argument");
     /* all or nothing: the cells' flags and *proxy change only on success */
     uint8_t *occ = ffd_malloc_array(L->nc ? L->nc : 1, 2);
     if (!occ)
-        return ffd_fail(err, FFD_ERR_NOMEM, "tsv_proxy_build: out of memory");
+        return ffd_fail(err, FFD_ERR_NOMEM, "ffd_tsv_proxy_build: out of memory");
     uint8_t *out = occ + L->nc;
     tsv_proxy P;
     memset(&P, 0, sizeof P);
@@ -820,7 +820,7 @@ ffd_status tsv_proxy_build(tsv_lattice *L, const tsv_object *obj, tsv_proxy *pro
     if (st == FFD_OK)
         st = tsv_proxy_sheets(&P, err);
     if (st != FFD_OK) {
-        tsv_proxy_free(&P);
+        ffd_tsv_proxy_free(&P);
         ffd_free(occ);
         return st;
     }
@@ -831,7 +831,7 @@ ffd_status tsv_proxy_build(tsv_lattice *L, const tsv_object *obj, tsv_proxy *pro
         P.inside_cells += out[c] == 0;
     }
     ffd_free(occ);
-    tsv_proxy_free(proxy);
+    ffd_tsv_proxy_free(proxy);
     *proxy = P;
     return FFD_OK;
 }
@@ -840,11 +840,11 @@ ffd_status tsv_proxy_build(tsv_lattice *L, const tsv_object *obj, tsv_proxy *pro
  * ARAP graph arrays (design §6)
  * --------------------------------------------------------------------- */
 
-void tsv_arap_graph_free(tsv_arap_graph *g)
+void ffd_tsv_arap_graph_free(tsv_arap_graph *g)
 {
     if (!g)
         return;
-    /* the arrays are owned by the graph (tsv_arap_graph_build) */
+    /* the arrays are owned by the graph (ffd_tsv_arap_graph_build) */
     ffd_free((void *)g->ref);
     ffd_free((void *)g->edges);
     ffd_free((void *)g->vol);
@@ -879,13 +879,13 @@ static ffd_status tsv_vol_graph(const tsv_lattice *L, const double *ref, uint32_
     size_t n = 0, cap = 0;
     uint32_t *pts = NULL;
     if (!ffd_grow((void **)&keys, &cap, L->ne + 28 * L->nc + 1, sizeof *keys))
-        return ffd_fail(err, FFD_ERR_NOMEM, "tsv_arap_graph_build: out of memory");
+        return ffd_fail(err, FFD_ERR_NOMEM, "ffd_tsv_arap_graph_build: out of memory");
     for (size_t e = 0; e < L->ne; e++) /* cannot fail: capacity reserved */
         (void)tsv_pair_push(&keys, &n, &cap, L->edges[e].v0, L->edges[e].v1);
     for (size_t c = 0; c < L->nc; c++) {
         const tsv_cell *C = &L->cells[c];
         size_t m = 0;
-        ffd_status st = tsv_cell_points(L, (uint32_t)c, &pts, &m, err);
+        ffd_status st = ffd_tsv_cell_points(L, (uint32_t)c, &pts, &m, err);
         if (st != FFD_OK) {
             ffd_free(keys);
             return st;
@@ -915,7 +915,7 @@ static ffd_status tsv_vol_graph(const tsv_lattice *L, const double *ref, uint32_
         pts = NULL;
         if (!ok) {
             ffd_free(keys);
-            return ffd_fail(err, FFD_ERR_NOMEM, "tsv_arap_graph_build: out of memory");
+            return ffd_fail(err, FFD_ERR_NOMEM, "ffd_tsv_arap_graph_build: out of memory");
         }
     }
     /* bucket the pairs by their lower end, then sort each short bucket: each
@@ -929,7 +929,7 @@ static ffd_status tsv_vol_graph(const tsv_lattice *L, const double *ref, uint32_
         ffd_free(start);
         ffd_free(col);
         ffd_free(vol);
-        return ffd_fail(err, FFD_ERR_NOMEM, "tsv_arap_graph_build: out of memory");
+        return ffd_fail(err, FFD_ERR_NOMEM, "ffd_tsv_arap_graph_build: out of memory");
     }
     for (size_t q = 0; q < n; q++)
         start[(keys[q] >> 32) + 1]++;
@@ -971,24 +971,24 @@ static ffd_status tsv_vol_graph(const tsv_lattice *L, const double *ref, uint32_
     return FFD_OK;
 }
 
-ffd_status tsv_arap_graph_build(const tsv_lattice *L, const tsv_proxy *proxy,
+ffd_status ffd_tsv_arap_graph_build(const tsv_lattice *L, const tsv_proxy *proxy,
                                 tsv_arap_graph *g, ffd_error *err)
 {
     if (!L || !proxy || !g)
-        return ffd_fail(err, FFD_ERR_INVALID, "tsv_arap_graph_build: NULL argument");
+        return ffd_fail(err, FFD_ERR_INVALID, "ffd_tsv_arap_graph_build: NULL argument");
     memset(g, 0, sizeof *g);
     const size_t nv = L->nv, ne = L->ne, nfp = proxy->face_count;
     const size_t nidx = nfp ? proxy->face_offsets[nfp] : 0;
     for (size_t f = 0; f < nfp; f++)
         if (proxy->lattice_face[f] >= L->nf)
             return ffd_fail(err, FFD_ERR_INVALID,
-                            "tsv_arap_graph_build: proxy face %zu: lattice face %u: there are "
+                            "ffd_tsv_arap_graph_build: proxy face %zu: lattice face %u: there are "
                             "%zu faces (stale proxy)",
                             f, (unsigned)proxy->lattice_face[f], L->nf);
     for (size_t q = 0; q < nidx; q++)
         if (proxy->face_indices[q] >= nv)
             return ffd_fail(err, FFD_ERR_INVALID,
-                            "tsv_arap_graph_build: proxy point %u: there are %zu lattice points "
+                            "ffd_tsv_arap_graph_build: proxy point %u: there are %zu lattice points "
                             "(stale proxy)",
                             (unsigned)proxy->face_indices[q], nv);
     double *ref = ffd_malloc_array(nv ? nv : 1, 3 * sizeof *ref);
@@ -1005,7 +1005,7 @@ ffd_status tsv_arap_graph_build(const tsv_lattice *L, const tsv_proxy *proxy,
     size_t nvol = 0;
     ffd_status st = FFD_OK;
     if (!ref || !edges || !poff || !pidx || !uv || (sheets && (!ppts || !pctl))) {
-        st = ffd_fail(err, FFD_ERR_NOMEM, "tsv_arap_graph_build: out of memory");
+        st = ffd_fail(err, FFD_ERR_NOMEM, "ffd_tsv_arap_graph_build: out of memory");
         goto fail;
     }
     /* the reference positions p (design §6) */
@@ -1032,8 +1032,8 @@ ffd_status tsv_arap_graph_build(const tsv_lattice *L, const tsv_proxy *proxy,
         for (uint32_t q = b0; q < b1; q++) {
             uint32_t v = proxy->face_indices[q];
             pidx[q] = v;
-            uv[2 * q] = tsv_gamma(L, a, L->verts[v].sg[a]);
-            uv[2 * q + 1] = tsv_gamma(L, b, L->verts[v].sg[b]);
+            uv[2 * q] = ffd_tsv_gamma(L, a, L->verts[v].sg[a]);
+            uv[2 * q + 1] = ffd_tsv_gamma(L, b, L->verts[v].sg[b]);
         }
         for (uint32_t q = b0; q < b1; q++) {
             uint32_t r = q + 1 < b1 ? q + 1 : b0;

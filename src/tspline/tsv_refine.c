@@ -109,7 +109,7 @@ static bool add_piece(closure *Z, const piece *src, double c)
     P->owner = UINT32_MAX;
     P->next = UINT32_MAX;
     double q[3] = {P->p[0][2], P->p[1][2], P->p[2][2]};
-    uint32_t v = tsv_vertex_find(Z->L, q);
+    uint32_t v = ffd_tsv_vertex_find(Z->L, q);
     if (v != UINT32_MAX)
         attach(Z, i, v);
     return true;
@@ -228,14 +228,14 @@ static ffd_status ensure_hit(tsv_lattice *L, uint32_t v, int d, double y, ffd_er
     q[d] = y;
     int dim;
     uint32_t id;
-    tsv_locate(L, q, &dim, &id);
+    ffd_tsv_lattice_locate(L, q, &dim, &id);
     switch (dim) {
     case 1:
-        return L->edges[id].axis == d ? tsv_split_edge(L, id, y, NULL, err) : FFD_OK;
+        return L->edges[id].axis == d ? ffd_tsv_split_edge(L, id, y, NULL, err) : FFD_OK;
     case 2:
-        return L->faces[id].normal != d ? tsv_split_face(L, id, d, y, err) : FFD_OK;
+        return L->faces[id].normal != d ? ffd_tsv_split_face(L, id, d, y, err) : FFD_OK;
     case 3:
-        return tsv_split_cell(L, id, d, y, err);
+        return ffd_tsv_split_cell(L, id, d, y, err);
     case 0:
         return FFD_OK;
     default:
@@ -249,14 +249,14 @@ static ffd_status ensure_vertex(tsv_lattice *L, const double q[3], ffd_error *er
     for (int step = 0; step < 2; step++) {
         int dim;
         uint32_t id;
-        tsv_locate(L, q, &dim, &id);
+        ffd_tsv_lattice_locate(L, q, &dim, &id);
         if (dim == 0)
             return FFD_OK;
         if (dim == 1)
-            return tsv_split_edge(L, id, q[L->edges[id].axis], NULL, err);
+            return ffd_tsv_split_edge(L, id, q[L->edges[id].axis], NULL, err);
         if (dim == 2) {
             int a = L->faces[id].normal == 0 ? 1 : 0;
-            ffd_status st = tsv_split_face(L, id, a, q[a], err);
+            ffd_status st = ffd_tsv_split_face(L, id, a, q[a], err);
             if (st != FFD_OK)
                 return st;
             continue;
@@ -274,7 +274,7 @@ static bool infer_all(closure *Z)
     if (!ffd_grow((void **)&Z->K, &Z->cap_K, L->nv, sizeof *Z->K))
         return false;
     for (size_t v = 0; v < L->nv; v++)
-        tsv_infer_knots(L, (uint32_t)v, Z->K[v]);
+        ffd_tsv_infer_knots(L, (uint32_t)v, Z->K[v]);
     return true;
 }
 
@@ -294,7 +294,7 @@ static ffd_status run_closure(closure *Z, uint64_t guard, ffd_error *err)
                 continue;
             if (P->owner == UINT32_MAX) {
                 double q[3] = {P->p[0][2], P->p[1][2], P->p[2][2]};
-                uint32_t v = tsv_vertex_find(L, q);
+                uint32_t v = ffd_tsv_vertex_find(L, q);
                 if (v == UINT32_MAX)
                     continue; /* still an orphan */
                 attach(Z, (uint32_t)i, v);
@@ -352,7 +352,7 @@ static ffd_status mid_sigma(tsv_lattice *L, int axis, double lo, double hi, doub
                             ffd_error *err)
 {
     double a = tsv_kappa(lo), b = tsv_kappa(hi);
-    return tsv_registry_get(L, axis, a + r * (b - a), x, err);
+    return ffd_tsv_registry_get(L, axis, a + r * (b - a), x, err);
 }
 
 static void face_axes(int normal, int ax[2])
@@ -413,7 +413,7 @@ static ffd_status apply_insertion(tsv_lattice *L, const ffd_tsv_insertion *in, f
             return st;
         if (!(E.lo < x && x < E.hi))
             return FFD_OK; /* snapped onto an end: the point exists */
-        return tsv_split_edge(L, in->id, x, NULL, err);
+        return ffd_tsv_split_edge(L, in->id, x, NULL, err);
     }
     if (in->kind == FFD_TSV_FACE) {
         tsv_face F = L->faces[in->id];
@@ -429,7 +429,7 @@ static ffd_status apply_insertion(tsv_lattice *L, const ffd_tsv_insertion *in, f
                 return st;
             size_t n0 = np;
             for (size_t j = 0; j < n0; j++) {
-                st = tsv_split_face(L, parts[j], ax[i], x, err);
+                st = ffd_tsv_split_face(L, parts[j], ax[i], x, err);
                 if (st != FFD_OK)
                     return st;
                 if (np < 2)
@@ -450,7 +450,7 @@ static ffd_status apply_insertion(tsv_lattice *L, const ffd_tsv_insertion *in, f
             return st;
         size_t n0 = np;
         for (size_t j = 0; j < n0; j++) {
-            st = tsv_split_cell(L, parts[j], a, x, err);
+            st = ffd_tsv_split_cell(L, parts[j], a, x, err);
             if (st != FFD_OK)
                 return st;
             parts[np++] = (uint32_t)(L->nc - 1);
@@ -520,13 +520,13 @@ static ffd_status refine_body(tsv_lattice *L, const ffd_tsv_insertion *ins, size
     return FFD_OK;
 }
 
-ffd_status tsv_refine(tsv_lattice *L, const ffd_tsv_insertion *ins, size_t count,
+ffd_status ffd_tsv_lattice_refine(tsv_lattice *L, const ffd_tsv_insertion *ins, size_t count,
                       tsv_refine_stats *stats, ffd_error *err)
 {
-    return tsv_refine_undoable(L, ins, count, stats, NULL, err);
+    return ffd_tsv_lattice_refine_undoable(L, ins, count, stats, NULL, err);
 }
 
-ffd_status tsv_refine_undoable(tsv_lattice *L, const ffd_tsv_insertion *ins, size_t count,
+ffd_status ffd_tsv_lattice_refine_undoable(tsv_lattice *L, const ffd_tsv_insertion *ins, size_t count,
                                tsv_refine_stats *stats, tsv_lattice **undo, ffd_error *err)
 {
     if (undo)
@@ -549,7 +549,7 @@ ffd_status tsv_refine_undoable(tsv_lattice *L, const ffd_tsv_insertion *ins, siz
     Z.L = L;
     ffd_status st = FFD_OK;
     if (count) {
-        snap = tsv_lattice_clone(L);
+        snap = ffd_tsv_lattice_clone(L);
         old = ffd_malloc_array(nv0 ? 3 * nv0 : 1, sizeof *old);
         if (!snap || !old) {
             st = ffd_fail(err, FFD_ERR_NOMEM, "tsv refine: out of memory");
@@ -559,7 +559,7 @@ ffd_status tsv_refine_undoable(tsv_lattice *L, const ffd_tsv_insertion *ins, siz
             memcpy(old + 3 * v, L->verts[v].P[TSV_CURRENT], 3 * sizeof *old);
         st = refine_body(L, ins, count, &Z, err);
         if (st != FFD_OK) {
-            tsv_lattice_swap_in(L, snap); /* roll back */
+            ffd_tsv_lattice_swap_in(L, snap); /* roll back */
             snap = NULL;
             goto done;
         }
@@ -570,14 +570,14 @@ ffd_status tsv_refine_undoable(tsv_lattice *L, const ffd_tsv_insertion *ins, siz
         for (size_t v = 0; v < nv0 && old; v++)
             if (memcmp(old + 3 * v, L->verts[v].P[TSV_CURRENT], 3 * sizeof *old) != 0)
                 stats->moved_points++;
-        stats->max_weight_deviation = tsv_max_weight_deviation(L);
+        stats->max_weight_deviation = ffd_tsv_lattice_max_weight_deviation(L);
     }
     if (undo) {
         *undo = snap; /* the lattice before the edit, for the caller's roll-back */
         snap = NULL;
     }
 done:
-    tsv_lattice_destroy(snap);
+    ffd_tsv_lattice_destroy(snap);
     ffd_free(old);
     closure_free(&Z);
     return st;
