@@ -9,6 +9,7 @@ import { Gizmo } from './gizmo.js';
 import { DirectManip } from './dm.js';
 import { DragSession } from './drag.js';
 import { Panel, fmtInt, h } from './panel.js';
+import { methodOf, PICK_TOOLS, BUSY } from './methods/index.js';
 
 const $ = (id) => document.getElementById(id);
 
@@ -20,7 +21,7 @@ class Editor {
     this.selection = [];
     this.tool = 'controls';
     this.opts = { wireframe: false, controls: true, rois: true, influence: false, arap: true };
-    this.curvePoints = [];
+    this.sketch = []; // points clicked on the mesh by a sketching pick tool (methods/*.js tools)
     this.meshKey = '';
     this.lastFrameRevision = -1;
     this.frameSeq = 0;
@@ -35,8 +36,8 @@ class Editor {
     this.selector = new Selector(this);
     this.dm = new DirectManip(this);
     this.panel = new Panel(this, $('panel'));
-    this.curveGroup = new THREE.Group();
-    this.vp.overlays.add(this.curveGroup);
+    this.sketchGroup = new THREE.Group();
+    this.vp.overlays.add(this.sketchGroup);
 
     this.bindPointer();
     this.bindKeys();
@@ -210,21 +211,19 @@ class Editor {
 
   selectAll() { this.setSelection([...this.controlsView.visibleIds]); }
 
+  /** The tools: controls, mesh, and the pick tools of the methods (methods/*.js "tools"). */
   setTool(name) {
-    const tools = ['controls', 'mesh', 'curve', 'addpoint', 'refine'];
-    if (!tools.includes(name)) return;
-    if (this.tool === 'curve' && name !== 'curve') this.clearCurve();
+    const pick = PICK_TOOLS[name];
+    if (name !== 'controls' && name !== 'mesh' && !pick) return;
+    if (this.tool !== name && PICK_TOOLS[this.tool] && PICK_TOOLS[this.tool].sketch) this.clearSketch();
     this.tool = name;
     this.container.classList.toggle('tool-mesh', name === 'mesh');
-    this.container.classList.toggle('tool-pick', ['curve', 'addpoint', 'refine'].includes(name));
+    this.container.classList.toggle('tool-pick', !!pick);
     const hints = {
       controls: '',
       mesh: 'Mesh tool: drag a point of the surface · Alt/Ctrl+click pins · P pins under the pointer',
-      curve: 'Draw curve: click points on the mesh · Enter creates · Esc cancels',
-      addpoint: 'Click the mesh to place a point primitive',
-      refine: 'Click the mesh to refine the element there',
     };
-    $('hint').textContent = hints[name];
+    $('hint').textContent = pick ? pick.hint : hints[name];
     this.gizmo.update();
     this.emit('tool');
     this.panel.update();
@@ -267,7 +266,7 @@ class Editor {
     if (this.activeDrag || !this.selection.length) return null;
     const body = { points: [...this.selection], mode };
     body.center = center || this.controlsView.centroid(this.selection).toArray();
-    if (this.state && this.state.method === 'tspline' && !this.opts.arap) body.arap = false;
+    if (this.state) methodOf(this.state.method).dragBody(this, body);
     const s = new DragSession(this, body);
     this.gizmo.session = s;
     this.gizmo.startPos.copy(this.gizmo.pivot.position);
@@ -306,51 +305,37 @@ class Editor {
     return true;
   }
 
-  // --- PB-FFD curve, GFFD point, T-spline refine by clicking ------------------------
+  // --- pick tools: click the mesh (methods/*.js "tools") ---------------------------
 
-  addCurvePoint(p) {
-    this.curvePoints.push(p.clone());
-    this.drawCurve();
+  addSketchPoint(p) {
+    this.sketch.push(p.clone());
+    this.drawSketch();
     this.panel.update();
   }
 
-  drawCurve() {
-    for (const o of [...this.curveGroup.children]) { this.curveGroup.remove(o); o.geometry.dispose(); o.material.dispose(); }
-    if (!this.curvePoints.length) { this.vp.requestRender(); return; }
-    const g = new THREE.BufferGeometry().setFromPoints(this.curvePoints);
+  drawSketch() {
+    for (const o of [...this.sketchGroup.children]) { this.sketchGroup.remove(o); o.geometry.dispose(); o.material.dispose(); }
+    if (!this.sketch.length) { this.vp.requestRender(); return; }
+    const g = new THREE.BufferGeometry().setFromPoints(this.sketch);
     const pts = new THREE.Points(g, new THREE.PointsMaterial({ color: 0xff5fa2, size: 9, sizeAttenuation: false, depthTest: false }));
     const line = new THREE.Line(g.clone(), new THREE.LineBasicMaterial({ color: 0xff5fa2, depthTest: false }));
     pts.renderOrder = line.renderOrder = 25;
-    this.curveGroup.add(line, pts);
+    this.sketchGroup.add(line, pts);
     this.vp.requestRender();
   }
 
-  clearCurve() { this.curvePoints = []; this.drawCurve(); }
+  clearSketch() { this.sketch = []; this.drawSketch(); }
 
-  async finishCurve() {
-    if (this.curvePoints.length < 2) { this.info('A curve needs at least two points.'); return; }
-    const f = this.panel.form.curve;
-    const body = { points: this.curvePoints.map((p) => p.toArray()), radius: f.radius, samples: f.samples };
-    const st = await this.run('curve', body);
-    if (st) { this.clearCurve(); this.setTool('controls'); }
+  /** Enter: the current pick tool's finishing action (a sketched curve is created). */
+  async finishTool() {
+    const pick = PICK_TOOLS[this.tool];
+    if (pick && pick.finish) await pick.finish(this);
   }
 
   async pickAction(ev) {
     const hit = this.vp.pickMesh(ev);
-    if (!hit) return;
-    if (this.tool === 'curve') this.addCurvePoint(hit.point);
-    else if (this.tool === 'addpoint') {
-      const f = this.panel.form.point;
-      const n = hit.normal.clone().normalize();
-      const pos = hit.point.clone().addScaledVector(n, f.offset * this.vp.diag);
-      const st = await this.run('primitive', { add: { type: 'point', position: pos.toArray(), radius: f.radius } });
-      if (st) this.setTool('controls');
-    } else if (this.tool === 'refine') {
-      const f = this.panel.form.refine;
-      const ins = { [f.kind]: { near: hit.restPoint.toArray() } };
-      if (f.kind === 'edge') ins.ratio = f.ratio;
-      await this.run('refine', { insertions: [ins] });
-    }
+    const pick = PICK_TOOLS[this.tool];
+    if (hit && pick) await pick.pick(this, hit);
   }
 
   // --- input -------------------------------------------------------------------------
@@ -369,7 +354,7 @@ class Editor {
         const hit = this.vp.pickMesh(ev);
         if (hit) { consume(); this.dm.pinVertex(hit.vertex); return; }
       }
-      if (['curve', 'addpoint', 'refine'].includes(this.tool)) {
+      if (PICK_TOOLS[this.tool]) {
         const hit = this.vp.pickMesh(ev);
         if (hit) { consume(); this.pickAction(ev); }
         return;
@@ -421,7 +406,7 @@ class Editor {
         case 'h': case 'H': case '?': help.hidden = false; break;
         case 'p': case 'P': this.pinUnderPointer(); break;
         case 'Delete': case 'Backspace': this.unpinKey(); break;
-        case 'Enter': if (this.tool === 'curve') this.finishCurve(); break;
+        case 'Enter': this.finishTool(); break;
         case 'Escape': this.escape(); break;
         default: return;
       }
@@ -494,7 +479,7 @@ class Editor {
     const set = (id, html) => { const e = $(id); if (e.innerHTML !== html) e.innerHTML = html; };
     set('st-method', `Method <b>${s.method || 'none'}</b>`);
     set('st-mesh', m.name ? `${esc(m.name)} <b>${fmtInt(m.vertices)}</b> v · <b>${fmtInt(m.faces)}</b> f` : '');
-    set('st-controls', s.method ? `Controls <b>${fmtInt(c.count)}</b>${c.level !== undefined && s.method === 'pbffd' ? ` · level <b>${c.level}</b>` : ''}` : '');
+    set('st-controls', s.method ? `Controls <b>${fmtInt(c.count)}</b>${methodOf(s.method).status(c)}` : '');
     set('st-sel', `Selected <b>${this.selection.length}</b>`);
     set('st-pins', (s.pins || []).length ? `Pins <b>${s.pins.length}</b>` : '');
     set('st-rev', s.revision !== undefined ? `Rev <b>${s.revision}</b> · undo <b>${s.undo || 0}</b>/${s.redo || 0}` : '');
@@ -538,8 +523,8 @@ function esc(s) { return String(s).replace(/[&<>"]/g, (c) => ({ '&': '&amp;', '<
 function busyText(label) {
   const names = {
     create: 'Creating the deformer…', topology: 'Loading the mesh…', frame: 'Evaluating…', influence: 'Computing influence…',
-    'upload mesh': 'Uploading and binding…', 'upload rig': 'Loading rig…', open: 'Opening mesh…', refine: 'Refining…', curve: 'Binding curve…',
-    primitive: 'Re-binding skeleton…', drag: 'Solving…', drag_begin: 'Preparing drag…',
+    'upload mesh': 'Uploading and binding…', 'upload rig': 'Loading rig…', open: 'Opening mesh…',
+    drag: 'Solving…', drag_begin: 'Preparing drag…', ...BUSY,
   };
   return names[label] || (label && !label.startsWith('/') ? label : 'Working…');
 }
