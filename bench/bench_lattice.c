@@ -172,5 +172,48 @@ int main(int argc, char **argv)
         free(p);
         free(q);
     }
+
+    /* the same 5^3 B-spline through the generic deformer (ffd_deformer): the
+     * lattice's own evaluation against the interface's, on 1M points; and a
+     * drag-like step: move one control, evaluate everything */
+    printf("\n| order | lattice eval ms | ffd_deformer_eval ms | move 1 control + ffd_deformer_eval ms |\n");
+    printf("|---|---:|---:|---:|\n");
+    static const char rig[] =
+        "{\"deformer\": \"lattice\", \"resolution\": [5, 5, 5], \"box\": {\"origin\": [0, 0, 0], "
+        "\"axes\": [[1, 0, 0], [0, 1, 0], [0, 0, 1]]}, \"moves\": [{\"index\": [2, 2, 4], "
+        "\"delta\": [0.05, 0, 0.1]}]}";
+    for (int grid = 0; grid < 2; grid++) {
+        size_t n = 1000000;
+        double *p = malloc(3 * n * sizeof *p), *q = malloc(3 * n * sizeof *q);
+        fill_points(p, n, grid);
+        ffd_mesh *mesh = NULL;
+        ffd_deformer *d = NULL;
+        ffd_error err = {{0}};
+        if (ffd_mesh_create(p, n, NULL, NULL, 0, &mesh, &err)
+            || ffd_deformer_create_json(rig, sizeof rig - 1, "bench", mesh, NULL, &d, &err)) {
+            fprintf(stderr, "bench_lattice: %s\n", err.message);
+            return 1;
+        }
+        ffd_lattice *lat = ffd_deformer_handle(d, "lattice");
+        ffd_lattice_binding *b = NULL;
+        ffd_lattice_bind(lat, p, n, FFD_OUTSIDE_FIXED, &b, NULL);
+        double tl, td, tm;
+        uint32_t id = 62;
+        double delta[3] = {0.001, 0, 0};
+        MEDIAN_OF(reps, tl, ffd_lattice_eval(lat, b, q, NULL));
+        MEDIAN_OF(reps, td, ffd_deformer_eval(d, q, NULL));
+        MEDIAN_OF(reps, tm, {
+            ffd_deformer_move_controls(d, &id, 1, delta, NULL);
+            ffd_deformer_eval(d, q, NULL);
+        });
+        printf("| %s | %.2f | %.2f | %.2f |\n", grid ? "grid" : "random", tl * 1e3, td * 1e3,
+               tm * 1e3);
+        fflush(stdout);
+        ffd_lattice_binding_destroy(b);
+        ffd_deformer_destroy(d);
+        ffd_mesh_destroy(mesh);
+        free(p);
+        free(q);
+    }
     return 0;
 }
