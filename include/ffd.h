@@ -1304,6 +1304,9 @@ const char *ffd_session_name(const ffd_session *s);
  * (unknown op), FFD_ERR_NONFINITE, FFD_ERR_NOMEM. */
 ffd_status ffd_session_command(ffd_session *s, const char *op, const char *body, size_t size,
                                void **reply, size_t *reply_size, int *binary, ffd_error *err);
+/* The names of the operations ffd_session_command knows: the session's own,
+ * then each method's (refine, frame, ...); NULL for i past the end. */
+const char *ffd_session_op_name(size_t i);
 
 /* The state as JSON (mesh, method, parameters, control structure, pins,
  * undo/redo depth, revision): see docs/editor.md. ffd_free the text. */

@@ -23,6 +23,8 @@ typedef struct ffd_method {
     /* The method's deformer from the editor's "create" body. */
     ffd_status (*create)(const sess_ctx *ctx, const cJSON *body, sess_method **out,
                          ffd_error *err);
+    /* The editor operations of the method's own (sess_vtable.op), NULL-terminated. */
+    const char *const *ops;
 } ffd_method;
 
 /* The registered methods, in registry order (i < ffd_method_count()). */
@@ -32,6 +34,8 @@ const ffd_method *ffd_method_at(size_t i);
 const ffd_method *ffd_method_find(const char *name);
 /* The method of a parsed rig (never NULL for a rig the parser made). */
 const ffd_method *ffd_method_of_rig(const ffd_rig *rig);
+/* 1 when op is one of some registered method's own editor operations. */
+int ffd_method_op_known(const char *op);
 /* Writes "\"lattice\", \"pbffd\", \"gffd\" or \"tspline\"" (the names, for
  * messages) into buf (truncated to size); returns buf. */
 const char *ffd_method_names(char *buf, size_t size);

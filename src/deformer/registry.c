@@ -37,6 +37,15 @@ const ffd_method *ffd_method_of_rig(const ffd_rig *rig)
     return NULL;
 }
 
+int ffd_method_op_known(const char *op)
+{
+    for (size_t i = 0; op && i < ffd_method_count(); i++)
+        for (const char *const *o = registry[i]->ops; o && *o; o++)
+            if (!strcmp(*o, op))
+                return 1;
+    return 0;
+}
+
 const char *ffd_method_names(char *buf, size_t size)
 {
     size_t used = 0, count = ffd_method_count();

@@ -3,10 +3,13 @@
  * from the editor's "create" body. */
 #include "deformer/method.h"
 
+static const char *const gffd_ops[] = {"primitive", NULL};
+
 const ffd_method ffd_method_gffd = {
     .name = "gffd",
     .id = FFD_RIG_GFFD,
     .apply = ffd_rig_apply_gffd,
     .load = ffd_sess_gffd_load,
     .create = ffd_sess_gffd_create,
+    .ops = gffd_ops,
 };

@@ -3,10 +3,13 @@
  * from the editor's "create" body. */
 #include "deformer/method.h"
 
+static const char *const pbffd_ops[] = {"level", "frame", "curve", NULL};
+
 const ffd_method ffd_method_pbffd = {
     .name = "pbffd",
     .id = FFD_RIG_PBFFD,
     .apply = ffd_rig_apply_pbffd,
     .load = ffd_sess_pbffd_load,
     .create = ffd_sess_pbffd_create,
+    .ops = pbffd_ops,
 };

@@ -1019,8 +1019,7 @@ ffd_status ffd_session_command(ffd_session *s, const char *op, const char *body,
         cJSON_Delete(doc);
         *binary = !st;
         return st;
-    } else if (!strcmp(op, "refine") || !strcmp(op, "freeze") || !strcmp(op, "level") ||
-               !strcmp(op, "frame") || !strcmp(op, "curve") || !strcmp(op, "primitive"))
+    } else if (ffd_method_op_known(op))
         st = op_method(s, op, doc, err);
     else
         st = ffd_fail(err, FFD_ERR_UNSUPPORTED, "%s: unknown operation", op);
@@ -1033,6 +1032,24 @@ ffd_status ffd_session_command(ffd_session *s, const char *op, const char *body,
         return ffd_session_frame(s, reply, reply_size, err);
     }
     return reply_state(s, reply, reply_size, err);
+}
+
+/* The operations every session knows (ffd_session_command), before the methods' own. */
+static const char *const session_ops[] = {"create", "drag_begin", "drag",  "drag_end", "drag_cancel",
+                                          "move",   "pin",        "unpin", "influence", "reset",
+                                          "undo",   "redo"};
+
+const char *ffd_session_op_name(size_t i)
+{
+    size_t fixed = sizeof session_ops / sizeof *session_ops;
+    if (i < fixed)
+        return session_ops[i];
+    i -= fixed;
+    for (size_t m = 0; m < ffd_method_count(); m++)
+        for (const char *const *o = ffd_method_at(m)->ops; o && *o; o++)
+            if (i-- == 0)
+                return *o;
+    return NULL;
 }
 
 /* ---------- views ---------- */

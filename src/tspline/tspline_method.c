@@ -3,10 +3,13 @@
  * from the editor's "create" body. */
 #include "deformer/method.h"
 
+static const char *const tspline_ops[] = {"refine", "freeze", NULL};
+
 const ffd_method ffd_method_tspline = {
     .name = "tspline",
     .id = FFD_RIG_TSPLINE,
     .apply = ffd_rig_apply_tspline,
     .load = ffd_sess_tspline_load,
     .create = ffd_sess_tspline_create,
+    .ops = tspline_ops,
 };

@@ -102,7 +102,7 @@ static const struct api_route {
     const char *allow;
 } api_routes[] = {
     {"/api/state", ROUTE_STATE, ROUTE_NONE, "GET, HEAD"},
-    {"/api/frame", ROUTE_FRAME, ROUTE_OP, "GET, HEAD, POST"}, /* POST: PB-FFD's "frame" op */
+    {"/api/frame", ROUTE_FRAME, ROUTE_OP, "GET, HEAD, POST"}, /* POST: a method's "frame" op */
     {"/api/topology", ROUTE_TOPOLOGY, ROUTE_NONE, "GET, HEAD"},
     {"/api/rig", ROUTE_RIG, ROUTE_NONE, "GET, HEAD"},
     {"/api/export", ROUTE_EXPORT, ROUTE_NONE, "GET, HEAD"},
@@ -114,12 +114,6 @@ static const struct api_route {
     {"/api/rig/save", ROUTE_NONE, ROUTE_RIG_SAVE, "POST"},
     {"/api/export/save", ROUTE_NONE, ROUTE_EXPORT_SAVE, "POST"},
 };
-
-/* The session's ops (docs/editor.md): a GET of one is a 405, of another name a 404. */
-static const char *const known_ops[] = {
-    "create", "drag_begin", "drag",  "drag_end", "drag_cancel", "move",      "pin",
-    "unpin",  "influence",  "refine", "freeze",  "level",       "curve",     "primitive",
-    "reset",  "undo",       "redo"};
 
 /* ======================================================================
  * Replies
@@ -1154,8 +1148,9 @@ static unsigned classify(request *r, int get, int post, const char **allow)
     }
     if (!get)
         return MHD_HTTP_METHOD_NOT_ALLOWED;
-    for (size_t i = 0; i < sizeof known_ops / sizeof *known_ops; i++)
-        if (strcmp(op, known_ops[i]) == 0)
+    /* the session's ops (docs/editor.md): a GET of one is a 405, of another name a 404 */
+    for (size_t i = 0; ffd_session_op_name(i); i++)
+        if (strcmp(op, ffd_session_op_name(i)) == 0)
             return MHD_HTTP_METHOD_NOT_ALLOWED;
     return MHD_HTTP_NOT_FOUND;
 }
