@@ -610,7 +610,10 @@ static ffd_status tsv_map_points(sess_method *m, const sess_binding *b, ffd_line
                                  ffd_error *err)
 {
     ffd_status st = tsv_points_current(m, b, "linear map", err);
-    return st ? st : ffd_tsv_points_map(as_tsv(m)->t, b->p, map, err);
+    ffd_error inner = {{0}};
+    if (!st && (st = ffd_tsv_points_map(as_tsv(m)->t, b->p, map, &inner)))
+        st = ffd_fail(err, st, "linear map: %s", inner.message);
+    return st;
 }
 
 static void *tsv_handle(sess_method *m)
