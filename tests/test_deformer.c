@@ -12,6 +12,7 @@
 #include <cjson/cJSON.h>
 
 #define EX FFD_SOURCE_DIR "/examples/"
+#define DATA FFD_SOURCE_DIR "/tests/data/deformer/"
 
 typedef struct rig_case {
     const char *method;
@@ -28,6 +29,15 @@ static const rig_case cases[] = {
     {"gffd", EX "gffd/trunk.obj", EX "gffd/bend.json"},
     {"gffd", EX "gffd/head.off", EX "gffd/twist.json"},
     {"tspline", EX "tspline/bunny.obj", EX "tspline/bunny-ears.json"},
+    /* GFFD on the meshes the example rigs are for (trunk.obj and head.off
+     * are skeleton files), without adaptive resampling, which adds vertices
+     * (a deformer binds a fixed point set): warp tracking (a vertex edit; a
+     * rotation of two primitives), and gradient tracking (two primitives) */
+    {"gffd", EX "gffd/elephant.off", DATA "gffd-bend.json"},
+    {"gffd", EX "gffd/bunny.obj", DATA "gffd-twist.json"},
+    {"gffd", EX "gffd/elephant.off", DATA "gffd-gradient.json"},
+    /* the T-spline on the cow, refined then dragged */
+    {"tspline", EX "tspline/cow.off", EX "tspline/cow-head.json"},
 };
 #define CASE_COUNT (sizeof cases / sizeof *cases)
 

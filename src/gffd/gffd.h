@@ -315,4 +315,19 @@ ffd_status ffd_gffd_track_points(const ffd_gffd_tracker *t, const double *points
                                  const double *e0, const double *weight, size_t n, double *out,
                                  ffd_gffd_track_report *report, ffd_error *err);
 
+/* ---- any point set (gffd_deformer.c; ffd_deformer_bind) ---------------- */
+
+/* What binding records for each of n points (§3), as ffd_gffd_create does
+ * for its own: e_0 = E(P) in g's rest field and the blend weight of the
+ * influence band (both n). Depends on the rest skeleton only. */
+void ffd_gffd_bind_values(const ffd_gffd *g, const double *points, size_t n, double *e0,
+                          double *weight);
+/* Tracks n points with values e0 and blend weights weight into out (n by 3)
+ * against g's current skeleton, exactly as ffd_gffd_track tracks g's own
+ * points (the same warp, rigid-motion shortcut and options); report may be
+ * NULL. */
+ffd_status ffd_gffd_track_with(const ffd_gffd *g, const double *points, const double *e0,
+                               const double *weight, size_t n, double *out,
+                               ffd_gffd_track_report *report, ffd_error *err);
+
 #endif

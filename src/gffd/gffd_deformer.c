@@ -162,12 +162,7 @@ ffd_status ffd_gffd_create(const ffd_gffd_primitive *skeleton, size_t count, con
 
     /* bind (§3): e_0 = E(P) in the rest field, and the blend weight of the
      * influence band */
-    long long count_ll = (long long)n;
-    const ffd_gffd_skeleton *rest = g->rest;
-    double *weight = g->weight;
-#pragma omp parallel for schedule(static)
-    for (long long i = 0; i < count_ll; i++)
-        g->e0[i] = ffd_gffd_skeleton_field_weight(rest, points + 3 * i, &weight[i]);
+    ffd_gffd_bind_values(g, points, n, g->e0, g->weight);
     for (size_t i = 0; i < n; i++)
         g->influenced += g->e0[i] > 0;
     *out = g;
@@ -493,4 +488,15 @@ ffd_status ffd_gffd_field(const ffd_gffd *g, int current, const double *points, 
     for (size_t i = 0; i < n; i++)
         values[i] = ffd_gffd_skeleton_field(s, points + 3 * i, gradients ? gradients + 3 * i : NULL);
     return FFD_OK;
+}
+
+void ffd_gffd_bind_values(const ffd_gffd *g, const double *points, size_t n, double *e0,
+                          double *weight)
+{
+    /* one loop for ffd_gffd_create's points and any others */
+    long long count_ll = (long long)n;
+    const ffd_gffd_skeleton *rest = g->rest;
+#pragma omp parallel for schedule(static)
+    for (long long i = 0; i < count_ll; i++)
+        e0[i] = ffd_gffd_skeleton_field_weight(rest, points + 3 * i, &weight[i]);
 }

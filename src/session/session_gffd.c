@@ -1080,6 +1080,14 @@ static ffd_status gf_op(sess_method *base, const char *op, const cJSON *body, in
     return op_primitive(m, body, undo, err);
 }
 
+/* Any point set (ffd_deformer_bind), at the end of this file. */
+static ffd_status gf_bind_points(sess_method *base, const double *points, size_t n,
+                                 sess_binding **out, ffd_error *err);
+static void gf_binding_free(sess_binding *b);
+static ffd_status gf_eval_points(sess_method *base, const sess_binding *b, double *out,
+                                 ffd_error *err);
+static void *gf_handle(sess_method *base);
+
 static const sess_vtable gffd_vtable = {
     .name = "gffd",
     .destroy = gf_destroy,
@@ -1100,4 +1108,78 @@ static const sess_vtable gffd_vtable = {
     .rig = gf_rig,
     .influence = gf_influence,
     .op = gf_op,
+    .bind = gf_bind_points,
+    .binding_free = gf_binding_free,
+    .eval_points = gf_eval_points,
+    .jacobian_points = NULL, /* tracking has no derivative to give (docs/gffd.md) */
+    .map_points = NULL,      /* GFFD is not linear in its skeleton */
+    .handle = gf_handle,
 };
+
+/* ---- any point set (ffd_deformer_bind) ------------------------------- */
+
+/* The binding keeps the points only: what binding records (§3: e_0 in the
+ * rest field, the band's weight) depends on the rest skeleton, which a
+ * primitive edit replaces (a new ffd_gffd), so it is derived again at each
+ * evaluation, in the loop ffd_gffd_create runs for the mesh (cheap next to
+ * tracking), and the points are tracked against the current skeleton as
+ * the mesh's vertices are (ffd_gffd_track_with). */
+struct sess_binding {
+    size_t n;
+    double *points; /* n by 3 */
+};
+
+static void gf_binding_free(sess_binding *b)
+{
+    if (!b)
+        return;
+    ffd_free(b->points);
+    ffd_free(b);
+}
+
+static ffd_status gf_bind_points(sess_method *base, const double *points, size_t n,
+                                 sess_binding **out, ffd_error *err)
+{
+    (void)base;
+    *out = NULL;
+    sess_binding *b = ffd_calloc(1, sizeof *b);
+    if (b)
+        b->points = ffd_malloc_array(n ? n : 1, 3 * sizeof *b->points);
+    if (!b || !b->points) {
+        gf_binding_free(b);
+        return ffd_fail(err, FFD_ERR_NOMEM, "bind: out of memory for %zu points", n);
+    }
+    if (n)
+        memcpy(b->points, points, n * 3 * sizeof *b->points);
+    b->n = n;
+    *out = b;
+    return FFD_OK;
+}
+
+static ffd_status gf_eval_points(sess_method *base, const sess_binding *b, double *out,
+                                 ffd_error *err)
+{
+    gf_method *m = (gf_method *)base;
+    ffd_status s = m->synced ? FFD_OK : replay_skeleton(m, err);
+    if (s)
+        return s;
+    double *e0 = ffd_malloc_array(b->n ? b->n : 1, sizeof *e0);
+    double *weight = ffd_malloc_array(b->n ? b->n : 1, sizeof *weight);
+    if (!e0 || !weight) {
+        s = ffd_fail(err, FFD_ERR_NOMEM, "eval: out of memory for %zu points", b->n);
+    } else {
+        ffd_error inner = {{0}};
+        ffd_gffd_bind_values(m->g, b->points, b->n, e0, weight);
+        /* tracking (Fig. 5), as gf_eval's */
+        if ((s = ffd_gffd_track_with(m->g, b->points, e0, weight, b->n, out, NULL, &inner)))
+            s = ffd_fail(err, s, "tracking: %s", inner.message);
+    }
+    ffd_free(e0);
+    ffd_free(weight);
+    return s;
+}
+
+static void *gf_handle(sess_method *base)
+{
+    return ((gf_method *)base)->g;
+}

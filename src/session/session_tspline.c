@@ -6,6 +6,7 @@
  * "move" step putting every displaced point where it is (refinement is
  * exact, so refining first and moving afterwards gives the same map). */
 #include "session/session.h"
+#include "tspline/tsv.h"
 
 #include <stdio.h>
 #include <string.h>
@@ -410,6 +411,18 @@ static ffd_status tsv_op(sess_method *m, const char *op, const cJSON *body, int 
     return ffd_fail(err, FFD_ERR_UNSUPPORTED, "%s: not a T-spline operation", op);
 }
 
+/* Any point set (ffd_deformer_bind), at the end of this file. */
+static ffd_status tsv_bind_points(sess_method *m, const double *points, size_t n,
+                                  sess_binding **out, ffd_error *err);
+static void tsv_binding_free(sess_binding *b);
+static ffd_status tsv_eval_points(sess_method *m, const sess_binding *b, double *out,
+                                  ffd_error *err);
+static ffd_status tsv_jacobian_points(sess_method *m, const sess_binding *b, double *out,
+                                      ffd_error *err);
+static ffd_status tsv_map_points(sess_method *m, const sess_binding *b, ffd_linear_map *map,
+                                 ffd_error *err);
+static void *tsv_handle(sess_method *m);
+
 static const sess_vtable tspline_vtable = {
     .name = "tspline",
     .destroy = tsv_destroy_method,
@@ -429,6 +442,12 @@ static const sess_vtable tspline_vtable = {
     .rig = tsv_rig,
     .influence = tsv_influence,
     .op = tsv_op,
+    .bind = tsv_bind_points,
+    .binding_free = tsv_binding_free,
+    .eval_points = tsv_eval_points,
+    .jacobian_points = tsv_jacobian_points,
+    .map_points = tsv_map_points,
+    .handle = tsv_handle,
 };
 
 static ffd_status tspline_build(const sess_ctx *ctx, const uint32_t res[3], double padding,
@@ -515,4 +534,89 @@ ffd_status ffd_sess_tspline_load(const sess_ctx *ctx, const ffd_rig *rig, sess_m
     }
     *out = &t->base;
     return FFD_OK;
+}
+
+/* ---- any point set (ffd_deformer_bind) ------------------------------- */
+
+/* The points' parameters in the T-lattice's box and their rows of Phi
+ * (tsv_points), evaluated in displacement form like the mesh's vertices.
+ * A refinement (op "refine", or ffd_tsv_refine through the handle) changes
+ * the lattice: Phi is rebuilt at the next evaluation (the lattice's version
+ * says when); control edits, reset and restore only move control points,
+ * which the evaluation reads. The cache sits behind a pointer because
+ * evaluation gets the binding const. */
+struct sess_binding {
+    tsv_points *p;
+};
+
+static void tsv_binding_free(sess_binding *b)
+{
+    if (!b)
+        return;
+    ffd_tsv_points_free(b->p);
+    ffd_free(b->p);
+    ffd_free(b);
+}
+
+static ffd_status tsv_bind_points(sess_method *m, const double *points, size_t n,
+                                  sess_binding **out, ffd_error *err)
+{
+    *out = NULL;
+    sess_binding *b = ffd_calloc(1, sizeof *b);
+    if (b)
+        b->p = ffd_calloc(1, sizeof *b->p);
+    if (!b || !b->p) {
+        ffd_free(b);
+        return ffd_fail(err, FFD_ERR_NOMEM, "bind: out of memory for %zu points", n);
+    }
+    ffd_error inner = {{0}};
+    ffd_status st = ffd_tsv_points_bind(as_tsv(m)->t, points, n, b->p, &inner);
+    if (st) {
+        tsv_binding_free(b);
+        return ffd_fail(err, st, "bind: %s", inner.message);
+    }
+    *out = b;
+    return FFD_OK;
+}
+
+/* Phi for the current lattice (rebuilt after a refinement). */
+static ffd_status tsv_points_current(sess_method *m, const sess_binding *b, const char *what,
+                                     ffd_error *err)
+{
+    ffd_error inner = {{0}};
+    ffd_status st = ffd_tsv_points_update(as_tsv(m)->t, b->p, &inner);
+    return st ? ffd_fail(err, st, "%s: %s", what, inner.message) : FFD_OK;
+}
+
+static ffd_status tsv_eval_points(sess_method *m, const sess_binding *b, double *out,
+                                  ffd_error *err)
+{
+    ffd_status st = tsv_points_current(m, b, "eval", err);
+    if (!st)
+        ffd_tsv_points_eval(as_tsv(m)->t, b->p, out);
+    return st;
+}
+
+static ffd_status tsv_jacobian_points(sess_method *m, const sess_binding *b, double *out,
+                                      ffd_error *err)
+{
+    ffd_status st = tsv_points_current(m, b, "jacobian", err);
+    if (!st)
+        ffd_tsv_points_jacobian(as_tsv(m)->t, b->p, out);
+    return st;
+}
+
+static ffd_status tsv_map_points(sess_method *m, const sess_binding *b, ffd_linear_map *map,
+                                 ffd_error *err)
+{
+    ffd_status st = tsv_points_current(m, b, "linear map", err);
+    ffd_error inner = {{0}};
+    if (!st && (st = ffd_tsv_points_map(as_tsv(m)->t, b->p, map, &inner)))
+        st = ffd_fail(err, st, "linear map: %s", inner.message);
+    return st;
+}
+
+static void *tsv_handle(sess_method *m)
+{
+    return as_tsv(m)->t;
 }

@@ -331,4 +331,43 @@ struct ffd_tsv {
     uint64_t frozen_version;      /* bumped when the frozen set changes */
 };
 
+/* ---------------------------------------------------------------------
+ * tsv_deformer.c — any point set (ffd_deformer_bind)
+ * --------------------------------------------------------------------- */
+
+/* Points bound to a T-spline volume besides its own: their parameters in
+ * the lattice's box (the linear parameterisation of §3.2, clamped to
+ * [0,1]^3 as the object's are) and their rows of Phi for the lattice
+ * topology at `version`: a refinement (which bumps L->version) makes Phi
+ * stale and ffd_tsv_points_update rebuilds it. The box never changes, so
+ * the parameters stay. */
+typedef struct tsv_points {
+    size_t n;
+    double *points;   /* n by 3, as bound */
+    double *params;   /* n by 3 */
+    tsv_phi phi;      /* n rows over the lattice at version */
+    uint64_t version;
+    int has_phi;
+    uint32_t *tie;    /* the identity over the columns, for the linear map */
+    size_t tie_count;
+} tsv_points;
+
+/* Binds n points (finite) to t's lattice; out is filled (free it with
+ * ffd_tsv_points_free, also after an error). FFD_ERR_NOMEM. */
+ffd_status ffd_tsv_points_bind(const ffd_tsv *t, const double *points, size_t n, tsv_points *out,
+                               ffd_error *err);
+void ffd_tsv_points_free(tsv_points *p);
+/* Rebuilds p's Phi when t's lattice changed since it was built. FFD_ERR_NOMEM
+ * (p unchanged). */
+ffd_status ffd_tsv_points_update(const ffd_tsv *t, tsv_points *p, ffd_error *err);
+/* After ffd_tsv_points_update: the deformed points (n by 3), as ffd_tsv_eval
+ * gives the object's; their Jacobians d(x')/d(x) (n by 9, row-major), as
+ * ffd_tsv_jacobian's; and the linear map of the points over every control
+ * point (the tie is the identity: no control is fixed), which borrows p
+ * until its next update or free. */
+void ffd_tsv_points_eval(const ffd_tsv *t, const tsv_points *p, double *out);
+void ffd_tsv_points_jacobian(const ffd_tsv *t, const tsv_points *p, double *out);
+ffd_status ffd_tsv_points_map(const ffd_tsv *t, tsv_points *p, ffd_linear_map *map,
+                              ffd_error *err);
+
 #endif

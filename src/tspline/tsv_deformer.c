@@ -1005,3 +1005,121 @@ ffd_status ffd_tsv_check_folds(const ffd_tsv *t, uint32_t samples, ffd_tsv_fold_
     ffd_free(inv);
     return FFD_OK;
 }
+
+/* --- any point set (ffd_deformer_bind) --- */
+
+void ffd_tsv_points_free(tsv_points *p)
+{
+    if (!p)
+        return;
+    ffd_free(p->points);
+    ffd_free(p->params);
+    ffd_tsv_phi_free(&p->phi);
+    ffd_free(p->tie);
+    memset(p, 0, sizeof *p);
+}
+
+ffd_status ffd_tsv_points_bind(const ffd_tsv *t, const double *points, size_t n, tsv_points *out,
+                               ffd_error *err)
+{
+    memset(out, 0, sizeof *out);
+    out->points = ffd_malloc_array(n ? n : 1, 3 * sizeof(double));
+    out->params = ffd_malloc_array(n ? n : 1, 3 * sizeof(double));
+    if (!out->points || !out->params)
+        return ffd_fail(err, FFD_ERR_NOMEM, "out of memory binding %zu points", n);
+    out->n = n;
+    if (n)
+        memcpy(out->points, points, n * 3 * sizeof(double));
+    /* the linear parameterisation of §3.2, as ffd_tsv_create gives the object's */
+    const tsv_lattice *L = t->L;
+    for (size_t i = 0; i < n; i++)
+        for (int a = 0; a < 3; a++) {
+            double s = (points[3 * i + a] - L->box_min[a]) / (L->box_max[a] - L->box_min[a]);
+            out->params[3 * i + a] = s < 0 ? 0 : (s > 1 ? 1 : s);
+        }
+    return ffd_tsv_points_update(t, out, err);
+}
+
+ffd_status ffd_tsv_points_update(const ffd_tsv *t, tsv_points *p, ffd_error *err)
+{
+    /* the version only grows with committed topology (a refinement that
+     * fails is rolled back with its version), so equal means the same lattice */
+    if (p->has_phi && p->version == t->L->version)
+        return FFD_OK;
+    tsv_phi phi;
+    ffd_status st = ffd_tsv_phi_build(t->L, t->S, p->params, p->n, &phi, err);
+    if (st != FFD_OK)
+        return st;
+    ffd_tsv_phi_free(&p->phi);
+    p->phi = phi;
+    p->version = t->L->version;
+    p->has_phi = 1;
+    return FFD_OK;
+}
+
+void ffd_tsv_points_eval(const ffd_tsv *t, const tsv_points *p, double *out)
+{
+    ffd_tsv_phi_apply_displacement(&p->phi, t->L, p->points, out);
+}
+
+void ffd_tsv_points_jacobian(const ffd_tsv *t, const tsv_points *p, double *out)
+{
+    const tsv_lattice *L = t->L;
+    long long n = (long long)p->n;
+#pragma omp parallel for schedule(static)
+    for (long long i = 0; i < n; i++) {
+        /* ffd_tsv_jacobian's formula: I + dD/d(s,t,u) diag(1/extent) */
+        double d[3], *J = out + 9 * i;
+        ffd_tsv_eval_displacement(L, t->S, p->params + 3 * i, d, J);
+        world_jacobian(L, J);
+        /* outside the box a parameter is clamped: the displacement does
+         * not change along that axis there */
+        for (int a = 0; a < 3; a++) {
+            double x = p->points[3 * i + a];
+            if (x < L->box_min[a] || x > L->box_max[a])
+                J[a] = J[3 + a] = J[6 + a] = 0.0;
+        }
+        J[0] += 1.0;
+        J[4] += 1.0;
+        J[8] += 1.0;
+    }
+}
+
+static size_t points_row(const void *self, size_t i, uint32_t *columns, double *weights)
+{
+    const tsv_points *p = self;
+    size_t a = p->phi.rowptr[i], b = p->phi.rowptr[i + 1];
+    memcpy(columns, p->phi.col + a, (b - a) * sizeof(uint32_t));
+    memcpy(weights, p->phi.val + a, (b - a) * sizeof(double));
+    return b - a;
+}
+
+ffd_status ffd_tsv_points_map(const ffd_tsv *t, tsv_points *p, ffd_linear_map *map,
+                              ffd_error *err)
+{
+    size_t nv = t->L->nv;
+    if (p->tie_count != nv) {
+        uint32_t *tie = ffd_realloc_array(p->tie, nv ? nv : 1, sizeof(uint32_t));
+        if (!tie)
+            return ffd_fail(err, FFD_ERR_NOMEM, "out of memory for %zu control points", nv);
+        for (size_t v = 0; v < nv; v++)
+            tie[v] = (uint32_t)v;
+        p->tie = tie;
+        p->tie_count = nv;
+    }
+    size_t max_nnz = 0;
+    for (size_t i = 0; i < p->phi.rows; i++) {
+        size_t k = p->phi.rowptr[i + 1] - p->phi.rowptr[i];
+        if (k > max_nnz)
+            max_nnz = k;
+    }
+    memset(map, 0, sizeof *map);
+    map->self = p;
+    map->point_count = p->n;
+    map->column_count = nv;
+    map->variable_count = nv;
+    map->max_row_nnz = max_nnz ? max_nnz : 1;
+    map->tie = p->tie;
+    map->row = points_row;
+    return FFD_OK;
+}
