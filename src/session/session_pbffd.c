@@ -1468,7 +1468,10 @@ static ffd_status pb_jacobian_points(sess_method *base, const sess_binding *b, d
  * the shown level's controls, which are the control ids. A curve's samples
  * follow a Catmull-Rom spline of its points with rotation-minimising frames,
  * and its kernels re-parameterise their input: with a curve the bound points
- * are not linear in the controls. */
+ * are not linear in the controls. Nor are they when a frame of a coarser
+ * level was edited: a moved control is re-parameterised in the coarser level
+ * at its new position (§3.4), where the frame's change reaches it through
+ * its D row (eq. 10), which depends on that position. */
 static ffd_status pb_map_points(sess_method *base, const sess_binding *b, ffd_linear_map *map,
                                 ffd_error *err)
 {
@@ -1480,6 +1483,13 @@ static ffd_status pb_map_points(sess_method *base, const sess_binding *b, ffd_li
                         "kernels act on the deformed points: the points are not linear in the "
                         "controls",
                         m->curve_count);
+    for (size_t i = 0; i < m->frame_count; i++)
+        if (m->frames[i].level > m->level)
+            return ffd_fail(err, FFD_ERR_UNSUPPORTED,
+                            "linear map: frames[%zu] edits control %u of level %u, coarser than "
+                            "the shown level %zu: a moved control is re-parameterised there at "
+                            "its new position, so the points are not linear in the controls",
+                            i, m->frames[i].index, m->frames[i].level, m->level);
     pb_map_cache *c = b->cache;
     map_cache_clear(c);
     const ffd_pb_points *use;
