@@ -38,6 +38,15 @@ static const rig_case cases[] = {
     {"gffd", EX "gffd/elephant.off", DATA "gffd-gradient.json"},
     /* the T-spline on the cow, refined then dragged */
     {"tspline", EX "tspline/cow.off", EX "tspline/cow-head.json"},
+    /* method-specific: lattice outside policies (an oblique box holding part
+     * of the mesh), PB-FFD frames at the finest level, a frame at a coarser
+     * level and a curve (§3.5; those two have no linear map) */
+    {"lattice", EX "lattice/bunny.obj", FFD_SOURCE_DIR "/tests/data/deformer/bunny-clamp.json"},
+    {"lattice", EX "lattice/bunny.obj",
+     FFD_SOURCE_DIR "/tests/data/deformer/bunny-extrapolate.json"},
+    {"pbffd", EX "pbffd/cow.off", FFD_SOURCE_DIR "/tests/data/deformer/cow-frames.json"},
+    {"pbffd", EX "pbffd/cow.off", FFD_SOURCE_DIR "/tests/data/deformer/cow-coarse-frame.json"},
+    {"pbffd", EX "pbffd/elephant.off", EX "pbffd/elephant-trunk.json"},
 };
 #define CASE_COUNT (sizeof cases / sizeof *cases)
 

@@ -1721,6 +1721,47 @@ static void test_failing_allocations(void)
     free(c);
 }
 
+/* The public deformer over PB-FFD (ffd_deformer_bind): points bound after
+ * creation follow an edit of a disabled control made through the handle
+ * (remove renumbers the columns: the rows are made again), and a rebasing
+ * edit is refused for them (they cannot be bound as vertices would have been). */
+static void test_deformer_points_after_edits(void)
+{
+    static const char rig[] =
+        "{\"version\": 1, \"deformer\": \"pbffd\", \"controls\": ["
+        "{\"center\": [0.5, 0.5, 0.5], \"radius\": 0.8, \"enabled\": false},"
+        "{\"center\": [0.2, 0.3, 0.4], \"radius\": 0.9},"
+        "{\"center\": [0.8, 0.7, 0.5], \"radius\": 0.9},"
+        "{\"center\": [0.5, 0.2, 0.8], \"radius\": 0.9}]}";
+    ffd_mesh *mesh = NULL;
+    ffd_deformer *d = NULL;
+    ffd_error err = {{0}};
+    CHECK_OK(ffd_mesh_read(FFD_SOURCE_DIR "/tests/data/rig/cube.obj", &mesh, &err));
+    CHECK_OK(ffd_deformer_create_json(rig, sizeof rig - 1, "rig.json", mesh, NULL, &d, &err));
+    if (!d) {
+        ffd_mesh_destroy(mesh);
+        return;
+    }
+    double *p = random_points(20, 0.05, 0.95), a[60], b[60];
+    uint32_t id = 2;
+    double delta[3] = {0.1, -0.05, 0.2};
+    CHECK_OK(ffd_deformer_move_controls(d, &id, 1, delta, &err));
+    CHECK_OK(ffd_deformer_bind(d, p, 20, &err));
+    CHECK_OK(ffd_deformer_eval(d, a, &err));
+    ffd_pbffd *pb = ffd_deformer_handle(d, "pbffd");
+    CHECK(pb != NULL);
+    CHECK_OK(ffd_pbffd_remove(pb, 0, &err)); /* disabled: no rebase, columns shift */
+    CHECK_OK(ffd_deformer_eval(d, b, &err));
+    CHECK(memcmp(a, b, sizeof a) == 0);
+    CHECK_OK(ffd_pbffd_set_enabled(pb, 0, 0, &err)); /* rebases */
+    CHECK(ffd_deformer_eval(d, b, &err) == FFD_ERR_UNSUPPORTED);
+    CHECK(strstr(err.message, "edited in a deformed state") != NULL);
+    CHECK(ffd_deformer_bind(d, p, 20, &err) == FFD_ERR_UNSUPPORTED);
+    free(p);
+    ffd_deformer_destroy(d);
+    ffd_mesh_destroy(mesh);
+}
+
 int main(int argc, char **argv)
 {
     static const check_test tests[] = {
@@ -1749,6 +1790,7 @@ int main(int argc, char **argv)
         {"curve", test_curve},
         {"curve_bend_continuous", test_curve_bend_continuous},
         {"bad_input", test_bad_input},
+        {"deformer_points_after_edits", test_deformer_points_after_edits},
         {"failing_allocations", test_failing_allocations},
     };
     return check_run(tests, sizeof tests / sizeof tests[0], argc, argv);

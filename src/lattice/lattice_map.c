@@ -30,8 +30,17 @@ ffd_status ffd_lattice_jacobian(const ffd_lattice *lat, const ffd_lattice_bindin
         }
         double S[3], g[3];
         memcpy(S, bind->params + 3 * i, sizeof S);
+        /* an outside point clamped (CLAMP, or EXTRAPOLATE on the B-spline) has
+         * its parameters held at the boundary along the clamped axes: the
+         * deformation does not vary along them (dS/d(local) = 0) */
+        const int clamped = !bind->inside[i] && (bspline || bind->outside == FFD_OUTSIDE_CLAMP);
         for (int c = 0; c < 3; c++) {
             g[c] = 1.0; /* dS/d(local) */
+            const double top = bspline ? (double)lat->res[c] + 1.0 : 1.0;
+            if (clamped && (S[c] <= 0.0 || S[c] >= top)) {
+                g[c] = 0.0;
+                continue;
+            }
             if (bspline) {
                 double hi = (double)lat->res[c] + 1.0;
                 if (S[c] < JACOBIAN_NUDGE)

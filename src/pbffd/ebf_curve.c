@@ -417,3 +417,8 @@ int ffd_pbffd_curve_point_inside(const ffd_pbffd_curve *cv, size_t i)
 {
     return ffd_pbffd_point_support(cv->pb, i) > 0;
 }
+
+ffd_pbffd *ffd_pb_curve_deformer(const ffd_pbffd_curve *cv)
+{
+    return cv->pb;
+}

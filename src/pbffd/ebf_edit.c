@@ -333,6 +333,8 @@ static ffd_status edit(ffd_pbffd *pb, edit_kind kind, size_t j, const ffd_ebf *c
         }
     }
     edit_state_free(pb, &s);
+    pb->edit_count++;
+    pb->rebase_count++;
     return FFD_OK;
 nomem:
     ffd_pb_version_kernels_free(pb, vk);
@@ -451,6 +453,7 @@ static ffd_status edit_inert(ffd_pbffd *pb, edit_kind kind, size_t j, const ffd_
         L0->rows = rows;
         L0->rows_base = rows_base;
     }
+    pb->edit_count++;
     return FFD_OK;
 }
 

@@ -36,6 +36,12 @@ ffd_status ffd_pbffd_eval(const ffd_pbffd *pb, double *out, ffd_error *err)
 {
     if (!out && pb->n)
         return ffd_fail(err, FFD_ERR_INVALID, "out is NULL");
+    return ffd_pb_eval_rows(pb, &pb->mesh, pb->x_base, pb->n, out, err);
+}
+
+ffd_status ffd_pb_eval_rows(const ffd_pbffd *pb, const ffd_ebf_rows *rows, const double *x_base,
+                            size_t count, double *out, ffd_error *err)
+{
     const size_t m = pb->levels[0].count;
     double *table = ffd_malloc_array(m ? m : 1, 12 * sizeof *table);
     unsigned char *flags = ffd_malloc(m ? m : 1);
@@ -45,10 +51,10 @@ ffd_status ffd_pbffd_eval(const ffd_pbffd *pb, double *out, ffd_error *err)
         return ffd_fail(err, FFD_ERR_NOMEM, "out of memory evaluating the deformer");
     }
     const unsigned any = ffd_pb_delta_table(pb, table, flags);
-    const size_t *start = pb->mesh.start;
-    const uint32_t *col = pb->mesh.col;
-    const double *W = pb->mesh.w, *D = pb->mesh.d, *xb = pb->x_base;
-    const long long n = (long long)pb->n;
+    const size_t *start = rows->start;
+    const uint32_t *col = rows->col;
+    const double *W = rows->w, *D = rows->d, *xb = x_base;
+    const long long n = (long long)count;
     if (!any) {
         if (n)
             memcpy(out, xb, 3 * (size_t)n * sizeof *out);

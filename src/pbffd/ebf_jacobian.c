@@ -45,16 +45,22 @@ void ffd_pb_jacobian_point(const ffd_pbffd *pb, ffd_ebf_kernel *const *vk,
                            const ffd_ebf_kernel *master, size_t i, double J[9])
 {
     const uint32_t v = pb->version ? pb->version[i] : 0;
-    const ffd_ebf_kernel *K = vk[v];
-    const ffd_ebf *snap = pb->versions[v].ctl, *cur = pb->levels[0].cur;
-    const double *x = pb->x_ref + 3 * i;
+    ffd_pb_jacobian_row(pb, vk[v], pb->versions[v].ctl, master, &pb->mesh, i, pb->x_ref + 3 * i,
+                        pb->J_ref ? pb->J_ref + 9 * i : NULL, J);
+}
+
+void ffd_pb_jacobian_row(const ffd_pbffd *pb, const ffd_ebf_kernel *K, const ffd_ebf *snap,
+                         const ffd_ebf_kernel *master, const ffd_ebf_rows *rows, size_t i,
+                         const double x[3], const double *J_ref, double J[9])
+{
+    const ffd_ebf *cur = pb->levels[0].cur;
     const double inv2s2 = 1.0 / (2.0 * pb->sigma * pb->sigma);
-    const size_t b = pb->mesh.start[i], e = pb->mesh.start[i + 1];
+    const size_t b = rows->start[i], e = rows->start[i + 1];
     double F[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
     /* the denominator of eq. 5 and its gradient, summed in the binding's order */
     double S = 0.0, gS[3] = {0, 0, 0}, g[3];
     for (size_t k = b; k < e; k++) {
-        S += ffd_ebf_phi(&K[pb->mesh.col[k]], inv2s2, x, NULL, g);
+        S += ffd_ebf_phi(&K[rows->col[k]], inv2s2, x, NULL, g);
         for (int c = 0; c < 3; c++)
             gS[c] += g[c];
     }
@@ -65,7 +71,7 @@ void ffd_pb_jacobian_point(const ffd_pbffd *pb, ffd_ebf_kernel *const *vk,
     }
     if (e > b && S > 0.0) {
         for (size_t k = b; k < e; k++) {
-            const uint32_t j = pb->mesh.col[k];
+            const uint32_t j = rows->col[k];
             double u[3];
             double phi = ffd_ebf_phi(&K[j], inv2s2, x, u, g);
             double w = phi / S, gw[3], disp[3], dA[3][3];
@@ -83,8 +89,8 @@ void ffd_pb_jacobian_point(const ffd_pbffd *pb, ffd_ebf_kernel *const *vk,
                                          dA[2][r] * K[j].dual[2][c]);
         }
     }
-    if (pb->J_ref) {
-        const double *R = pb->J_ref + 9 * i;
+    if (J_ref) {
+        const double *R = J_ref;
         for (int r = 0; r < 3; r++)
             for (int c = 0; c < 3; c++)
                 J[3 * r + c] = F[3 * r] * R[c] + F[3 * r + 1] * R[3 + c] + F[3 * r + 2] * R[6 + c];

@@ -13,6 +13,7 @@
 struct ffd_pb_map_state {
     const ffd_pbffd *pb;
     size_t level;
+    const ffd_ebf_rows *rows; /* the bound points' rows over level 0 */
     uint32_t *tie; /* level 0: disabled controls fixed */
     double *acc;   /* dense scratch over the widest level */
     unsigned char *seen;
@@ -38,7 +39,7 @@ static size_t map_row(const void *self, size_t i, uint32_t *cols, double *w)
 {
     const ffd_pb_map_state *m = self; /* the scratch it points to is the map's own */
     const ffd_pbffd *pb = m->pb;
-    const ffd_ebf_rows *R = &pb->mesh;
+    const ffd_ebf_rows *R = m->rows;
     size_t nnz = 0;
     if (m->level == 0) {
         for (size_t k = R->start[i]; k < R->start[i + 1]; k++) {
@@ -90,7 +91,9 @@ static size_t map_row(const void *self, size_t i, uint32_t *cols, double *w)
     return nnz;
 }
 
-ffd_status ffd_pbffd_linear_map(ffd_pbffd *pb, size_t level, ffd_linear_map *map, ffd_error *err)
+/* The map's state over rows; tie: level 0's disabled controls FFD_TIE_FIXED. */
+static ffd_status map_state(const ffd_pbffd *pb, size_t level, const ffd_ebf_rows *rows, int tie,
+                            ffd_pb_map_state **out, ffd_error *err)
 {
     if (level >= pb->level_count)
         return ffd_fail(err, FFD_ERR_RANGE, "level %zu out of range (%zu levels)", level,
@@ -104,8 +107,9 @@ ffd_status ffd_pbffd_linear_map(ffd_pbffd *pb, size_t level, ffd_linear_map *map
         return ffd_fail(err, FFD_ERR_NOMEM, "out of memory building the linear map");
     m->pb = pb;
     m->level = level;
+    m->rows = rows;
     const ffd_pb_level *L = &pb->levels[level];
-    if (level == 0) {
+    if (level == 0 && tie) {
         m->tie = ffd_malloc_array(L->count, sizeof *m->tie);
         if (m->tie)
             for (size_t j = 0; j < L->count; j++)
@@ -117,22 +121,47 @@ ffd_status ffd_pbffd_linear_map(ffd_pbffd *pb, size_t level, ffd_linear_map *map
     m->list[1] = ffd_malloc_array(widest, sizeof *m->list[1]);
     m->val[0] = ffd_malloc_array(widest, sizeof *m->val[0]);
     m->val[1] = ffd_malloc_array(widest, sizeof *m->val[1]);
-    if ((level == 0 && !m->tie) || !m->acc || !m->seen || !m->list[0] || !m->list[1] ||
+    if ((level == 0 && tie && !m->tie) || !m->acc || !m->seen || !m->list[0] || !m->list[1] ||
         !m->val[0] || !m->val[1]) {
         ffd_pb_map_state_free(m);
         return ffd_fail(err, FFD_ERR_NOMEM, "out of memory building the linear map");
     }
-    ffd_pb_map_state_free(pb->maps[level]);
-    pb->maps[level] = m;
+    *out = m;
+    return FFD_OK;
+}
+
+static void map_init(const ffd_pb_map_state *m, ffd_linear_map *map)
+{
+    const size_t count = m->pb->levels[m->level].count;
     memset(map, 0, sizeof *map);
     map->self = m;
-    map->point_count = pb->n;
-    map->column_count = L->count;
-    map->variable_count = L->count;
+    map->point_count = m->rows->n;
+    map->column_count = count;
+    map->variable_count = count;
     map->tie = m->tie;
-    /* a level-0 row has at most mesh.max_nnz entries; a composed one at most the level's count */
-    size_t mx = level == 0 ? pb->mesh.max_nnz : L->count;
+    /* a level-0 row has at most rows.max_nnz entries; a composed one at most the level's count */
+    size_t mx = m->level == 0 ? m->rows->max_nnz : count;
     map->max_row_nnz = mx ? mx : 1;
     map->row = map_row;
+}
+
+ffd_status ffd_pbffd_linear_map(ffd_pbffd *pb, size_t level, ffd_linear_map *map, ffd_error *err)
+{
+    ffd_pb_map_state *m = NULL;
+    ffd_status st = map_state(pb, level, &pb->mesh, 1, &m, err);
+    if (st)
+        return st;
+    ffd_pb_map_state_free(pb->maps[level]);
+    pb->maps[level] = m;
+    map_init(m, map);
     return FFD_OK;
+}
+
+ffd_status ffd_pb_rows_linear_map(const ffd_pbffd *pb, size_t level, const ffd_ebf_rows *rows,
+                                  ffd_linear_map *map, ffd_pb_map_state **state, ffd_error *err)
+{
+    ffd_status st = map_state(pb, level, rows, 0, state, err);
+    if (!st)
+        map_init(*state, map);
+    return st;
 }

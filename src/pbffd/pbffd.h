@@ -172,6 +172,8 @@ struct ffd_pbffd {
     size_t version_count;
     uint32_t version_latest;
     ffd_pb_map_state **maps; /* level_count, lazily allocated (linear maps) */
+    uint64_t edit_count;   /* control-set edits made (add, remove, set_enabled, redefine) */
+    uint64_t rebase_count; /* of those, the ones that rebased (ebf_edit.c: base = current state) */
 };
 
 /* ebf_deformer.c */
@@ -204,5 +206,54 @@ void ffd_pb_map_state_free(ffd_pb_map_state *m);
  * db, dc); flags[j] |= 1 when control j changed, 2 when its frame did.
  * Returns the OR of all flags. */
 unsigned ffd_pb_delta_table(const ffd_pbffd *pb, double *table, unsigned char *flags);
+/* ffd_pbffd_eval of any rows over level 0 made against its base state, for
+ * points whose base positions are x_base (count by 3): x_base + W dP + D dA. */
+ffd_status ffd_pb_eval_rows(const ffd_pbffd *pb, const ffd_ebf_rows *rows, const double *x_base,
+                            size_t count, double *out, ffd_error *err);
+
+/* ebf_jacobian.c: ffd_pb_jacobian_point for row i of any rows (columns of
+ * level 0) made at x against the control state snap (kernels K); J_ref (9,
+ * may be NULL: identity) composes on the right. */
+void ffd_pb_jacobian_row(const ffd_pbffd *pb, const ffd_ebf_kernel *K, const ffd_ebf *snap,
+                         const ffd_ebf_kernel *master, const ffd_ebf_rows *rows, size_t i,
+                         const double x[3], const double *J_ref, double J[9]);
+
+/* ebf_map.c: ffd_pbffd_linear_map of any rows over level 0 (points rows->n),
+ * with an identity tie (a disabled control is in no row: its column is
+ * empty). The state (*state, freed with ffd_pb_map_state_free) belongs to
+ * the caller, not to pb; the map borrows pb, rows and the state. */
+ffd_status ffd_pb_rows_linear_map(const ffd_pbffd *pb, size_t level, const ffd_ebf_rows *rows,
+                                  ffd_linear_map *map, ffd_pb_map_state **state, ffd_error *err);
+
+/* ---- other point sets (ebf_points.c) ----
+ * Points bound after creation as they would have been bound as the
+ * deformer's points at creation: rows over level 0's base state, which is
+ * the creation state while no control-set edit has rebased it
+ * (rebase_count == 0). Edits that did not rebase (of disabled controls)
+ * only renumber columns: the rows are made again (edit_count). */
+typedef struct ffd_pb_points {
+    size_t n;
+    double *x;           /* n by 3: the points as bound */
+    ffd_ebf_rows rows;   /* W and D of eq. 7 over level 0's base state */
+    uint64_t edit_count; /* pb->edit_count when the rows were made */
+} ffd_pb_points;
+
+/* FFD_ERR_UNSUPPORTED when pb's control set was rebased (the message says
+ * why), FFD_ERR_NOMEM. On error *out is zeroed. */
+ffd_status ffd_pb_points_bind(const ffd_pbffd *pb, const double *points, size_t n,
+                              ffd_pb_points *out, ffd_error *err);
+void ffd_pb_points_free(ffd_pb_points *p);
+/* p's rows, or (when pb's control set was edited since) rows made again
+ * into *fresh (then p == fresh's owner must free it); *use receives which. */
+ffd_status ffd_pb_points_current(const ffd_pbffd *pb, const ffd_pb_points *p,
+                                 ffd_pb_points *fresh, const ffd_pb_points **use, ffd_error *err);
+/* Positions (n by 3, eq. 7 in displacement form) and Jacobians (n by 9). */
+ffd_status ffd_pb_points_eval(const ffd_pbffd *pb, const ffd_pb_points *p, double *out,
+                              ffd_error *err);
+ffd_status ffd_pb_points_jacobian(const ffd_pbffd *pb, const ffd_pb_points *p, double *out,
+                                  ffd_error *err);
+
+/* ebf_curve.c: the deformer a curve carries (its samples, one level). */
+ffd_pbffd *ffd_pb_curve_deformer(const ffd_pbffd_curve *curve);
 
 #endif

@@ -221,6 +221,18 @@ static ffd_status lat_op(sess_method *m, const char *op, const cJSON *body, int 
     return ffd_fail(err, FFD_ERR_UNSUPPORTED, "%s: not a lattice operation", op);
 }
 
+/* any point set: at the end of the file */
+static ffd_status lat_bind(sess_method *m, const double *points, size_t n, sess_binding **out,
+                           ffd_error *err);
+static void lat_binding_free(sess_binding *b);
+static ffd_status lat_eval_points(sess_method *m, const sess_binding *b, double *out,
+                                  ffd_error *err);
+static ffd_status lat_jacobian_points(sess_method *m, const sess_binding *b, double *out,
+                                      ffd_error *err);
+static ffd_status lat_map_points(sess_method *m, const sess_binding *b, ffd_linear_map *map,
+                                 ffd_error *err);
+static void *lat_handle(sess_method *m);
+
 static const sess_vtable lattice_vtable = {
     .name = "lattice",
     .destroy = lat_destroy,
@@ -240,6 +252,12 @@ static const sess_vtable lattice_vtable = {
     .rig = lat_rig,
     .influence = lat_influence,
     .op = lat_op,
+    .bind = lat_bind,
+    .binding_free = lat_binding_free,
+    .eval_points = lat_eval_points,
+    .jacobian_points = lat_jacobian_points,
+    .map_points = lat_map_points,
+    .handle = lat_handle,
 };
 
 /* Builds the lattice and binds the rest mesh. */
@@ -335,4 +353,71 @@ ffd_status ffd_sess_lattice_load(const sess_ctx *ctx, const ffd_rig *rig, sess_m
     }
     *out = m;
     return FFD_OK;
+}
+
+/* ---- any point set (ffd_deformer_bind) ----
+ * The lattice's structure (box, resolution, basis, outside policy) never
+ * changes after creation (the method has no structural op), so a binding of
+ * the points made once by ffd_lattice_bind, the same call that binds the
+ * mesh's vertices, stays valid across every control change. */
+
+struct sess_binding {
+    ffd_lattice_binding *lattice;
+};
+
+static ffd_status lat_bind(sess_method *m, const double *points, size_t n, sess_binding **out,
+                           ffd_error *err)
+{
+    lattice_method *l = as_lattice(m);
+    sess_binding *b = ffd_calloc(1, sizeof *b);
+    if (!b)
+        return ffd_fail(err, FFD_ERR_NOMEM, "bind: out of memory for %zu points", n);
+    ffd_error inner = {{0}};
+    ffd_status st = ffd_lattice_bind(l->lattice, points, n, l->outside, &b->lattice, &inner);
+    if (st) {
+        ffd_free(b);
+        return ffd_fail(err, st, "bind: %s", inner.message);
+    }
+    *out = b;
+    return FFD_OK;
+}
+
+static void lat_binding_free(sess_binding *b)
+{
+    if (!b)
+        return;
+    ffd_lattice_binding_destroy(b->lattice);
+    ffd_free(b);
+}
+
+static ffd_status lat_eval_points(sess_method *m, const sess_binding *b, double *out,
+                                  ffd_error *err)
+{
+    return ffd_lattice_eval(as_lattice(m)->lattice, b->lattice, out, err);
+}
+
+static ffd_status lat_jacobian_points(sess_method *m, const sess_binding *b, double *out,
+                                      ffd_error *err)
+{
+    return ffd_lattice_jacobian(as_lattice(m)->lattice, b->lattice, out, err);
+}
+
+/* Hsu et al. eq. 2 and 6: the rows B over the raw slots (the B-spline's
+ * tripled border) and the tie S onto the l*m*n control points, which are the
+ * method's control ids. */
+static ffd_status lat_map_points(sess_method *m, const sess_binding *b, ffd_linear_map *map,
+                                 ffd_error *err)
+{
+    lattice_method *l = as_lattice(m);
+    ffd_lattice_linear_map(l->lattice, b->lattice, map);
+    if (map->variable_count != lat_count(m))
+        return ffd_fail(err, FFD_ERR_UNSUPPORTED,
+                        "linear map: the lattice exposes %zu variables, expected %zu",
+                        map->variable_count, lat_count(m));
+    return FFD_OK;
+}
+
+static void *lat_handle(sess_method *m)
+{
+    return as_lattice(m)->lattice;
 }

@@ -13,6 +13,7 @@
  * the log's replay and snapshots restore bitwise. A move made after a frame
  * edit is therefore replayed before it: with a hierarchy, a move is
  * re-parameterised in the coarser level as the rig will do it. */
+#include "pbffd/pbffd.h"
 #include "session/session.h"
 
 #include <math.h>
@@ -1307,6 +1308,18 @@ static ffd_status pb_op(sess_method *base, const char *op, const cJSON *body, in
     return ffd_fail(err, FFD_ERR_UNSUPPORTED, "%s: not an operation of the pbffd method", op);
 }
 
+/* any point set: at the end of the file */
+static ffd_status pb_bind(sess_method *base, const double *points, size_t n, sess_binding **out,
+                          ffd_error *err);
+static void pb_binding_free(sess_binding *b);
+static ffd_status pb_eval_points(sess_method *base, const sess_binding *b, double *out,
+                                 ffd_error *err);
+static ffd_status pb_jacobian_points(sess_method *base, const sess_binding *b, double *out,
+                                     ffd_error *err);
+static ffd_status pb_map_points(sess_method *base, const sess_binding *b, ffd_linear_map *map,
+                                ffd_error *err);
+static void *pb_handle(sess_method *base);
+
 static const sess_vtable pbffd_vtable = {
     .name = "pbffd",
     .destroy = pb_destroy,
@@ -1326,4 +1339,172 @@ static const sess_vtable pbffd_vtable = {
     .rig = pb_rig,
     .influence = pb_influence,
     .op = pb_op,
+    .bind = pb_bind,
+    .binding_free = pb_binding_free,
+    .eval_points = pb_eval_points,
+    .jacobian_points = pb_jacobian_points,
+    .map_points = pb_map_points,
+    .handle = pb_handle,
 };
+
+/* ---- any point set (ffd_deformer_bind) ---------------------------------
+ * The points get the rows they would have got as vertices of the mesh
+ * (ffd_pb_points_bind: level 0's base state, which the log's replay never
+ * changes) and are evaluated in the same displacement form; each curve
+ * (§3.5) parameterises its input points when it is built, so the points are
+ * bound to every curve again at evaluation, at their positions after
+ * everything before it, as build_curve binds the vertices. Control changes,
+ * undo, levels, frames and curves are thus seen at evaluation. */
+
+typedef struct pb_map_cache {
+    ffd_pb_map_state *map; /* the last map_points' state (the map borrows it) */
+    ffd_pb_points fresh;   /* its rows when the control set was edited since bind */
+} pb_map_cache;
+
+struct sess_binding {
+    ffd_pb_points points;
+    pb_map_cache *cache;
+};
+
+static void map_cache_clear(pb_map_cache *c)
+{
+    ffd_pb_map_state_free(c->map);
+    c->map = NULL;
+    ffd_pb_points_free(&c->fresh);
+}
+
+static ffd_status pb_bind(sess_method *base, const double *points, size_t n, sess_binding **out,
+                          ffd_error *err)
+{
+    pb_method *m = (pb_method *)base;
+    sess_binding *b = ffd_calloc(1, sizeof *b);
+    pb_map_cache *cache = ffd_calloc(1, sizeof *cache);
+    if (!b || !cache) {
+        ffd_free(b);
+        ffd_free(cache);
+        return ffd_fail(err, FFD_ERR_NOMEM, "bind: out of memory for %zu points", n);
+    }
+    ffd_status s = ffd_pb_points_bind(m->pb, points, n, &b->points, err);
+    if (s) {
+        ffd_free(b);
+        ffd_free(cache);
+        return s;
+    }
+    b->cache = cache;
+    *out = b;
+    return FFD_OK;
+}
+
+static void pb_binding_free(sess_binding *b)
+{
+    if (!b)
+        return;
+    map_cache_clear(b->cache);
+    ffd_free(b->cache);
+    ffd_pb_points_free(&b->points);
+    ffd_free(b);
+}
+
+/* Positions after the PB-FFD stage and curves [0, c) into y (n by 3), and,
+ * when J is not NULL, the Jacobians of that map (n by 9; Jc scratch n by 9):
+ * curve by curve, as pb_eval and build_curve treat the vertices. */
+static ffd_status points_through(pb_method *m, const sess_binding *b, size_t c, double *y,
+                                 double *J, double *Jc, ffd_error *err)
+{
+    ffd_status s = ffd_pb_points_eval(m->pb, &b->points, y, err);
+    if (!s && J)
+        s = ffd_pb_points_jacobian(m->pb, &b->points, J, err);
+    if (!s && c)
+        s = build_curves(m, err);
+    const size_t n = b->points.n;
+    for (size_t k = 0; !s && k < c; k++) {
+        const ffd_pbffd *cpb = ffd_pb_curve_deformer(m->curves[k].obj);
+        ffd_pb_points in;
+        ffd_error inner = {{0}};
+        s = ffd_pb_points_bind(cpb, y, n, &in, &inner);
+        if (!s && J)
+            s = ffd_pb_points_jacobian(cpb, &in, Jc, &inner);
+        if (!s)
+            s = ffd_pb_points_eval(cpb, &in, y, &inner);
+        ffd_pb_points_free(&in);
+        if (s)
+            return ffd_fail(err, s, "curves[%zu]: %s", k, inner.message);
+        /* chain rule: d(curve(y))/dx = Jc(y) J */
+        for (size_t i = 0; J && i < n; i++) {
+            const double *A = Jc + 9 * i;
+            double *B = J + 9 * i, P[9];
+            for (int r = 0; r < 3; r++)
+                for (int q = 0; q < 3; q++)
+                    P[3 * r + q] = A[3 * r] * B[q] + A[3 * r + 1] * B[3 + q] + A[3 * r + 2] * B[6 + q];
+            memcpy(B, P, sizeof P);
+        }
+    }
+    return s;
+}
+
+static ffd_status pb_eval_points(sess_method *base, const sess_binding *b, double *out,
+                                 ffd_error *err)
+{
+    pb_method *m = (pb_method *)base;
+    return points_through(m, b, m->curve_count, out, NULL, NULL, err);
+}
+
+static ffd_status pb_jacobian_points(sess_method *base, const sess_binding *b, double *out,
+                                     ffd_error *err)
+{
+    pb_method *m = (pb_method *)base;
+    const size_t n = b->points.n;
+    double *y = ffd_malloc_array(n ? n : 1, 3 * sizeof *y);
+    double *Jc = m->curve_count ? ffd_malloc_array(n ? n : 1, 9 * sizeof *Jc) : NULL;
+    ffd_status s = y && (Jc || !m->curve_count)
+                       ? points_through(m, b, m->curve_count, y, out, Jc, err)
+                       : ffd_fail(err, FFD_ERR_NOMEM, "Jacobian: out of memory for %zu points", n);
+    ffd_free(y);
+    ffd_free(Jc);
+    return s;
+}
+
+/* PB-FFD §3.3, eq. 8 (and eq. 10 for a coarser level): the rows of W over
+ * the shown level's controls, which are the control ids. A curve's samples
+ * follow a Catmull-Rom spline of its points with rotation-minimising frames,
+ * and its kernels re-parameterise their input: with a curve the bound points
+ * are not linear in the controls. Nor are they when a frame of a coarser
+ * level was edited: a moved control is re-parameterised in the coarser level
+ * at its new position (§3.4), where the frame's change reaches it through
+ * its D row (eq. 10), which depends on that position. */
+static ffd_status pb_map_points(sess_method *base, const sess_binding *b, ffd_linear_map *map,
+                                ffd_error *err)
+{
+    pb_method *m = (pb_method *)base;
+    if (m->curve_count)
+        return ffd_fail(err, FFD_ERR_UNSUPPORTED,
+                        "linear map: the deformer has %zu curves (§3.5): their points move "
+                        "samples along a Catmull-Rom spline with rotating frames, and the curves' "
+                        "kernels act on the deformed points: the points are not linear in the "
+                        "controls",
+                        m->curve_count);
+    for (size_t i = 0; i < m->frame_count; i++)
+        if (m->frames[i].level > m->level)
+            return ffd_fail(err, FFD_ERR_UNSUPPORTED,
+                            "linear map: frames[%zu] edits control %u of level %u, coarser than "
+                            "the shown level %zu: a moved control is re-parameterised there at "
+                            "its new position, so the points are not linear in the controls",
+                            i, m->frames[i].index, m->frames[i].level, m->level);
+    pb_map_cache *c = b->cache;
+    map_cache_clear(c);
+    const ffd_pb_points *use;
+    ffd_status s = ffd_pb_points_current(m->pb, &b->points, &c->fresh, &use, err);
+    if (!s)
+        s = ffd_pb_rows_linear_map(m->pb, m->level, &use->rows, map, &c->map, err);
+    if (!s && map->variable_count != pb_control_count(base))
+        s = ffd_fail(err, FFD_ERR_UNSUPPORTED, "linear map: %zu variables for %zu controls",
+                     map->variable_count, pb_control_count(base));
+    if (s)
+        map_cache_clear(c);
+    return s;
+}
+
+static void *pb_handle(sess_method *base)
+{
+    return ((pb_method *)base)->pb;
+}
