@@ -1,4 +1,4 @@
-/* mesh — Wavefront OBJ reader and writer.
+/* mesh — Wavefront OBJ codec: reader, writer, refinement (mesh_codec.h).
  *
  * Read: v (x y z and any extra values, e.g. w or vertex colours, kept in the
  * source bytes), vt (counted), vn, f with corners v, v/vt, v//vn, v/vt/vn and

@@ -1,4 +1,4 @@
-/* mesh — Object File Format (OFF) reader and writer.
+/* mesh — Object File Format (OFF) codec: reader, writer, refinement (mesh_codec.h).
  *
  * Read: a header keyword [ST][C][N]OFF (NOFF: a normal nx ny nz after each
  * vertex's x y z; C and ST only add values, kept in the source bytes), then

@@ -1,4 +1,5 @@
-/* mesh — PLY (Stanford polygon file) reader, writer and transcoder.
+/* mesh — PLY (Stanford polygon file) codec: reader, writer, transcoder,
+ * refinement (mesh_codec.h).
  *
  * Read: format ascii / binary_little_endian / binary_big_endian 1.0; scalar
  * types char uchar short ushort int uint float double and their aliases

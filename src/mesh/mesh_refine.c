@@ -25,7 +25,6 @@
  * - Binary files: a position that does not fit the file's scalar type is
  *   FFD_ERR_RANGE (as for a deformed write).
  *
- *
  * The format's part (how new vertices and faces are written in that
  * format's own way) is its codec's refine entry, in the format's file
  * (mesh_obj.c, mesh_ply.c, mesh_off.c, mesh_stl.c; see mesh_codec.h); this

@@ -1,11 +1,11 @@
-/* mesh — STL reader and writer (ascii and binary).
+/* mesh — STL codec (ascii and binary): reader, writer, refinement (mesh_codec.h).
  *
  * STL is stored unwelded: facet f has vertices 3f, 3f+1, 3f+2 and face
  * (3f, 3f+1, 3f+2); its facet normal is normal f, anchored at vertex 3f.
  * Binary is recognised by its size (84 + 50 * triangle count, see the
- * constants below); otherwise a
- * file starting with "solid" is ascii; anything else is a binary file whose
- * size disagrees with its count (parse error naming the byte offset).
+ * constants below); otherwise a file starting with "solid" is ascii;
+ * anything else is a binary file whose size disagrees with its count (parse
+ * error naming the byte offset).
  * Ascii may hold several solids one after the other; keywords are matched
  * case-insensitively; each loop must have exactly 3 vertices. A UTF-8 byte
  * order mark before an ascii file's "solid" is skipped (and kept in the
