@@ -3,6 +3,7 @@
 #include "check.h"
 #include "ffd.h"
 #include "mesh/mesh.h"
+#include "mesh/mesh_codec.h"
 
 #include <math.h>
 #include <stdint.h>
@@ -1194,6 +1195,62 @@ static void test_utf8_bom(void)
     CHECK(!m);
 }
 
+/* The codec table (mesh_codec.c) is consistent with the public behaviour:
+ * every format has exactly one codec, its extensions map back to it (any
+ * case), a write succeeds exactly in the encodings it lists and is
+ * FFD_ERR_UNSUPPORTED in the others, and the lists in messages name every
+ * codec in table order. */
+static void test_codec_table(void)
+{
+    static const double P[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+    static const uint32_t off[2] = {0, 3}, idx[3] = {0, 1, 2};
+    ffd_mesh *m = NULL;
+    ffd_error err = {{0}};
+    CHECK(ffd_mesh_create(P, 3, off, idx, 1, &m, &err) == FFD_OK);
+    CHECK(ffd_mesh_codec_find(FFD_FORMAT_AUTO) == NULL);
+    CHECK(ffd_mesh_codec_find((ffd_format)(FFD_FORMAT_STL + 1)) == NULL);
+    CHECK(ffd_mesh_codec_for_extension("gltf") == NULL);
+    for (int f = FFD_FORMAT_OBJ; f <= FFD_FORMAT_STL; f++) {
+        const ffd_mesh_codec *c = ffd_mesh_codec_find((ffd_format)f);
+        CHECK(c && c->format == (ffd_format)f);
+        CHECK(c->name && c->extensions && c->extensions[0]);
+        CHECK(c->read && c->patch && c->write && c->refine);
+        CHECK(c->encodings & FFD_CODEC_ENCODING(FFD_ENCODING_ASCII));
+        for (const char *const *e = c->extensions; *e; e++) {
+            char path[64], upper[16];
+            size_t n = strlen(*e);
+            CHECK(n < sizeof upper);
+            for (size_t i = 0; i <= n; i++)
+                upper[i] = (char)((*e)[i] >= 'a' && (*e)[i] <= 'z' ? (*e)[i] - 'a' + 'A' : (*e)[i]);
+            CHECK(ffd_mesh_codec_for_extension(*e) == c);
+            CHECK(ffd_mesh_codec_for_extension(upper) == c);
+            snprintf(path, sizeof path, "dir.x/mesh.%s", upper);
+            CHECK(ffd_format_from_path(path) == (ffd_format)f);
+        }
+        for (int enc = FFD_ENCODING_ASCII; enc <= FFD_ENCODING_BINARY_BE; enc++) {
+            ffd_write_options o = {(ffd_format)f, (ffd_encoding)enc};
+            unsigned char *data = NULL;
+            size_t size = 0;
+            ffd_status st = ffd_mesh_write_memory(m, &o, &data, &size, &err);
+            if (c->encodings & FFD_CODEC_ENCODING(enc)) {
+                CHECK(st == FFD_OK);
+                ffd_mesh *back = NULL;
+                CHECK(ffd_mesh_read_memory(data, size, (ffd_format)f, "t", &back, &err) == FFD_OK);
+                CHECK(ffd_mesh_vertex_count(back) == 3 && ffd_mesh_face_count(back) == 1);
+                ffd_mesh_destroy(back);
+            } else {
+                CHECK(st == FFD_ERR_UNSUPPORTED);
+                CHECK(strstr(err.message, c->name) == err.message);
+            }
+            ffd_free(data);
+        }
+    }
+    char list[FFD_MESH_CODEC_LIST_SIZE];
+    CHECK(strcmp(ffd_mesh_codec_list(false, list, sizeof list), ".obj, .ply, .off or .stl") == 0);
+    CHECK(strcmp(ffd_mesh_codec_list(true, list, sizeof list), "OBJ, PLY, OFF or STL") == 0);
+    ffd_mesh_destroy(m);
+}
+
 int main(int argc, char **argv)
 {
     static const check_test tests[] = {
@@ -1217,6 +1274,7 @@ int main(int argc, char **argv)
         {"ply_value_range", test_ply_value_range},
         {"failing_allocations", test_failing_allocations},
         {"utf8_bom", test_utf8_bom},
+        {"codec_table", test_codec_table},
     };
     return check_run(tests, sizeof tests / sizeof *tests, argc, argv);
 }

@@ -1,5 +1,6 @@
-/* mesh — the mesh type: building, accessors, reading dispatch, positions and
- * normals update, and topology info (welding, edges, boundary).
+/* mesh — the mesh type: building, accessors, reading (through the format's
+ * codec, mesh_codec.h), positions and normals update, and topology info
+ * (welding, edges, boundary).
  *
  * Info semantics: welded_vertex_count counts distinct positions (exactly
  * equal coordinates merged, -0 == 0). Edges are taken over the file's own
@@ -10,7 +11,7 @@
  *
  * Numbers are parsed with strtod, so the C locale's decimal point is assumed
  * (the library never calls setlocale). */
-#include "mesh.h"
+#include "mesh_codec.h"
 
 #include <ctype.h>
 #include <float.h>
@@ -18,7 +19,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <strings.h>
 
 /* ======================================================================
  * Building
@@ -399,16 +399,8 @@ ffd_format ffd_format_from_path(const char *path)
     const char *slash = strrchr(path, '/');
     if (!dot || (slash && dot < slash))
         return FFD_FORMAT_AUTO;
-    dot++;
-    if (strcasecmp(dot, "obj") == 0)
-        return FFD_FORMAT_OBJ;
-    if (strcasecmp(dot, "ply") == 0)
-        return FFD_FORMAT_PLY;
-    if (strcasecmp(dot, "off") == 0)
-        return FFD_FORMAT_OFF;
-    if (strcasecmp(dot, "stl") == 0)
-        return FFD_FORMAT_STL;
-    return FFD_FORMAT_AUTO;
+    const ffd_mesh_codec *codec = ffd_mesh_codec_for_extension(dot + 1);
+    return codec ? codec->format : FFD_FORMAT_AUTO;
 }
 
 ffd_status ffd_mesh_read_owned(unsigned char *data, size_t size, ffd_format format,
@@ -416,10 +408,12 @@ ffd_status ffd_mesh_read_owned(unsigned char *data, size_t size, ffd_format form
 {
     *out = NULL;
     name = ffd_name_or(name, "<memory>");
-    if (format < FFD_FORMAT_OBJ || format > FFD_FORMAT_STL) {
+    const ffd_mesh_codec *codec = ffd_mesh_codec_find(format);
+    if (!codec) {
+        char list[FFD_MESH_CODEC_LIST_SIZE];
         ffd_free(data);
-        return ffd_fail(err, FFD_ERR_INVALID, "%s: unknown mesh format (expected .obj, .ply, .off or .stl)",
-                        name);
+        return ffd_fail(err, FFD_ERR_INVALID, "%s: unknown mesh format (expected %s)", name,
+                        ffd_mesh_codec_list(false, list, sizeof list));
     }
     if (size == 0) {
         ffd_free(data);
@@ -432,13 +426,7 @@ ffd_status ffd_mesh_read_owned(unsigned char *data, size_t size, ffd_format form
     }
     m->src = data;
     m->src_size = size;
-    ffd_status s;
-    switch (format) {
-    case FFD_FORMAT_OBJ: s = ffd_obj_read(m, name, err); break;
-    case FFD_FORMAT_PLY: s = ffd_ply_read(m, name, err); break;
-    case FFD_FORMAT_OFF: s = ffd_off_read(m, name, err); break;
-    default: s = ffd_stl_read(m, name, err); break;
-    }
+    ffd_status s = codec->read(m, name, err);
     if (s != FFD_OK) {
         ffd_mesh_destroy(m);
         return s;
@@ -475,9 +463,11 @@ ffd_status ffd_mesh_read(const char *path, ffd_mesh **out, ffd_error *err)
     if (!path)
         return ffd_fail(err, FFD_ERR_INVALID, "ffd_mesh_read: path is NULL");
     ffd_format format = ffd_format_from_path(path);
-    if (format == FFD_FORMAT_AUTO)
-        return ffd_fail(err, FFD_ERR_INVALID,
-                        "%s: unknown mesh file extension (expected .obj, .ply, .off or .stl)", path);
+    if (format == FFD_FORMAT_AUTO) {
+        char list[FFD_MESH_CODEC_LIST_SIZE];
+        return ffd_fail(err, FFD_ERR_INVALID, "%s: unknown mesh file extension (expected %s)", path,
+                        ffd_mesh_codec_list(false, list, sizeof list));
+    }
     unsigned char *data;
     size_t size;
     ffd_status s = ffd_read_file(path, &data, &size, err);

@@ -1,5 +1,7 @@
 /* mesh — internal header of the mesh module: the mesh type, the source-span
- * bookkeeping that makes writes lossless, and the per-format readers/writers.
+ * bookkeeping that makes writes lossless, and what the formats share (text
+ * and binary scalars, the output buffer, refinement plans). The formats
+ * themselves are codecs (mesh_codec.h), one file each.
  *
  * Lossless design: a mesh read from a file keeps the file's bytes (src). For
  * every vertex coordinate and every stored normal coordinate it records where
@@ -119,63 +121,16 @@ void ffd_buf_printf(ffd_buf *b, const char *fmt, ...) FFD_PRINTF(2, 3);
 void ffd_buf_double(ffd_buf *b, double v); /* shortest round-trip text */
 /* "<prefix>x y z\n" with shortest round-trip numbers (prefix may be ""). */
 void ffd_buf_vec3_line(ffd_buf *b, const char *prefix, const double p[3]);
+void ffd_buf_uint(ffd_buf *b, uint64_t v); /* decimal */
+void ffd_buf_xyz(ffd_buf *b, const double *v); /* " x y z", shortest round-trip numbers */
 void ffd_buf_free(ffd_buf *b);
 
-/* An OBJ integer (optional sign, digits; magnitude saturated near 2^40) at
- * *pp before e: 1 and advances *pp, or 0 when none starts there (mesh_obj.c). */
-int ffd_obj_parse_int(const char **pp, const char *e, long long *out);
+/* ---- reading ----------------------------------------------------------- */
 
-/* ---- readers: take ownership of data (NUL at data[size]) in all cases ---- */
-
+/* Reads data (NUL at data[size]) as format through the format's codec
+ * (mesh_codec.h); takes ownership of data in all cases. */
 ffd_status ffd_mesh_read_owned(unsigned char *data, size_t size, ffd_format format,
                                const char *name, ffd_mesh **out, ffd_error *err);
-ffd_status ffd_obj_read(ffd_mesh *m, const char *name, ffd_error *err);
-ffd_status ffd_ply_read(ffd_mesh *m, const char *name, ffd_error *err);
-ffd_status ffd_off_read(ffd_mesh *m, const char *name, ffd_error *err);
-ffd_status ffd_stl_read(ffd_mesh *m, const char *name, ffd_error *err);
-
-/* ---- the PLY header (mesh_ply.c; also read by mesh_refine.c) ---- */
-
-typedef struct {
-    const char *name;
-    size_t name_len;
-    int type;       /* FFD_SPAN_* */
-    int count_type; /* list count type, 0 for a scalar property */
-} ply_prop;
-
-typedef struct {
-    const char *name;
-    size_t name_len;
-    uint64_t count;
-    size_t count_offset, count_len; /* where the count stands in the header */
-    ply_prop *props;
-    size_t nprops, cap;
-} ply_elem;
-
-typedef struct {
-    ply_elem *elems;
-    size_t n, cap;
-    ffd_encoding enc;
-    size_t data;                  /* offset of the first data byte */
-    size_t lines;                 /* header lines */
-    size_t format_begin, format_end; /* the format line, without its line terminator */
-} ply_header;
-
-/* Parses and checks a PLY header (messages "name:line: ..."); element and
- * property names point into src. Free with ffd_ply_header_free, also after
- * a failure. */
-ffd_status ffd_ply_parse_header(const unsigned char *src, size_t size, const char *name,
-                                ply_header *h, ffd_error *err);
-void ffd_ply_header_free(ply_header *h);
-
-/* ---- writers from data (each format file) ------------------------------- */
-
-ffd_status ffd_obj_write(const ffd_mesh *m, ffd_buf *b, ffd_error *err);
-ffd_status ffd_ply_write(const ffd_mesh *m, ffd_encoding enc, ffd_buf *b, ffd_error *err);
-/* PLY to PLY in another encoding: every element and property kept, values re-encoded. */
-ffd_status ffd_ply_transcode(const ffd_mesh *m, ffd_encoding enc, ffd_buf *b, ffd_error *err);
-ffd_status ffd_off_write(const ffd_mesh *m, ffd_buf *b, ffd_error *err);
-ffd_status ffd_stl_write(const ffd_mesh *m, ffd_encoding enc, ffd_buf *b, ffd_error *err);
 
 /* Unit normal of triangle (a, b, c) or zero for a degenerate one. */
 void ffd_triangle_normal(const double *a, const double *b, const double *c, double n[3]);

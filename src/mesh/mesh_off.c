@@ -1,4 +1,4 @@
-/* mesh — Object File Format (OFF) reader and writer.
+/* mesh — Object File Format (OFF) codec: reader, writer, refinement (mesh_codec.h).
  *
  * Read: a header keyword [ST][C][N]OFF (NOFF: a normal nx ny nz after each
  * vertex's x y z; C and ST only add values, kept in the source bytes), then
@@ -10,9 +10,10 @@
  * anything that is not a number where one is expected are parse errors.
  * 4OFF, nOFF and binary OFF are FFD_ERR_UNSUPPORTED. A UTF-8 byte order mark
  * before the header is skipped (and kept in the source bytes). */
-#include "mesh.h"
+#include "mesh_codec.h"
 
 #include <math.h>
+#include <stdlib.h>
 #include <string.h>
 
 typedef struct {
@@ -89,7 +90,7 @@ static bool is_count(double v, double max)
     return v >= 0 && v <= max && v == floor(v);
 }
 
-ffd_status ffd_off_read(ffd_mesh *m, const char *name, ffd_error *err)
+static ffd_status off_read(ffd_mesh *m, const char *name, ffd_error *err)
 {
     off_ctx c = {name, (const char *)m->src,
                  (const char *)m->src + ffd_utf8_bom_length(m->src, m->src_size),
@@ -254,7 +255,7 @@ ffd_status ffd_off_read(ffd_mesh *m, const char *name, ffd_error *err)
     return FFD_OK;
 }
 
-ffd_status ffd_off_write(const ffd_mesh *m, ffd_buf *b, ffd_error *err)
+static ffd_status off_write(const ffd_mesh *m, ffd_encoding enc, ffd_buf *b, ffd_error *err)
 {
     ffd_buf_printf(b, "OFF\n%zu %zu 0\n", m->vertex_count, m->face_count);
     for (size_t i = 0; i < m->vertex_count && !b->oom; i++) {
@@ -269,3 +270,184 @@ ffd_status ffd_off_write(const ffd_mesh *m, ffd_buf *b, ffd_error *err)
     (void)err;
     return FFD_OK;
 }
+
+/* ======================================================================
+ * Refinement (see mesh_refine.c for the format-independent part)
+ * ====================================================================== */
+
+/* OFF: counts rewritten (the edge count is recomputed when it was not 0);
+ * new vertex lines after the last vertex line; each child face line copies
+ * its parent's trailing values (colour), the first also its comment. */
+
+typedef struct {
+    ffd_text_line l;
+    const char *first;    /* the vertex count */
+    const char *tail;     /* after the last index */
+    const char *data_end; /* end of the values (before a comment) */
+} off_face;
+
+static void put_vec3(ffd_buf *b, const double *v)
+{
+    ffd_buf_double(b, v[0]);
+    ffd_buf_puts(b, " ");
+    ffd_buf_double(b, v[1]);
+    ffd_buf_puts(b, " ");
+    ffd_buf_double(b, v[2]);
+}
+
+static ffd_status off_refine(ffd_refine_ctx *c, ffd_buf *b, ffd_error *err)
+{
+    const ffd_mesh *m = c->m;
+    const char *s = (const char *)m->src, *end = s + m->src_size;
+    ffd_status st = FFD_OK;
+    ffd_refine_extras vx;
+    memset(&vx, 0, sizeof vx);
+    vx.off = ffd_malloc_array(c->nv + 1, sizeof *vx.off);
+    off_face *faces = ffd_malloc_array(c->nf ? c->nf : 1, sizeof *faces);
+    if (!vx.off || !faces)
+        goto oom;
+    vx.off[0] = 0;
+    size_t cnt_off[3] = {0, 0, 0}, cnt_len[3] = {0, 0, 0};
+    double cnt_val[3] = {0, 0, 0};
+    int nc = 0, state = 0;
+    size_t vi = 0, fi = 0, last_v = 0, skip = m->vertex_normals ? 6 : 3;
+    bool normals = m->vertex_normals && m->normal_count == c->nv && m->normal_count;
+    ffd_text_line l;
+    for (const char *at = s + ffd_utf8_bom_length(s, m->src_size); ffd_text_next_line(&at, end, &l);) {
+        const char *q = ffd_text_skip_blanks(l.p, l.ce), *ce = ffd_text_hash_in(q, l.ce);
+        while (ce > q && ffd_is_blank(ce[-1]))
+            ce--;
+        if (ce <= q)
+            continue;
+        const char *p = q;
+        if (state == 0) {
+            state = 1;
+            p = ffd_text_skip_blanks(ffd_text_word_end(q, ce), ce);
+            if (p >= ce)
+                continue;
+        }
+        if (state == 1) {
+            for (; nc < 3; nc++) {
+                p = ffd_text_skip_blanks(p, ce);
+                if (p >= ce)
+                    break;
+                const char *t = p;
+                p = ffd_text_word_end(p, ce);
+                cnt_off[nc] = (size_t)(t - s);
+                cnt_len[nc] = (size_t)(p - t);
+                cnt_val[nc] = strtod(t, NULL);
+            }
+            if (nc < 2 || cnt_val[0] != (double)c->nv || cnt_val[1] != (double)c->nf)
+                goto mismatch;
+            last_v = (size_t)(l.next - s);
+            state = c->nv ? 2 : c->nf ? 3 : 4;
+            continue;
+        }
+        if (state == 2) {
+            if (!ffd_refine_extras_add(&vx, vi, q, ce, skip))
+                goto oom;
+            last_v = (size_t)(l.next - s);
+            if (++vi == c->nv)
+                state = c->nf ? 3 : 4;
+            continue;
+        }
+        if (state == 3) {
+            off_face *F = &faces[fi];
+            F->l = l;
+            F->first = q;
+            p = ffd_text_word_end(q, ce);
+            size_t n = (size_t)(m->face_offsets[fi + 1] - m->face_offsets[fi]);
+            if (strtod(q, NULL) != (double)n)
+                goto mismatch;
+            for (size_t i = 0; i < n; i++)
+                p = ffd_text_word_end(ffd_text_skip_blanks(p, ce), ce);
+            F->tail = p;
+            F->data_end = ce;
+            if (++fi == c->nf)
+                state = 4;
+            continue;
+        }
+        goto mismatch;
+    }
+    if (state != 4)
+        goto mismatch;
+
+    size_t edges = 0;
+    if (nc == 3 && cnt_val[2] != 0 && !ffd_refine_count_edges(c, &edges))
+        goto oom;
+    double want[3] = {(double)c->ntot, (double)c->nfo,
+                      nc == 3 && cnt_val[2] != 0 ? (double)edges : cnt_val[2]};
+    ffd_refine_cursor k = {b, m, 0};
+    for (int i = 0; i < nc; i++)
+        if (want[i] != cnt_val[i]) {
+            ffd_refine_flush_to(&k, cnt_off[i]);
+            ffd_buf_uint(b, (uint64_t)want[i]);
+            k.copied = cnt_off[i] + cnt_len[i];
+        }
+    ffd_refine_flush_to(&k, last_v);
+    if (c->nnew) {
+        if (last_v == 0 || s[last_v - 1] != '\n')
+            ffd_buf_puts(b, last_v && s[last_v - 1] == '\r' ? "\n" : c->nl);
+        for (size_t j = 0; j < c->nnew; j++) {
+            put_vec3(b, c->pos + 3 * (c->nv + j));
+            if (normals) {
+                double n[3];
+                ffd_refine_blend_normals(c, j, m->normals, n);
+                ffd_buf_xyz(b, n);
+            }
+            ffd_refine_put_extras(b, c, j, &vx, true);
+            ffd_buf_puts(b, c->nl);
+        }
+    }
+    for (size_t F = 0; F < c->nf && !b->oom; F++) {
+        const off_face *o = &faces[F];
+        ffd_refine_flush_to(&k, (size_t)(o->l.p - s));
+        for (size_t f = c->child_begin[F]; f < c->child_begin[F + 1]; f++) {
+            bool last = f + 1 == c->child_begin[F + 1];
+            if (ffd_refine_same_face(c, f, F)) {
+                ffd_buf_put(b, o->l.p, (size_t)(o->l.ce - o->l.p));
+            } else {
+                ffd_buf_put(b, o->l.p, (size_t)(o->first - o->l.p));
+                ffd_buf_uint(b, c->p->face_offsets[f + 1] - c->p->face_offsets[f]);
+                for (uint32_t i = c->p->face_offsets[f]; i < c->p->face_offsets[f + 1]; i++) {
+                    ffd_buf_puts(b, " ");
+                    ffd_buf_uint(b, c->p->face_indices[i]);
+                }
+                const char *te = f == c->child_begin[F] ? o->l.ce : o->data_end;
+                ffd_buf_put(b, o->tail, (size_t)(te - o->tail));
+            }
+            ffd_text_put_term(b, &o->l, last, c->nl);
+        }
+        k.copied = (size_t)(o->l.next - s);
+    }
+    ffd_refine_flush_to(&k, m->src_size);
+    goto done;
+mismatch:
+    st = ffd_fail(err, FFD_ERR_INVALID, "ffd_mesh_refine: the mesh does not match its OFF source");
+    goto done;
+oom:
+    st = ffd_fail(err, FFD_ERR_NOMEM, "ffd_mesh_refine: out of memory");
+done:
+    ffd_refine_extras_free(&vx);
+    ffd_free(faces);
+    return st;
+}
+
+/* ======================================================================
+ * The codec
+ * ====================================================================== */
+
+static const char *const off_extensions[] = {"off", NULL};
+
+const ffd_mesh_codec ffd_mesh_codec_off = {
+    .format = FFD_FORMAT_OFF,
+    .name = "OFF",
+    .extensions = off_extensions,
+    .encodings = FFD_CODEC_ENCODING(FFD_ENCODING_ASCII),
+    .triangles_only = false,
+    .read = off_read,
+    .patch = ffd_mesh_patch_spans,
+    .transcode = NULL,
+    .write = off_write,
+    .refine = off_refine,
+};

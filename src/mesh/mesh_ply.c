@@ -1,4 +1,5 @@
-/* mesh — PLY (Stanford polygon file) reader, writer and transcoder.
+/* mesh — PLY (Stanford polygon file) codec: reader, writer, transcoder,
+ * refinement (mesh_codec.h).
  *
  * Read: format ascii / binary_little_endian / binary_big_endian 1.0; scalar
  * types char uchar short ushort int uint float double and their aliases
@@ -12,11 +13,43 @@
  * after the last element (other than whitespace in ascii) is an error, as is
  * a face with fewer than 3 vertices. A UTF-8 byte order mark before "ply"
  * is skipped (and kept in the source bytes, so writes and transcodes keep it). */
-#include "mesh.h"
+#include "mesh_codec.h"
 
 #include <math.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
+
+typedef struct {
+    const char *name;
+    size_t name_len;
+    int type;       /* FFD_SPAN_* */
+    int count_type; /* list count type, 0 for a scalar property */
+} ply_prop;
+
+typedef struct {
+    const char *name;
+    size_t name_len;
+    uint64_t count;
+    size_t count_offset, count_len; /* where the count stands in the header */
+    ply_prop *props;
+    size_t nprops, cap;
+} ply_elem;
+
+typedef struct {
+    ply_elem *elems;
+    size_t n, cap;
+    ffd_encoding enc;
+    size_t data;                  /* offset of the first data byte */
+    size_t lines;                 /* header lines */
+    size_t format_begin, format_end; /* the format line, without its line terminator */
+} ply_header;
+
+/* What a property is to the mesh: x y z and nx ny nz of the vertex element,
+ * the face element's vertex index list; every other property is ROLE_OTHER. */
+enum { ROLE_OTHER = 0, ROLE_X, ROLE_Y, ROLE_Z, ROLE_NX, ROLE_NY, ROLE_NZ, ROLE_FACE_LIST };
+/* The reader follows the roles of a vertex or face element's first properties only. */
+#define ROLE_PROPERTY_MAX 64
 
 
 static const struct {
@@ -57,7 +90,7 @@ static bool name_is(const char *s, size_t n, const char *lit)
     return strlen(lit) == n && memcmp(s, lit, n) == 0;
 }
 
-void ffd_ply_header_free(ply_header *h)
+static void ply_header_free(ply_header *h)
 {
     for (size_t i = 0; i < h->n; i++)
         ffd_free(h->elems[i].props);
@@ -85,7 +118,10 @@ static int words(const char *p, const char *e, const char **w, size_t *wl, int m
     return n;
 }
 
-ffd_status ffd_ply_parse_header(const unsigned char *src, size_t size, const char *name,
+/* Parses and checks a PLY header (messages "name:line: ..."); element and
+ * property names point into src. Free with ply_header_free, also after
+ * a failure. */
+static ffd_status ply_parse_header(const unsigned char *src, size_t size, const char *name,
                                 ply_header *h, ffd_error *err)
 {
     memset(h, 0, sizeof *h);
@@ -324,17 +360,17 @@ static ffd_status walk(walker *w, const ply_header *h, ffd_mesh *m, ffd_error *e
             continue;
         bool is_vert = el == vert;
         bool is_face = name_is(el->name, el->name_len, "face");
-        int role[64]; /* per property: 0 none, 1..3 xyz, 4..6 normal, 7 face list */
+        int role[ROLE_PROPERTY_MAX]; /* per property: ROLE_* */
         size_t min_bytes = 0;
         bool has_normal = false, has_xyz[3] = {false, false, false};
         for (size_t k = 0; k < el->nprops; k++) {
             const ply_prop *pr = &el->props[k];
-            int r = 0;
+            int r = ROLE_OTHER;
             if (is_vert && !pr->count_type) {
                 static const char *const names[6] = {"x", "y", "z", "nx", "ny", "nz"};
                 for (int d = 0; d < 6; d++)
                     if (name_is(pr->name, pr->name_len, names[d]))
-                        r = d + 1;
+                        r = ROLE_X + d;
                 if (name_is(pr->name, pr->name_len, "u") || name_is(pr->name, pr->name_len, "s") ||
                     name_is(pr->name, pr->name_len, "texture_u"))
                     m->texcoord_count = (size_t)vert->count;
@@ -342,18 +378,18 @@ static ffd_status walk(walker *w, const ply_header *h, ffd_mesh *m, ffd_error *e
             if (is_face && pr->count_type &&
                 (name_is(pr->name, pr->name_len, "vertex_indices") ||
                  name_is(pr->name, pr->name_len, "vertex_index")))
-                r = 7;
-            if (r >= 1 && r <= 3)
-                has_xyz[r - 1] = true;
-            if (r >= 4 && r <= 6)
+                r = ROLE_FACE_LIST;
+            if (r >= ROLE_X && r <= ROLE_Z)
+                has_xyz[r - ROLE_X] = true;
+            if (r >= ROLE_NX && r <= ROLE_NZ)
                 has_normal = true;
-            if (k < 64)
+            if (k < ROLE_PROPERTY_MAX)
                 role[k] = r;
             min_bytes += w->enc == FFD_ENCODING_ASCII ? 2
                                                        : ffd_span_kind_size(pr->count_type ? pr->count_type
                                                                                            : pr->type);
         }
-        if (el->nprops > 64 && (is_vert || is_face))
+        if (el->nprops > ROLE_PROPERTY_MAX && (is_vert || is_face))
             return ffd_fail(err, FFD_ERR_UNSUPPORTED, "%s: element '%.*s' has more than 64 properties",
                             w->name, (int)el->name_len, el->name);
         if (is_vert && !(has_xyz[0] && has_xyz[1] && has_xyz[2]))
@@ -380,7 +416,7 @@ static ffd_status walk(walker *w, const ply_header *h, ffd_mesh *m, ffd_error *e
             memset(sp, 0, sizeof sp);
             for (size_t k = 0; k < el->nprops; k++) {
                 const ply_prop *pr = &el->props[k];
-                int r = k < 64 ? role[k] : 0;
+                int r = k < ROLE_PROPERTY_MAX ? role[k] : ROLE_OTHER;
                 char what[80];
                 snprintf(what, sizeof what, "%.*s", (int)(pr->name_len > 60 ? 60 : pr->name_len), pr->name);
                 double v;
@@ -389,7 +425,7 @@ static ffd_status walk(walker *w, const ply_header *h, ffd_mesh *m, ffd_error *e
                     size_t at = w->pos;
                     if ((st = read_value(w, pr->type, what, i, &v, &span, err)) != FFD_OK)
                         return st;
-                    if (r >= 1 && r <= 6) {
+                    if (r >= ROLE_X && r <= ROLE_NZ) {
                         if (!isfinite(v)) {
                             w->pos = at;
                             return ffd_fail(err, FFD_ERR_NONFINITE, "%s: non-finite '%s' of vertex %llu",
@@ -403,11 +439,11 @@ static ffd_status walk(walker *w, const ply_header *h, ffd_mesh *m, ffd_error *e
                                             loc_fmt(w, loc, sizeof loc), what, (unsigned long long)i,
                                             v, type_name(pr->type));
                         }
-                        xyz[r - 1] = v;
-                        sp[r - 1] = span;
+                        xyz[r - ROLE_X] = v;
+                        sp[r - ROLE_X] = span;
                         if (w->subst) {
-                            v = r <= 3 ? w->subst->positions[3 * i + (size_t)(r - 1)]
-                                       : w->subst->normals[3 * i + (size_t)(r - 4)];
+                            v = r <= ROLE_Z ? w->subst->positions[3 * i + (size_t)(r - ROLE_X)]
+                                       : w->subst->normals[3 * i + (size_t)(r - ROLE_NX)];
                             if (!ffd_scalar_fits(pr->type, v))
                                 return ffd_fail(err, FFD_ERR_RANGE,
                                                 "vertex %llu: '%s' = %g does not fit the file's %s "
@@ -431,7 +467,7 @@ static ffd_status walk(walker *w, const ply_header *h, ffd_mesh *m, ffd_error *e
                                     "%s: list '%s' of element %llu has count %g, expected a count the remaining data can hold",
                                     loc_fmt(w, loc, sizeof loc), what, (unsigned long long)i, cnt);
                 }
-                if (r == 7 && cnt < 3)
+                if (r == ROLE_FACE_LIST && cnt < 3)
                     return ffd_fail(err, FFD_ERR_PARSE, "%s: face %llu has %g vertices, expected at least 3",
                                     loc_fmt(w, loc, sizeof loc), (unsigned long long)i, cnt);
                 emit(w, pr->count_type, cnt);
@@ -439,7 +475,7 @@ static ffd_status walk(walker *w, const ply_header *h, ffd_mesh *m, ffd_error *e
                     at = w->pos;
                     if ((st = read_value(w, pr->type, what, i, &v, &span, err)) != FFD_OK)
                         return st;
-                    if (r == 7) {
+                    if (r == ROLE_FACE_LIST) {
                         if (v != floor(v) || v < 0 || v >= (double)vert->count) {
                             w->pos = at;
                             return ffd_fail(err, v != floor(v) ? FFD_ERR_PARSE : FFD_ERR_RANGE,
@@ -452,7 +488,7 @@ static ffd_status walk(walker *w, const ply_header *h, ffd_mesh *m, ffd_error *e
                     }
                     emit(w, pr->type, v);
                 }
-                if (r == 7 && !ffd_mesh_end_face(m))
+                if (r == ROLE_FACE_LIST && !ffd_mesh_end_face(m))
                     return ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory", w->name);
             }
             if (w->out && w->out_enc == FFD_ENCODING_ASCII) {
@@ -484,17 +520,17 @@ static ffd_status walk(walker *w, const ply_header *h, ffd_mesh *m, ffd_error *e
     return FFD_OK;
 }
 
-ffd_status ffd_ply_read(ffd_mesh *m, const char *name, ffd_error *err)
+static ffd_status ply_read(ffd_mesh *m, const char *name, ffd_error *err)
 {
     ply_header h;
-    ffd_status st = ffd_ply_parse_header(m->src, m->src_size, name, &h, err);
+    ffd_status st = ply_parse_header(m->src, m->src_size, name, &h, err);
     if (st == FFD_OK) {
         m->encoding = h.enc;
         walker w = {name, m->src, m->src_size, h.data, h.lines, h.enc, NULL, NULL, 0, true};
         w.line = h.lines + 1; /* data starts on the line after end_header */
         st = walk(&w, &h, m, err);
     }
-    ffd_ply_header_free(&h);
+    ply_header_free(&h);
     return st;
 }
 
@@ -505,25 +541,25 @@ static const char *enc_name(ffd_encoding enc)
                                            : "ascii";
 }
 
-ffd_status ffd_ply_transcode(const ffd_mesh *m, ffd_encoding enc, ffd_buf *b, ffd_error *err)
+static ffd_status ply_transcode(const ffd_mesh *m, ffd_encoding enc, ffd_buf *b, ffd_error *err)
 {
     ply_header h;
     ffd_error inner = {{0}};
-    ffd_status st = ffd_ply_parse_header(m->src, m->src_size, "<source>", &h, &inner);
+    ffd_status st = ply_parse_header(m->src, m->src_size, "<source>", &h, &inner);
     if (st == FFD_OK) {
         ffd_buf_put(b, m->src, h.format_begin);
         ffd_buf_printf(b, "format %s 1.0", enc_name(enc));
         ffd_buf_put(b, m->src + h.format_end, h.data - h.format_end);
         ffd_mesh *scratch = ffd_mesh_alloc(FFD_FORMAT_PLY);
         if (!scratch) {
-            ffd_ply_header_free(&h);
+            ply_header_free(&h);
             return ffd_fail(err, FFD_ERR_NOMEM, "out of memory");
         }
         walker w = {"<source>", m->src, m->src_size, h.data, h.lines + 1, h.enc, m, b, enc, true};
         st = walk(&w, &h, scratch, &inner);
         ffd_mesh_destroy(scratch);
     }
-    ffd_ply_header_free(&h);
+    ply_header_free(&h);
     if (st != FFD_OK)
         return ffd_fail(err, st, "re-encoding the PLY source: %s", inner.message);
     return FFD_OK;
@@ -533,7 +569,7 @@ ffd_status ffd_ply_transcode(const ffd_mesh *m, ffd_encoding enc, ffd_buf *b, ff
  * Writing from data
  * ====================================================================== */
 
-ffd_status ffd_ply_write(const ffd_mesh *m, ffd_encoding enc, ffd_buf *b, ffd_error *err)
+static ffd_status ply_write(const ffd_mesh *m, ffd_encoding enc, ffd_buf *b, ffd_error *err)
 {
     bool normals = m->vertex_normals && m->normal_count == m->vertex_count;
     uint32_t max_face = 0;
@@ -572,3 +608,443 @@ ffd_status ffd_ply_write(const ffd_mesh *m, ffd_encoding enc, ffd_buf *b, ffd_er
     (void)err;
     return FFD_OK;
 }
+
+/* ======================================================================
+ * Refinement (see mesh_refine.c for the format-independent part)
+ * ====================================================================== */
+
+/* PLY: element counts rewritten in the header; new vertex records appended
+ * to the vertex element (scalars interpolated, integers rounded and clamped;
+ * a list property is copied from the heaviest parent); face records
+ * replaced by their children, each copying its parent's other properties,
+ * with the original list count and index types (a count or index that does
+ * not fit them is FFD_ERR_RANGE). Other elements are copied. */
+
+/* What an element is to refinement: the first "vertex", a "face" with an index list. */
+enum { ELEMENT_OTHER = 0, ELEMENT_VERTEX, ELEMENT_FACE };
+
+typedef struct {
+    const char *name;
+    size_t nlen;
+    int type, count_type; /* FFD_SPAN_*; count_type 0 for a scalar */
+    int role;             /* ROLE_* */
+} pprop;
+
+typedef struct {
+    const char *name;
+    size_t nlen;
+    uint64_t count;
+    size_t coff, clen; /* the count in the header */
+    pprop *props;
+    size_t np, cap;
+    int kind;         /* ELEMENT_* */
+    size_t face_base; /* ELEMENT_FACE: its first face */
+} pelem;
+
+static void pelems_free(pelem *el, size_t n)
+{
+    for (size_t i = 0; i < n && el; i++)
+        ffd_free(el[i].props);
+    ffd_free(el);
+}
+
+/* The header of a PLY the reader accepted, read by the reader's own
+ * header parser and annotated with what refinement needs: the roles of the
+ * vertex coordinates and normals, the face index list. *data: offset of
+ * the data. */
+static ffd_status ply_refine_header(const ffd_mesh *m, pelem **out, size_t *nout, size_t *data,
+                                   ffd_error *err)
+{
+    ply_header h;
+    ffd_error inner = {{0}};
+    ffd_status st = ply_parse_header(m->src, m->src_size, "<source>", &h, &inner);
+    if (st != FFD_OK)
+        ply_header_free(&h); /* the parser leaves what it built to the caller */
+    if (st == FFD_ERR_NOMEM)
+        return ffd_fail(err, st, "ffd_mesh_refine: out of memory");
+    if (st != FFD_OK)
+        return ffd_fail(err, FFD_ERR_INVALID, "ffd_mesh_refine: the mesh does not match its PLY source");
+    pelem *el = ffd_calloc(h.n ? h.n : 1, sizeof *el);
+    if (!el)
+        goto oom;
+    bool have_vertex = false;
+    for (size_t i = 0; i < h.n; i++) {
+        const ply_elem *he = &h.elems[i];
+        pelem *e = &el[i];
+        e->name = he->name;
+        e->nlen = he->name_len;
+        e->count = he->count;
+        e->coff = he->count_offset;
+        e->clen = he->count_len;
+        if (!have_vertex && name_is(e->name, e->nlen, "vertex")) {
+            e->kind = ELEMENT_VERTEX;
+            have_vertex = true;
+        }
+        if (he->nprops && !(e->props = ffd_calloc(he->nprops, sizeof *e->props)))
+            goto oom;
+        e->cap = e->np = he->nprops;
+        for (size_t k = 0; k < he->nprops; k++) {
+            const ply_prop *hp = &he->props[k];
+            pprop *pr = &e->props[k];
+            pr->name = hp->name;
+            pr->nlen = hp->name_len;
+            pr->type = hp->type;
+            pr->count_type = hp->count_type;
+            if (e->kind == ELEMENT_VERTEX && !pr->count_type) {
+                static const char *const names[6] = {"x", "y", "z", "nx", "ny", "nz"};
+                for (int d = 0; d < 6; d++)
+                    if (name_is(pr->name, pr->nlen, names[d]))
+                        pr->role = ROLE_X + d;
+            }
+            bool list_name = name_is(pr->name, pr->nlen, "vertex_indices") ||
+                             name_is(pr->name, pr->nlen, "vertex_index");
+            if (name_is(e->name, e->nlen, "face") && pr->count_type && list_name) {
+                if (e->kind == ELEMENT_FACE) {
+                    pelems_free(el, h.n);
+                    ply_header_free(&h);
+                    return ffd_fail(err, FFD_ERR_UNSUPPORTED,
+                                    "ffd_mesh_refine: a PLY face element with two vertex index lists");
+                }
+                pr->role = ROLE_FACE_LIST;
+                e->kind = ELEMENT_FACE;
+            }
+        }
+    }
+    *data = h.data;
+    *out = el;
+    *nout = h.n;
+    ply_header_free(&h);
+    return FFD_OK;
+oom:
+    pelems_free(el, h.n);
+    ply_header_free(&h);
+    return ffd_fail(err, FFD_ERR_NOMEM, "ffd_mesh_refine: out of memory");
+}
+
+typedef struct {
+    const unsigned char *s;
+    size_t size, pos;
+    bool ascii, be;
+} prd;
+
+static bool prd_value(prd *r, int type, double *v, size_t *start, size_t *stop)
+{
+    if (!r->ascii) {
+        size_t n = ffd_span_kind_size(type);
+        if (r->size - r->pos < n)
+            return false;
+        *start = r->pos;
+        *v = ffd_read_scalar(r->s + r->pos, type, r->be);
+        r->pos += n;
+        *stop = r->pos;
+        return true;
+    }
+    while (r->pos < r->size && ffd_is_space(r->s[r->pos]))
+        r->pos++;
+    if (r->pos >= r->size)
+        return false;
+    const char *t = (const char *)r->s + r->pos;
+    char *e;
+    *v = strtod(t, &e);
+    if (e == t || e > (const char *)r->s + r->size)
+        return false;
+    *start = r->pos;
+    r->pos = (size_t)(e - (const char *)r->s);
+    *stop = r->pos;
+    return true;
+}
+
+/* One record: scalar values (lists: their count) into vals, each
+ * property's [start, stop) into rng (both optional). */
+static bool prd_record(prd *r, const pelem *el, double *vals, size_t *rng)
+{
+    for (size_t k = 0; k < el->np; k++) {
+        const pprop *pr = &el->props[k];
+        double v;
+        size_t a, z;
+        if (!prd_value(r, pr->count_type ? pr->count_type : pr->type, &v, &a, &z))
+            return false;
+        if (pr->count_type) {
+            if (!(v >= 0) || v > (double)r->size)
+                return false;
+            for (size_t i = 0; i < (size_t)v; i++) {
+                double t;
+                size_t a2;
+                if (!prd_value(r, pr->type, &t, &a2, &z))
+                    return false;
+            }
+        }
+        if (vals)
+            vals[k] = v;
+        if (rng) {
+            rng[2 * k] = a;
+            rng[2 * k + 1] = z;
+        }
+    }
+    return true;
+}
+
+static void put_typed(ffd_buf *b, bool ascii, bool be, int type, double v, bool full)
+{
+    if (!ascii) {
+        unsigned char t[8];
+        ffd_write_scalar(t, type, be, v);
+        ffd_buf_put(b, t, ffd_span_kind_size(type));
+        return;
+    }
+    char tmp[48];
+    int n;
+    if (type == FFD_SPAN_F64 || (full && type == FFD_SPAN_F32))
+        n = ffd_format_double(tmp, v);
+    else if (type == FFD_SPAN_F32)
+        n = ffd_format_float(tmp, (float)v);
+    else {
+        unsigned char t[8];
+        ffd_write_scalar(t, type, false, v);
+        n = snprintf(tmp, sizeof tmp, "%.0f", ffd_read_scalar(t, type, false));
+    }
+    ffd_buf_put(b, tmp, (size_t)n);
+}
+
+typedef struct {
+    ffd_refine_ctx *c;
+    pelem *el;
+    size_t nel, data;
+    const pelem *vert;
+    double *vals;   /* nv * vert->np */
+    size_t *recs;   /* nv: start of each vertex record */
+    size_t *rng;    /* 2 * max np */
+    bool ascii, be;
+} plyw;
+
+static ffd_status ply_new_vertices(plyw *w, ffd_buf *b, ffd_error *err)
+{
+    const ffd_refine_ctx *c = w->c;
+    const ffd_mesh *m = c->m;
+    const pelem *el = w->vert;
+    size_t np = el->np;
+    bool normals = m->vertex_normals && m->normal_count == c->nv && m->normal_count;
+    for (size_t j = 0; j < c->nnew && !b->oom; j++) {
+        double n[3] = {0, 0, 0};
+        if (normals)
+            ffd_refine_blend_normals(c, j, m->normals, n);
+        if (w->ascii)
+            ffd_buf_puts(b, c->nl);
+        for (size_t k = 0; k < np; k++) {
+            const pprop *pr = &el->props[k];
+            if (k && w->ascii)
+                ffd_buf_puts(b, " ");
+            if (pr->count_type) {
+                /* a list: the heaviest parent's */
+                size_t best = c->flat_off[j];
+                for (size_t i = best + 1; i < c->flat_off[j + 1]; i++)
+                    if (c->flat_w[i] > c->flat_w[best])
+                        best = i;
+                prd r = {m->src, m->src_size, w->recs[c->flat_idx[best]], w->ascii, w->be};
+                if (!prd_record(&r, el, NULL, w->rng))
+                    return ffd_fail(err, FFD_ERR_INVALID,
+                                    "ffd_mesh_refine: the mesh does not match its PLY source");
+                ffd_buf_put(b, m->src + w->rng[2 * k], w->rng[2 * k + 1] - w->rng[2 * k]);
+                continue;
+            }
+            double v;
+            if (pr->role >= ROLE_X && pr->role <= ROLE_Z)
+                v = c->pos[3 * (c->nv + j) + (size_t)(pr->role - ROLE_X)];
+            else if (pr->role >= ROLE_NX && pr->role <= ROLE_NZ)
+                v = n[pr->role - ROLE_NX];
+            else {
+                v = 0;
+                for (size_t i = c->flat_off[j]; i < c->flat_off[j + 1]; i++)
+                    v += c->flat_w[i] * w->vals[(size_t)c->flat_idx[i] * np + k];
+            }
+            bool geo = pr->role >= ROLE_X && pr->role <= ROLE_NZ;
+            if (geo && !w->ascii && !ffd_scalar_fits(pr->type, v))
+                return ffd_fail(err, FFD_ERR_RANGE,
+                                "ffd_mesh_refine: new vertex %zu: '%.*s' = %g does not fit the "
+                                "file's type",
+                                j, (int)(pr->nlen > 60 ? 60 : pr->nlen), pr->name, v);
+            put_typed(b, w->ascii, w->be, pr->type, v, geo);
+        }
+    }
+    return FFD_OK;
+}
+
+static ffd_status ply_child(plyw *w, ffd_buf *b, const pelem *el, size_t f, size_t rs, size_t re,
+                            ffd_error *err)
+{
+    const ffd_refine_ctx *c = w->c;
+    const ffd_mesh *m = c->m;
+    if (ffd_refine_same_face(c, f, c->p->face_parent[f])) {
+        ffd_buf_put(b, m->src + rs, re - rs);
+        return FFD_OK;
+    }
+    for (size_t k = 0; k < el->np; k++) {
+        const pprop *pr = &el->props[k];
+        if (k && w->ascii)
+            ffd_buf_puts(b, " ");
+        if (pr->role != ROLE_FACE_LIST) {
+            ffd_buf_put(b, m->src + w->rng[2 * k], w->rng[2 * k + 1] - w->rng[2 * k]);
+            continue;
+        }
+        uint32_t fb = c->p->face_offsets[f], fe = c->p->face_offsets[f + 1];
+        if (!ffd_scalar_fits(pr->count_type, (double)(fe - fb)))
+            return ffd_fail(err, FFD_ERR_RANGE,
+                            "ffd_mesh_refine: face %zu: %u vertices do not fit the PLY list count "
+                            "type",
+                            f, fe - fb);
+        put_typed(b, w->ascii, w->be, pr->count_type, (double)(fe - fb), false);
+        for (uint32_t i = fb; i < fe; i++) {
+            double v = c->p->face_indices[i];
+            if (!ffd_scalar_fits(pr->type, v))
+                return ffd_fail(err, FFD_ERR_RANGE,
+                                "ffd_mesh_refine: face %zu: vertex index %.0f does not fit the PLY "
+                                "index type",
+                                f, v);
+            if (w->ascii)
+                ffd_buf_puts(b, " ");
+            put_typed(b, w->ascii, w->be, pr->type, v, false);
+        }
+    }
+    return FFD_OK;
+}
+
+static ffd_status ply_refine_records(plyw *w, ffd_buf *b, ffd_error *err)
+{
+    const ffd_refine_ctx *c = w->c;
+    const ffd_mesh *m = c->m;
+    ffd_refine_cursor k = {b, m, 0};
+    for (size_t e = 0; e < w->nel; e++) {
+        const pelem *el = &w->el[e];
+        uint64_t want = el->count;
+        if (el->kind == ELEMENT_VERTEX)
+            want = c->ntot;
+        else if (el->kind == ELEMENT_FACE)
+            want = c->child_begin[el->face_base + el->count] - c->child_begin[el->face_base];
+        if (want != el->count) {
+            ffd_refine_flush_to(&k, el->coff);
+            ffd_buf_uint(b, want);
+            k.copied = el->coff + el->clen;
+        }
+    }
+    ffd_refine_flush_to(&k, w->data);
+    prd r = {m->src, m->src_size, w->data, w->ascii, w->be};
+    ffd_status st;
+    for (size_t e = 0; e < w->nel && !b->oom; e++) {
+        const pelem *el = &w->el[e];
+        if (el->np == 0)
+            continue;
+        for (uint64_t i = 0; i < el->count; i++) {
+            if (el->kind == ELEMENT_FACE && w->ascii)
+                while (r.pos < r.size && ffd_is_space(r.s[r.pos]))
+                    r.pos++;
+            size_t rs = r.pos;
+            if (!prd_record(&r, el, NULL, el->kind == ELEMENT_FACE ? w->rng : NULL))
+                return ffd_fail(err, FFD_ERR_INVALID,
+                                "ffd_mesh_refine: the mesh does not match its PLY source");
+            if (el->kind != ELEMENT_FACE)
+                continue;
+            size_t F = el->face_base + (size_t)i;
+            ffd_refine_flush_to(&k, rs);
+            for (size_t f = c->child_begin[F]; f < c->child_begin[F + 1]; f++) {
+                if (f > c->child_begin[F] && w->ascii)
+                    ffd_buf_puts(b, c->nl);
+                if ((st = ply_child(w, b, el, f, rs, r.pos, err)) != FFD_OK)
+                    return st;
+            }
+            k.copied = r.pos;
+        }
+        if (el->kind == ELEMENT_VERTEX) {
+            ffd_refine_flush_to(&k, r.pos);
+            if ((st = ply_new_vertices(w, b, err)) != FFD_OK)
+                return st;
+        }
+    }
+    ffd_refine_flush_to(&k, m->src_size);
+    return FFD_OK;
+}
+
+static ffd_status ply_refine(ffd_refine_ctx *c, ffd_buf *b, ffd_error *err)
+{
+    const ffd_mesh *m = c->m;
+    plyw w;
+    memset(&w, 0, sizeof w);
+    w.c = c;
+    w.ascii = m->encoding == FFD_ENCODING_ASCII;
+    w.be = m->encoding == FFD_ENCODING_BINARY_BE;
+    ffd_status st = ffd_refine_check_binary_fits(m, err);
+    if (st != FFD_OK)
+        return st;
+    if ((st = ply_refine_header(m, &w.el, &w.nel, &w.data, err)) != FFD_OK)
+        return st;
+    size_t maxnp = 1, faces = 0;
+    for (size_t e = 0; e < w.nel; e++) {
+        pelem *el = &w.el[e];
+        maxnp = el->np > maxnp ? el->np : maxnp;
+        if (el->kind == ELEMENT_VERTEX)
+            w.vert = el;
+        if (el->kind == ELEMENT_FACE && el->np) {
+            el->face_base = faces;
+            if (el->count > c->nf - faces)
+                goto mismatch;
+            faces += (size_t)el->count;
+        }
+    }
+    if (!w.vert || w.vert->count != c->nv || faces != c->nf)
+        goto mismatch;
+    w.rng = ffd_malloc_array(maxnp, 2 * sizeof(size_t));
+    w.vals = ffd_malloc_array(c->nv ? c->nv : 1, (w.vert->np ? w.vert->np : 1) * sizeof(double));
+    w.recs = ffd_malloc_array(c->nv ? c->nv : 1, sizeof(size_t));
+    if (!w.rng || !w.vals || !w.recs) {
+        st = ffd_fail(err, FFD_ERR_NOMEM, "ffd_mesh_refine: out of memory");
+        goto done;
+    }
+    {
+        /* the values of the vertex element */
+        prd r = {m->src, m->src_size, w.data, w.ascii, w.be};
+        for (size_t e = 0; e < w.nel; e++) {
+            const pelem *el = &w.el[e];
+            if (el->np == 0)
+                continue;
+            for (uint64_t i = 0; i < el->count; i++) {
+                bool isv = el == w.vert;
+                if (isv)
+                    w.recs[i] = r.pos;
+                if (!prd_record(&r, el, isv ? w.vals + (size_t)i * el->np : NULL, NULL))
+                    goto mismatch;
+            }
+            if (el == w.vert)
+                break;
+        }
+    }
+    st = ply_refine_records(&w, b, err);
+    goto done;
+mismatch:
+    st = ffd_fail(err, FFD_ERR_INVALID, "ffd_mesh_refine: the mesh does not match its PLY source");
+done:
+    pelems_free(w.el, w.nel);
+    ffd_free(w.rng);
+    ffd_free(w.vals);
+    ffd_free(w.recs);
+    return st;
+}
+
+/* ======================================================================
+ * The codec
+ * ====================================================================== */
+
+static const char *const ply_extensions[] = {"ply", NULL};
+
+const ffd_mesh_codec ffd_mesh_codec_ply = {
+    .format = FFD_FORMAT_PLY,
+    .name = "PLY",
+    .extensions = ply_extensions,
+    .encodings = FFD_CODEC_ENCODING(FFD_ENCODING_ASCII) |
+                 FFD_CODEC_ENCODING(FFD_ENCODING_BINARY_LE) |
+                 FFD_CODEC_ENCODING(FFD_ENCODING_BINARY_BE),
+    .triangles_only = false,
+    .read = ply_read,
+    .patch = ffd_mesh_patch_spans,
+    .transcode = ply_transcode,
+    .write = ply_write,
+    .refine = ply_refine,
+};

@@ -1,4 +1,5 @@
-/* mesh — writing: dispatch, lossless patching of the source bytes, output buffer.
+/* mesh — writing: dispatch to the format's codec (mesh_codec.h), lossless
+ * patching of the source bytes, output buffer.
  *
  * What a write produces:
  *
@@ -28,7 +29,7 @@
  *   FFD_ERR_UNSUPPORTED); STL has ascii and binary (BINARY_LE; BINARY_BE is
  *   FFD_ERR_UNSUPPORTED); PLY has all three.
  */
-#include "mesh.h"
+#include "mesh_codec.h"
 
 #include <stdarg.h>
 #include <stdio.h>
@@ -100,6 +101,21 @@ void ffd_buf_vec3_line(ffd_buf *b, const char *prefix, const double p[3])
     ffd_buf_puts(b, "\n");
 }
 
+void ffd_buf_uint(ffd_buf *b, uint64_t v)
+{
+    char t[24];
+    int n = snprintf(t, sizeof t, "%llu", (unsigned long long)v);
+    ffd_buf_put(b, t, (size_t)n);
+}
+
+void ffd_buf_xyz(ffd_buf *b, const double *v)
+{
+    for (int d = 0; d < 3; d++) {
+        ffd_buf_puts(b, " ");
+        ffd_buf_double(b, v[d]);
+    }
+}
+
 void ffd_buf_free(ffd_buf *b)
 {
     ffd_free(b->data);
@@ -123,7 +139,7 @@ static size_t next_changed(const ffd_mesh *m, const double *values, const ffd_sp
     return n;
 }
 
-static ffd_status patch_source(const ffd_mesh *m, ffd_buf *b, ffd_error *err)
+ffd_status ffd_mesh_patch_spans(const ffd_mesh *m, ffd_buf *b, ffd_error *err)
 {
     size_t np = 3 * m->vertex_count, nn = m->normal_spans ? 3 * m->normal_count : 0;
     bool be = m->encoding == FFD_ENCODING_BINARY_BE;
@@ -174,17 +190,6 @@ static ffd_status patch_source(const ffd_mesh *m, ffd_buf *b, ffd_error *err)
  * Dispatch
  * ====================================================================== */
 
-static const char *format_name(ffd_format f)
-{
-    switch (f) {
-    case FFD_FORMAT_OBJ: return "OBJ";
-    case FFD_FORMAT_PLY: return "PLY";
-    case FFD_FORMAT_OFF: return "OFF";
-    case FFD_FORMAT_STL: return "STL";
-    default: return "unknown";
-    }
-}
-
 ffd_status ffd_mesh_write_memory(const ffd_mesh *mesh, const ffd_write_options *options,
                                  unsigned char **data, size_t *size, ffd_error *err)
 {
@@ -196,34 +201,35 @@ ffd_status ffd_mesh_write_memory(const ffd_mesh *mesh, const ffd_write_options *
         return ffd_fail(err, FFD_ERR_INVALID, "ffd_mesh_write_memory: mesh is NULL");
     ffd_format format = options ? options->format : FFD_FORMAT_AUTO;
     ffd_encoding enc = options ? options->encoding : FFD_ENCODING_SAME;
-    if (format < FFD_FORMAT_OBJ || format > FFD_FORMAT_STL)
-        return ffd_fail(err, FFD_ERR_INVALID,
-                        "ffd_mesh_write_memory: options->format must be OBJ, PLY, OFF or STL");
+    const ffd_mesh_codec *codec = ffd_mesh_codec_find(format);
+    if (!codec) {
+        char list[FFD_MESH_CODEC_LIST_SIZE];
+        return ffd_fail(err, FFD_ERR_INVALID, "ffd_mesh_write_memory: options->format must be %s",
+                        ffd_mesh_codec_list(true, list, sizeof list));
+    }
     if (enc < FFD_ENCODING_SAME || enc > FFD_ENCODING_BINARY_BE)
         return ffd_fail(err, FFD_ERR_INVALID, "ffd_mesh_write_memory: unknown encoding %d",
                         (int)enc);
     bool same_format = mesh->src && mesh->format == format;
     if (enc == FFD_ENCODING_SAME)
         enc = same_format ? mesh->encoding : FFD_ENCODING_ASCII;
-    if ((format == FFD_FORMAT_OBJ || format == FFD_FORMAT_OFF) && enc != FFD_ENCODING_ASCII)
-        return ffd_fail(err, FFD_ERR_UNSUPPORTED, "%s has no binary encoding", format_name(format));
-    if (format == FFD_FORMAT_STL && enc == FFD_ENCODING_BINARY_BE)
-        return ffd_fail(err, FFD_ERR_UNSUPPORTED, "STL has no big-endian binary encoding");
+    if (!(codec->encodings & FFD_CODEC_ENCODING(enc))) {
+        unsigned binary =
+            FFD_CODEC_ENCODING(FFD_ENCODING_BINARY_LE) | FFD_CODEC_ENCODING(FFD_ENCODING_BINARY_BE);
+        if (!(codec->encodings & binary))
+            return ffd_fail(err, FFD_ERR_UNSUPPORTED, "%s has no binary encoding", codec->name);
+        return ffd_fail(err, FFD_ERR_UNSUPPORTED, "%s has no %s binary encoding", codec->name,
+                        enc == FFD_ENCODING_BINARY_BE ? "big-endian" : "little-endian");
+    }
 
     ffd_buf b = {0};
     ffd_status s;
     if (same_format && enc == mesh->encoding)
-        s = patch_source(mesh, &b, err);
-    else if (same_format && format == FFD_FORMAT_PLY)
-        s = ffd_ply_transcode(mesh, enc, &b, err);
-    else {
-        switch (format) {
-        case FFD_FORMAT_OBJ: s = ffd_obj_write(mesh, &b, err); break;
-        case FFD_FORMAT_PLY: s = ffd_ply_write(mesh, enc, &b, err); break;
-        case FFD_FORMAT_OFF: s = ffd_off_write(mesh, &b, err); break;
-        default: s = ffd_stl_write(mesh, enc, &b, err); break;
-        }
-    }
+        s = codec->patch(mesh, &b, err);
+    else if (same_format && codec->transcode)
+        s = codec->transcode(mesh, enc, &b, err);
+    else
+        s = codec->write(mesh, enc, &b, err);
     if (s == FFD_OK && b.oom)
         s = ffd_fail(err, FFD_ERR_NOMEM, "out of memory writing the mesh");
     if (s != FFD_OK) {
@@ -249,10 +255,11 @@ ffd_status ffd_mesh_write(const ffd_mesh *mesh, const char *path,
     ffd_write_options opt = options ? *options : (ffd_write_options){0};
     if (opt.format == FFD_FORMAT_AUTO) {
         opt.format = ffd_format_from_path(path);
-        if (opt.format == FFD_FORMAT_AUTO)
-            return ffd_fail(err, FFD_ERR_INVALID,
-                            "%s: unknown mesh file extension (expected .obj, .ply, .off or .stl)",
-                            path);
+        if (opt.format == FFD_FORMAT_AUTO) {
+            char list[FFD_MESH_CODEC_LIST_SIZE];
+            return ffd_fail(err, FFD_ERR_INVALID, "%s: unknown mesh file extension (expected %s)",
+                            path, ffd_mesh_codec_list(false, list, sizeof list));
+        }
     }
     unsigned char *data;
     size_t size;
