@@ -36,7 +36,7 @@ void ffd_rig_tspline_free(ffd_rig_tspline *t)
 }
 
 /* An array of non-negative integers. */
-static ffd_status read_ids(const parser *p, const cJSON *item, const char *path, uint32_t **ids,
+static ffd_status read_ids(const ffd_rig_parser *p, const cJSON *item, const char *path, uint32_t **ids,
                            size_t *count)
 {
     if (!cJSON_IsArray(item) || cJSON_GetArraySize(item) == 0)
@@ -63,7 +63,7 @@ static ffd_status read_ids(const parser *p, const cJSON *item, const char *path,
 }
 
 /* The one selector key of an object that may hold other keys too. */
-static ffd_status read_selection(const parser *p, const cJSON *obj, const char *path,
+static ffd_status read_selection(const ffd_rig_parser *p, const cJSON *obj, const char *path,
                                  ffd_rig_tsv_selection *sel)
 {
     const cJSON *found = NULL;
@@ -125,7 +125,7 @@ static ffd_status read_selection(const parser *p, const cJSON *obj, const char *
 }
 
 /* A selection alone: {"points": [..]} etc. */
-static ffd_status read_selections(const parser *p, const cJSON *item, const char *path,
+static ffd_status read_selections(const ffd_rig_parser *p, const cJSON *item, const char *path,
                                   ffd_rig_tsv_selection **out, size_t *count)
 {
     if (!cJSON_IsArray(item))
@@ -154,7 +154,7 @@ static ffd_status read_selections(const parser *p, const cJSON *item, const char
 }
 
 /* A selection with "delta" or "rotate". */
-static ffd_status read_handles(const parser *p, const cJSON *item, const char *path,
+static ffd_status read_handles(const ffd_rig_parser *p, const cJSON *item, const char *path,
                                ffd_rig_tsv_handle **out, size_t *count)
 {
     static const char *const keys[] = {"points", "near", "box", "edges", "faces", "cells",
@@ -201,7 +201,7 @@ static ffd_status read_handles(const parser *p, const cJSON *item, const char *p
     return FFD_OK;
 }
 
-ffd_status ffd_rig_read_tsv_refinements(const parser *p, const cJSON *item, const char *path,
+ffd_status ffd_rig_read_tsv_refinements(const ffd_rig_parser *p, const cJSON *item, const char *path,
                                    ffd_rig_tsv_step *st)
 {
     static const char *const keys[] = {"cell", "face", "edge", "cells", "ratio", NULL};
@@ -277,7 +277,7 @@ ffd_status ffd_rig_read_tsv_refinements(const parser *p, const cJSON *item, cons
     return FFD_OK;
 }
 
-static ffd_status read_weights(const parser *p, const cJSON *item, const char *path,
+static ffd_status read_weights(const ffd_rig_parser *p, const cJSON *item, const char *path,
                                ffd_tsv_arap_options *o)
 {
     static const char *const keys[] = {"one_form", "proxy", "volume", "target", NULL};
@@ -303,7 +303,7 @@ static ffd_status read_weights(const parser *p, const cJSON *item, const char *p
     return FFD_OK;
 }
 
-static ffd_status read_bool(const parser *p, const cJSON *item, const char *path, int *out)
+static ffd_status read_bool(const ffd_rig_parser *p, const cJSON *item, const char *path, int *out)
 {
     if (!cJSON_IsBool(item))
         return ffd_rig_expected(p, path, "true or false");
@@ -311,7 +311,7 @@ static ffd_status read_bool(const parser *p, const cJSON *item, const char *path
     return FFD_OK;
 }
 
-static ffd_status read_deform(const parser *p, const cJSON *item, const char *path,
+static ffd_status read_deform(const ffd_rig_parser *p, const cJSON *item, const char *path,
                               ffd_rig_tsv_step *st)
 {
     static const char *const keys[] = {"handles", "freeze", "weights", "iterations",
@@ -360,7 +360,7 @@ static ffd_status read_deform(const parser *p, const cJSON *item, const char *pa
     return FFD_OK;
 }
 
-static ffd_status read_constrain(const parser *p, const cJSON *item, const char *path,
+static ffd_status read_constrain(const ffd_rig_parser *p, const cJSON *item, const char *path,
                                  ffd_rig_tsv_step *st)
 {
     static const char *const keys[] = {"targets", "freeze", NULL};
@@ -391,7 +391,7 @@ static ffd_status read_constrain(const parser *p, const cJSON *item, const char 
     return FFD_OK;
 }
 
-static ffd_status read_steps(const parser *p, const cJSON *item, ffd_rig_tspline *t)
+static ffd_status read_steps(const ffd_rig_parser *p, const cJSON *item, ffd_rig_tspline *t)
 {
     static const char *const kinds[] = {"refine", "deform", "move", "constraints", NULL};
     if (!cJSON_IsArray(item))
@@ -437,11 +437,12 @@ static ffd_status read_steps(const parser *p, const cJSON *item, ffd_rig_tspline
     return FFD_OK;
 }
 
-ffd_status ffd_rig_read_tspline_root(const parser *p, const cJSON *root, ffd_rig *rig)
+ffd_status ffd_rig_parse_tspline(const ffd_rig_parser *p, const cJSON *root, ffd_rig *rig)
 {
     static const char *const keys[] = {"version", "deformer", "resolution", "padding",
                                        "steps",   "fold_samples", NULL};
     ffd_rig_tspline *t = &rig->tsv;
+    rig->deformer = FFD_RIG_TSPLINE;
     t->resolution[0] = t->resolution[1] = t->resolution[2] = 6;
     const cJSON *item;
     ffd_status s = ffd_rig_check_deformer_root(p, root, "tspline", keys,

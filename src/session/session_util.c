@@ -7,7 +7,7 @@
 #include <stdio.h>
 #include <string.h>
 
-ffd_status ffd_sess_read_ids(const parser *p, const cJSON *item, const char *path, size_t count,
+ffd_status ffd_sess_read_ids(const ffd_rig_parser *p, const cJSON *item, const char *path, size_t count,
                          uint32_t **ids, size_t *k)
 {
     *ids = NULL;
