@@ -2,6 +2,7 @@
  * its JSON path or line:column) and ffd_rig_apply on small meshes. */
 #include "check.h"
 #include "check_rig.h"
+#include "deformer/method.h"
 
 #include <stdio.h>
 #include <sys/stat.h>
@@ -788,6 +789,80 @@ done:
     ffd_mesh_destroy(mesh);
 }
 
+/* Every registered method reads its own rigs (ffd_method.parse): a rig whose
+ * "deformer" names it comes back tagged with it; no "deformer" is a lattice. */
+static void test_registry_schemas(void)
+{
+    static const char *const rigs[] = {
+        "{\"deformer\": \"lattice\", \"resolution\": [4, 4, 4]}",
+        "{\"deformer\": \"pbffd\", \"controls\": [{\"center\": [0, 0, 0], \"radius\": 1}]}",
+        "{\"deformer\": \"gffd\", \"skeleton\": [{\"type\": \"point\", \"position\": [0, 0, 0], "
+        "\"radius\": 1}]}",
+        "{\"deformer\": \"tspline\", \"resolution\": [4, 4, 4]}",
+    };
+    CHECK(ffd_method_count() == sizeof rigs / sizeof *rigs);
+    for (size_t i = 0; i < ffd_method_count(); i++) {
+        const ffd_method *m = ffd_method_at(i);
+        CHECK(m->parse != NULL);
+        ffd_rig *rig = parse_ok(rigs[i]);
+        CHECK(rig && strstr(rigs[i], m->name) && rig->deformer == m->id);
+        CHECK(rig && ffd_method_of_rig(rig) == m);
+        ffd_rig_destroy(rig);
+    }
+    ffd_rig *rig = parse_ok("{\"moves\": []}");
+    CHECK(rig && rig->deformer == FFD_RIG_LATTICE);
+    ffd_rig_destroy(rig);
+}
+
+/* The arrays of every method's schema (ffd_rig_read_array: elements that own
+ * memory, nested arrays) under every allocation failure: NOMEM, nothing
+ * leaked (ASan), and the rig reads once allocation succeeds. */
+static void test_allocation_failures_every_method(void)
+{
+    static const char *const rigs[] = {
+        "{\"deformer\": \"pbffd\", \"controls\": [{\"center\": [0, 0, 0], \"radius\": 1}, "
+        "{\"center\": [1, 0, 0], \"radius\": [1, 2, 1]}], \"moves\": [{\"control\": 1, \"delta\": "
+        "[0, 0, 1]}], \"frames\": [{\"control\": 0, \"scale\": [1, 2, 1]}], \"curves\": "
+        "[{\"points\": [[0, 0, 0], [1, 0, 0], [2, 0, 0]], \"radius\": 0.5, \"moves\": "
+        "[{\"index\": 2, \"delta\": [0, 1, 0]}]}, {\"points\": [[0, 1, 0], [1, 1, 0]], "
+        "\"radius\": 0.5}], \"constraints\": [{\"vertex\": 0, \"target\": [0, 0, 0]}]}",
+        "{\"deformer\": \"gffd\", \"skeleton\": [{\"type\": \"polyline\", \"vertices\": [[0, 0, 0], "
+        "[1, 0, 0], [2, 0, 0]], \"radius\": 1}, {\"type\": \"patch\", \"vertices\": [[0, 0, 0], "
+        "[1, 0, 0], [0, 1, 0]], \"faces\": [[0, 1, 2]], \"radius\": 1}], \"edits\": "
+        "[{\"primitive\": 0, \"vertices\": [[0, 0, 0], [1, 1, 0], [2, 0, 0]]}, {\"primitive\": 1, "
+        "\"move\": [0, 0, 1], \"vertex\": 2}]}",
+        "{\"deformer\": \"gffd\", \"skeleton\": [{\"type\": \"point\", \"position\": [0, 0, 0], "
+        "\"radius\": 1}], \"replace\": [{\"type\": \"polyline\", \"vertices\": [[0, 0, 0], "
+        "[1, 0, 0]], \"radius\": 1}], \"correspondences\": [{\"from\": [0, 0, 0], \"to\": "
+        "[1, 0, 0]}]}",
+        "{\"deformer\": \"tspline\", \"steps\": [{\"refine\": [{\"cell\": 0}, {\"edge\": {\"near\": "
+        "[0, 0, 0]}}]}, {\"deform\": {\"handles\": [{\"points\": [1, 2], \"delta\": [0, 0, 1]}, "
+        "{\"box\": {\"min\": [0, 0, 0], \"max\": [1, 1, 1]}, \"rotate\": {\"axis\": [0, 0, 1], "
+        "\"angle\": 0.5}}], \"freeze\": [{\"edges\": [3]}, {\"near\": [0, 0, 0]}]}}, {\"move\": "
+        "[{\"cells\": [0, 1], \"delta\": [1, 0, 0]}]}]}",
+    };
+    fail_alloc f = {0, 0};
+    ffd_allocator a = {fa_malloc, fa_realloc, fa_free, &f};
+    for (size_t r = 0; r < sizeof rigs / sizeof *rigs; r++) {
+        int parsed = 0;
+        ffd_rig *ok = parse_ok(rigs[r]);
+        CHECK(ok != NULL);
+        ffd_rig_destroy(ok);
+        for (long n = 0; n < 10000 && !parsed; n++) {
+            ffd_rig *rig = NULL;
+            f.left = n;
+            ffd_set_allocator(&a);
+            ffd_status s = ffd_rig_parse_json(rigs[r], strlen(rigs[r]), "a.json", &rig, NULL);
+            ffd_set_allocator(NULL);
+            CHECK(s == FFD_OK || s == FFD_ERR_NOMEM);
+            CHECK((s == FFD_OK) == (rig != NULL));
+            parsed = s == FFD_OK;
+            ffd_rig_destroy(rig);
+        }
+        CHECK(parsed);
+    }
+}
+
 static void test_report_free_null(void)
 {
     ffd_rig_report_free(NULL);
@@ -850,6 +925,8 @@ int main(int argc, char **argv)
         {"apply_normals", test_apply_normals},
         {"apply_partial_move_keeps_bytes", test_apply_partial_move_keeps_bytes},
         {"allocation_failures", test_allocation_failures},
+        {"allocation_failures_every_method", test_allocation_failures_every_method},
+        {"registry_schemas", test_registry_schemas},
     };
     return check_run(tests, sizeof tests / sizeof tests[0], argc, argv);
 }

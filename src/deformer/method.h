@@ -13,6 +13,10 @@
 typedef struct ffd_method {
     const char *name;               /* the rig's "deformer" and the editor's "method" */
     ffd_rig_deformer id;            /* the rig's tag for it */
+    /* The method's schema: reads a rig's root object whose "deformer" names
+     * it into rig (rig_json_<method>.c; ffd_rig_parse_json dispatches here,
+     * the editor's "create" reads its body with it). */
+    ffd_status (*parse)(const ffd_rig_parser *p, const cJSON *root, ffd_rig *rig);
     /* Applies a parsed rig of this method to mesh (ffd_rig_apply). */
     ffd_status (*apply)(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report *report,
                         ffd_budget *budget, ffd_error *err);

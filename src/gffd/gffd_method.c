@@ -8,6 +8,7 @@ static const char *const gffd_ops[] = {"primitive", NULL};
 const ffd_method ffd_method_gffd = {
     .name = "gffd",
     .id = FFD_RIG_GFFD,
+    .parse = ffd_rig_parse_gffd,
     .apply = ffd_rig_apply_gffd,
     .load = ffd_sess_gffd_load,
     .create = ffd_sess_gffd_create,

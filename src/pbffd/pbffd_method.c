@@ -8,6 +8,7 @@ static const char *const pbffd_ops[] = {"level", "frame", "curve", NULL};
 const ffd_method ffd_method_pbffd = {
     .name = "pbffd",
     .id = FFD_RIG_PBFFD,
+    .parse = ffd_rig_parse_pbffd,
     .apply = ffd_rig_apply_pbffd,
     .load = ffd_sess_pbffd_load,
     .create = ffd_sess_pbffd_create,

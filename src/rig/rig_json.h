@@ -1,6 +1,7 @@
-/* rig_json — the JSON value readers shared by the rig parsers (rig_json.c,
- * rig_json_tspline.c, the only files that include cJSON). Each names the JSON
- * path of what it rejects: "rig.json: steps[1].deform.handles[0].delta:
+/* rig_json — the JSON value readers shared by the rig readers (rig_json.c)
+ * and the section reader of each method (rig_json_<method>.c: one schema per
+ * method, named in the method registry, deformer/method.h). Each names the
+ * JSON path of what it rejects: "rig.json: steps[1].deform.handles[0].delta:
  * expected an array of 3 finite numbers". */
 #ifndef FFD_RIG_JSON_H
 #define FFD_RIG_JSON_H
@@ -11,60 +12,91 @@
 
 #define RIG_PATH_MAX 96
 
-typedef struct parser {
+/* Where messages go: "NAME: PATH: expected WHAT" (name: the rig file, or
+ * the editor's op). */
+typedef struct ffd_rig_parser {
     const char *name;
     ffd_error *err;
-} parser;
+} ffd_rig_parser;
 
-ffd_status ffd_rig_expected(const parser *p, const char *path, const char *what);
-ffd_status ffd_rig_read_number(const parser *p, const cJSON *item, const char *path, double *out);
+ffd_status ffd_rig_expected(const ffd_rig_parser *p, const char *path, const char *what);
+ffd_status ffd_rig_read_number(const ffd_rig_parser *p, const cJSON *item, const char *path, double *out);
 /* An array of exactly 3 finite numbers. */
-ffd_status ffd_rig_read_vec3(const parser *p, const cJSON *item, const char *path, double out[3]);
+ffd_status ffd_rig_read_vec3(const ffd_rig_parser *p, const cJSON *item, const char *path, double out[3]);
 int ffd_rig_is_uint32(const cJSON *item);
 /* An array of exactly 3 non-negative integers. */
-ffd_status ffd_rig_read_uint3(const parser *p, const cJSON *item, const char *path, uint32_t out[3]);
+ffd_status ffd_rig_read_uint3(const ffd_rig_parser *p, const cJSON *item, const char *path, uint32_t out[3]);
 /* Index of s in the NULL-terminated list, or -1. */
 int ffd_rig_lookup(const char *s, const char *const *names);
 /* One of a fixed set of strings; what describes the set for the message. */
-ffd_status ffd_rig_read_enum(const parser *p, const cJSON *item, const char *path,
+ffd_status ffd_rig_read_enum(const ffd_rig_parser *p, const cJSON *item, const char *path,
                          const char *const *names, const char *what, int *out);
 /* Rejects keys outside allowed (NULL-terminated) and keys given twice. */
-ffd_status ffd_rig_check_keys(const parser *p, const cJSON *object, const char *path,
+ffd_status ffd_rig_check_keys(const ffd_rig_parser *p, const cJSON *object, const char *path,
                           const char *const *allowed, const char *allowed_text);
 /* A non-negative integer that fits uint32_t. */
-ffd_status ffd_rig_read_index(const parser *p, const cJSON *item, const char *path, const char *what,
+ffd_status ffd_rig_read_index(const ffd_rig_parser *p, const cJSON *item, const char *path, const char *what,
                           uint32_t *out);
-ffd_status ffd_rig_read_positive(const parser *p, const cJSON *item, const char *path, double *out);
+ffd_status ffd_rig_read_positive(const ffd_rig_parser *p, const cJSON *item, const char *path, double *out);
 /* {"axis": [x,y,z], "angle": radians} and, when center is not NULL, an
  * optional "center": [x,y,z] (*has_center set when given). */
-ffd_status ffd_rig_read_rotation(const parser *p, const cJSON *item, const char *path,
+ffd_status ffd_rig_read_rotation(const ffd_rig_parser *p, const cJSON *item, const char *path,
                              double axis[3], double *angle, double center[3], int *has_center);
+/* Reads one element of an array (ffd_rig_read_array): item is the element,
+ * path its JSON path ("key[i]"), element its zeroed slot; ctx is the
+ * caller's. */
+typedef ffd_status (*ffd_rig_element_reader)(const ffd_rig_parser *p, const cJSON *item,
+                                             const char *path, void *element, void *ctx);
+/* Frees what a reader left in an element (read or not; zeroed ones too). */
+typedef void (*ffd_rig_element_free)(void *element);
+/* "Read an array of X": item must be an array (else "key: expected what");
+ * each element is read into a zeroed slot of size bytes by read, with the
+ * path "key[i]". On success *out holds the *count elements (NULL when the
+ * array is empty; ffd_free'd by the caller); on error every element is
+ * released (release may be NULL), *out is NULL and *count 0. */
+ffd_status ffd_rig_read_array(const ffd_rig_parser *p, const cJSON *item, const char *key,
+                              const char *what, size_t size, ffd_rig_element_reader read,
+                              ffd_rig_element_free release, void *ctx, void **out, size_t *count);
+/* An array of at least min points [x,y,z] (*count by 3). */
+ffd_status ffd_rig_read_points(const ffd_rig_parser *p, const cJSON *item, const char *path,
+                               size_t min, double **out, size_t *count);
 /* An array of {"vertex": id, "target": [x,y,z]} or {"point": [x,y,z], "target": [..]}. */
-ffd_status ffd_rig_read_constraints(const parser *p, const cJSON *item, const char *where,
+ffd_status ffd_rig_read_constraints(const ffd_rig_parser *p, const cJSON *item, const char *where,
                                 ffd_rig_constraint **out, size_t *count);
 
 /* A GFFD skeleton primitive (docs/rig.md "GFFD rigs"); a "file" is read
  * relative to p->name's directory. On error prim may hold partial arrays
  * (ffd_rig_primitive_free). */
-ffd_status ffd_rig_read_primitive(const parser *p, const cJSON *item, const char *path,
+ffd_status ffd_rig_read_primitive(const ffd_rig_parser *p, const cJSON *item, const char *path,
                               ffd_rig_primitive *prim);
-/* An array of at least one primitive; *count is set as soon as *out is
- * allocated, so that the caller frees what was read even on error. */
-ffd_status ffd_rig_read_skeleton(const parser *p, const cJSON *item, const char *key,
+/* An array of at least one primitive (ffd_rig_read_array: on error nothing
+ * is left to free). */
+ffd_status ffd_rig_read_skeleton(const ffd_rig_parser *p, const cJSON *item, const char *key,
                              ffd_rig_primitive **out, size_t *count);
 
 /* "version", if given, is 1. */
-ffd_status ffd_rig_read_version(const parser *p, const cJSON *root);
+ffd_status ffd_rig_read_version(const ffd_rig_parser *p, const cJSON *root);
 /* The top-level keys of a one-deformer rig: each in keys (else "NAME: KEY: not
  * a key of "deformer": "DEFORMER" rigs, expected one of KEYS_TEXT"), none
  * twice; and the version. */
-ffd_status ffd_rig_check_deformer_root(const parser *p, const cJSON *root, const char *deformer,
+ffd_status ffd_rig_check_deformer_root(const ffd_rig_parser *p, const cJSON *root, const char *deformer,
                                    const char *const *keys, const char *keys_text);
 
+/* The top-level keys lattice and PB-FFD rigs share (rcond, constraints;
+ * version, deformer and every key checked, a key of the other method named
+ * as such); rig->deformer says which of the two the rig is. */
+ffd_status ffd_rig_read_linear_root(const ffd_rig_parser *p, const cJSON *root, ffd_rig *rig);
+
 /* A refine step's insertions (rig_json_tspline.c; the editor's "refine" op too). */
-ffd_status ffd_rig_read_tsv_refinements(const parser *p, const cJSON *item, const char *path,
+ffd_status ffd_rig_read_tsv_refinements(const ffd_rig_parser *p, const cJSON *item, const char *path,
                                     ffd_rig_tsv_step *st);
-/* The "deformer": "tspline" root (rig_json_tspline.c). */
-ffd_status ffd_rig_read_tspline_root(const parser *p, const cJSON *root, ffd_rig *rig);
+
+/* The section reader of each method (ffd_method.parse, one file each): the
+ * whole root object of a rig of that method, into rig (which it tags with
+ * the method); what it read stays in rig for ffd_rig_destroy, on error too. */
+ffd_status ffd_rig_parse_lattice(const ffd_rig_parser *p, const cJSON *root, ffd_rig *rig);
+ffd_status ffd_rig_parse_pbffd(const ffd_rig_parser *p, const cJSON *root, ffd_rig *rig);
+ffd_status ffd_rig_parse_gffd(const ffd_rig_parser *p, const cJSON *root, ffd_rig *rig);
+ffd_status ffd_rig_parse_tspline(const ffd_rig_parser *p, const cJSON *root, ffd_rig *rig);
 
 #endif

@@ -18,52 +18,50 @@ static void selection_free(ffd_rig_tsv_selection *s)
     s->ids = NULL;
 }
 
+static void step_free(void *element)
+{
+    ffd_rig_tsv_step *st = element;
+    ffd_free(st->refinements);
+    for (size_t h = 0; h < st->handle_count; h++)
+        selection_free(&st->handles[h].sel);
+    ffd_free(st->handles);
+    for (size_t f = 0; f < st->freeze_count; f++)
+        selection_free(&st->freeze[f]);
+    ffd_free(st->freeze);
+    ffd_free(st->constraints);
+}
+
 void ffd_rig_tspline_free(ffd_rig_tspline *t)
 {
-    for (size_t i = 0; i < t->step_count; i++) {
-        ffd_rig_tsv_step *st = &t->steps[i];
-        ffd_free(st->refinements);
-        for (size_t h = 0; h < st->handle_count; h++)
-            selection_free(&st->handles[h].sel);
-        ffd_free(st->handles);
-        for (size_t f = 0; f < st->freeze_count; f++)
-            selection_free(&st->freeze[f]);
-        ffd_free(st->freeze);
-        ffd_free(st->constraints);
-    }
+    for (size_t i = 0; i < t->step_count; i++)
+        step_free(&t->steps[i]);
     ffd_free(t->steps);
     memset(t, 0, sizeof *t);
 }
 
-/* An array of non-negative integers. */
-static ffd_status read_ids(const parser *p, const cJSON *item, const char *path, uint32_t **ids,
+static ffd_status read_id(const ffd_rig_parser *p, const cJSON *v, const char *path,
+                          void *element, void *ctx)
+{
+    (void)ctx;
+    return ffd_rig_read_index(p, v, path, "an id (a non-negative integer)", element);
+}
+
+/* A non-empty array of non-negative integers. */
+static ffd_status read_ids(const ffd_rig_parser *p, const cJSON *item, const char *path, uint32_t **ids,
                            size_t *count)
 {
+    static const char what[] = "a non-empty array of ids (non-negative integers)";
     if (!cJSON_IsArray(item) || cJSON_GetArraySize(item) == 0)
-        return ffd_rig_expected(p, path, "a non-empty array of ids (non-negative integers)");
-    size_t n = (size_t)cJSON_GetArraySize(item);
-    *ids = ffd_malloc_array(n, sizeof(uint32_t));
-    if (!*ids)
-        return ffd_fail(p->err, FFD_ERR_NOMEM, "%s: %s: out of memory", p->name, path);
-    size_t i = 0;
-    const cJSON *v;
-    cJSON_ArrayForEach(v, item)
-    {
-        if (!ffd_rig_is_uint32(v)) {
-            ffd_free(*ids);
-            *ids = NULL;
-            char sub[RIG_PATH_MAX + 64];
-            snprintf(sub, sizeof sub, "%.100s[%zu]", path, i);
-            return ffd_rig_expected(p, sub, "an id (a non-negative integer)");
-        }
-        (*ids)[i++] = (uint32_t)v->valuedouble;
-    }
-    *count = n;
-    return FFD_OK;
+        return ffd_rig_expected(p, path, what);
+    void *read;
+    ffd_status s = ffd_rig_read_array(p, item, path, what, sizeof **ids, read_id, NULL, NULL,
+                                      &read, count);
+    *ids = read;
+    return s;
 }
 
 /* The one selector key of an object that may hold other keys too. */
-static ffd_status read_selection(const parser *p, const cJSON *obj, const char *path,
+static ffd_status read_selection(const ffd_rig_parser *p, const cJSON *obj, const char *path,
                                  ffd_rig_tsv_selection *sel)
 {
     const cJSON *found = NULL;
@@ -124,160 +122,158 @@ static ffd_status read_selection(const parser *p, const cJSON *obj, const char *
     }
 }
 
+static void selection_release(void *element)
+{
+    selection_free(element);
+}
+
 /* A selection alone: {"points": [..]} etc. */
-static ffd_status read_selections(const parser *p, const cJSON *item, const char *path,
+static ffd_status read_selection_element(const ffd_rig_parser *p, const cJSON *c,
+                                         const char *path, void *element, void *ctx)
+{
+    (void)ctx;
+    if (!cJSON_IsObject(c))
+        return ffd_rig_expected(p, path, "an object {" SELECTOR_TEXT ": ...}");
+    ffd_status s = ffd_rig_check_keys(p, c, path, selector_keys, SELECTOR_TEXT);
+    return s ? s : read_selection(p, c, path, element);
+}
+
+static ffd_status read_selections(const ffd_rig_parser *p, const cJSON *item, const char *path,
                                   ffd_rig_tsv_selection **out, size_t *count)
 {
-    if (!cJSON_IsArray(item))
-        return ffd_rig_expected(p, path, "an array of selections {" SELECTOR_TEXT ": ...}");
-    size_t n = (size_t)cJSON_GetArraySize(item);
-    if (!n)
-        return FFD_OK;
-    *out = ffd_calloc(n, sizeof **out);
-    if (!*out)
-        return ffd_fail(p->err, FFD_ERR_NOMEM, "%s: out of memory", p->name);
-    *count = n;
-    size_t i = 0;
-    const cJSON *c;
-    cJSON_ArrayForEach(c, item)
-    {
-        char sub[RIG_PATH_MAX + 64];
-        snprintf(sub, sizeof sub, "%.100s[%zu]", path, i);
-        if (!cJSON_IsObject(c))
-            return ffd_rig_expected(p, sub, "an object {" SELECTOR_TEXT ": ...}");
-        ffd_status s = ffd_rig_check_keys(p, c, sub, selector_keys, SELECTOR_TEXT);
-        if (s || (s = read_selection(p, c, sub, &(*out)[i])))
-            return s;
-        i++;
-    }
-    return FFD_OK;
+    void *read;
+    ffd_status s = ffd_rig_read_array(p, item, path,
+                                      "an array of selections {" SELECTOR_TEXT ": ...}",
+                                      sizeof **out, read_selection_element, selection_release,
+                                      NULL, &read, count);
+    *out = read;
+    return s;
+}
+
+static void handle_release(void *element)
+{
+    selection_free(&((ffd_rig_tsv_handle *)element)->sel);
 }
 
 /* A selection with "delta" or "rotate". */
-static ffd_status read_handles(const parser *p, const cJSON *item, const char *path,
-                               ffd_rig_tsv_handle **out, size_t *count)
+static ffd_status read_handle(const ffd_rig_parser *p, const cJSON *c, const char *sub,
+                              void *element, void *ctx)
 {
     static const char *const keys[] = {"points", "near", "box", "edges", "faces", "cells",
                                        "delta",  "rotate", NULL};
-    if (!cJSON_IsArray(item) || cJSON_GetArraySize(item) == 0)
-        return ffd_rig_expected(p, path, "a non-empty array of {selection, \"delta\": [x,y,z]} or "
-                                     "{selection, \"rotate\": {\"axis\", \"angle\"}}");
-    size_t n = (size_t)cJSON_GetArraySize(item);
-    *out = ffd_calloc(n, sizeof **out);
-    if (!*out)
-        return ffd_fail(p->err, FFD_ERR_NOMEM, "%s: out of memory", p->name);
-    *count = n;
-    size_t i = 0;
-    const cJSON *c;
-    cJSON_ArrayForEach(c, item)
-    {
-        char sub[RIG_PATH_MAX + 64], k2[RIG_PATH_MAX + 192];
-        snprintf(sub, sizeof sub, "%.100s[%zu]", path, i);
-        if (!cJSON_IsObject(c))
-            return ffd_rig_expected(p, sub, "an object {selection, \"delta\" or \"rotate\"}");
-        ffd_rig_tsv_handle *h = &(*out)[i];
-        ffd_status s = ffd_rig_check_keys(p, c, sub, keys,
-                                      SELECTOR_TEXT ", \"delta\", \"rotate\"");
-        if (s || (s = read_selection(p, c, sub, &h->sel)))
-            return s;
-        const cJSON *delta = cJSON_GetObjectItemCaseSensitive(c, "delta");
-        const cJSON *rotate = cJSON_GetObjectItemCaseSensitive(c, "rotate");
-        if ((delta != NULL) == (rotate != NULL))
-            return ffd_rig_expected(p, sub, "either \"delta\" or \"rotate\" (one of them)");
-        if (delta) {
-            snprintf(k2, sizeof k2, "%.100s.delta", sub);
-            h->has_delta = 1;
-            if ((s = ffd_rig_read_vec3(p, delta, k2, h->delta)))
-                return s;
-        } else {
-            snprintf(k2, sizeof k2, "%.100s.rotate", sub);
-            h->has_rotate = 1;
-            if ((s = ffd_rig_read_rotation(p, rotate, k2, h->axis, &h->angle, h->center,
-                                       &h->has_center)))
-                return s;
-        }
-        i++;
+    ffd_rig_tsv_handle *h = element;
+    char k2[RIG_PATH_MAX + 192];
+    (void)ctx;
+    if (!cJSON_IsObject(c))
+        return ffd_rig_expected(p, sub, "an object {selection, \"delta\" or \"rotate\"}");
+    ffd_status s = ffd_rig_check_keys(p, c, sub, keys, SELECTOR_TEXT ", \"delta\", \"rotate\"");
+    if (s || (s = read_selection(p, c, sub, &h->sel)))
+        return s;
+    const cJSON *delta = cJSON_GetObjectItemCaseSensitive(c, "delta");
+    const cJSON *rotate = cJSON_GetObjectItemCaseSensitive(c, "rotate");
+    if ((delta != NULL) == (rotate != NULL))
+        return ffd_rig_expected(p, sub, "either \"delta\" or \"rotate\" (one of them)");
+    if (delta) {
+        snprintf(k2, sizeof k2, "%.100s.delta", sub);
+        h->has_delta = 1;
+        return ffd_rig_read_vec3(p, delta, k2, h->delta);
     }
-    return FFD_OK;
+    snprintf(k2, sizeof k2, "%.100s.rotate", sub);
+    h->has_rotate = 1;
+    return ffd_rig_read_rotation(p, rotate, k2, h->axis, &h->angle, h->center, &h->has_center);
 }
 
-ffd_status ffd_rig_read_tsv_refinements(const parser *p, const cJSON *item, const char *path,
-                                   ffd_rig_tsv_step *st)
+static ffd_status read_handles(const ffd_rig_parser *p, const cJSON *item, const char *path,
+                               ffd_rig_tsv_handle **out, size_t *count)
+{
+    static const char what[] = "a non-empty array of {selection, \"delta\": [x,y,z]} or "
+                               "{selection, \"rotate\": {\"axis\", \"angle\"}}";
+    if (!cJSON_IsArray(item) || cJSON_GetArraySize(item) == 0)
+        return ffd_rig_expected(p, path, what);
+    void *read;
+    ffd_status s = ffd_rig_read_array(p, item, path, what, sizeof **out, read_handle,
+                                      handle_release, NULL, &read, count);
+    *out = read;
+    return s;
+}
+
+static ffd_status read_refinement(const ffd_rig_parser *p, const cJSON *c, const char *sub,
+                                  void *element, void *ctx)
 {
     static const char *const keys[] = {"cell", "face", "edge", "cells", "ratio", NULL};
-    if (!cJSON_IsArray(item) || cJSON_GetArraySize(item) == 0)
-        return ffd_rig_expected(p, path, "a non-empty array of {\"cell\"|\"face\"|\"edge\": id or "
-                                     "{\"near\": [x,y,z]}} or {\"cells\": \"proxy\"}");
-    size_t n = (size_t)cJSON_GetArraySize(item);
-    st->refinements = ffd_calloc(n, sizeof *st->refinements);
-    if (!st->refinements)
-        return ffd_fail(p->err, FFD_ERR_NOMEM, "%s: out of memory", p->name);
-    st->refinement_count = n;
-    size_t i = 0;
-    const cJSON *c;
-    cJSON_ArrayForEach(c, item)
-    {
-        char sub[RIG_PATH_MAX + 64], k2[RIG_PATH_MAX + 192];
-        snprintf(sub, sizeof sub, "%.100s[%zu]", path, i);
-        ffd_rig_tsv_refinement *r = &st->refinements[i];
-        if (!cJSON_IsObject(c))
-            return ffd_rig_expected(p, sub, "an object {\"cell\"|\"face\"|\"edge\": id}");
-        ffd_status s = ffd_rig_check_keys(p, c, sub, keys,
-                                      "\"cell\", \"face\", \"edge\", \"cells\", \"ratio\"");
-        if (s)
+    ffd_rig_tsv_refinement *r = element;
+    char k2[RIG_PATH_MAX + 192];
+    (void)ctx;
+    if (!cJSON_IsObject(c))
+        return ffd_rig_expected(p, sub, "an object {\"cell\"|\"face\"|\"edge\": id}");
+    ffd_status s = ffd_rig_check_keys(p, c, sub, keys,
+                                  "\"cell\", \"face\", \"edge\", \"cells\", \"ratio\"");
+    if (s)
+        return s;
+    const cJSON *which = NULL;
+    int count = 0;
+    for (int k = 0; k < 4; k++) {
+        const cJSON *it = cJSON_GetObjectItemCaseSensitive(c, keys[k]);
+        if (it) {
+            count++;
+            which = it;
+            r->kind = k == 0 || k == 3 ? FFD_TSV_CELL : k == 1 ? FFD_TSV_FACE : FFD_TSV_EDGE;
+            r->proxy_cells = k == 3;
+        }
+    }
+    if (count != 1)
+        return ffd_rig_expected(p, sub, "exactly one of \"cell\", \"face\", \"edge\", \"cells\"");
+    snprintf(k2, sizeof k2, "%.100s.%s", sub, which->string);
+    if (r->proxy_cells) {
+        if (!cJSON_IsString(which) || strcmp(which->valuestring, "proxy") != 0)
+            return ffd_rig_expected(p, k2, "\"proxy\" (octree-split every cell inside the proxy)");
+    } else if (cJSON_IsObject(which)) {
+        static const char *const near_keys[] = {"near", NULL};
+        if ((s = ffd_rig_check_keys(p, which, k2, near_keys, "\"near\"")))
             return s;
-        const cJSON *which = NULL;
-        int count = 0;
-        for (int k = 0; k < 4; k++) {
-            const cJSON *it = cJSON_GetObjectItemCaseSensitive(c, keys[k]);
-            if (it) {
-                count++;
-                which = it;
-                r->kind = k == 0 || k == 3 ? FFD_TSV_CELL : k == 1 ? FFD_TSV_FACE : FFD_TSV_EDGE;
-                r->proxy_cells = k == 3;
-            }
-        }
-        if (count != 1)
-            return ffd_rig_expected(p, sub, "exactly one of \"cell\", \"face\", \"edge\", \"cells\"");
-        snprintf(k2, sizeof k2, "%.100s.%s", sub, which->string);
-        if (r->proxy_cells) {
-            if (!cJSON_IsString(which) || strcmp(which->valuestring, "proxy") != 0)
-                return ffd_rig_expected(p, k2, "\"proxy\" (octree-split every cell inside the proxy)");
-        } else if (cJSON_IsObject(which)) {
-            static const char *const near_keys[] = {"near", NULL};
-            if ((s = ffd_rig_check_keys(p, which, k2, near_keys, "\"near\"")))
-                return s;
-            const cJSON *near = cJSON_GetObjectItemCaseSensitive(which, "near");
-            char k3[RIG_PATH_MAX + 256];
-            snprintf(k3, sizeof k3, "%.100s.near", k2);
-            if (!near)
-                return ffd_rig_expected(p, k3, "an array of 3 finite numbers (missing)");
-            r->by_near = 1;
-            if ((s = ffd_rig_read_vec3(p, near, k3, r->near)))
-                return s;
-        } else if ((s = ffd_rig_read_index(p, which, k2, "an id or {\"near\": [x,y,z]}", &r->id))) {
+        const cJSON *near = cJSON_GetObjectItemCaseSensitive(which, "near");
+        char k3[RIG_PATH_MAX + 256];
+        snprintf(k3, sizeof k3, "%.100s.near", k2);
+        if (!near)
+            return ffd_rig_expected(p, k3, "an array of 3 finite numbers (missing)");
+        r->by_near = 1;
+        if ((s = ffd_rig_read_vec3(p, near, k3, r->near)))
             return s;
-        }
-        const cJSON *ratio = cJSON_GetObjectItemCaseSensitive(c, "ratio");
-        if (ratio) {
-            snprintf(k2, sizeof k2, "%.100s.ratio", sub);
-            if (r->kind != FFD_TSV_EDGE)
-                return ffd_fail(p->err, FFD_ERR_PARSE, "%s: %s: only for an \"edge\" insertion",
-                                p->name, k2);
-            if ((s = ffd_rig_read_number(p, ratio, k2, &r->ratio)))
-                return s;
-            if (!(r->ratio > 0 && r->ratio < 1))
-                return ffd_fail(p->err, FFD_ERR_INVALID,
-                                "%s: %s: %g: expected a number in (0, 1) (where the point goes "
-                                "along the edge's knot interval)",
-                                p->name, k2, r->ratio);
-        }
-        i++;
+    } else if ((s = ffd_rig_read_index(p, which, k2, "an id or {\"near\": [x,y,z]}", &r->id))) {
+        return s;
+    }
+    const cJSON *ratio = cJSON_GetObjectItemCaseSensitive(c, "ratio");
+    if (ratio) {
+        snprintf(k2, sizeof k2, "%.100s.ratio", sub);
+        if (r->kind != FFD_TSV_EDGE)
+            return ffd_fail(p->err, FFD_ERR_PARSE, "%s: %s: only for an \"edge\" insertion",
+                            p->name, k2);
+        if ((s = ffd_rig_read_number(p, ratio, k2, &r->ratio)))
+            return s;
+        if (!(r->ratio > 0 && r->ratio < 1))
+            return ffd_fail(p->err, FFD_ERR_INVALID,
+                            "%s: %s: %g: expected a number in (0, 1) (where the point goes "
+                            "along the edge's knot interval)",
+                            p->name, k2, r->ratio);
     }
     return FFD_OK;
 }
 
-static ffd_status read_weights(const parser *p, const cJSON *item, const char *path,
+ffd_status ffd_rig_read_tsv_refinements(const ffd_rig_parser *p, const cJSON *item, const char *path,
+                                        ffd_rig_tsv_step *st)
+{
+    static const char what[] = "a non-empty array of {\"cell\"|\"face\"|\"edge\": id or "
+                               "{\"near\": [x,y,z]}} or {\"cells\": \"proxy\"}";
+    if (!cJSON_IsArray(item) || cJSON_GetArraySize(item) == 0)
+        return ffd_rig_expected(p, path, what);
+    void *read;
+    ffd_status s = ffd_rig_read_array(p, item, path, what, sizeof *st->refinements,
+                                      read_refinement, NULL, NULL, &read, &st->refinement_count);
+    st->refinements = read;
+    return s;
+}
+
+static ffd_status read_weights(const ffd_rig_parser *p, const cJSON *item, const char *path,
                                ffd_tsv_arap_options *o)
 {
     static const char *const keys[] = {"one_form", "proxy", "volume", "target", NULL};
@@ -303,7 +299,7 @@ static ffd_status read_weights(const parser *p, const cJSON *item, const char *p
     return FFD_OK;
 }
 
-static ffd_status read_bool(const parser *p, const cJSON *item, const char *path, int *out)
+static ffd_status read_bool(const ffd_rig_parser *p, const cJSON *item, const char *path, int *out)
 {
     if (!cJSON_IsBool(item))
         return ffd_rig_expected(p, path, "true or false");
@@ -311,7 +307,7 @@ static ffd_status read_bool(const parser *p, const cJSON *item, const char *path
     return FFD_OK;
 }
 
-static ffd_status read_deform(const parser *p, const cJSON *item, const char *path,
+static ffd_status read_deform(const ffd_rig_parser *p, const cJSON *item, const char *path,
                               ffd_rig_tsv_step *st)
 {
     static const char *const keys[] = {"handles", "freeze", "weights", "iterations",
@@ -360,7 +356,7 @@ static ffd_status read_deform(const parser *p, const cJSON *item, const char *pa
     return FFD_OK;
 }
 
-static ffd_status read_constrain(const parser *p, const cJSON *item, const char *path,
+static ffd_status read_constrain(const ffd_rig_parser *p, const cJSON *item, const char *path,
                                  ffd_rig_tsv_step *st)
 {
     static const char *const keys[] = {"targets", "freeze", NULL};
@@ -391,57 +387,51 @@ static ffd_status read_constrain(const parser *p, const cJSON *item, const char 
     return FFD_OK;
 }
 
-static ffd_status read_steps(const parser *p, const cJSON *item, ffd_rig_tspline *t)
+static ffd_status read_step(const ffd_rig_parser *p, const cJSON *c, const char *sub,
+                            void *element, void *ctx)
 {
     static const char *const kinds[] = {"refine", "deform", "move", "constraints", NULL};
-    if (!cJSON_IsArray(item))
-        return ffd_rig_expected(p, "steps", "an array of steps {\"refine\"|\"deform\"|\"move\"|"
-                                        "\"constraints\": ...}");
-    size_t n = (size_t)cJSON_GetArraySize(item);
-    if (!n)
-        return FFD_OK;
-    t->steps = ffd_calloc(n, sizeof *t->steps);
-    if (!t->steps)
-        return ffd_fail(p->err, FFD_ERR_NOMEM, "%s: out of memory", p->name);
-    t->step_count = n;
-    size_t i = 0;
-    const cJSON *c;
-    cJSON_ArrayForEach(c, item)
-    {
-        char sub[RIG_PATH_MAX], k2[RIG_PATH_MAX + 64];
-        snprintf(sub, sizeof sub, "steps[%zu]", i);
-        if (!cJSON_IsObject(c) || cJSON_GetArraySize(c) != 1)
-            return ffd_rig_expected(p, sub, "an object with one key: \"refine\", \"deform\", "
+    ffd_rig_tsv_step *st = element;
+    char k2[RIG_PATH_MAX + 64];
+    (void)ctx;
+    if (!cJSON_IsObject(c) || cJSON_GetArraySize(c) != 1)
+        return ffd_rig_expected(p, sub, "an object with one key: \"refine\", \"deform\", "
                                         "\"move\" or \"constraints\"");
-        ffd_status s = ffd_rig_check_keys(p, c, sub, kinds,
+    ffd_status s = ffd_rig_check_keys(p, c, sub, kinds,
                                       "\"refine\", \"deform\", \"move\", \"constraints\"");
-        if (s)
-            return s;
-        const cJSON *body = c->child;
-        ffd_rig_tsv_step *st = &t->steps[i];
-        int k = ffd_rig_lookup(body->string, kinds);
-        snprintf(k2, sizeof k2, "%.100s.%s", sub, body->string);
-        st->kind = (ffd_rig_tsv_step_kind)k;
-        if (k == 0)
-            s = ffd_rig_read_tsv_refinements(p, body, k2, st);
-        else if (k == 1)
-            s = read_deform(p, body, k2, st);
-        else if (k == 2)
-            s = read_handles(p, body, k2, &st->handles, &st->handle_count);
-        else
-            s = read_constrain(p, body, k2, st);
-        if (s)
-            return s;
-        i++;
-    }
-    return FFD_OK;
+    if (s)
+        return s;
+    const cJSON *body = c->child;
+    int k = ffd_rig_lookup(body->string, kinds);
+    snprintf(k2, sizeof k2, "%.100s.%s", sub, body->string);
+    st->kind = (ffd_rig_tsv_step_kind)k;
+    if (k == 0)
+        return ffd_rig_read_tsv_refinements(p, body, k2, st);
+    if (k == 1)
+        return read_deform(p, body, k2, st);
+    if (k == 2)
+        return read_handles(p, body, k2, &st->handles, &st->handle_count);
+    return read_constrain(p, body, k2, st);
 }
 
-ffd_status ffd_rig_read_tspline_root(const parser *p, const cJSON *root, ffd_rig *rig)
+static ffd_status read_steps(const ffd_rig_parser *p, const cJSON *item, ffd_rig_tspline *t)
+{
+    void *steps;
+    ffd_status s = ffd_rig_read_array(p, item, "steps",
+                                      "an array of steps {\"refine\"|\"deform\"|\"move\"|"
+                                      "\"constraints\": ...}",
+                                      sizeof *t->steps, read_step, step_free, NULL, &steps,
+                                      &t->step_count);
+    t->steps = steps;
+    return s;
+}
+
+ffd_status ffd_rig_parse_tspline(const ffd_rig_parser *p, const cJSON *root, ffd_rig *rig)
 {
     static const char *const keys[] = {"version", "deformer", "resolution", "padding",
                                        "steps",   "fold_samples", NULL};
     ffd_rig_tspline *t = &rig->tsv;
+    rig->deformer = FFD_RIG_TSPLINE;
     t->resolution[0] = t->resolution[1] = t->resolution[2] = 6;
     const cJSON *item;
     ffd_status s = ffd_rig_check_deformer_root(p, root, "tspline", keys,

@@ -331,7 +331,7 @@ static ffd_status install(ffd_session *s, sess_method *m, const char *label, ffd
 }
 
 
-static ffd_status op_create(ffd_session *s, const parser *p, const cJSON *body, ffd_error *err)
+static ffd_status op_create(ffd_session *s, const ffd_rig_parser *p, const cJSON *body, ffd_error *err)
 {
     const cJSON *name = cJSON_GetObjectItemCaseSensitive(body, "method");
     char names[256];
@@ -524,7 +524,7 @@ static ffd_status need_method(const ffd_session *s, const char *op, ffd_error *e
     return FFD_OK;
 }
 
-static ffd_status read_mode(const parser *p, const cJSON *body, int *mode)
+static ffd_status read_mode(const ffd_rig_parser *p, const cJSON *body, int *mode)
 {
     static const char *const modes[] = {"translate", "rotate", "scale", NULL};
     const cJSON *item = cJSON_GetObjectItemCaseSensitive(body, "mode");
@@ -534,7 +534,7 @@ static ffd_status read_mode(const parser *p, const cJSON *body, int *mode)
                 : FFD_OK;
 }
 
-static ffd_status drag_begin_controls(ffd_session *s, const parser *p, const cJSON *body,
+static ffd_status drag_begin_controls(ffd_session *s, const ffd_rig_parser *p, const cJSON *body,
                                       ffd_error *err)
 {
     static const char *const keys[] = {"points", "mode", "center", "arap", NULL};
@@ -575,7 +575,7 @@ static ffd_status drag_begin_controls(ffd_session *s, const parser *p, const cJS
     return m->vt->begin(m, d->ids, d->k, arap ? cJSON_IsTrue(arap) : 1, err);
 }
 
-static ffd_status op_drag_begin(ffd_session *s, const parser *p, const cJSON *body,
+static ffd_status op_drag_begin(ffd_session *s, const ffd_rig_parser *p, const cJSON *body,
                                 ffd_error *err)
 {
     ffd_status st = need_method(s, "drag_begin", err);
@@ -609,7 +609,7 @@ static ffd_status op_drag_begin(ffd_session *s, const parser *p, const cJSON *bo
 }
 
 /* Targets of the dragged controls for a drag step's transform. */
-static ffd_status control_targets(ffd_session *s, const parser *p, const cJSON *body,
+static ffd_status control_targets(ffd_session *s, const ffd_rig_parser *p, const cJSON *body,
                                   double *targets, double axis[3], double *angle, double t[3])
 {
     drag_state *d = &s->drag;
@@ -662,7 +662,7 @@ static ffd_status control_targets(ffd_session *s, const parser *p, const cJSON *
     return check_coords(targets, d->k, p->name, "the moved control points", p->err);
 }
 
-static ffd_status op_drag(ffd_session *s, const parser *p, const cJSON *body, ffd_error *err)
+static ffd_status op_drag(ffd_session *s, const ffd_rig_parser *p, const cJSON *body, ffd_error *err)
 {
     drag_state *d = &s->drag;
     ffd_status st;
@@ -735,7 +735,7 @@ static ffd_status op_drag_end(ffd_session *s, int keep, ffd_error *err)
 
 /* ---------- pins ---------- */
 
-static ffd_status op_pin(ffd_session *s, const parser *p, const cJSON *body, ffd_error *err)
+static ffd_status op_pin(ffd_session *s, const ffd_rig_parser *p, const cJSON *body, ffd_error *err)
 {
     static const char *const keys[] = {"vertex", "target", NULL};
     ffd_status st = need_method(s, "pin", err);
@@ -791,7 +791,7 @@ static ffd_status op_pin(ffd_session *s, const parser *p, const cJSON *body, ffd
     return commit(s, &before, err);
 }
 
-static ffd_status op_unpin(ffd_session *s, const parser *p, const cJSON *body, ffd_error *err)
+static ffd_status op_unpin(ffd_session *s, const ffd_rig_parser *p, const cJSON *body, ffd_error *err)
 {
     static const char *const keys[] = {"vertex", "all", NULL};
     ffd_status st = need_method(s, "unpin", err);
@@ -848,7 +848,7 @@ static ffd_status op_reset(ffd_session *s, ffd_error *err)
     return commit(s, &before, err);
 }
 
-static ffd_status op_influence(ffd_session *s, const parser *p, const cJSON *body, void **reply,
+static ffd_status op_influence(ffd_session *s, const ffd_rig_parser *p, const cJSON *body, void **reply,
                                size_t *size, ffd_error *err)
 {
     static const char *const keys[] = {"points", NULL};
@@ -957,7 +957,7 @@ ffd_status ffd_session_command(ffd_session *s, const char *op, const char *body,
         cJSON_Delete(doc);
         return ffd_fail(err, FFD_ERR_PARSE, "%s: expected a JSON object", op);
     }
-    parser p = {op, err};
+    ffd_rig_parser p = {op, err};
     ffd_status st;
     int is_drag_step = 0;
     int empty = cJSON_GetArraySize(doc) == 0;

@@ -156,7 +156,7 @@ ffd_status ffd_sess_tspline_load(const sess_ctx *ctx, const ffd_rig *rig, sess_m
 /* Shared helpers (session_util.c). */
 /* A JSON array of uint32 control ids, each < count, no repeats; *ids is
  * ffd_malloc'd (NULL when k == 0). */
-ffd_status ffd_sess_read_ids(const parser *p, const cJSON *item, const char *path, size_t count,
+ffd_status ffd_sess_read_ids(const ffd_rig_parser *p, const cJSON *item, const char *path, size_t count,
                          uint32_t **ids, size_t *k);
 /* cJSON builders that report allocation failure (NULL). Numbers are exact
  * (17 digits, raw items: print them, do not read them back). */

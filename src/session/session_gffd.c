@@ -292,7 +292,7 @@ static ffd_status default_skeleton(const sess_ctx *ctx, ffd_rig_primitive **out,
 }
 
 /* The body's skeleton: primitives as in rigs, geometry inline only. */
-static ffd_status read_body_skeleton(const parser *p, const cJSON *item, ffd_rig_primitive **out,
+static ffd_status read_body_skeleton(const ffd_rig_parser *p, const cJSON *item, ffd_rig_primitive **out,
                                      size_t *count)
 {
     const cJSON *c;
@@ -310,7 +310,7 @@ static ffd_status read_body_skeleton(const parser *p, const cJSON *item, ffd_rig
     return ffd_rig_read_skeleton(p, item, "skeleton", out, count);
 }
 
-static ffd_status read_tracking(const parser *p, const cJSON *item, ffd_gffd_options *opt)
+static ffd_status read_tracking(const ffd_rig_parser *p, const cJSON *item, ffd_gffd_options *opt)
 {
     static const char *const trackings[] = {"gradient", "warp", NULL};
     int t = 0;
@@ -324,7 +324,7 @@ ffd_status ffd_sess_gffd_create(const sess_ctx *ctx, const cJSON *body, sess_met
 {
     static const char *const keys[] = {"method", "skeleton", "unit", "tracking", "resample", NULL};
     *out = NULL;
-    parser p = {"create", err};
+    ffd_rig_parser p = {"create", err};
     ffd_gffd_options opt;
     memset(&opt, 0, sizeof opt);
     ffd_rig_primitive *rest = NULL;
@@ -1008,7 +1008,7 @@ static ffd_status primitive_op(gf_method *m, const ffd_rig_primitive *add, size_
     return rebuild(m, rest, count, edits, n, err);
 }
 
-static ffd_status read_index(const parser *p, const cJSON *body, const char *key, size_t count,
+static ffd_status read_index(const ffd_rig_parser *p, const cJSON *body, const char *key, size_t count,
                              size_t *index)
 {
     uint32_t i = 0;
@@ -1024,7 +1024,7 @@ static ffd_status read_index(const parser *p, const cJSON *body, const char *key
 static ffd_status op_primitive(gf_method *m, const cJSON *body, int *undo, ffd_error *err)
 {
     static const char *const keys[] = {"add", "index", "radius", "remove", NULL};
-    parser p = {"primitive", err};
+    ffd_rig_parser p = {"primitive", err};
     const cJSON *add = cJSON_GetObjectItemCaseSensitive(body, "add");
     const cJSON *index = cJSON_GetObjectItemCaseSensitive(body, "index");
     const cJSON *radius = cJSON_GetObjectItemCaseSensitive(body, "radius");

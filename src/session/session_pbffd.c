@@ -321,7 +321,7 @@ static ffd_status put_frame(pb_frame **frames, size_t *count, size_t *cap, size_
 
 /* ---- create ---------------------------------------------------------- */
 
-static ffd_status read_count(const parser *p, const cJSON *body, const char *key, size_t *out)
+static ffd_status read_count(const ffd_rig_parser *p, const cJSON *body, const char *key, size_t *out)
 {
     const cJSON *v = cJSON_GetObjectItemCaseSensitive(body, key);
     uint32_t n = 0;
@@ -335,7 +335,7 @@ static ffd_status read_count(const parser *p, const cJSON *body, const char *key
     return s;
 }
 
-static ffd_status read_create_body(const parser *p, const cJSON *body, ffd_placement_options *po,
+static ffd_status read_create_body(const ffd_rig_parser *p, const cJSON *body, ffd_placement_options *po,
                                    ffd_pbffd_options *opt)
 {
     static const char *const keys[] = {"method",        "interior",      "exterior",
@@ -394,7 +394,7 @@ ffd_status ffd_sess_pbffd_create(const sess_ctx *ctx, const cJSON *body, sess_me
                              ffd_error *err)
 {
     *out = NULL;
-    parser p = {"create", err};
+    ffd_rig_parser p = {"create", err};
     ffd_placement_options po;
     ffd_pbffd_options opt;
     memset(&po, 0, sizeof po);
@@ -1122,7 +1122,7 @@ static ffd_status pb_influence(sess_method *base, const uint32_t *ids, size_t k,
 static ffd_status op_level(pb_method *m, const cJSON *body, int *undo, ffd_error *err)
 {
     static const char *const keys[] = {"level", NULL};
-    parser p = {"level", err};
+    ffd_rig_parser p = {"level", err};
     const cJSON *v = cJSON_GetObjectItemCaseSensitive(body, "level");
     uint32_t level = 0;
     ffd_status s = ffd_rig_check_keys(&p, body, "", keys, "\"level\"");
@@ -1144,7 +1144,7 @@ static ffd_status op_level(pb_method *m, const cJSON *body, int *undo, ffd_error
 
 /* {"points", "axis", "angle"} and/or {"points", "scale"}: as a rig frame edit.
  */
-static ffd_status read_frame_edit(const parser *p, const cJSON *body, ffd_rig_pb_edit *e)
+static ffd_status read_frame_edit(const ffd_rig_parser *p, const cJSON *body, ffd_rig_pb_edit *e)
 {
     static const char *const keys[] = {"points", "axis", "angle", "scale", NULL};
     ffd_status s = ffd_rig_check_keys(p, body, "", keys, "\"points\", \"axis\", \"angle\", \"scale\"");
@@ -1181,7 +1181,7 @@ static ffd_status read_frame_edit(const parser *p, const cJSON *body, ffd_rig_pb
 
 static ffd_status op_frame(pb_method *m, const cJSON *body, int *undo, ffd_error *err)
 {
-    parser p = {"frame", err};
+    ffd_rig_parser p = {"frame", err};
     ffd_rig_pb_edit e;
     ffd_status s = read_frame_edit(&p, body, &e);
     const cJSON *points = cJSON_GetObjectItemCaseSensitive(body, "points");
@@ -1234,7 +1234,7 @@ static ffd_status op_frame(pb_method *m, const cJSON *body, int *undo, ffd_error
     return FFD_OK;
 }
 
-static ffd_status read_curve_body(const parser *p, const cJSON *body, double diag, pb_curve *cv)
+static ffd_status read_curve_body(const ffd_rig_parser *p, const cJSON *body, double diag, pb_curve *cv)
 {
     static const char *const keys[] = {"points", "radius", "samples", NULL};
     ffd_status s = ffd_rig_check_keys(p, body, "", keys, "\"points\", \"radius\", \"samples\"");
@@ -1266,7 +1266,7 @@ static ffd_status read_curve_body(const parser *p, const cJSON *body, double dia
 
 static ffd_status op_curve(pb_method *m, const cJSON *body, int *undo, ffd_error *err)
 {
-    parser p = {"curve", err};
+    ffd_rig_parser p = {"curve", err};
     pb_curve cv;
     memset(&cv, 0, sizeof cv);
     ffd_status s = read_curve_body(&p, body, m->base.ctx->diag, &cv);

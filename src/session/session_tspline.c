@@ -357,7 +357,7 @@ static ffd_status refine_apply(tspline_method *t, const ffd_rig_tsv_step *step, 
 static ffd_status op_refine(tspline_method *t, const cJSON *body, ffd_error *err)
 {
     static const char *const keys[] = {"insertions", NULL};
-    parser p = {"refine", err};
+    ffd_rig_parser p = {"refine", err};
     ffd_status st = ffd_rig_check_keys(&p, body, "body", keys, "insertions");
     const cJSON *list = cJSON_GetObjectItemCaseSensitive(body, "insertions");
     if (!st && !list)
@@ -374,7 +374,7 @@ static ffd_status op_refine(tspline_method *t, const cJSON *body, ffd_error *err
 static ffd_status op_freeze(tspline_method *t, const cJSON *body, ffd_error *err)
 {
     static const char *const keys[] = {"points", "frozen", NULL};
-    parser p = {"freeze", err};
+    ffd_rig_parser p = {"freeze", err};
     uint32_t *ids = NULL;
     size_t k = 0;
     ffd_status st = ffd_rig_check_keys(&p, body, "body", keys, "points, frozen");
@@ -481,7 +481,7 @@ ffd_status ffd_sess_tspline_create(const sess_ctx *ctx, const cJSON *body, sess_
                                ffd_error *err)
 {
     static const char *const keys[] = {"method", "resolution", "padding", NULL};
-    parser p = {"create", err};
+    ffd_rig_parser p = {"create", err};
     ffd_status st = ffd_rig_check_keys(&p, body, "body", keys, "method, resolution, padding");
     uint32_t res[3] = {6, 6, 6};
     double padding = 0;

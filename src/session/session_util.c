@@ -7,7 +7,30 @@
 #include <stdio.h>
 #include <string.h>
 
-ffd_status ffd_sess_read_ids(const parser *p, const cJSON *item, const char *path, size_t count,
+/* The controls already named (ffd_sess_read_ids). */
+typedef struct id_set {
+    size_t count;        /* controls */
+    unsigned char *seen; /* count */
+} id_set;
+
+static ffd_status read_control_id(const ffd_rig_parser *p, const cJSON *v, const char *where,
+                                  void *element, void *ctx)
+{
+    id_set *set = ctx;
+    if (!ffd_rig_is_uint32(v))
+        return ffd_rig_expected(p, where, "a control id (a non-negative integer)");
+    if ((size_t)v->valuedouble >= set->count)
+        return ffd_fail(p->err, FFD_ERR_RANGE, "%s: %s: control %.0f out of range (%zu controls)",
+                        p->name, where, v->valuedouble, set->count);
+    if (set->seen[(size_t)v->valuedouble])
+        return ffd_fail(p->err, FFD_ERR_INVALID, "%s: %s: control %.0f given twice", p->name,
+                        where, v->valuedouble);
+    set->seen[(size_t)v->valuedouble] = 1;
+    *(uint32_t *)element = (uint32_t)v->valuedouble;
+    return FFD_OK;
+}
+
+ffd_status ffd_sess_read_ids(const ffd_rig_parser *p, const cJSON *item, const char *path, size_t count,
                          uint32_t **ids, size_t *k)
 {
     *ids = NULL;
@@ -18,42 +41,15 @@ ffd_status ffd_sess_read_ids(const parser *p, const cJSON *item, const char *pat
     if (m == 0)
         return ffd_fail(p->err, FFD_ERR_INVALID, "%s: %s: expected at least one control id",
                         p->name, path);
-    uint32_t *out = ffd_malloc_array(m, sizeof *out);
-    unsigned char *seen = count ? ffd_calloc(count, 1) : NULL;
-    if (!out || (count && !seen)) {
-        ffd_free(out);
-        ffd_free(seen);
+    id_set set = {count, count ? ffd_calloc(count, 1) : NULL};
+    if (count && !set.seen)
         return ffd_fail(p->err, FFD_ERR_NOMEM, "%s: out of memory for %zu ids", p->name, m);
-    }
-    size_t i = 0;
-    const cJSON *v;
-    cJSON_ArrayForEach(v, item)
-    {
-        char where[RIG_PATH_MAX];
-        snprintf(where, sizeof where, "%s[%zu]", path, i);
-        ffd_status s;
-        if (!ffd_rig_is_uint32(v))
-            s = ffd_rig_expected(p, where, "a control id (a non-negative integer)");
-        else if ((size_t)v->valuedouble >= count)
-            s = ffd_fail(p->err, FFD_ERR_RANGE, "%s: %s: control %.0f out of range (%zu controls)",
-                         p->name, where, v->valuedouble, count);
-        else if (seen[(size_t)v->valuedouble])
-            s = ffd_fail(p->err, FFD_ERR_INVALID, "%s: %s: control %.0f given twice", p->name,
-                         where, v->valuedouble);
-        else
-            s = FFD_OK;
-        if (s) {
-            ffd_free(out);
-            ffd_free(seen);
-            return s;
-        }
-        seen[(size_t)v->valuedouble] = 1;
-        out[i++] = (uint32_t)v->valuedouble;
-    }
-    ffd_free(seen);
-    *ids = out;
-    *k = m;
-    return FFD_OK;
+    void *read;
+    ffd_status s = ffd_rig_read_array(p, item, path, "an array of control ids", sizeof **ids,
+                                      read_control_id, NULL, &set, &read, k);
+    ffd_free(set.seen);
+    *ids = read;
+    return s;
 }
 
 /* cJSON prints a double with 15 digits whenever they read back within an

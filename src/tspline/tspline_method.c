@@ -8,6 +8,7 @@ static const char *const tspline_ops[] = {"refine", "freeze", NULL};
 const ffd_method ffd_method_tspline = {
     .name = "tspline",
     .id = FFD_RIG_TSPLINE,
+    .parse = ffd_rig_parse_tspline,
     .apply = ffd_rig_apply_tspline,
     .load = ffd_sess_tspline_load,
     .create = ffd_sess_tspline_create,
