@@ -1240,8 +1240,8 @@ ffd_status ffd_deformer_jacobian(ffd_deformer *d, double *out, ffd_error *err);
  * variables: rows are the bound points, and the tie maps every column to
  * the control it moves (variable j is control j, variable_count ==
  * ffd_deformer_control_count): x'_i = sum_c w_ic p_tie(c) plus what does not
- * depend on the controls. Borrows d until the next bind, control change or
- * destroy. FFD_ERR_UNSUPPORTED where the map is not linear in the controls. */
+ * depend on the controls. Borrows d until the next bind, control change,
+ * method operation (a T-spline refinement) or destroy. FFD_ERR_UNSUPPORTED where the map is not linear in the controls. */
 ffd_status ffd_deformer_linear_map(ffd_deformer *d, ffd_linear_map *map, ffd_error *err);
 
 /* The control variables: count, current positions (count by 3), positions
