@@ -322,7 +322,7 @@ ffd_status ffd_lattice_eval(const ffd_lattice *lattice, const ffd_lattice_bindin
                             double *out, ffd_error *err);
 /* Jacobians d(x')/d(x) of the deformation at the bound points, n by 9
  * row-major (I plus the displacement's derivative: exactly I where nothing
- * moved). */
+ * moved; a clamped outside point does not vary along its clamped axes). */
 ffd_status ffd_lattice_jacobian(const ffd_lattice *lattice, const ffd_lattice_binding *binding,
                                 double *out, ffd_error *err);
 /* Evaluates the map at spline parameters directly (no binding), 3 doubles. */
