@@ -1009,6 +1009,43 @@ static void test_other_meshes(void)
 }
 
 /* Allocation failures: FFD_OK or FFD_ERR_NOMEM, the mesh unchanged on failure. */
+/* A map that folds: the report's details list the folded cell and the
+ * inverted faces, and its notes carry one warning that counts them (what
+ * ffd deform prints on stderr without knowing the method). */
+static void test_fold_warning(void)
+{
+    ffd_rig_report r = {0};
+    double *x = apply_to(BUNNY,
+                         T "\"resolution\": [4, 4, 4], \"steps\": [{\"move\": [{\"points\": [0],"
+                           " \"delta\": [1000, 1000, 1000]}]}]}",
+                         &r);
+    if (!x)
+        return;
+    CHECK(strcmp(r.method, "tspline") == 0);
+    double folded = detail(&r, "folds.folded_cells"), inverted = detail(&r, "folds.inverted_faces");
+    CHECK(folded >= 1 && inverted >= 1 && detail(&r, "folds.min_det") < 0);
+    CHECK(r.notes != NULL);
+    if (r.notes) {
+        char expect[160];
+        snprintf(expect, sizeof expect,
+                 "warning: the deformation folds over: %.0f cell%s with a non-positive Jacobian "
+                 "determinant (min ",
+                 folded, folded == 1 ? "" : "s");
+        CHECK(strncmp(r.notes, expect, strlen(expect)) == 0);
+        snprintf(expect, sizeof expect, "), %.0f inverted faces (--report lists all)\n", inverted);
+        CHECK(strstr(r.notes, expect) != NULL);
+        CHECK(strchr(r.notes, '\n') == r.notes + strlen(r.notes) - 1); /* one line */
+    }
+    ffd_rig_report_free(&r);
+    free(x);
+    /* a map that does not fold has no notes */
+    x = apply_to(BUNNY, T "\"resolution\": [4, 4, 4]}", &r);
+    if (x)
+        CHECK(r.notes == NULL && detail(&r, "folds.folded_cells") == 0);
+    ffd_rig_report_free(&r);
+    free(x);
+}
+
 static void test_failing_allocations(void)
 {
     /* an octahedron */
@@ -1078,6 +1115,7 @@ int main(int argc, char **argv)
         {"constraints", test_constraints},
         {"write_files", test_write_files},
         {"other_meshes", test_other_meshes},
+        {"fold_warning", test_fold_warning},
         {"failing_allocations", test_failing_allocations},
     };
     return check_run(tests, sizeof tests / sizeof tests[0], argc, argv);
