@@ -1090,63 +1090,65 @@ typedef struct ffd_timings {
     double evaluate;
 } ffd_timings;
 
-/* What applying a rig reports. Free with ffd_rig_report_free. */
+/* What applying a rig reports: a shared part, the same for every method, as
+ * fields, and the method's own outcome as a JSON object (details). Tools
+ * print it without knowing the method. Free with ffd_rig_report_free. */
 typedef struct ffd_rig_report {
+    const char *method;       /* the method's name ("lattice", "pbffd", "gffd",
+                                 "tspline"; the rig's "deformer"); static, not freed */
     size_t constraint_count;
     double *residuals;        /* constraint_count entries: |reached - target| */
     double *reached;          /* constraint_count by 3 */
     size_t rank;
     double max_residual;
-    size_t outside_count;     /* vertices outside the lattice */
+    size_t outside_count;     /* vertices the controls cannot move (outside the
+                                 lattice; PB-FFD: under no control point but the master) */
     ffd_timings timings;
-    uint32_t resolution[3];   /* the lattice's l, m, n (0, 0, 0 for PB-FFD) */
-    double *control_points;   /* control_count by 3: the deformed lattice, index
-                                 (i*m + j)*n + k; PB-FFD: the finest level's centres */
+    /* The control structure, deformed: lattice: its points, index (i*m + j)*n + k;
+     * PB-FFD: the finest level's centres; GFFD: the current skeleton's
+     * vertices; T-spline: the T-lattice's control points, by id. */
+    double *control_points;   /* control_count by 3 */
     size_t control_count;
-    /* PB-FFD only */
-    size_t level_count;
-    size_t uncovered_count;        /* vertices under no control point but the master */
-    int placed;                    /* 1: "controls": automatic placement ran */
-    ffd_placement_report placement;
-    /* GFFD only (control_points: the current skeleton's vertices) */
-    size_t influenced_count;       /* vertices inside some influence region at bind time */
-    double gffd_unit;              /* the distance unit u used */
-    int gffd_regularised;          /* 1: a field solve fell back to least squares */
-    int resampled;                 /* 1: adaptive resampling ran */
-    ffd_gffd_resample_report gffd; /* tracking (and resampling) outcome */
-    /* T-spline only (control_points: the T-lattice's current control points, by id) */
-    int tspline;                   /* 1: a "tspline" rig */
-    uint32_t *lattice_edges;       /* lattice_edge_count pairs of control ids */
-    size_t lattice_edge_count;
-    size_t cell_count;
-    size_t proxy_face_count;
-    uint32_t *proxy_offsets;       /* proxy_face_count + 1 */
-    uint32_t *proxy_indices;       /* control ids, faces oriented outwards */
-    size_t proxy_vertex_count;     /* distinct control ids on the proxy */
-    uint32_t *proxy_points;        /* per corner, its point of the manifold proxy
-                                      (ffd_tsv_proxy.face_points) */
-    uint32_t *proxy_point_controls; /* proxy_point_count: each point's control id */
-    size_t proxy_point_count;
-    size_t refinements;            /* refinement steps applied */
-    size_t added_points;           /* control points they added (requested and extra) */
-    size_t moved_points;           /* existing control points they moved */
-    double max_weight_deviation;   /* max |W - 1| at the end */
-    size_t arap_solves;            /* deform steps */
-    double max_handle_error;       /* over all deform steps */
-    ffd_tsv_fold_report folds;     /* fold-over check of the final map */
+    uint32_t resolution[3];   /* the controls' grid l, m, n (0, 0, 0: no grid) */
+    uint32_t *control_edges;  /* control_edge_count pairs of control ids (T-spline: the
+                                 T-lattice's edges); NULL: the grid's lines, if any */
+    size_t control_edge_count;
+    /* A control mesh: polygons whose corners are control points (T-spline:
+     * the manifold proxy; NULL and 0 for methods without one). Its points are
+     * control points, a control point on several sheets once per sheet. */
+    size_t control_face_count;
+    uint32_t *control_face_offsets;   /* control_face_count + 1 */
+    uint32_t *control_face_points;    /* per corner, a point of the control mesh;
+                                         faces oriented outwards */
+    uint32_t *control_mesh_points;    /* control_mesh_point_count: each point's control id */
+    size_t control_mesh_point_count;
+    const char *control_label; /* what the control points are, for file headers
+                                  ("GFFD skeleton vertices"); static, may be NULL */
+    /* Lines for the user, each "note: ..." or "warning: ..." and '\n'
+     * terminated (PB-FFD placement notes, GFFD vertices that tracking lost,
+     * T-spline fold-overs); NULL when none. */
+    char *notes;
+    /* The method's own outcome as the text of one JSON object (NULL only when
+     * the apply failed); keys per method in docs/rig.md ("The report"):
+     * PB-FFD levels, uncovered, placement; GFFD influenced, unit, tracking
+     * and resampling; T-spline cells, proxy counts, refinements, ARAP solves,
+     * folds. */
+    char *details;
 } ffd_rig_report;
 void ffd_rig_report_free(ffd_rig_report *report);
 
-/* Writes the report's deformed lattice as an OBJ file (one 'v' per control
- * point, 'l' lines along the three lattice directions; PB-FFD: the points
- * only; GFFD: the skeleton's vertices; T-spline: every control point and
- * one 'l' per T-lattice edge), atomically. */
+/* Writes the report's deformed control structure as an OBJ file (one 'v' per
+ * control point; one 'l' per control edge, or along the three directions of
+ * the resolution grid; PB-FFD: the points only; GFFD: the skeleton's
+ * vertices; T-spline: every control point and one 'l' per T-lattice edge),
+ * atomically. */
 ffd_status ffd_rig_report_write_lattice(const ffd_rig_report *report, const char *path,
                                         ffd_error *err);
-/* T-spline rigs: writes the proxy (its control points, deformed, and its
- * polygons) as an OBJ file, atomically; FFD_ERR_INVALID for other rigs. The
- * file is the manifold proxy: one 'v' per point (proxy_point_controls
- * order: by control id, a control point on several sheets once per sheet). */
+/* Writes the report's control mesh (T-spline rigs: the proxy; its control
+ * points, deformed, and its polygons) as an OBJ file, atomically;
+ * FFD_ERR_INVALID for reports without one. The file is the manifold proxy:
+ * one 'v' per point (control_mesh_points order: by control id, a control
+ * point on several sheets once per sheet). */
 ffd_status ffd_rig_report_write_proxy(const ffd_rig_report *report, const char *path,
                                       ffd_error *err);
 

@@ -4,6 +4,7 @@
  * refusals of ffd_rig_apply_limited that leave the mesh unchanged, and an
  * editor session whose refused operation leaves it exactly as it was. */
 #include "check.h"
+#include "report_details.h"
 #include "core/core.h"
 #include "gffd/gffd.h"
 #include "tspline/tsv.h"
@@ -191,7 +192,7 @@ static void test_rig_refused_mesh_unchanged(void)
     CHECK(memcmp(before, ffd_mesh_positions(m), n * 3 * sizeof(double)) == 0);
     ffd_rig_report report = {0};
     CHECK_OK(ffd_rig_apply_limited(rig, m, NULL, &report, NULL));
-    CHECK(report.refinements == 2);
+    CHECK(detail(&report, "refinements") == 2);
     ffd_rig_report_free(&report);
     ffd_rig_destroy(rig);
     free(before);

@@ -4,6 +4,8 @@
 #include "check_rig.h"
 #include "deformer/method.h"
 
+#include <cjson/cJSON.h>
+
 #include <stdio.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -863,6 +865,74 @@ static void test_allocation_failures_every_method(void)
     }
 }
 
+/* Every method's report has the same shape: its name, the shared fields,
+ * and details that parse as one JSON object; only the method's own keys
+ * differ (the lattice has none). */
+static void test_report_every_method(void)
+{
+    static const struct {
+        const char *method, *mesh, *rig, *key;
+    } cases[] = {
+        {"lattice", "lattice/bunny.obj", "lattice/pins.json", NULL},
+        {"pbffd", "pbffd/cow.off", "pbffd/cow-drag.json", "levels"},
+        {"gffd", "gffd/bunny.obj", "gffd/twist.json", "influenced"},
+        {"tspline", "tspline/bunny.obj", "tspline/bunny-ears.json", "folds"},
+    };
+    for (size_t c = 0; c < sizeof cases / sizeof *cases; c++) {
+        char mesh_path[512], rig_path[512];
+        snprintf(mesh_path, sizeof mesh_path, "%s/examples/%s", FFD_SOURCE_DIR, cases[c].mesh);
+        snprintf(rig_path, sizeof rig_path, "%s/examples/%s", FFD_SOURCE_DIR, cases[c].rig);
+        ffd_mesh *mesh = NULL;
+        ffd_rig *rig = NULL;
+        ffd_rig_report report;
+        memset(&report, 0xab, sizeof report); /* the apply sets every field */
+        ffd_error err = {{0}};
+        CHECK_OK(ffd_mesh_read(mesh_path, &mesh, &err));
+        CHECK_OK(ffd_rig_read(rig_path, &rig, &err));
+        if (mesh && rig && ffd_rig_apply(rig, mesh, &report, &err) == FFD_OK) {
+            CHECK(report.method && strcmp(report.method, cases[c].method) == 0);
+            CHECK(report.control_count > 0 && report.control_points != NULL);
+            cJSON *details = cJSON_Parse(report.details ? report.details : "");
+            CHECK(cJSON_IsObject(details));
+            if (cases[c].key)
+                CHECK(cJSON_GetObjectItemCaseSensitive(details, cases[c].key) != NULL);
+            else
+                CHECK(details && details->child == NULL);
+            cJSON_Delete(details);
+            /* only the T-spline has a control mesh and explicit control edges */
+            int tspline = strcmp(cases[c].method, "tspline") == 0;
+            CHECK((report.control_face_offsets != NULL) == tspline);
+            CHECK((report.control_edges != NULL) == tspline);
+            CHECK(report.notes == NULL); /* the examples neither fold nor lose vertices */
+            ffd_rig_report_free(&report);
+        } else {
+            fprintf(stderr, "  %s: %s\n", cases[c].rig, err.message);
+            CHECK(!"the example applies");
+        }
+        ffd_rig_destroy(rig);
+        ffd_mesh_destroy(mesh);
+    }
+    /* a failed apply leaves the report empty */
+    ffd_rig *rig = NULL;
+    ffd_mesh *mesh = NULL;
+    static const char bad[] = "{\"resolution\": [3, 3, 3], \"constraints\": [{\"vertex\": 4000000, "
+                              "\"target\": [0, 0, 0]}]}";
+    ffd_error err = {{0}};
+    CHECK_OK(ffd_rig_parse_json(bad, sizeof bad - 1, "bad.json", &rig, &err));
+    char mesh_path[512];
+    snprintf(mesh_path, sizeof mesh_path, "%s/examples/lattice/bunny.obj", FFD_SOURCE_DIR);
+    CHECK_OK(ffd_mesh_read(mesh_path, &mesh, &err));
+    if (rig && mesh) {
+        ffd_rig_report report;
+        memset(&report, 0xab, sizeof report);
+        CHECK(ffd_rig_apply(rig, mesh, &report, &err) == FFD_ERR_RANGE);
+        CHECK(report.method == NULL && report.details == NULL && report.notes == NULL);
+        ffd_rig_report_free(&report);
+    }
+    ffd_rig_destroy(rig);
+    ffd_mesh_destroy(mesh);
+}
+
 static void test_report_free_null(void)
 {
     ffd_rig_report_free(NULL);
@@ -914,6 +984,7 @@ int main(int argc, char **argv)
         {"parse_prefixes", test_parse_prefixes},
         {"read_files", test_read_files},
         {"report_free_null", test_report_free_null},
+        {"report_every_method", test_report_every_method},
         {"apply_identity", test_apply_identity},
         {"apply_moves_translate", test_apply_moves_translate},
         {"apply_constraints_bspline", test_apply_constraints_bspline},

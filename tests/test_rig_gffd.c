@@ -4,6 +4,7 @@
  * examples (report fields, untouched regions, resampling), an unedited rig
  * (identity), failing rigs (mesh unchanged) and scale invariance. */
 #include "check.h"
+#include "report_details.h"
 #include "check_rig.h"
 
 #include <stdio.h>
@@ -607,30 +608,38 @@ static void test_apply_identity(void)
             fprintf(stderr, "  rig %zu moved vertices\n", r);
             CHECK(!"an unedited rig leaves the mesh unchanged");
         }
-        CHECK(report.influenced_count > 0 && report.influenced_count < n);
-        CHECK(report.gffd_unit > 0);
-        CHECK(report.gffd.track.tracked == 0 && report.gffd.track.failed_count == 0);
-        CHECK(report.gffd.added_vertices == 0);
-        CHECK(report.resampled == (r == 2));
+        CHECK(detail(&report, "influenced") > 0 && detail(&report, "influenced") < n);
+        CHECK(detail(&report, "unit") > 0);
+        CHECK(detail(&report, "tracked") == 0 && detail(&report, "not_converged") == 0);
+        CHECK(!detail_has(&report, "resample") || detail(&report, "resample.added_vertices") == 0);
+        CHECK(detail_has(&report, "resample") == (r == 2));
         ffd_rig_report_free(&report);
     }
     free(rest);
     ffd_mesh_destroy(mesh);
 }
 
+/* A number of the report's "resample" details; 0 when it did not resample. */
+static double resampled(const ffd_rig_report *report, const char *key)
+{
+    char path[64];
+    snprintf(path, sizeof path, "resample.%s", key);
+    return detail_has(report, "resample") ? detail(report, path) : 0;
+}
+
 static void check_track_report(const ffd_rig_report *report, size_t n)
 {
-    const ffd_gffd_track_report *t = &report->gffd.track;
-    CHECK(report->influenced_count > 0 && report->influenced_count <= n);
-    CHECK(report->gffd_unit > 0 && isfinite(report->gffd_unit));
-    CHECK(t->tracked > 0);
-    CHECK(t->converged + t->failed_count == t->tracked);
-    CHECK((t->failed_count == 0) == (t->failed == NULL));
-    for (size_t i = 0; i + 1 < t->failed_count; i++)
-        CHECK(t->failed[i] < t->failed[i + 1]);
-    CHECK(t->iterations >= t->tracked);
-    CHECK(isfinite(t->max_error));
-    CHECK(report->gffd_regularised == 0);
+    double tracked = detail(report, "tracked"), failed = detail(report, "not_converged");
+    CHECK(detail(report, "influenced") > 0 && detail(report, "influenced") <= n);
+    CHECK(detail(report, "unit") > 0 && isfinite(detail(report, "unit")));
+    CHECK(tracked > 0);
+    CHECK(detail(report, "converged") + failed == tracked);
+    CHECK(detail(report, "failed") == failed); /* the array lists every one */
+    for (size_t i = 0; i + 1 < failed; i++)
+        CHECK(detail_at(report, "failed", i) < detail_at(report, "failed", i + 1));
+    CHECK(detail(report, "iterations") >= tracked);
+    CHECK(isfinite(detail(report, "max_field_error")));
+    CHECK(detail(report, "regularised") == 0);
     CHECK(report->constraint_count == 0);
 }
 
@@ -698,12 +707,12 @@ static void test_apply_twist(void)
     ffd_rig_report report = {0};
     CHECK_OK(apply_example("twist.json", mesh, &report));
     check_track_report(&report, ffd_mesh_vertex_count(mesh));
-    CHECK(report.gffd.track.failed_count == 0);
+    CHECK(detail(&report, "not_converged") == 0);
     /* the band where the ears' influence ends stretches: resampling splits
      * it, and no edge is left long */
-    CHECK(report.resampled == 1 && report.gffd.added_vertices > 0);
-    CHECK(report.gffd.long_edges == 0 && !report.gffd.capped);
-    CHECK(ffd_mesh_vertex_count(mesh) == n + report.gffd.added_vertices &&
+    CHECK(detail_has(&report, "resample") == 1 && resampled(&report, "added_vertices") > 0);
+    CHECK(resampled(&report, "long_edges") == 0 && !resampled(&report, "capped"));
+    CHECK(ffd_mesh_vertex_count(mesh) == n + resampled(&report, "added_vertices") &&
           ffd_mesh_face_count(mesh) > nf);
     /* the skeleton in the report: 6 + 2 + 3 vertices; the body polyline held still */
     CHECK(report.control_count == 11);
@@ -729,7 +738,7 @@ static void test_apply_twist(void)
             head_moved += changed;
     }
     /* vertices outside every influence region never move */
-    CHECK(unchanged >= n - report.influenced_count);
+    CHECK(unchanged >= n - detail(&report, "influenced"));
     CHECK(far > 100);
     CHECK(far_moved == 0);
     CHECK(head_moved > 10);
@@ -755,7 +764,7 @@ static void test_apply_twist(void)
                           "  \"rotate\": {\"axis\": [0, 1, 0], \"angle\": 0.6}, \"center\": [-2.6, 5.5, 1.0]}]}",
                         mesh, &report, NULL));
     check_track_report(&report, n);
-    CHECK(report.gffd.track.failed_count == 0);
+    CHECK(detail(&report, "not_converged") == 0);
     far = far_moved = head_moved = 0;
     for (size_t i = 0; i < n; i++) {
         int changed = memcmp(p + 3 * i, rest + 3 * i, 3 * sizeof *p) != 0;
@@ -784,13 +793,13 @@ static void test_apply_bend_resample(void)
     ffd_rig_report report = {0};
     CHECK_OK(apply_example("bend.json", mesh, &report));
     check_track_report(&report, ffd_mesh_vertex_count(mesh));
-    CHECK(report.resampled == 1);
-    CHECK(report.gffd.rounds >= 1 && report.gffd.added_vertices > 0);
-    CHECK(report.gffd.split_edges >= report.gffd.added_vertices);
-    CHECK(ffd_mesh_vertex_count(mesh) == n + report.gffd.added_vertices);
+    CHECK(detail_has(&report, "resample") == 1);
+    CHECK(resampled(&report, "rounds") >= 1 && resampled(&report, "added_vertices") > 0);
+    CHECK(resampled(&report, "split_edges") >= resampled(&report, "added_vertices"));
+    CHECK(ffd_mesh_vertex_count(mesh) == n + resampled(&report, "added_vertices"));
     CHECK(ffd_mesh_face_count(mesh) > nf);
     /* tracking covers the added vertices too */
-    CHECK(report.gffd.track.tracked <= report.influenced_count + report.gffd.added_vertices);
+    CHECK(detail(&report, "tracked") <= detail(&report, "influenced") + resampled(&report, "added_vertices"));
     /* the trunk's tip moved by the sum of its edit */
     CHECK(report.control_count == 5);
     if (report.control_count == 5) {
@@ -946,7 +955,7 @@ static void test_apply_rigid_any_skeleton(void)
                 ffd_rig_report report = {0};
                 ffd_error err = {{0}};
                 CHECK_OK(apply_json(json, mesh, &report, &err));
-                CHECK(report.influenced_count == n && report.gffd.track.failed_count == 0);
+                CHECK(detail(&report, "influenced") == n && detail(&report, "not_converged") == 0);
                 const double *c = about ? centroid[sk] : off;
                 const double *p = ffd_mesh_positions(mesh);
                 double worst = 0, most = 0, cs = cos(angle), sn = sin(angle);
@@ -1017,11 +1026,11 @@ static void test_apply_examples_no_tear(void)
         ffd_rig_report report = {0};
         CHECK_OK(apply_example(cases[c][0], mesh, &report));
         size_t long_edges = stretched_edges(rest, n, mesh, 1.8);
-        if (long_edges > report.gffd.long_edges)
-            fprintf(stderr, "  %s: %zu edges stretched >= 1.8, the report counts %zu\n",
-                    cases[c][0], long_edges, report.gffd.long_edges);
-        CHECK(long_edges <= report.gffd.long_edges);
-        CHECK(report.gffd.track.failed_count == 0);
+        if (long_edges > resampled(&report, "long_edges"))
+            fprintf(stderr, "  %s: %zu edges stretched >= 1.8, the report counts %g\n",
+                    cases[c][0], long_edges, resampled(&report, "long_edges"));
+        CHECK(long_edges <= resampled(&report, "long_edges"));
+        CHECK(detail(&report, "not_converged") == 0);
         ffd_rig_report_free(&report);
         free(rest);
         ffd_mesh_destroy(mesh);
@@ -1091,12 +1100,12 @@ static void test_apply_scale_invariance(void)
     CHECK_OK(apply_json(json1, small, &r1, &err));
     CHECK_OK(apply_json(json1000, big, &r1000, &err));
     CHECK(memcmp(ffd_mesh_positions(example), ffd_mesh_positions(small), 3 * n * sizeof(double)) == 0);
-    CHECK(r0.gffd_unit == r1.gffd_unit);
+    CHECK(detail(&r0, "unit") == detail(&r1, "unit"));
 
-    CHECK_NEAR(r1000.gffd_unit / r1.gffd_unit, 1000, 1e-9);
-    CHECK(r1000.influenced_count == r1.influenced_count);
-    CHECK(r1000.gffd.track.failed_count == 0 && r1.gffd.track.failed_count == 0);
-    CHECK(r1000.gffd.track.tracked == r1.gffd.track.tracked);
+    CHECK_NEAR(detail(&r1000, "unit") / detail(&r1, "unit"), 1000, 1e-9);
+    CHECK(detail(&r1000, "influenced") == detail(&r1, "influenced"));
+    CHECK(detail(&r1000, "not_converged") == 0 && detail(&r1, "not_converged") == 0);
+    CHECK(detail(&r1000, "tracked") == detail(&r1, "tracked"));
     const double *a = ffd_mesh_positions(small), *b = ffd_mesh_positions(big);
     double worst = 0, moved = 0;
     for (size_t i = 0; i < n; i++) {

@@ -2,6 +2,7 @@
  * rejected value with its JSON path, the control-set writer round trip, and
  * ffd_rig_apply with explicit and placed controls, constraints and curves. */
 #include "check.h"
+#include "report_details.h"
 #include "check_rig.h"
 
 #include <stdio.h>
@@ -207,7 +208,7 @@ static void test_apply_identity_and_move(void)
     ffd_rig_report report = {0};
     CHECK_OK(apply_json(PB FOUR_CONTROLS "}", mesh, &report, &err));
     CHECK(memcmp(rest, ffd_mesh_positions(mesh), 3 * n * sizeof *rest) == 0);
-    CHECK(report.control_count == 4 && report.level_count == 1 && report.placed == 0);
+    CHECK(report.control_count == 4 && detail(&report, "levels") == 1 && detail(&report, "placed") == 0);
     ffd_rig_report_free(&report);
 
     CHECK_OK(apply_json(PB FOUR_CONTROLS ", \"moves\": [{\"near\": [1,0.5,0.5], \"delta\": [0.2,0,0]}]}",
@@ -331,7 +332,7 @@ static void test_apply_levels_and_frames(void)
                            " \"frames\": [{\"control\": 2, \"rotate\": {\"axis\": [0,0,1],"
                            " \"angle\": 0.3}}]}",
                         mesh, &report, &err));
-    CHECK(report.level_count == 2);
+    CHECK(detail(&report, "levels") == 2);
     size_t changed = 0;
     for (size_t i = 0; i < 3 * n; i++)
         changed += ffd_mesh_positions(mesh)[i] != rest[i];
@@ -388,9 +389,9 @@ static void test_apply_placed_cow(void)
     CHECK_OK(apply_json(PB "\"controls\": {\"interior\": 30, \"exterior\": 30}}", mesh, &report,
                         &err));
     CHECK(memcmp(rest, ffd_mesh_positions(mesh), 3 * n * sizeof *rest) == 0);
-    CHECK(report.placed == 1 && report.control_count == 60);
-    CHECK(report.placement.interior_count == 30 && report.placement.exterior_count == 30);
-    CHECK(report.uncovered_count == 0);
+    CHECK(detail(&report, "placed") == 1 && report.control_count == 60);
+    CHECK(detail(&report, "placement.interior") == 30 && detail(&report, "placement.exterior") == 30);
+    CHECK(detail(&report, "uncovered") == 0 && report.outside_count == 0);
     ffd_rig_report_free(&report);
     /* direct manipulation of a vertex of the placed set reaches its target */
     double t[3] = {rest[0] + 0.02, rest[1] + 0.03, rest[2]};

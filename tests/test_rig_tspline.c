@@ -6,6 +6,7 @@
  * direct manipulation of vertices, refinement after a deformation, the
  * report's fields, the lattice and proxy OBJ files, and allocation failures. */
 #include "check.h"
+#include "report_details.h"
 #include "check_rig.h"
 
 #include <dirent.h>
@@ -598,14 +599,14 @@ static void test_identity(void)
         double *x = apply_to(meshes[m], "{\"deformer\": \"tspline\"}", &r);
         if (x) {
             CHECK(max_diff(x, rest, n) <= 1e-12 * (d > 1 ? d : 1));
-            CHECK(r.tspline == 1 && r.control_count == 216 && r.cell_count == 125);
-            CHECK(r.lattice_edge_count == 540);
-            CHECK(r.refinements == 0 && r.added_points == 0 && r.arap_solves == 0);
-            CHECK(r.folds.folded_cell_count == 0 && r.folds.inverted_face_count == 0);
-            CHECK(r.folds.cells_checked > 0 && r.folds.cells_checked <= r.cell_count);
-            CHECK_NEAR(r.folds.min_det, 1, 1e-9);
-            CHECK(r.proxy_face_count > 0 && r.proxy_vertex_count > 0 &&
-                  r.proxy_vertex_count <= r.control_count);
+            CHECK(strcmp(r.method, "tspline") == 0 && r.control_count == 216 && detail(&r, "cells") == 125);
+            CHECK(r.control_edge_count == 540);
+            CHECK(detail(&r, "refinements") == 0 && detail(&r, "added_points") == 0 && detail(&r, "arap_solves") == 0);
+            CHECK(detail(&r, "folds.folded_cells") == 0 && detail(&r, "folds.inverted_faces") == 0);
+            CHECK(detail(&r, "folds.cells_checked") > 0 && detail(&r, "folds.cells_checked") <= detail(&r, "cells"));
+            CHECK_NEAR(detail(&r, "folds.min_det"), 1, 1e-9);
+            CHECK(r.control_face_count > 0 && detail(&r, "proxy_vertices") > 0 &&
+                  detail(&r, "proxy_vertices") <= r.control_count);
             ffd_rig_report_free(&r);
             free(x);
         }
@@ -623,11 +624,11 @@ static void test_identity(void)
             if (err > 1e-12 * d)
                 fprintf(stderr, "  %s: refinement moved a vertex by %g (diag %g)\n", meshes[m],
                         err, d);
-            CHECK(r.tspline == 1 && r.refinements == 3 && r.added_points > 0);
-            CHECK(r.control_count == 5 * 6 * 7 + r.added_points);
-            CHECK(r.cell_count > 4 * 5 * 6 && r.arap_solves == 0);
-            CHECK(r.max_weight_deviation >= 0 && r.max_weight_deviation < 1); /* rational after uneven splits */
-            CHECK(r.folds.folded_cell_count == 0 && r.folds.inverted_face_count == 0);
+            CHECK(strcmp(r.method, "tspline") == 0 && detail(&r, "refinements") == 3 && detail(&r, "added_points") > 0);
+            CHECK(r.control_count == 5 * 6 * 7 + detail(&r, "added_points"));
+            CHECK(detail(&r, "cells") > 4 * 5 * 6 && detail(&r, "arap_solves") == 0);
+            CHECK(detail(&r, "max_weight_deviation") >= 0 && detail(&r, "max_weight_deviation") < 1); /* rational after uneven splits */
+            CHECK(detail(&r, "folds.folded_cells") == 0 && detail(&r, "folds.inverted_faces") == 0);
             ffd_rig_report_free(&r);
             free(x);
         }
@@ -669,9 +670,9 @@ static void test_rigid(void)
         CHECK(e <= 1e-9 * d);
         if (e > 1e-9 * d)
             fprintf(stderr, "  rig %zu: off the translation by %g\n", k, e);
-        CHECK(r.folds.folded_cell_count == 0 && r.folds.inverted_face_count == 0);
-        CHECK_NEAR(r.folds.min_det, 1, 1e-6);
-        CHECK(r.arap_solves == (k == 2 ? 0u : 1u));
+        CHECK(detail(&r, "folds.folded_cells") == 0 && detail(&r, "folds.inverted_faces") == 0);
+        CHECK_NEAR(detail(&r, "folds.min_det"), 1, 1e-6);
+        CHECK(detail(&r, "arap_solves") == (k == 2 ? 0 : 1));
         ffd_rig_report_free(&r);
         free(x);
     }
@@ -698,7 +699,7 @@ static void test_rigid(void)
         CHECK(e <= 1e-9 * d);
         if (e > 1e-9 * d)
             fprintf(stderr, "  rotation %zu: off by %g\n", k, e);
-        CHECK_NEAR(r.folds.min_det, 1, 1e-6);
+        CHECK_NEAR(detail(&r, "folds.min_det"), 1, 1e-6);
         ffd_rig_report_free(&r);
         free(x);
     }
@@ -772,8 +773,8 @@ static void test_frozen_region(void)
         if (high)
             high_dx /= (double)high;
         CHECK(high_dx > 0.5 * shift && high_dx < 1.2 * shift);
-        CHECK(r.arap_solves == 1 && r.max_handle_error < 1e-9 * d);
-        CHECK(r.folds.folded_cell_count == 0);
+        CHECK(detail(&r, "arap_solves") == 1 && detail(&r, "max_handle_error") < 1e-9 * d);
+        CHECK(detail(&r, "folds.folded_cells") == 0);
         CHECK(r.control_count == 6 * 10 * 6);
         ffd_rig_report_free(&r);
         free(x);
@@ -790,7 +791,7 @@ static void test_frozen_region(void)
             CHECK(e <= 1e-10 * d);
             if (e > 1e-10 * d)
                 fprintf(stderr, "  refinement after the deformation moved a vertex by %g\n", e);
-            CHECK(r.refinements == 2 && r.arap_solves == 1 && r.added_points > 0);
+            CHECK(detail(&r, "refinements") == 2 && detail(&r, "arap_solves") == 1 && detail(&r, "added_points") > 0);
             ffd_rig_report_free(&r);
         }
         free(before);
@@ -809,7 +810,7 @@ static void test_frozen_region(void)
              mx[1], mn[1] + 0.3 * ey);
     x = apply_to(BUNNY, rig, &r);
     if (x) {
-        CHECK(r.arap_solves == 2 && r.refinements == 1);
+        CHECK(detail(&r, "arap_solves") == 2 && detail(&r, "refinements") == 1);
         CHECK(max_diff(x, rest, n) > 0.01);
         ffd_rig_report_free(&r);
         free(x);
@@ -852,7 +853,7 @@ static void test_constraints(void)
             if (r.reached)
                 CHECK(max_diff(r.reached + 3 * c, tg[c], 1) <= 1e-9 * d);
         }
-        CHECK(r.refinements == 1 && r.arap_solves == 0);
+        CHECK(detail(&r, "refinements") == 1 && detail(&r, "arap_solves") == 0);
         if (with_freeze) { /* frozen control points stay where the refinement left them */
             ffd_rig_report r0;
             double *x0 = apply_to(BUNNY, T "\"steps\": [{\"refine\": [{\"cells\": \"proxy\"}]}]}",
@@ -925,27 +926,27 @@ static void test_write_files(void)
         CHECK_OK(ffd_mesh_read(proxy, &pm, &err));
         if (pm) {
             /* the manifold proxy: one point per sheet of each control point */
-            CHECK(ffd_mesh_vertex_count(pm) == r.proxy_point_count);
-            CHECK(r.proxy_point_count >= r.proxy_vertex_count);
-            CHECK(ffd_mesh_face_count(pm) == r.proxy_face_count);
+            CHECK(ffd_mesh_vertex_count(pm) == r.control_mesh_point_count);
+            CHECK(r.control_mesh_point_count >= detail(&r, "proxy_vertices"));
+            CHECK(ffd_mesh_face_count(pm) == r.control_face_count);
             /* point i is control point proxy_point_controls[i], deformed */
             const double *pp = ffd_mesh_positions(pm);
             size_t matched = 0, distinct = 0;
-            for (size_t i = 0; i < ffd_mesh_vertex_count(pm) && i < r.proxy_point_count; i++) {
-                uint32_t v = r.proxy_point_controls[i];
-                distinct += i == 0 || v != r.proxy_point_controls[i - 1];
+            for (size_t i = 0; i < ffd_mesh_vertex_count(pm) && i < r.control_mesh_point_count; i++) {
+                uint32_t v = r.control_mesh_points[i];
+                distinct += i == 0 || v != r.control_mesh_points[i - 1];
                 matched += v < r.control_count &&
                            max_diff(pp + 3 * i, r.control_points + 3 * (size_t)v, 1) <= 1e-12;
             }
-            CHECK(matched == r.proxy_point_count);
-            CHECK(distinct == r.proxy_vertex_count);
+            CHECK(matched == r.control_mesh_point_count);
+            CHECK(distinct == detail(&r, "proxy_vertices"));
             ffd_mesh_destroy(pm);
         }
         CHECK(count_lines(lattice, "v ") == r.control_count);
-        CHECK(count_lines(lattice, "l ") == r.lattice_edge_count);
-        CHECK(count_lines(proxy, "f ") == r.proxy_face_count);
+        CHECK(count_lines(lattice, "l ") == r.control_edge_count);
+        CHECK(count_lines(proxy, "f ") == r.control_face_count);
         /* the mesh written by the rig and the proxy of the deformed lattice */
-        CHECK(r.proxy_vertex_count <= r.control_count);
+        CHECK(detail(&r, "proxy_vertices") <= r.control_count);
         /* atomic: a failing write leaves nothing behind */
         size_t before = dir_entries(dir), before_sub = dir_entries(sub);
         CHECK(ffd_rig_report_write_proxy(&r, sub, &err) != FFD_OK);
@@ -962,7 +963,7 @@ static void test_write_files(void)
             ffd_error err = {{0}};
             CHECK(ffd_rig_report_write_proxy(&r, proxy, &err) == FFD_ERR_INVALID);
             CHECK(strstr(err.message, "only a T-spline rig has a proxy") != NULL);
-            CHECK(r.tspline == 0);
+            CHECK(r.control_face_offsets == NULL);
             ffd_rig_report_free(&r);
             free(x);
         }
@@ -998,8 +999,8 @@ static void test_other_meshes(void)
         double *x = apply_to(meshes[m], rig, &r);
         if (x) {
             CHECK(max_diff(x, rest, n) > 1e-3 * d);
-            CHECK(r.tspline == 1 && r.arap_solves == 1 && r.refinements == 1);
-            CHECK(r.folds.folded_cell_count == 0);
+            CHECK(strcmp(r.method, "tspline") == 0 && detail(&r, "arap_solves") == 1 && detail(&r, "refinements") == 1);
+            CHECK(detail(&r, "folds.folded_cells") == 0);
             ffd_rig_report_free(&r);
             free(x);
         }
@@ -1008,6 +1009,43 @@ static void test_other_meshes(void)
 }
 
 /* Allocation failures: FFD_OK or FFD_ERR_NOMEM, the mesh unchanged on failure. */
+/* A map that folds: the report's details list the folded cell and the
+ * inverted faces, and its notes carry one warning that counts them (what
+ * ffd deform prints on stderr without knowing the method). */
+static void test_fold_warning(void)
+{
+    ffd_rig_report r = {0};
+    double *x = apply_to(BUNNY,
+                         T "\"resolution\": [4, 4, 4], \"steps\": [{\"move\": [{\"points\": [0],"
+                           " \"delta\": [1000, 1000, 1000]}]}]}",
+                         &r);
+    if (!x)
+        return;
+    CHECK(strcmp(r.method, "tspline") == 0);
+    double folded = detail(&r, "folds.folded_cells"), inverted = detail(&r, "folds.inverted_faces");
+    CHECK(folded >= 1 && inverted >= 1 && detail(&r, "folds.min_det") < 0);
+    CHECK(r.notes != NULL);
+    if (r.notes) {
+        char expect[160];
+        snprintf(expect, sizeof expect,
+                 "warning: the deformation folds over: %.0f cell%s with a non-positive Jacobian "
+                 "determinant (min ",
+                 folded, folded == 1 ? "" : "s");
+        CHECK(strncmp(r.notes, expect, strlen(expect)) == 0);
+        snprintf(expect, sizeof expect, "), %.0f inverted faces (--report lists all)\n", inverted);
+        CHECK(strstr(r.notes, expect) != NULL);
+        CHECK(strchr(r.notes, '\n') == r.notes + strlen(r.notes) - 1); /* one line */
+    }
+    ffd_rig_report_free(&r);
+    free(x);
+    /* a map that does not fold has no notes */
+    x = apply_to(BUNNY, T "\"resolution\": [4, 4, 4]}", &r);
+    if (x)
+        CHECK(r.notes == NULL && detail(&r, "folds.folded_cells") == 0);
+    ffd_rig_report_free(&r);
+    free(x);
+}
+
 static void test_failing_allocations(void)
 {
     /* an octahedron */
@@ -1077,6 +1115,7 @@ int main(int argc, char **argv)
         {"constraints", test_constraints},
         {"write_files", test_write_files},
         {"other_meshes", test_other_meshes},
+        {"fold_warning", test_fold_warning},
         {"failing_allocations", test_failing_allocations},
     };
     return check_run(tests, sizeof tests / sizeof tests[0], argc, argv);

@@ -224,6 +224,19 @@ void ffd_rig_rotate(const double k[3], double angle, const double v[3], double o
 double ffd_rig_residuals(size_t k, const double *reached, const double *targets,
                          double *residuals);
 
+/* The method's part of a report (rig_apply.c). ffd_rig_details_create: an
+ * empty JSON object for the report's details (NULL when out of memory) and
+ * the mark of cJSON's failed allocations; add the method's keys with cJSON,
+ * then ffd_rig_report_set_details stores its text in report->details and
+ * deletes it (FFD_ERR_NOMEM when an allocation failed since mark).
+ * ffd_rig_report_note appends one line ("note: ..." or "warning: ...") to
+ * report->notes. */
+struct cJSON *ffd_rig_details_create(unsigned long *mark);
+ffd_status ffd_rig_report_set_details(ffd_rig_report *report, struct cJSON *details,
+                                      unsigned long mark, const char *name, ffd_error *err);
+ffd_status ffd_rig_report_note(ffd_rig_report *report, const char *name, ffd_error *err,
+                               const char *fmt, ...) FFD_PRINTF(4, 5);
+
 /* Lattice application (rig_apply.c): moves, then direct manipulation. */
 ffd_status ffd_rig_apply_lattice(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report *report,
                                  ffd_budget *budget, ffd_error *err);

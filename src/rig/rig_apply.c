@@ -8,7 +8,10 @@
 #include "rig/rig.h"
 #include "deformer/method.h"
 
+#include <cjson/cJSON.h>
+
 #include <math.h>
+#include <stdarg.h>
 #include <stdio.h>
 #include <string.h>
 
@@ -19,14 +22,63 @@ void ffd_rig_report_free(ffd_rig_report *report)
     ffd_free(report->residuals);
     ffd_free(report->reached);
     ffd_free(report->control_points);
-    ffd_gffd_resample_report_free(&report->gffd);
-    ffd_free(report->lattice_edges);
-    ffd_free(report->proxy_offsets);
-    ffd_free(report->proxy_indices);
-    ffd_free(report->proxy_points);
-    ffd_free(report->proxy_point_controls);
-    ffd_tsv_fold_report_free(&report->folds);
+    ffd_free(report->control_edges);
+    ffd_free(report->control_face_offsets);
+    ffd_free(report->control_face_points);
+    ffd_free(report->control_mesh_points);
+    ffd_free(report->notes);
+    ffd_free(report->details);
     memset(report, 0, sizeof *report);
+}
+
+/* ======================================================================
+ * The method's part of the report: details (JSON) and notes
+ * ====================================================================== */
+
+cJSON *ffd_rig_details_create(unsigned long *mark)
+{
+    *mark = ffd_json_alloc_failures();
+    return cJSON_CreateObject();
+}
+
+ffd_status ffd_rig_report_set_details(ffd_rig_report *report, cJSON *details, unsigned long mark,
+                                      const char *name, ffd_error *err)
+{
+    /* a failed cJSON allocation leaves the object short of a key: the
+     * failure count (ffd_json_alloc_failures) tells */
+    char *text = details && ffd_json_alloc_failures() == mark ? cJSON_PrintUnformatted(details)
+                                                               : NULL;
+    cJSON_Delete(details);
+    char *copy = text && ffd_json_alloc_failures() == mark ? ffd_strdup(text) : NULL;
+    cJSON_free(text);
+    if (!copy)
+        return ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory for the report", name);
+    ffd_free(report->details);
+    report->details = copy;
+    return FFD_OK;
+}
+
+ffd_status ffd_rig_report_note(ffd_rig_report *report, const char *name, ffd_error *err,
+                               const char *fmt, ...)
+{
+    char line[1024];
+    va_list ap;
+    va_start(ap, fmt);
+    int len = vsnprintf(line, sizeof line - 1, fmt, ap);
+    va_end(ap);
+    if (len < 0)
+        len = 0;
+    if ((size_t)len > sizeof line - 2)
+        len = (int)(sizeof line - 2);
+    line[len++] = '\n';
+    line[len] = 0;
+    size_t old = report->notes ? strlen(report->notes) : 0;
+    char *notes = ffd_realloc(report->notes, old + (size_t)len + 1);
+    if (!notes)
+        return ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory for the report", name);
+    memcpy(notes + old, line, (size_t)len + 1);
+    report->notes = notes;
+    return FFD_OK;
 }
 
 /* Rodrigues: v rotated by angle about the unit axis k. */
@@ -160,7 +212,12 @@ ffd_status ffd_rig_apply_limited(const ffd_rig *rig, ffd_mesh *mesh, const ffd_l
     const ffd_method *method = ffd_method_of_rig(rig);
     if (!method)
         return ffd_fail(err, FFD_ERR_INVALID, "%s: unknown deformer", rig->name);
-    return method->apply(rig, mesh, report, &budget, err);
+    ffd_status s = method->apply(rig, mesh, report, &budget, err);
+    if (report && s != FFD_OK)
+        ffd_rig_report_free(report); /* nothing half-filled on failure */
+    else if (report)
+        report->method = method->name;
+    return s;
 }
 
 ffd_status ffd_rig_apply_lattice(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report *report,
@@ -310,6 +367,12 @@ ffd_status ffd_rig_apply_lattice(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_rep
             goto fail;
         }
         memcpy(report_points, ffd_lattice_control_points(lattice), nc * 3 * sizeof(double));
+        /* the lattice's details: none beyond the shared part (its resolution
+         * is a field) */
+        unsigned long mark;
+        cJSON *details = ffd_rig_details_create(&mark);
+        if ((s = ffd_rig_report_set_details(report, details, mark, name, err)))
+            goto fail;
     }
     if ((s = ffd_mesh_set_positions(mesh, deformed, jacobians, &inner))) {
         s = ffd_rig_wrap(err, s, name, "deformed positions", &inner);
@@ -327,7 +390,6 @@ ffd_status ffd_rig_apply_lattice(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_rep
         report->outside_count = outside_count;
         report->timings = timings;
         report->control_count = nc;
-        report->level_count = 1;
         report->control_points = report_points;
         report_points = NULL;
         ffd_lattice_resolution(lattice, report->resolution);
@@ -357,21 +419,22 @@ static size_t obj_vertices(const ffd_rig_report *report, char *buf, size_t cap, 
     return len;
 }
 
-/* The T-lattice: every control point and one line per edge. */
-static ffd_status write_tspline_lattice(const ffd_rig_report *report, const char *path,
-                                        ffd_error *err)
+/* Explicit control edges: every control point and one line per edge. */
+static ffd_status write_control_edges(const ffd_rig_report *report, const char *path,
+                                      ffd_error *err)
 {
-    size_t cap = 96 + report->control_count * 80 + report->lattice_edge_count * 26;
+    size_t cap = 128 + report->control_count * 80 + report->control_edge_count * 26;
     char *buf = ffd_malloc(cap);
     if (!buf)
         return ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory", path);
-    size_t len = (size_t)snprintf(buf, cap, "# ffdkit T-lattice: %zu control points, %zu edges\n",
-                                  report->control_count, report->lattice_edge_count);
+    size_t len = (size_t)snprintf(buf, cap, "# ffdkit %s: %zu control points, %zu edges\n",
+                                  report->control_label ? report->control_label : "controls",
+                                  report->control_count, report->control_edge_count);
     len = obj_vertices(report, buf, cap, len);
-    for (size_t e = 0; e < report->lattice_edge_count; e++)
+    for (size_t e = 0; e < report->control_edge_count; e++)
         len += (size_t)snprintf(buf + len, cap - len, "l %u %u\n",
-                                report->lattice_edges[2 * e] + 1,
-                                report->lattice_edges[2 * e + 1] + 1);
+                                report->control_edges[2 * e] + 1,
+                                report->control_edges[2 * e + 1] + 1);
     ffd_status s = ffd_write_file_atomic(path, buf, len, err);
     ffd_free(buf);
     return s;
@@ -380,28 +443,30 @@ static ffd_status write_tspline_lattice(const ffd_rig_report *report, const char
 ffd_status ffd_rig_report_write_proxy(const ffd_rig_report *report, const char *path,
                                       ffd_error *err)
 {
-    if (!report || !report->tspline || !report->control_points || !report->proxy_points ||
-        !report->proxy_point_controls)
+    if (!report || !report->control_points || !report->control_face_offsets ||
+        !report->control_face_points || !report->control_mesh_points)
         return ffd_fail(err, FFD_ERR_INVALID, "%s: only a T-spline rig has a proxy", path);
     /* the manifold proxy: one point per sheet of each control point on it
      * (ffd_tsv_proxy.face_points), in the order of their control ids */
-    size_t np = report->proxy_point_count, corners = report->proxy_offsets[report->proxy_face_count];
-    size_t cap = 160 + np * 80 + corners * 12 + report->proxy_face_count * 4;
+    size_t nf = report->control_face_count, np = report->control_mesh_point_count;
+    size_t corners = report->control_face_offsets[nf];
+    size_t cap = 160 + np * 80 + corners * 12 + nf * 4;
     char *buf = ffd_malloc(cap);
     if (!buf)
         return ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory", path);
     size_t len = (size_t)snprintf(buf, cap,
                                   "# ffdkit T-spline proxy: %zu points, %zu faces "
                                   "(points in order of their control ids, once per sheet)\n",
-                                  np, report->proxy_face_count);
+                                  np, nf);
     for (size_t k = 0; k < np; k++) {
-        const double *p = report->control_points + 3 * (size_t)report->proxy_point_controls[k];
+        const double *p = report->control_points + 3 * (size_t)report->control_mesh_points[k];
         len += (size_t)snprintf(buf + len, cap - len, "v %.17g %.17g %.17g\n", p[0], p[1], p[2]);
     }
-    for (size_t f = 0; f < report->proxy_face_count; f++) {
+    for (size_t f = 0; f < nf; f++) {
         len += (size_t)snprintf(buf + len, cap - len, "f");
-        for (uint32_t k = report->proxy_offsets[f]; k < report->proxy_offsets[f + 1]; k++)
-            len += (size_t)snprintf(buf + len, cap - len, " %u", report->proxy_points[k] + 1);
+        for (uint32_t k = report->control_face_offsets[f]; k < report->control_face_offsets[f + 1];
+             k++)
+            len += (size_t)snprintf(buf + len, cap - len, " %u", report->control_face_points[k] + 1);
         len += (size_t)snprintf(buf + len, cap - len, "\n");
     }
     ffd_status s = ffd_write_file_atomic(path, buf, len, err);
@@ -414,8 +479,8 @@ ffd_status ffd_rig_report_write_lattice(const ffd_rig_report *report, const char
 {
     if (!report || !report->control_points)
         return ffd_fail(err, FFD_ERR_INVALID, "%s: the report holds no lattice", path);
-    if (report->tspline)
-        return write_tspline_lattice(report, path, err);
+    if (report->control_edges)
+        return write_control_edges(report, path, err);
     const uint32_t l = report->resolution[0], m = report->resolution[1], n = report->resolution[2];
     size_t count = report->control_count;
     /* at most ~80 bytes per vertex line and 3 lines per point of ~36 bytes */
@@ -425,8 +490,8 @@ ffd_status ffd_rig_report_write_lattice(const ffd_rig_report *report, const char
         return ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory", path);
     size_t len = l ? (size_t)snprintf(buf, cap, "# ffdkit lattice %ux%ux%u\n", l, m, n)
                    : (size_t)snprintf(buf, cap, "# ffdkit %s: %zu\n",
-                                      report->gffd_unit > 0 ? "GFFD skeleton vertices"
-                                                            : "PB-FFD control points",
+                                      report->control_label ? report->control_label
+                                                            : "control points",
                                       count);
     len = obj_vertices(report, buf, cap, len);
     for (uint32_t i = 0; i < l; i++)

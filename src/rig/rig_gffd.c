@@ -6,6 +6,8 @@
 #include "mesh/mesh.h"
 #include "gffd/gffd.h"
 
+#include <cjson/cJSON.h>
+
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -353,6 +355,56 @@ ffd_status ffd_rig_gffd_apply_edit(const ffd_rig *rig, ffd_gffd *g, size_t i, ff
     return FFD_OK;
 }
 
+/* The method's details: influence, the distance unit, tracking (and
+ * resampling); lost vertices and a capped resampling become warnings. */
+static ffd_status report_details(const ffd_rig_gffd *rg, const ffd_gffd *g,
+                                 const ffd_gffd_resample_report *rr, ffd_rig_report *report,
+                                 const char *name, ffd_error *err)
+{
+    const ffd_gffd_track_report *t = &rr->track;
+    unsigned long mark;
+    cJSON *d = ffd_rig_details_create(&mark);
+    cJSON_AddNumberToObject(d, "influenced", (double)ffd_gffd_influenced_count(g));
+    cJSON_AddNumberToObject(d, "unit", ffd_gffd_unit(g));
+    cJSON_AddNumberToObject(d, "tracked", (double)t->tracked);
+    cJSON_AddNumberToObject(d, "converged", (double)t->converged);
+    cJSON_AddNumberToObject(d, "not_converged", (double)t->failed_count);
+    cJSON *failed = cJSON_AddArrayToObject(d, "failed");
+    for (size_t i = 0; i < t->failed_count && failed; i++)
+        cJSON_AddItemToArray(failed, cJSON_CreateNumber(t->failed[i]));
+    cJSON_AddNumberToObject(d, "fallbacks", (double)t->fallback_count);
+    cJSON_AddNumberToObject(d, "iterations", (double)t->iterations);
+    cJSON_AddNumberToObject(d, "max_field_error", t->max_error);
+    cJSON_AddBoolToObject(d, "regularised", ffd_gffd_regularised(g) != 0);
+    if (rg->resample) {
+        cJSON *r = cJSON_AddObjectToObject(d, "resample");
+        cJSON_AddNumberToObject(r, "rounds", (double)rr->rounds);
+        cJSON_AddNumberToObject(r, "added_vertices", (double)rr->added_vertices);
+        cJSON_AddNumberToObject(r, "split_edges", (double)rr->split_edges);
+        cJSON_AddNumberToObject(r, "long_edges", (double)rr->long_edges);
+        cJSON_AddBoolToObject(r, "capped", rr->capped != 0);
+    }
+    ffd_status st = ffd_rig_report_set_details(report, d, mark, name, err);
+    if (!st && t->failed_count) {
+        char ids[160];
+        size_t len = 0;
+        for (size_t i = 0; i < t->failed_count && i < 10; i++)
+            len += (size_t)snprintf(ids + len, sizeof ids - len, " %u", t->failed[i]);
+        st = ffd_rig_report_note(report, name, err,
+                                 "warning: %zu vert%s did not regain %s field value (ids%s%s); "
+                                 "they stay where tracking left them (--report lists all)",
+                                 t->failed_count, t->failed_count == 1 ? "ex" : "ices",
+                                 t->failed_count == 1 ? "its" : "their", ids,
+                                 t->failed_count > 10 ? " ..." : "");
+    }
+    if (!st && rg->resample && rr->capped)
+        st = ffd_rig_report_note(report, name, err,
+                                 "warning: resampling stopped at its cap with %zu edges still "
+                                 "stretched beyond the ratio",
+                                 rr->long_edges);
+    return st;
+}
+
 ffd_status ffd_rig_apply_gffd(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report *report,
                               ffd_budget *budget, ffd_error *err)
 {
@@ -459,6 +511,11 @@ ffd_status ffd_rig_apply_gffd(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report
                 k += p.vertex_count;
             }
         }
+        /* the details too, before the mesh changes (all or nothing) */
+        if ((st = report_details(rg, g, &rr, report, rig->name, err))) {
+            ffd_free(skeleton_points);
+            goto done;
+        }
     }
     /* the mesh changes here, all at once */
     if (resampled) {
@@ -480,12 +537,7 @@ ffd_status ffd_rig_apply_gffd(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report
         report->timings.evaluate = t3 - t2;
         report->control_points = skeleton_points;
         report->control_count = skeleton_points ? skeleton_count : 0;
-        report->influenced_count = ffd_gffd_influenced_count(g);
-        report->gffd_unit = ffd_gffd_unit(g);
-        report->gffd_regularised = ffd_gffd_regularised(g);
-        report->resampled = rg->resample;
-        report->gffd = rr;
-        memset(&rr, 0, sizeof rr);
+        report->control_label = "GFFD skeleton vertices";
     }
 done:
     ffd_gffd_resample_report_free(&rr);

@@ -6,6 +6,8 @@
  * the final ffd_mesh_set_positions, which is all-or-nothing. */
 #include "rig/rig.h"
 
+#include <cjson/cJSON.h>
+
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
@@ -239,6 +241,7 @@ ffd_status ffd_rig_apply_pbffd(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_repor
     ffd_pbffd *pb = NULL;
     double *bound = NULL, *current = NULL, *jacobians = NULL, *reached = NULL, *residuals = NULL;
     double *report_points = NULL;
+    size_t uncovered = 0; /* vertices under no control point but the master */
     size_t *rows = NULL;
     ffd_manip_result result = {0};
     ffd_timings timings = {0};
@@ -346,6 +349,28 @@ ffd_status ffd_rig_apply_pbffd(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_repor
             if (ffd_pbffd_control(pb, 0, j, &ebf, NULL) == FFD_OK)
                 memcpy(report_points + 3 * j, ebf.center, sizeof ebf.center);
         }
+        /* the method's details: levels, uncovered vertices, the placement
+         * (made before the mesh changes: all or nothing) */
+        for (size_t i = 0; i < n; i++)
+            uncovered += ffd_pbffd_point_support(pb, i) == 0;
+        unsigned long mark;
+        cJSON *details = ffd_rig_details_create(&mark);
+        cJSON_AddNumberToObject(details, "levels", (double)ffd_pbffd_level_count(pb));
+        cJSON_AddNumberToObject(details, "uncovered", (double)uncovered);
+        cJSON_AddBoolToObject(details, "placed", rig->pb.controls_auto != 0);
+        if (rig->pb.controls_auto) {
+            cJSON *p = cJSON_AddObjectToObject(details, "placement");
+            cJSON_AddNumberToObject(p, "interior", (double)placement.interior_count);
+            cJSON_AddNumberToObject(p, "exterior", (double)placement.exterior_count);
+            cJSON_AddBoolToObject(p, "open", placement.open != 0);
+            cJSON_AddBoolToObject(p, "fell_back", placement.fell_back != 0);
+            cJSON_AddNumberToObject(p, "grown_radii", (double)placement.grown_radii);
+        }
+        if ((s = ffd_rig_report_set_details(report, details, mark, name, err)))
+            goto fail;
+        if (rig->pb.controls_auto && placement.note[0] &&
+            (s = ffd_rig_report_note(report, name, err, "note: %s", placement.note)))
+            goto fail;
     }
     if ((s = ffd_mesh_set_positions(mesh, current, jacobians, &inner))) {
         s = ffd_rig_wrap(err, s, name, "deformed positions", &inner);
@@ -363,15 +388,10 @@ ffd_status ffd_rig_apply_pbffd(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_repor
         report->rank = result.rank;
         report->max_residual = result.max_residual;
         report->timings = timings;
-        report->level_count = ffd_pbffd_level_count(pb);
-        report->uncovered_count = 0;
-        for (size_t i = 0; i < n; i++)
-            report->uncovered_count += ffd_pbffd_point_support(pb, i) == 0;
-        report->outside_count = report->uncovered_count;
-        report->placed = rig->pb.controls_auto;
-        report->placement = placement;
+        report->outside_count = uncovered;
         report->control_count = nc;
         report->control_points = report_points;
+        report->control_label = "PB-FFD control points";
         report_points = NULL;
     }
 fail:

@@ -6,6 +6,8 @@
 #include "rig/rig.h"
 #include "tspline/tsv.h"
 
+#include <cjson/cJSON.h>
+
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
@@ -232,7 +234,17 @@ ffd_status ffd_rig_tsv_charge_refine(const ffd_tsv *t, const ffd_tsv_insertion *
                              ffd_format_count(e.cells, cells, sizeof cells));
 }
 
-static ffd_status step_refine(ffd_tsv *t, const ffd_rig_tsv_step *st, ffd_rig_report *report,
+/* What the steps did, for the report's details. */
+typedef struct tsv_tally {
+    size_t refinements;          /* refinement steps applied */
+    size_t added_points;         /* control points they added (requested and extra) */
+    size_t moved_points;         /* existing control points they moved */
+    size_t arap_solves;          /* deform steps */
+    double max_handle_error;     /* over all deform steps */
+    ffd_tsv_fold_report folds;   /* fold-over check of the final map */
+} tsv_tally;
+
+static ffd_status step_refine(ffd_tsv *t, const ffd_rig_tsv_step *st, tsv_tally *tally,
                               ffd_budget *budget, ffd_error *err)
 {
     ffd_tsv_insertion *ins = NULL;
@@ -243,10 +255,10 @@ static ffd_status step_refine(ffd_tsv *t, const ffd_rig_tsv_step *st, ffd_rig_re
     if (!s) {
         ffd_tsv_refine_report rr;
         s = ffd_tsv_refine(t, ins, count, &rr, err);
-        if (!s && report) {
-            report->refinements++;
-            report->added_points += rr.added_points;
-            report->moved_points += rr.moved_points;
+        if (!s) {
+            tally->refinements++;
+            tally->added_points += rr.added_points;
+            tally->moved_points += rr.moved_points;
         }
     }
     ffd_free(ins);
@@ -266,7 +278,7 @@ ffd_status ffd_rig_tsv_charge_arap(const ffd_tsv *t, uint32_t iterations, ffd_bu
 }
 
 static ffd_status step_deform(ffd_tsv *t, const ffd_rig_tsv_step *st, id_set *set,
-                              ffd_rig_report *report, ffd_budget *budget, ffd_error *err)
+                              tsv_tally *tally, ffd_budget *budget, ffd_error *err)
 {
     ffd_status s = apply_freeze(t, st, set, err);
     if (s)
@@ -322,10 +334,10 @@ static ffd_status step_deform(ffd_tsv *t, const ffd_rig_tsv_step *st, id_set *se
     if (!s)
         s = ffd_tsv_arap_solve(arap, targets, &ar, err);
     ffd_tsv_arap_destroy(arap);
-    if (!s && report) {
-        report->arap_solves++;
-        if (ar.max_handle_error > report->max_handle_error)
-            report->max_handle_error = ar.max_handle_error;
+    if (!s) {
+        tally->arap_solves++;
+        if (ar.max_handle_error > tally->max_handle_error)
+            tally->max_handle_error = ar.max_handle_error;
     }
     set_clear(set);
     ffd_free(one.ids);
@@ -433,7 +445,8 @@ done:
     return s;
 }
 
-/* The lattice's edges and proxy, copied into the report. */
+/* The lattice's edges and proxy, copied into the report (the proxy as its
+ * control mesh). */
 static ffd_status report_lattice(const ffd_tsv *t, ffd_rig_report *report, ffd_error *err)
 {
     const size_t nv = ffd_tsv_control_count(t), ne = ffd_tsv_element_count(t, FFD_TSV_EDGE);
@@ -441,36 +454,78 @@ static ffd_status report_lattice(const ffd_tsv *t, ffd_rig_report *report, ffd_e
     ffd_tsv_get_proxy(t, &proxy);
     size_t corners = proxy.face_offsets ? proxy.face_offsets[proxy.face_count] : 0;
     report->control_points = ffd_malloc_array(nv ? nv : 1, 3 * sizeof(double));
-    report->lattice_edges = ffd_malloc_array(ne ? ne : 1, 2 * sizeof(uint32_t));
-    report->proxy_offsets = ffd_malloc_array(proxy.face_count + 1, sizeof(uint32_t));
-    report->proxy_indices = ffd_malloc_array(corners ? corners : 1, sizeof(uint32_t));
-    report->proxy_points = ffd_malloc_array(corners ? corners : 1, sizeof(uint32_t));
-    report->proxy_point_controls =
+    report->control_edges = ffd_malloc_array(ne ? ne : 1, 2 * sizeof(uint32_t));
+    report->control_face_offsets = ffd_malloc_array(proxy.face_count + 1, sizeof(uint32_t));
+    report->control_face_points = ffd_malloc_array(corners ? corners : 1, sizeof(uint32_t));
+    report->control_mesh_points =
         ffd_malloc_array(proxy.point_count ? proxy.point_count : 1, sizeof(uint32_t));
-    if (!report->control_points || !report->lattice_edges || !report->proxy_offsets ||
-        !report->proxy_indices || !report->proxy_points || !report->proxy_point_controls)
+    if (!report->control_points || !report->control_edges || !report->control_face_offsets ||
+        !report->control_face_points || !report->control_mesh_points)
         return ffd_fail(err, FFD_ERR_NOMEM, "out of memory for the report");
     memcpy(report->control_points, ffd_tsv_control_points(t), nv * 3 * sizeof(double));
     report->control_count = nv;
+    report->control_label = "T-lattice";
     for (size_t e = 0; e < ne; e++)
-        ffd_tsv_edge(t, (uint32_t)e, report->lattice_edges + 2 * e, NULL, NULL);
-    report->lattice_edge_count = ne;
-    report->proxy_offsets[0] = 0;
+        ffd_tsv_edge(t, (uint32_t)e, report->control_edges + 2 * e, NULL, NULL);
+    report->control_edge_count = ne;
+    report->control_face_offsets[0] = 0;
     if (proxy.face_count)
-        memcpy(report->proxy_offsets, proxy.face_offsets, (proxy.face_count + 1) * sizeof(uint32_t));
-    if (corners) {
-        memcpy(report->proxy_indices, proxy.face_indices, corners * sizeof(uint32_t));
-        memcpy(report->proxy_points, proxy.face_points, corners * sizeof(uint32_t));
-    }
+        memcpy(report->control_face_offsets, proxy.face_offsets,
+               (proxy.face_count + 1) * sizeof(uint32_t));
+    if (corners)
+        memcpy(report->control_face_points, proxy.face_points, corners * sizeof(uint32_t));
     if (proxy.point_count)
-        memcpy(report->proxy_point_controls, proxy.point_controls,
+        memcpy(report->control_mesh_points, proxy.point_controls,
                proxy.point_count * sizeof(uint32_t));
-    report->proxy_point_count = proxy.point_count;
-    report->proxy_face_count = proxy.face_count;
-    report->proxy_vertex_count = proxy.vertex_count;
-    report->cell_count = ffd_tsv_element_count(t, FFD_TSV_CELL);
-    report->max_weight_deviation = ffd_tsv_max_weight_deviation(t);
+    report->control_mesh_point_count = proxy.point_count;
+    report->control_face_count = proxy.face_count;
     return FFD_OK;
+}
+
+/* The method's details: the T-lattice and proxy counts, what the steps did,
+ * the fold-over check; a fold-over becomes a warning. */
+static ffd_status report_details(const ffd_tsv *t, const tsv_tally *tally,
+                                 ffd_rig_report *report, const char *name, ffd_error *err)
+{
+    ffd_tsv_proxy proxy;
+    ffd_tsv_get_proxy(t, &proxy);
+    const ffd_tsv_fold_report *f = &tally->folds;
+    unsigned long mark;
+    cJSON *d = ffd_rig_details_create(&mark);
+    cJSON_AddNumberToObject(d, "cells", (double)ffd_tsv_element_count(t, FFD_TSV_CELL));
+    cJSON_AddNumberToObject(d, "proxy_points", (double)proxy.point_count);
+    cJSON_AddNumberToObject(d, "proxy_faces", (double)proxy.face_count);
+    cJSON_AddNumberToObject(d, "proxy_vertices", (double)proxy.vertex_count);
+    cJSON_AddNumberToObject(d, "refinements", (double)tally->refinements);
+    cJSON_AddNumberToObject(d, "added_points", (double)tally->added_points);
+    cJSON_AddNumberToObject(d, "moved_points", (double)tally->moved_points);
+    cJSON_AddNumberToObject(d, "max_weight_deviation", ffd_tsv_max_weight_deviation(t));
+    cJSON_AddNumberToObject(d, "arap_solves", (double)tally->arap_solves);
+    cJSON_AddNumberToObject(d, "max_handle_error", tally->max_handle_error);
+    cJSON *folds = cJSON_AddObjectToObject(d, "folds");
+    cJSON_AddNumberToObject(folds, "cells_checked", (double)f->cells_checked);
+    cJSON_AddNumberToObject(folds, "min_det", f->min_det);
+    cJSON *cells = cJSON_AddArrayToObject(folds, "folded_cells");
+    for (size_t i = 0; i < f->folded_cell_count && cells; i++)
+        cJSON_AddItemToArray(cells, cJSON_CreateNumber(f->folded_cells[i]));
+    cJSON *faces = cJSON_AddArrayToObject(folds, "inverted_faces");
+    for (size_t i = 0; i < f->inverted_face_count && faces; i++)
+        cJSON_AddItemToArray(faces, cJSON_CreateNumber(f->inverted_faces[i]));
+    ffd_status s = ffd_rig_report_set_details(report, d, mark, name, err);
+    if (!s && (f->folded_cell_count || f->inverted_face_count)) {
+        char ids[160];
+        size_t len = 0;
+        for (size_t i = 0; i < f->folded_cell_count && i < 10; i++)
+            len += (size_t)snprintf(ids + len, sizeof ids - len, " %u", f->folded_cells[i]);
+        s = ffd_rig_report_note(report, name, err,
+                                "warning: the deformation folds over: %zu cell%s with a "
+                                "non-positive Jacobian determinant (min %.3g; cells%s%s), %zu "
+                                "inverted face%s (--report lists all)",
+                                f->folded_cell_count, f->folded_cell_count == 1 ? "" : "s",
+                                f->min_det, ids, f->folded_cell_count > 10 ? " ..." : "",
+                                f->inverted_face_count, f->inverted_face_count == 1 ? "" : "s");
+    }
+    return s;
 }
 
 ffd_status ffd_rig_apply_tspline(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report *report,
@@ -483,6 +538,7 @@ ffd_status ffd_rig_apply_tspline(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_rep
     ffd_tsv *t = NULL;
     double *x = NULL, *jac = NULL;
     id_set set = {0};
+    tsv_tally tally = {0};
     ffd_rig_report local;
     ffd_rig_report *rep = report ? report : &local;
     memset(rep, 0, sizeof *rep);
@@ -501,9 +557,9 @@ ffd_status ffd_rig_apply_tspline(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_rep
         if (!set.in) {
             s = ffd_fail(&inner, FFD_ERR_NOMEM, "out of memory");
         } else if (st->kind == FFD_RIG_STEP_REFINE) {
-            s = step_refine(t, st, rep, budget, &inner);
+            s = step_refine(t, st, &tally, budget, &inner);
         } else if (st->kind == FFD_RIG_STEP_DEFORM) {
-            s = step_deform(t, st, &set, rep, budget, &inner);
+            s = step_deform(t, st, &set, &tally, budget, &inner);
         } else if (st->kind == FFD_RIG_STEP_MOVE) {
             s = step_move(t, st, &set, &inner);
         } else {
@@ -537,21 +593,23 @@ ffd_status ffd_rig_apply_tspline(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_rep
                                    fs)))
             s = ffd_rig_wrap(err, s, name, "fold_samples", &inner);
     }
-    if (!s && (s = ffd_tsv_check_folds(t, rt->fold_samples, &rep->folds, &inner)))
+    if (!s && (s = ffd_tsv_check_folds(t, rt->fold_samples, &tally.folds, &inner)))
         s = ffd_rig_wrap(err, s, name, "fold check", &inner);
     double t3 = ffd_now();
     if (!s && (s = report_lattice(t, rep, &inner)))
         s = ffd_rig_wrap(err, s, name, "report", &inner);
+    if (!s)
+        s = report_details(t, &tally, rep, name, err);
     if (!s && (s = ffd_mesh_set_positions(mesh, x, jac, &inner)))
         s = ffd_rig_wrap(err, s, name, "deformed positions", &inner);
     if (!s) {
-        rep->tspline = 1;
         rep->timings.bind = t1 - t0;
         rep->timings.solve = t2 - t1;
         rep->timings.evaluate = t3 - t2;
     }
     if (s || !report)
         ffd_rig_report_free(rep);
+    ffd_tsv_fold_report_free(&tally.folds);
     ffd_free(set.ids);
     ffd_free(set.in);
     ffd_free(x);

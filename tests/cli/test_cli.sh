@@ -46,7 +46,7 @@ ok deform "$DATA/cube.obj" -o "$T/pulled.obj" --rig "$DATA/pull.json" --report -
 has stdout '{"constraints": [{"index": 0, "residual": '
 has stdout '"reached": ['
 has stdout '{"index": 2, "residual": '
-has stdout '"rank": 3, "outside": 0, "controls": 64}'
+has stdout '"rank": 3, "outside": 0, "controls": 64, "method": "lattice"}'
 has stderr '{"read": '
 has stderr '"bind": '
 has stderr '"solve": '

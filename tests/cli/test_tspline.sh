@@ -329,6 +329,17 @@ if [ -d "$EX" ]; then
     [ "$count" -ge 3 ] || fail "examples/tspline holds $count rigs, expected at least 3"
 fi
 
+# A map that folds: the report's details (nested objects and arrays) and the
+# method's warning are printed without the CLI knowing the method.
+printf '{"deformer": "tspline", "resolution": [4, 4, 4], "steps": [{"move": [{"points": [0], "delta": [1000, 1000, 1000]}]}]}\n' >"$T/fold.json"
+ok deform "$BUNNY" -o "$T/fold.obj" --rig "$T/fold.json" --report
+sanitizer_clean "$T/stderr" fold
+has stdout '"controls": 64, "method": "tspline", "cells": 27, '
+has stdout '"folds": {"cells_checked": '
+grep -qE '"folded_cells": \[[0-9]' "$T/stdout" || fail "fold: no folded cell listed: $(cat "$T/stdout")"
+has stderr "ffd: warning: the deformation folds over: "
+[ "$(grep -c 'warning' "$T/stderr")" -eq 1 ] || fail "fold: expected one warning: $(cat "$T/stderr")"
+
 if [ "$failures" -ne 0 ]; then
     echo "$failures failure(s)"
     exit 1

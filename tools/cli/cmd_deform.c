@@ -1,6 +1,8 @@
 /* ffd deform — apply a rig (JSON or PyGeM .prm) to a mesh and write the result. */
 #include "cli.h"
 
+#include <cjson/cJSON.h>
+
 #include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
@@ -18,7 +20,8 @@ static const char usage[] =
     "  -o, --output OUT  the deformed mesh\n"
     "  -r, --rig RIG     the rig file\n"
     "  --in-place        allow OUT to be IN (OUT defaults to IN)\n"
-    "  --report          print the constraint residuals as JSON on stdout\n"
+    "  --report          print the report as JSON on stdout: residuals, then the\n"
+    "                    method's details (docs/rig.md \"The report\")\n"
     "  --lattice-out F   also write the deformed lattice to F (OBJ: points and lines;\n"
     "                    PB-FFD: the finest level's control points; GFFD: the\n"
     "                    skeleton's vertices; T-spline: the T-lattice's points and edges)\n"
@@ -33,6 +36,36 @@ static const char usage[] =
     "  --binary-be       binary big-endian (PLY)\n"
     "  -h, --help        this help\n";
 
+/* One JSON value of the details, in the report's own style (", " and ": "
+ * separators, numbers as cli_json_number). */
+static void print_json(const cJSON *v)
+{
+    if (cJSON_IsObject(v) || cJSON_IsArray(v)) {
+        int object = cJSON_IsObject(v);
+        putchar(object ? '{' : '[');
+        for (const cJSON *c = v->child; c; c = c->next) {
+            if (c != v->child)
+                printf(", ");
+            if (object) {
+                cli_json_string(stdout, c->string);
+                printf(": ");
+            }
+            print_json(c);
+        }
+        putchar(object ? '}' : ']');
+    } else if (cJSON_IsNumber(v)) {
+        cli_json_number(stdout, v->valuedouble);
+    } else if (cJSON_IsString(v)) {
+        cli_json_string(stdout, v->valuestring);
+    } else if (cJSON_IsBool(v)) {
+        printf(cJSON_IsTrue(v) ? "true" : "false");
+    } else {
+        printf("null");
+    }
+}
+
+/* The shared part of the report, then the method's details as more keys of
+ * the same object, whatever they are. */
 static void print_report(const ffd_rig_report *report)
 {
     printf("{\"constraints\": [");
@@ -48,48 +81,17 @@ static void print_report(const ffd_rig_report *report)
     }
     printf("], \"max_residual\": ");
     cli_json_number(stdout, report->max_residual);
-    printf(", \"rank\": %zu, \"outside\": %zu, \"controls\": %zu", report->rank,
+    printf(", \"rank\": %zu, \"outside\": %zu, \"controls\": %zu, \"method\": ", report->rank,
            report->outside_count, report->control_count);
-    if (report->gffd_unit > 0) { /* GFFD */
-        const ffd_gffd_resample_report *g = &report->gffd;
-        printf(", \"influenced\": %zu, \"unit\": ", report->influenced_count);
-        cli_json_number(stdout, report->gffd_unit);
-        printf(", \"tracked\": %zu, \"converged\": %zu, \"not_converged\": %zu, \"failed\": [",
-               g->track.tracked, g->track.converged, g->track.failed_count);
-        for (size_t i = 0; i < g->track.failed_count; i++)
-            printf("%s%u", i ? ", " : "", g->track.failed[i]);
-        printf("], \"fallbacks\": %zu, \"iterations\": %zu, \"max_field_error\": ",
-               g->track.fallback_count, g->track.iterations);
-        cli_json_number(stdout, g->track.max_error);
-        printf(", \"regularised\": %s", report->gffd_regularised ? "true" : "false");
-        if (report->resampled)
-            printf(", \"resample\": {\"rounds\": %zu, \"added_vertices\": %zu, "
-                   "\"split_edges\": %zu, \"long_edges\": %zu, \"capped\": %s}",
-                   g->rounds, g->added_vertices, g->split_edges, g->long_edges,
-                   g->capped ? "true" : "false");
-    } else if (report->tspline) {
-        const ffd_tsv_fold_report *f = &report->folds;
-        printf(", \"cells\": %zu, \"proxy_points\": %zu, \"proxy_faces\": %zu, "
-               "\"refinements\": %zu, \"added_points\": %zu, \"moved_points\": %zu, "
-               "\"max_weight_deviation\": ",
-               report->cell_count, report->proxy_point_count, report->proxy_face_count,
-               report->refinements, report->added_points, report->moved_points);
-        cli_json_number(stdout, report->max_weight_deviation);
-        printf(", \"arap_solves\": %zu, \"max_handle_error\": ", report->arap_solves);
-        cli_json_number(stdout, report->max_handle_error);
-        printf(", \"folds\": {\"cells_checked\": %zu, \"min_det\": ", f->cells_checked);
-        cli_json_number(stdout, f->min_det);
-        printf(", \"folded_cells\": [");
-        for (size_t i = 0; i < f->folded_cell_count; i++)
-            printf("%s%u", i ? ", " : "", f->folded_cells[i]);
-        printf("], \"inverted_faces\": [");
-        for (size_t i = 0; i < f->inverted_face_count; i++)
-            printf("%s%u", i ? ", " : "", f->inverted_faces[i]);
-        printf("]}");
-    } else if (report->resolution[0] == 0) { /* PB-FFD */
-        printf(", \"levels\": %zu, \"uncovered\": %zu, \"placed\": %s", report->level_count,
-               report->uncovered_count, report->placed ? "true" : "false");
+    cli_json_string(stdout, report->method ? report->method : "");
+    cJSON *details = report->details ? cJSON_Parse(report->details) : NULL;
+    for (const cJSON *c = details ? details->child : NULL; c; c = c->next) {
+        printf(", ");
+        cli_json_string(stdout, c->string);
+        printf(": ");
+        print_json(c);
     }
+    cJSON_Delete(details);
     printf("}\n");
 }
 
@@ -259,30 +261,12 @@ int cmd_deform(int argc, char **argv)
         goto done;
     }
     double t3 = cli_now();
-    if (report.placed && report.placement.note[0])
-        fprintf(stderr, "ffd: note: %s\n", report.placement.note);
-    if (report.gffd.track.failed_count) {
-        const ffd_gffd_track_report *t = &report.gffd.track;
-        fprintf(stderr, "ffd: warning: %zu vert%s did not regain %s field value (ids", t->failed_count,
-                t->failed_count == 1 ? "ex" : "ices", t->failed_count == 1 ? "its" : "their");
-        for (size_t i = 0; i < t->failed_count && i < 10; i++)
-            fprintf(stderr, " %u", t->failed[i]);
-        fprintf(stderr, "%s); they stay where tracking left them (--report lists all)\n",
-                t->failed_count > 10 ? " ..." : "");
-    }
-    if (report.resampled && report.gffd.capped)
-        fprintf(stderr, "ffd: warning: resampling stopped at its cap with %zu edges still "
-                        "stretched beyond the ratio\n", report.gffd.long_edges);
-    if (report.folds.folded_cell_count || report.folds.inverted_face_count) {
-        const ffd_tsv_fold_report *f = &report.folds;
-        fprintf(stderr, "ffd: warning: the deformation folds over: %zu cell%s with a non-positive "
-                        "Jacobian determinant (min %.3g; cells",
-                f->folded_cell_count, f->folded_cell_count == 1 ? "" : "s", f->min_det);
-        for (size_t i = 0; i < f->folded_cell_count && i < 10; i++)
-            fprintf(stderr, " %u", f->folded_cells[i]);
-        fprintf(stderr, "%s), %zu inverted face%s (--report lists all)\n",
-                f->folded_cell_count > 10 ? " ..." : "", f->inverted_face_count,
-                f->inverted_face_count == 1 ? "" : "s");
+    /* the method's notes and warnings, one "ffd: " line each */
+    for (const char *line = report.notes; line && *line;) {
+        const char *eol = strchr(line, '\n');
+        int len = eol ? (int)(eol - line) : (int)strlen(line);
+        fprintf(stderr, "ffd: %.*s\n", len, line);
+        line += len + (eol != NULL);
     }
     if (want_report)
         print_report(&report);

@@ -3,7 +3,10 @@
  * given, and writes the proxy (and the full T-lattice) for inspection. */
 #include "cli.h"
 
+#include <cjson/cJSON.h>
+
 #include <errno.h>
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -48,6 +51,20 @@ static int parse_resolution(const char *s, unsigned res[3])
         s = end + 1;
     }
     return *end ? -1 : 0;
+}
+
+/* A number of the report's details (absent: NaN, printed as null). */
+static double detail(const cJSON *details, const char *key)
+{
+    const cJSON *item = cJSON_GetObjectItemCaseSensitive(details, key);
+    return cJSON_IsNumber(item) ? item->valuedouble : NAN;
+}
+
+/* A count of the report's details (absent: 0). */
+static size_t detail_count(const cJSON *details, const char *key)
+{
+    double v = detail(details, key);
+    return v >= 0 && v < 1e18 ? (size_t)v : 0;
 }
 
 int cmd_tspline(int argc, char **argv)
@@ -147,7 +164,7 @@ int cmd_tspline(int argc, char **argv)
         cli_error(code, "%s: %s", in, err.message); /* the mesh, then the rig's message */
         goto done;
     }
-    if (!report.tspline) {
+    if (!report.control_face_offsets) {
         cli_error(code, "%s: not a \"tspline\" rig: it has no proxy", rig_path);
         goto done;
     }
@@ -160,19 +177,23 @@ int cmd_tspline(int argc, char **argv)
         cli_error(code, "%s", err.message);
         goto done;
     }
+    /* the T-spline's own counts are in the report's details (docs/rig.md) */
+    cJSON *details = cJSON_Parse(report.details ? report.details : "{}");
+    size_t cells = detail_count(details, "cells");
     if (want_report) {
         printf("{\"control_points\": %zu, \"cells\": %zu, \"edges\": %zu, \"proxy_points\": %zu, "
                "\"proxy_faces\": %zu, \"refinements\": %zu, \"added_points\": %zu, "
                "\"max_weight_deviation\": ",
-               report.control_count, report.cell_count, report.lattice_edge_count,
-               report.proxy_point_count, report.proxy_face_count, report.refinements,
-               report.added_points);
-        cli_json_number(stdout, report.max_weight_deviation);
+               report.control_count, cells, report.control_edge_count,
+               report.control_mesh_point_count, report.control_face_count,
+               detail_count(details, "refinements"), detail_count(details, "added_points"));
+        cli_json_number(stdout, detail(details, "max_weight_deviation"));
         printf("}\n");
     }
+    cJSON_Delete(details);
     fprintf(stderr, "wrote %s (proxy: %zu points, %zu faces; lattice: %zu control points, %zu cells)\n",
-            out, report.proxy_point_count, report.proxy_face_count, report.control_count,
-            report.cell_count);
+            out, report.control_mesh_point_count, report.control_face_count, report.control_count,
+            cells);
     code = CLI_EXIT_OK;
 done:
     ffd_rig_report_free(&report);
