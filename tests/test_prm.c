@@ -1,4 +1,4 @@
-/* Tests for the PyGeM .prm reader (src/rig/rig_prm.c): the parsed rig, and
+/* Tests for the PyGeM .prm reader (src/lattice/lattice_prm.c): the parsed rig, and
  * ffd_rig_apply on it against an independent transcription of PyGeM's FFD
  * (mathLab/PyGeM pygem/ffd.py FFD.__call__, pygem/utils.py angles2matrix),
  * points outside the box included; bad inputs; every truncated prefix. */

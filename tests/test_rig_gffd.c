@@ -4,6 +4,7 @@
  * examples (report fields, untouched regions, resampling), an unedited rig
  * (identity), failing rigs (mesh unchanged) and scale invariance. */
 #include "check.h"
+#include "gffd/gffd_method.h"
 #include "report_details.h"
 #include "check_rig.h"
 

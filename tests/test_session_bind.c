@@ -7,6 +7,8 @@
  * identity, bit for bit); the T-spline's linear map of the points gives
  * their positions; failing allocations leave a clean status. */
 #include "check_sess_method.h"
+#include "gffd/gffd_method.h"
+#include "tspline/tspline_method.h"
 
 #define BUNNY FFD_SOURCE_DIR "/examples/tspline/bunny.obj"
 #define COW FFD_SOURCE_DIR "/examples/gffd/cow.off"

@@ -1,9 +1,10 @@
-/* Tests for the editor's GFFD method (src/session/session_gffd.c) through its
+/* Tests for the editor's GFFD method (src/gffd/gffd_session.c) through its
  * vtable: identity at rest; after skeleton drags and primitive edits, eval
  * equals ffd_rig_apply of the method's rig; load reproduces a rig; snapshots
  * restore bitwise; bad bodies name the key; the influence is the primitives'
  * share of the field; failing allocations leave nothing behind. */
 #include "check_sess_method.h"
+#include "gffd/gffd_method.h"
 
 #define COW FFD_SOURCE_DIR "/examples/gffd/cow.off"
 

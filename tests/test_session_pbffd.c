@@ -1,9 +1,10 @@
-/* Tests for the editor's PB-FFD method (src/session/session_pbffd.c) through
+/* Tests for the editor's PB-FFD method (src/pbffd/pbffd_session.c) through
  * its vtable: identity at rest; after drags, pin-style variable moves, frame
  * edits and curves, eval equals ffd_rig_apply of the method's rig; load
  * reproduces a rig; snapshots restore bitwise; bad bodies name the key;
  * failing allocations leave nothing behind. */
 #include "check_sess_method.h"
+#include "pbffd/pbffd_method.h"
 
 #define COW FFD_SOURCE_DIR "/examples/pbffd/cow.off"
 #define SMALL "{\"method\": \"pbffd\", \"interior\": 16, \"exterior\": 16"

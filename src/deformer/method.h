@@ -27,6 +27,9 @@ typedef struct ffd_method {
     /* The method's deformer from the editor's "create" body. */
     ffd_status (*create)(const sess_ctx *ctx, const cJSON *body, sess_method **out,
                          ffd_error *err);
+    /* Frees the method's section of a rig (called for every method: an
+     * unused section is zero). */
+    void (*release)(ffd_rig *rig);
     /* The editor operations of the method's own (sess_vtable.op), NULL-terminated. */
     const char *const *ops;
 } ffd_method;

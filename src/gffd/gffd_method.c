@@ -1,7 +1,7 @@
 /* gffd_method — the gffd method's descriptor in the method registry
  * (deformer/method.h): its rig application, and its deformer from a rig or
  * from the editor's "create" body. */
-#include "deformer/method.h"
+#include "gffd/gffd_method.h"
 
 static const char *const gffd_ops[] = {"primitive", NULL};
 
@@ -12,5 +12,6 @@ const ffd_method ffd_method_gffd = {
     .apply = ffd_rig_apply_gffd,
     .load = ffd_sess_gffd_load,
     .create = ffd_sess_gffd_create,
+    .release = ffd_rig_release_gffd,
     .ops = gffd_ops,
 };

@@ -1,7 +1,7 @@
 /* lattice_method — the lattice method's descriptor in the method registry
  * (deformer/method.h): its rig application, and its deformer from a rig or
  * from the editor's "create" body. */
-#include "deformer/method.h"
+#include "lattice/lattice_method.h"
 
 const ffd_method ffd_method_lattice = {
     .name = "lattice",
@@ -10,4 +10,5 @@ const ffd_method ffd_method_lattice = {
     .apply = ffd_rig_apply_lattice,
     .load = ffd_sess_lattice_load,
     .create = ffd_sess_lattice_create,
+    .release = ffd_rig_release_lattice,
 };

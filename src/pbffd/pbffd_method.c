@@ -1,7 +1,7 @@
 /* pbffd_method — the pbffd method's descriptor in the method registry
  * (deformer/method.h): its rig application, and its deformer from a rig or
  * from the editor's "create" body. */
-#include "deformer/method.h"
+#include "pbffd/pbffd_method.h"
 
 static const char *const pbffd_ops[] = {"level", "frame", "curve", NULL};
 
@@ -12,5 +12,6 @@ const ffd_method ffd_method_pbffd = {
     .apply = ffd_rig_apply_pbffd,
     .load = ffd_sess_pbffd_load,
     .create = ffd_sess_pbffd_create,
+    .release = ffd_rig_release_pbffd,
     .ops = pbffd_ops,
 };

@@ -237,68 +237,6 @@ ffd_status ffd_rig_report_set_details(ffd_rig_report *report, struct cJSON *deta
 ffd_status ffd_rig_report_note(ffd_rig_report *report, const char *name, ffd_error *err,
                                const char *fmt, ...) FFD_PRINTF(4, 5);
 
-/* Lattice application (rig_apply.c): moves, then direct manipulation. */
-ffd_status ffd_rig_apply_lattice(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report *report,
-                                 ffd_budget *budget, ffd_error *err);
-
-/* PB-FFD application (rig_pbffd.c); constraints as for the lattice. */
-ffd_status ffd_rig_apply_pbffd(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report *report,
-                               ffd_budget *budget, ffd_error *err);
-
-/* The PB-FFD rig's steps, shared with the editor session (rig_pbffd.c). */
-/* The frame edit e asks for, from the control's current frame. */
-void ffd_rig_pb_edited_frame(const ffd_rig_pb_edit *e, const double current[3][3],
-                             double out[3][3]);
-/* The control edit e (entry i of the list key) names: its index, or the
- * enabled control of its level whose current centre is nearest to its
- * "near" point (ties: lowest index). FFD_ERR_RANGE, FFD_ERR_INVALID. */
-ffd_status ffd_rig_pb_edit_target(const ffd_rig *rig, const ffd_pbffd *pb, const char *key,
-                                  size_t i, const ffd_rig_pb_edit *e, size_t *index,
-                                  ffd_error *err);
-/* Applies the rig's moves in file order, then its frame edits (step 3).
- * resolved (may be NULL) receives the control index each move and then each
- * frame edit used (move_count + frame_count entries); frames (may be NULL)
- * the frame each frame edit set (frame_count). */
-ffd_status ffd_rig_pb_apply_edits(const ffd_rig *rig, ffd_pbffd *pb, size_t *resolved,
-                                  double (*frames)[3][3], ffd_error *err);
-/* The minimum-norm change of the controls of constraint_level (delta: their
- * count by 3) that brings the constraints' bound points rows[c] from current
- * (all bound points) to their targets (§3.3); nothing is moved. */
-ffd_status ffd_rig_pb_constraint_delta(const ffd_rig *rig, ffd_pbffd *pb, const size_t *rows,
-                                       const double *current, double *delta,
-                                       ffd_manip_result *result, ffd_error *err);
-
-/* GFFD application (rig_gffd.c). */
-ffd_status ffd_rig_apply_gffd(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report *report,
-                              ffd_budget *budget, ffd_error *err);
-/* Reads a skeleton primitive's geometry from a file: a polyline from an OBJ
- * file's v and l lines (one l statement, or none: the v lines in order), a
- * patch or polyhedron from a mesh file (OBJ, PLY, OFF). */
-ffd_status ffd_rig_load_primitive(const char *path, ffd_rig_primitive *prim, ffd_error *err);
-void ffd_rig_primitive_free(ffd_rig_primitive *prim);
-/* Limits (ffd_limits): charges the field fits of prims (the rig's "skeleton",
- * with a refit per edit, or its "replace") to budget; the message names
- * key[i] and max_samples. */
-ffd_status ffd_rig_gffd_charge(const ffd_rig *rig, const ffd_rig_primitive *prims, size_t count,
-                               const char *key, ffd_budget *budget, ffd_error *err);
-/* The primitive as the library's ffd_gffd_primitive (borrowing its arrays). */
-void ffd_rig_primitive_public(const ffd_rig_primitive *r, ffd_gffd_primitive *p);
-/* Applies edit i of the rig to the current skeleton of g (step 2): a
- * rotation or translation through ffd_gffd_transform, the others through
- * ffd_gffd_set_vertices, for each primitive it touches. */
-/* The centre of edit e on g: its "center", or the centroid of every vertex it touches. */
-void ffd_rig_gffd_edit_center(const ffd_rig_gffd_edit *e, const ffd_gffd *g, double center[3]);
-ffd_status ffd_rig_gffd_apply_edit(const ffd_rig *rig, ffd_gffd *g, size_t i, ffd_error *err);
-
-/* T-spline application (rig_tspline.c). */
-ffd_status ffd_rig_apply_tspline(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report *report,
-                                 ffd_budget *budget, ffd_error *err);
-/* Limits (ffd_limits): charge a refinement of the resolved insertions, and
- * an ARAP drag on the current lattice, to budget before running them. */
-ffd_status ffd_rig_tsv_charge_refine(const ffd_tsv *t, const ffd_tsv_insertion *ins, size_t count,
-                                     ffd_budget *budget, ffd_error *err);
-ffd_status ffd_rig_tsv_charge_arap(const ffd_tsv *t, uint32_t iterations, ffd_budget *budget,
-                                   ffd_error *err);
 /* Limits: the dense k x (variables) least-squares matrix of a
  * direct-manipulation solve of k constraints through map (rig_apply.c). */
 ffd_status ffd_rig_charge_manip(const ffd_linear_map *map, size_t k, ffd_budget *budget,

@@ -1,8 +1,8 @@
 /* rig — the rig JSON format: the syntax checks, the value readers every
  * method's section reader shares (rig_json.h), and the root, which hands the
  * rig to the section reader of the method its "deformer" names (the method
- * registry, deformer/method.h: rig_json_lattice.c, rig_json_pbffd.c,
- * rig_json_gffd.c, rig_json_tspline.c); also the dispatch of .prm files.
+ * registry, deformer/method.h: lattice_rig_json.c, pbffd_rig_json.c,
+ * gffd_rig_json.c, tspline_rig_json.c); also the dispatch of .prm files.
  *
  * With the rig_json_<method>.c files, the only files that read cJSON
  * (rig_json.h). Every rejected value is reported with the file name and the
@@ -47,28 +47,9 @@ void ffd_rig_destroy(ffd_rig *rig)
     if (!rig)
         return;
     ffd_free(rig->name);
-    ffd_free(rig->moves);
     ffd_free(rig->constraints);
-    ffd_free(rig->pb.controls);
-    ffd_free(rig->pb.moves);
-    ffd_free(rig->pb.frames);
-    for (size_t i = 0; i < rig->pb.curve_count; i++) {
-        ffd_free(rig->pb.curves[i].points);
-        ffd_free(rig->pb.curves[i].moves);
-    }
-    ffd_free(rig->pb.curves);
-    for (size_t i = 0; i < rig->gffd.skeleton_count; i++)
-        ffd_rig_primitive_free(&rig->gffd.skeleton[i]);
-    ffd_free(rig->gffd.skeleton);
-    for (size_t i = 0; i < rig->gffd.replace_count; i++)
-        ffd_rig_primitive_free(&rig->gffd.replace[i]);
-    ffd_free(rig->gffd.replace);
-    for (size_t i = 0; i < rig->gffd.edit_count; i++)
-        ffd_free(rig->gffd.edits[i].vertices);
-    ffd_free(rig->gffd.edits);
-    ffd_free(rig->gffd.corr_from);
-    ffd_free(rig->gffd.corr_to);
-    ffd_rig_tspline_free(&rig->tsv);
+    for (size_t i = 0; i < ffd_method_count(); i++) /* every section, used or zero */
+        ffd_method_at(i)->release(rig);
     for (size_t i = 0; i < rig->input_file_count; i++)
         ffd_free(rig->input_files[i]);
     ffd_free(rig->input_files);

@@ -87,16 +87,9 @@ ffd_status ffd_rig_check_deformer_root(const ffd_rig_parser *p, const cJSON *roo
  * as such); rig->deformer says which of the two the rig is. */
 ffd_status ffd_rig_read_linear_root(const ffd_rig_parser *p, const cJSON *root, ffd_rig *rig);
 
-/* A refine step's insertions (rig_json_tspline.c; the editor's "refine" op too). */
-ffd_status ffd_rig_read_tsv_refinements(const ffd_rig_parser *p, const cJSON *item, const char *path,
-                                    ffd_rig_tsv_step *st);
 
 /* The section reader of each method (ffd_method.parse, one file each): the
  * whole root object of a rig of that method, into rig (which it tags with
  * the method); what it read stays in rig for ffd_rig_destroy, on error too. */
-ffd_status ffd_rig_parse_lattice(const ffd_rig_parser *p, const cJSON *root, ffd_rig *rig);
-ffd_status ffd_rig_parse_pbffd(const ffd_rig_parser *p, const cJSON *root, ffd_rig *rig);
-ffd_status ffd_rig_parse_gffd(const ffd_rig_parser *p, const cJSON *root, ffd_rig *rig);
-ffd_status ffd_rig_parse_tspline(const ffd_rig_parser *p, const cJSON *root, ffd_rig *rig);
 
 #endif

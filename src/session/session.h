@@ -1,7 +1,7 @@
 /* session — the editor's model (ffd_session, ffd.h): one rest mesh, one
  * deformer ("method"), pins, undo/redo and the drag in progress. session.c
  * is generic; each method is one file implementing sess_vtable
- * (session_lattice.c, session_pbffd.c, session_gffd.c, session_tspline.c).
+ * (lattice_session.c, pbffd_session.c, gffd_session.c, tspline_session.c).
  * Invariant: a method's rig (vt->rig) replayed by ffd_rig_apply on the rest
  * mesh gives the positions vt->eval gives. */
 #ifndef FFD_SESSION_H
@@ -136,23 +136,6 @@ struct sess_vtable {
  * defaults per docs/editor.md). load: from a parsed rig of this method
  * (the whole rig replayed; the result must describe the same positions as
  * ffd_rig_apply of that rig). */
-ffd_status ffd_sess_lattice_create(const sess_ctx *ctx, const cJSON *body, sess_method **out,
-                               ffd_error *err);
-ffd_status ffd_sess_lattice_load(const sess_ctx *ctx, const ffd_rig *rig, sess_method **out,
-                             ffd_error *err);
-ffd_status ffd_sess_pbffd_create(const sess_ctx *ctx, const cJSON *body, sess_method **out,
-                             ffd_error *err);
-ffd_status ffd_sess_pbffd_load(const sess_ctx *ctx, const ffd_rig *rig, sess_method **out,
-                           ffd_error *err);
-ffd_status ffd_sess_gffd_create(const sess_ctx *ctx, const cJSON *body, sess_method **out,
-                            ffd_error *err);
-ffd_status ffd_sess_gffd_load(const sess_ctx *ctx, const ffd_rig *rig, sess_method **out,
-                          ffd_error *err);
-ffd_status ffd_sess_tspline_create(const sess_ctx *ctx, const cJSON *body, sess_method **out,
-                               ffd_error *err);
-ffd_status ffd_sess_tspline_load(const sess_ctx *ctx, const ffd_rig *rig, sess_method **out,
-                             ffd_error *err);
-
 /* Shared helpers (session_util.c). */
 /* A JSON array of uint32 control ids, each < count, no repeats; *ids is
  * ffd_malloc'd (NULL when k == 0). */

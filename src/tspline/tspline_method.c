@@ -1,7 +1,7 @@
 /* tspline_method — the tspline method's descriptor in the method registry
  * (deformer/method.h): its rig application, and its deformer from a rig or
  * from the editor's "create" body. */
-#include "deformer/method.h"
+#include "tspline/tspline_method.h"
 
 static const char *const tspline_ops[] = {"refine", "freeze", NULL};
 
@@ -12,5 +12,6 @@ const ffd_method ffd_method_tspline = {
     .apply = ffd_rig_apply_tspline,
     .load = ffd_sess_tspline_load,
     .create = ffd_sess_tspline_create,
+    .release = ffd_rig_release_tspline,
     .ops = tspline_ops,
 };

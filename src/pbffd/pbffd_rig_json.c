@@ -7,6 +7,7 @@
  * (ffd_method_pbffd.parse), and its writer for an explicit control set (the
  * output of `ffd pbffd place`: one control per line, numbers with 17
  * significant digits, so that they read back exactly). */
+#include "pbffd/pbffd_method.h"
 #include "rig/rig_json.h"
 
 #include <math.h>
@@ -549,4 +550,16 @@ ffd_status ffd_rig_write_pbffd_controls(const char *path, const ffd_ebf *control
     ffd_status s = ffd_write_file_atomic(path, buf, len, err);
     ffd_free(buf);
     return s;
+}
+
+void ffd_rig_release_pbffd(ffd_rig *rig)
+{
+    ffd_free(rig->pb.controls);
+    ffd_free(rig->pb.moves);
+    ffd_free(rig->pb.frames);
+    for (size_t i = 0; i < rig->pb.curve_count; i++) {
+        ffd_free(rig->pb.curves[i].points);
+        ffd_free(rig->pb.curves[i].moves);
+    }
+    ffd_free(rig->pb.curves);
 }

@@ -5,6 +5,7 @@
  * any time. Its rig: the refinement edits in order (ids resolved), then one
  * "move" step putting every displaced point where it is (refinement is
  * exact, so refining first and moving afterwards gives the same map). */
+#include "tspline/tspline_method.h"
 #include "session/session.h"
 #include "tspline/tsv.h"
 

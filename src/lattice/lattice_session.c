@@ -2,6 +2,7 @@
  * B-spline lattice, Hsu et al. direct manipulation): control points are the
  * lattice's l*m*n points; its rig is the box made explicit plus one move per
  * displaced control point (delta = current - rest). */
+#include "lattice/lattice_method.h"
 #include "session/session.h"
 
 #include <string.h>

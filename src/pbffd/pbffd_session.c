@@ -13,6 +13,7 @@
  * the log's replay and snapshots restore bitwise. A move made after a frame
  * edit is therefore replayed before it: with a hierarchy, a move is
  * re-parameterised in the coarser level as the rig will do it. */
+#include "pbffd/pbffd_method.h"
 #include "pbffd/pbffd.h"
 #include "session/session.h"
 
@@ -172,7 +173,7 @@ static ffd_status build_curve(pb_method *m, size_t c, ffd_error *err)
     pb_curve *cv = &m->curves[c];
     ffd_error inner = {{0}};
     ffd_pbffd_options o = {0};
-    o.sigma = m->opt.sigma; /* as the rig's curves (rig_pbffd.c) */
+    o.sigma = m->opt.sigma; /* as the rig's curves (pbffd_rig.c) */
     ffd_status s = curve_input(m, c, &inner);
     if (!s)
         s = ffd_pbffd_curve_create(cv->points, cv->count, cv->radius, cv->samples, m->scratch,

@@ -4,6 +4,7 @@
  * level through the generic minimum-norm solver, evaluate (eq. 7), then run
  * the curve deformations (§3.5) on the result. The mesh is changed only by
  * the final ffd_mesh_set_positions, which is all-or-nothing. */
+#include "pbffd/pbffd_method.h"
 #include "rig/rig.h"
 
 #include <cjson/cJSON.h>

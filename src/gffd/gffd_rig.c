@@ -2,6 +2,7 @@
  * and bind the mesh (§2-3), edit the skeleton or replace it (§5), then track
  * the vertices (Fig. 5) and, when asked, resample stretched edges (§4,
  * Fig. 6). The mesh changes only at the end, all at once. */
+#include "gffd/gffd_method.h"
 #include "rig/rig.h"
 #include "mesh/mesh.h"
 #include "gffd/gffd.h"

@@ -1,7 +1,8 @@
-/* rig_json_tspline.c — "deformer": "tspline" rigs (docs/rig.md, "T-spline
+/* tspline_rig_json.c — "deformer": "tspline" rigs (docs/rig.md, "T-spline
  * rigs"): a lattice size and a sequence of steps, each a refinement, a
  * proxy-driven ARAP deformation, a direct move of control points, or direct
  * manipulation of object vertices. */
+#include "tspline/tspline_method.h"
 #include "rig/rig_json.h"
 
 #include <stdio.h>
@@ -464,4 +465,9 @@ ffd_status ffd_rig_parse_tspline(const ffd_rig_parser *p, const cJSON *root, ffd
     if ((item = cJSON_GetObjectItemCaseSensitive(root, "steps")) && (s = read_steps(p, item, t)))
         return s;
     return FFD_OK;
+}
+
+void ffd_rig_release_tspline(ffd_rig *rig)
+{
+    ffd_rig_tspline_free(&rig->tsv);
 }

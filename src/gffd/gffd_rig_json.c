@@ -4,6 +4,7 @@
  * field's options, and the skeleton's change — edits (§5, first way) or a
  * replacement with correspondences (second way). The GFFD section reader in
  * the method registry (ffd_method_gffd.parse). */
+#include "gffd/gffd_method.h"
 #include "rig/rig_json.h"
 
 #include <stdio.h>
@@ -511,4 +512,19 @@ ffd_status ffd_rig_parse_gffd(const ffd_rig_parser *p, const cJSON *root, ffd_ri
                         "\"correspondences\" (points of the old skeleton and where they go)",
                         p->name);
     return FFD_OK;
+}
+
+void ffd_rig_release_gffd(ffd_rig *rig)
+{
+    for (size_t i = 0; i < rig->gffd.skeleton_count; i++)
+        ffd_rig_primitive_free(&rig->gffd.skeleton[i]);
+    ffd_free(rig->gffd.skeleton);
+    for (size_t i = 0; i < rig->gffd.replace_count; i++)
+        ffd_rig_primitive_free(&rig->gffd.replace[i]);
+    ffd_free(rig->gffd.replace);
+    for (size_t i = 0; i < rig->gffd.edit_count; i++)
+        ffd_free(rig->gffd.edits[i].vertices);
+    ffd_free(rig->gffd.edits);
+    ffd_free(rig->gffd.corr_from);
+    ffd_free(rig->gffd.corr_to);
 }

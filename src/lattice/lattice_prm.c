@@ -14,6 +14,7 @@
  * case-insensitive keys, full-line '#'/';' comments, indented continuation
  * lines, duplicate sections/keys rejected) and tolerates unknown sections and
  * keys as PyGeM does; every value it uses must be well formed and finite. */
+#include "lattice/lattice_method.h"
 #include "rig/rig.h"
 
 #include <math.h>

@@ -25,6 +25,7 @@
  * fixed when the method is created (the automatic one resolved then), so
  * that the kept primitives' fields do not change scale. User
  * correspondences of a loaded rig refer to the old skeleton and are dropped. */
+#include "gffd/gffd_method.h"
 #include "gffd/gffd.h"
 #include "session/session.h"
 

@@ -1,8 +1,9 @@
-/* rig_tspline.c — applying a "tspline" rig (Zhang, Zheng & Cai 2020): build
+/* tspline_rig.c — applying a "tspline" rig (Zhang, Zheng & Cai 2020): build
  * the T-spline volume over the mesh, run the steps in order (refinements,
  * proxy-driven ARAP deformations, direct moves, direct manipulation of
  * vertices), evaluate, check the map for folds. The mesh changes only at
  * the end, all or nothing. */
+#include "tspline/tspline_method.h"
 #include "rig/rig.h"
 #include "tspline/tsv.h"
 

@@ -3,6 +3,7 @@
  * (basis, resolution, box), control-point moves, and the constraints of
  * direct manipulation (Hsu et al. 1992). The lattice's section reader in the
  * method registry (ffd_method_lattice.parse). */
+#include "lattice/lattice_method.h"
 #include "rig/rig_json.h"
 
 #include <stdio.h>
@@ -159,4 +160,9 @@ ffd_status ffd_rig_parse_lattice(const ffd_rig_parser *p, const cJSON *root, ffd
             return s;
     }
     return validate(p, rig);
+}
+
+void ffd_rig_release_lattice(ffd_rig *rig)
+{
+    ffd_free(rig->moves);
 }

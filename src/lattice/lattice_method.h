@@ -1,0 +1,25 @@
+/* lattice_method — what the lattice method gives the generic layers (the
+ * registry's descriptor in lattice_method.c): its rig section reader and
+ * release (lattice_rig_json.c), its rig application, its editor deformer
+ * (lattice_session.c), and the helpers its files share. */
+#ifndef FFD_LATTICE_METHOD_H
+#define FFD_LATTICE_METHOD_H
+
+#include "deformer/method.h"
+#include "rig/rig_json.h"
+
+void ffd_rig_release_lattice(ffd_rig *rig);
+
+ffd_status ffd_sess_lattice_create(const sess_ctx *ctx, const cJSON *body, sess_method **out,
+                               ffd_error *err);
+
+ffd_status ffd_sess_lattice_load(const sess_ctx *ctx, const ffd_rig *rig, sess_method **out,
+                             ffd_error *err);
+
+/* Lattice application (rig_apply.c): moves, then direct manipulation. */
+ffd_status ffd_rig_apply_lattice(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report *report,
+                                 ffd_budget *budget, ffd_error *err);
+
+ffd_status ffd_rig_parse_lattice(const ffd_rig_parser *p, const cJSON *root, ffd_rig *rig);
+
+#endif
