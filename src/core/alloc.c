@@ -5,8 +5,8 @@
  * failing allocator fails cJSON's allocations as well, and cJSON memory and
  * ffd memory are interchangeable (cJSON_free == ffd_free). Without an
  * allocator the hooks are left alone (a host's own hooks are kept).
- * CHOLMOD is routed in tspline/tsv_arap.c. Qhull and LAPACK/OpenBLAS keep
- * their own allocators (docs/reliability.md). */
+ * CHOLMOD is routed where it is used (the one file that includes it).
+ * Qhull and LAPACK/OpenBLAS keep their own allocators (docs/reliability.md). */
 #include "core.h"
 
 #include <cjson/cJSON.h>

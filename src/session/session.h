@@ -1,7 +1,7 @@
 /* session — the editor's model (ffd_session, ffd.h): one rest mesh, one
  * deformer ("method"), pins, undo/redo and the drag in progress. session.c
  * is generic; each method is one file implementing sess_vtable
- * (lattice_session.c, pbffd_session.c, gffd_session.c, tspline_session.c).
+ * (src/<method>/<method>_session.c, found through the registry, deformer/method.h).
  * Invariant: a method's rig (vt->rig) replayed by ffd_rig_apply on the rest
  * mesh gives the positions vt->eval gives. */
 #ifndef FFD_SESSION_H
@@ -55,7 +55,7 @@ struct sess_method {
 enum { SESS_UNDO_NONE = 0, SESS_UNDO_STATE, SESS_UNDO_REBUILD };
 
 struct sess_vtable {
-    const char *name; /* "lattice", "pbffd", "gffd", "tspline" (the rig's "deformer") */
+    const char *name; /* the method's name (the rig's "deformer") */
     void (*destroy)(sess_method *m);
     /* Deformed vertex positions, ctx->n by 3. */
     ffd_status (*eval)(sess_method *m, double *out, ffd_error *err);
@@ -71,7 +71,7 @@ struct sess_vtable {
      * at targets (k by 3) measured from that state (ARAP for T-spline
      * handles when arap); set_variables puts the linear map's variables at
      * begin + dv (map->variable_count by 3); end(commit = 0) restores the
-     * begin state. A method without a linear map (GFFD) has linear_map NULL. */
+     * begin state. A method without a linear map has linear_map NULL. */
     ffd_status (*begin)(sess_method *m, const uint32_t *ids, size_t k, int arap, ffd_error *err);
     ffd_status (*set_controls)(sess_method *m, const uint32_t *ids, size_t k,
                                const double *targets, ffd_error *err);
@@ -81,7 +81,7 @@ struct sess_vtable {
     /* Optional (NULL: set_controls): a translate or rotate drag step given
      * as its rigid motion as well, x -> center + R(axis, angle) (x - center)
      * + delta (angle 0 for a translation), with the targets set_controls
-     * would get. GFFD carries it to the primitives (a point's turn). */
+     * would get. A method whose controls carry frames uses it (a point's turn). */
     ffd_status (*set_motion)(sess_method *m, const uint32_t *ids, size_t k, const double *targets,
                              const double axis[3], double angle, const double center[3],
                              const double delta[3], ffd_error *err);
@@ -128,7 +128,7 @@ struct sess_vtable {
      * control_count. Borrows m and b. NULL: not linear in the controls. */
     ffd_status (*map_points)(sess_method *m, const sess_binding *b, ffd_linear_map *map,
                              ffd_error *err);
-    /* The method's public handle (ffd_lattice, ffd_pbffd, ffd_gffd, ffd_tsv). */
+    /* The method's public handle (its ffd_<method> object, ffd.h). */
     void *(*handle)(sess_method *m);
 };
 
