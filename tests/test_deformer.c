@@ -232,6 +232,20 @@ static void test_second_point_set(void)
 
 /* Binds a sample of s points spread over the mesh (every (n/s)th vertex,
  * nudged towards the centroid of its face so that it is not a vertex). */
+/* Runs check on a deformer built from each case's rig on its mesh. */
+static void for_each_case(void (*check)(const rig_case *rc, const ffd_mesh *mesh, ffd_deformer *d))
+{
+    for (size_t c = 0; c < CASE_COUNT; c++) {
+        ffd_mesh *mesh = read_mesh(case_table[c].mesh);
+        ffd_deformer *d = mesh ? make(&case_table[c], mesh) : NULL;
+        CHECK(d != NULL);
+        if (d)
+            check(&case_table[c], mesh, d);
+        ffd_deformer_destroy(d);
+        ffd_mesh_destroy(mesh);
+    }
+}
+
 static size_t bind_sample(ffd_deformer *d, const ffd_mesh *mesh, size_t s, double *points)
 {
     const size_t n = ffd_mesh_vertex_count(mesh);
@@ -246,187 +260,169 @@ static size_t bind_sample(ffd_deformer *d, const ffd_mesh *mesh, size_t s, doubl
 }
 
 /* Jacobian against central differences of the evaluation. */
+static void check_jacobian_fd(const rig_case *rc, const ffd_mesh *mesh, ffd_deformer *d)
+{
+    ffd_error err = {{0}};
+    double points[3 * 40], jac[9 * 40], plus[3 * 40], minus[3 * 40], moved[3 * 40];
+    size_t s = bind_sample(d, mesh, 40, points);
+    double diag = diagonal(ffd_mesh_positions(mesh), ffd_mesh_vertex_count(mesh));
+    ffd_status st = ffd_deformer_jacobian(d, jac, &err);
+    if (st == FFD_ERR_UNSUPPORTED) {
+        CHECK(strstr(err.message, "Jacobian") != NULL);
+    } else {
+        CHECK(st == FFD_OK);
+        const double h = 1e-6 * diag;
+        double worst = 0;
+        for (int b = 0; b < 3; b++) {
+            memcpy(moved, points, 3 * s * sizeof *moved);
+            for (size_t i = 0; i < s; i++)
+                moved[3 * i + b] += h;
+            CHECK_OK(ffd_deformer_bind(d, moved, s, &err));
+            CHECK_OK(ffd_deformer_eval(d, plus, &err));
+            for (size_t i = 0; i < s; i++)
+                moved[3 * i + b] -= 2 * h;
+            CHECK_OK(ffd_deformer_bind(d, moved, s, &err));
+            CHECK_OK(ffd_deformer_eval(d, minus, &err));
+            for (size_t i = 0; i < s; i++)
+                for (int a = 0; a < 3; a++) {
+                    double fd = (plus[3 * i + a] - minus[3 * i + a]) / (2 * h);
+                    worst = fmax(worst, fabs(fd - jac[9 * i + 3 * a + b]));
+                }
+        }
+        if (worst > 1e-5)
+            fprintf(stderr, "%s: Jacobian vs finite differences: %.3g\n", (*rc).rig, worst);
+        CHECK(worst <= 1e-5);
+    }
+}
+
 static void test_jacobian_fd(void)
 {
-    for (size_t c = 0; c < CASE_COUNT; c++) {
-        ffd_mesh *mesh = read_mesh(case_table[c].mesh);
-        ffd_deformer *d = mesh ? make(&case_table[c], mesh) : NULL;
-        CHECK(d != NULL);
-        if (!d) {
-            ffd_mesh_destroy(mesh);
-            continue;
-        }
-        ffd_error err = {{0}};
-        double points[3 * 40], jac[9 * 40], plus[3 * 40], minus[3 * 40], moved[3 * 40];
-        size_t s = bind_sample(d, mesh, 40, points);
-        double diag = diagonal(ffd_mesh_positions(mesh), ffd_mesh_vertex_count(mesh));
-        ffd_status st = ffd_deformer_jacobian(d, jac, &err);
-        if (st == FFD_ERR_UNSUPPORTED) {
-            CHECK(strstr(err.message, "Jacobian") != NULL);
-        } else {
-            CHECK(st == FFD_OK);
-            const double h = 1e-6 * diag;
-            double worst = 0;
-            for (int b = 0; b < 3; b++) {
-                memcpy(moved, points, 3 * s * sizeof *moved);
-                for (size_t i = 0; i < s; i++)
-                    moved[3 * i + b] += h;
-                CHECK_OK(ffd_deformer_bind(d, moved, s, &err));
-                CHECK_OK(ffd_deformer_eval(d, plus, &err));
-                for (size_t i = 0; i < s; i++)
-                    moved[3 * i + b] -= 2 * h;
-                CHECK_OK(ffd_deformer_bind(d, moved, s, &err));
-                CHECK_OK(ffd_deformer_eval(d, minus, &err));
-                for (size_t i = 0; i < s; i++)
-                    for (int a = 0; a < 3; a++) {
-                        double fd = (plus[3 * i + a] - minus[3 * i + a]) / (2 * h);
-                        worst = fmax(worst, fabs(fd - jac[9 * i + 3 * a + b]));
-                    }
-            }
-            if (worst > 1e-5)
-                fprintf(stderr, "%s: Jacobian vs finite differences: %.3g\n", case_table[c].rig, worst);
-            CHECK(worst <= 1e-5);
-        }
-        ffd_deformer_destroy(d);
-        ffd_mesh_destroy(mesh);
-    }
+    for_each_case(check_jacobian_fd);
 }
 
 /* The linear map's weights against differences of the evaluation when one
  * control moves (the map is linear in the controls: central differences
  * are exact up to rounding), for a sample of controls. */
+static void check_linear_map_fd(const rig_case *rc, const ffd_mesh *mesh, ffd_deformer *d)
+{
+    ffd_error err = {{0}};
+    double points[3 * 60];
+    size_t s = bind_sample(d, mesh, 60, points);
+    size_t count = ffd_deformer_control_count(d);
+    ffd_linear_map map;
+    ffd_status st = ffd_deformer_linear_map(d, &map, &err);
+    if (st == FFD_ERR_UNSUPPORTED) {
+        CHECK(strstr(err.message, "linear map") != NULL);
+    } else if (st != FFD_OK || map.variable_count != count || map.point_count != s) {
+        CHECK(st == FFD_OK);
+        CHECK(map.variable_count == count);
+        CHECK(map.point_count == s);
+    } else {
+        /* dense weights of the sampled points over the controls */
+        double *w = calloc(s * count, sizeof *w);
+        uint32_t *cols = malloc(map.max_row_nnz * sizeof *cols);
+        double *wt = malloc(map.max_row_nnz * sizeof *wt);
+        int tie_ok = 1;
+        for (size_t i = 0; i < s; i++) {
+            size_t nnz = map.row(map.self, i, cols, wt);
+            for (size_t e = 0; e < nnz; e++) {
+                uint32_t v = map.tie ? map.tie[cols[e]] : cols[e];
+                if (v >= count) {
+                    tie_ok = 0;
+                    continue;
+                }
+                w[i * count + v] += wt[e];
+            }
+        }
+        CHECK(tie_ok);
+        double *ctl = malloc(3 * count * sizeof *ctl), plus[3 * 60], minus[3 * 60];
+        ffd_deformer_controls(d, ctl);
+        double diag = diagonal(ffd_mesh_positions(mesh), ffd_mesh_vertex_count(mesh));
+        const double h = 1e-3 * diag;
+        double worst = 0;
+        size_t samples = getenv("FFD_TEST_QUICK") ? 6 : 25;
+        size_t step = count / samples ? count / samples : 1;
+        for (size_t j0 = 0; j0 < count; j0 += step) {
+            uint32_t j = (uint32_t)j0;
+            for (int a = 0; a < 3; a++) {
+                double p[3];
+                memcpy(p, ctl + 3 * j, sizeof p);
+                p[a] += h;
+                CHECK_OK(ffd_deformer_set_controls(d, &j, 1, p, &err));
+                CHECK_OK(ffd_deformer_eval(d, plus, &err));
+                p[a] -= 2 * h;
+                CHECK_OK(ffd_deformer_set_controls(d, &j, 1, p, &err));
+                CHECK_OK(ffd_deformer_eval(d, minus, &err));
+                CHECK_OK(ffd_deformer_set_controls(d, &j, 1, ctl + 3 * j, &err));
+                for (size_t i = 0; i < s; i++)
+                    for (int b = 0; b < 3; b++) {
+                        double fd = (plus[3 * i + b] - minus[3 * i + b]) / (2 * h);
+                        double want = b == a ? w[i * count + j] : 0;
+                        worst = fmax(worst, fabs(fd - want));
+                    }
+            }
+        }
+        if (worst > 1e-8)
+            fprintf(stderr, "%s: linear map vs finite differences: %.3g\n", (*rc).rig,
+                    worst);
+        CHECK(worst <= 1e-8);
+        free(w);
+        free(cols);
+        free(wt);
+        free(ctl);
+    }
+}
+
 static void test_linear_map_fd(void)
 {
-    for (size_t c = 0; c < CASE_COUNT; c++) {
-        ffd_mesh *mesh = read_mesh(case_table[c].mesh);
-        ffd_deformer *d = mesh ? make(&case_table[c], mesh) : NULL;
-        CHECK(d != NULL);
-        if (!d) {
-            ffd_mesh_destroy(mesh);
-            continue;
-        }
-        ffd_error err = {{0}};
-        double points[3 * 60];
-        size_t s = bind_sample(d, mesh, 60, points);
-        size_t count = ffd_deformer_control_count(d);
-        ffd_linear_map map;
-        ffd_status st = ffd_deformer_linear_map(d, &map, &err);
-        if (st == FFD_ERR_UNSUPPORTED) {
-            CHECK(strstr(err.message, "linear map") != NULL);
-        } else if (st != FFD_OK || map.variable_count != count || map.point_count != s) {
-            CHECK(st == FFD_OK);
-            CHECK(map.variable_count == count);
-            CHECK(map.point_count == s);
-        } else {
-            /* dense weights of the sampled points over the controls */
-            double *w = calloc(s * count, sizeof *w);
-            uint32_t *cols = malloc(map.max_row_nnz * sizeof *cols);
-            double *wt = malloc(map.max_row_nnz * sizeof *wt);
-            int tie_ok = 1;
-            for (size_t i = 0; i < s; i++) {
-                size_t nnz = map.row(map.self, i, cols, wt);
-                for (size_t e = 0; e < nnz; e++) {
-                    uint32_t v = map.tie ? map.tie[cols[e]] : cols[e];
-                    if (v >= count) {
-                        tie_ok = 0;
-                        continue;
-                    }
-                    w[i * count + v] += wt[e];
-                }
-            }
-            CHECK(tie_ok);
-            double *ctl = malloc(3 * count * sizeof *ctl), plus[3 * 60], minus[3 * 60];
-            ffd_deformer_controls(d, ctl);
-            double diag = diagonal(ffd_mesh_positions(mesh), ffd_mesh_vertex_count(mesh));
-            const double h = 1e-3 * diag;
-            double worst = 0;
-            size_t samples = getenv("FFD_TEST_QUICK") ? 6 : 25;
-            size_t step = count / samples ? count / samples : 1;
-            for (size_t j0 = 0; j0 < count; j0 += step) {
-                uint32_t j = (uint32_t)j0;
-                for (int a = 0; a < 3; a++) {
-                    double p[3];
-                    memcpy(p, ctl + 3 * j, sizeof p);
-                    p[a] += h;
-                    CHECK_OK(ffd_deformer_set_controls(d, &j, 1, p, &err));
-                    CHECK_OK(ffd_deformer_eval(d, plus, &err));
-                    p[a] -= 2 * h;
-                    CHECK_OK(ffd_deformer_set_controls(d, &j, 1, p, &err));
-                    CHECK_OK(ffd_deformer_eval(d, minus, &err));
-                    CHECK_OK(ffd_deformer_set_controls(d, &j, 1, ctl + 3 * j, &err));
-                    for (size_t i = 0; i < s; i++)
-                        for (int b = 0; b < 3; b++) {
-                            double fd = (plus[3 * i + b] - minus[3 * i + b]) / (2 * h);
-                            double want = b == a ? w[i * count + j] : 0;
-                            worst = fmax(worst, fabs(fd - want));
-                        }
-                }
-            }
-            if (worst > 1e-8)
-                fprintf(stderr, "%s: linear map vs finite differences: %.3g\n", case_table[c].rig,
-                        worst);
-            CHECK(worst <= 1e-8);
-            free(w);
-            free(cols);
-            free(wt);
-            free(ctl);
-        }
-        ffd_deformer_destroy(d);
-        ffd_mesh_destroy(mesh);
-    }
+    for_each_case(check_linear_map_fd);
 }
 
 /* Controls: setting them where they are changes nothing; a move and its
  * opposite come back; reset is the identity, bit for bit. */
+static void check_controls_and_reset(const rig_case *rc, const ffd_mesh *mesh, ffd_deformer *d)
+{
+    ffd_error err = {{0}};
+    size_t n = ffd_mesh_vertex_count(mesh), count = ffd_deformer_control_count(d);
+    const double *rest = ffd_mesh_positions(mesh);
+    double diag = diagonal(rest, n);
+    CHECK(count > 0);
+    double *before = malloc(3 * n * sizeof *before), *after = malloc(3 * n * sizeof *after);
+    double *ctl = malloc(3 * count * sizeof *ctl);
+    CHECK_OK(ffd_deformer_eval(d, before, &err));
+    ffd_deformer_controls(d, ctl);
+    CHECK_OK(ffd_deformer_set_controls(d, NULL, count, ctl, &err));
+    CHECK_OK(ffd_deformer_eval(d, after, &err));
+    CHECK(max_diff(before, after, 3 * n) <= 1e-12 * diag);
+
+    uint32_t id = (uint32_t)(count / 2);
+    double delta[3] = {0.05 * diag, -0.02 * diag, 0.01 * diag};
+    double back[3] = {-delta[0], -delta[1], -delta[2]};
+    CHECK_OK(ffd_deformer_move_controls(d, &id, 1, delta, &err));
+    double *moved = malloc(3 * count * sizeof *moved);
+    ffd_deformer_controls(d, moved);
+    CHECK_NEAR(moved[3 * id] - ctl[3 * id], delta[0], 1e-12 * diag);
+    CHECK_OK(ffd_deformer_move_controls(d, &id, 1, back, &err));
+    CHECK_OK(ffd_deformer_eval(d, after, &err));
+    CHECK(max_diff(before, after, 3 * n) <= 1e-9 * diag);
+
+    CHECK_OK(ffd_deformer_reset(d, &err));
+    CHECK_OK(ffd_deformer_eval(d, after, &err));
+    size_t differ = 0;
+    for (size_t i = 0; i < 3 * n; i++)
+        differ += after[i] != rest[i];
+    if (differ)
+        fprintf(stderr, "%s: reset: %zu coordinates differ from rest\n", (*rc).rig, differ);
+    CHECK(differ == 0);
+    free(before);
+    free(after);
+    free(ctl);
+    free(moved);
+}
+
 static void test_controls_and_reset(void)
 {
-    for (size_t c = 0; c < CASE_COUNT; c++) {
-        ffd_mesh *mesh = read_mesh(case_table[c].mesh);
-        ffd_deformer *d = mesh ? make(&case_table[c], mesh) : NULL;
-        CHECK(d != NULL);
-        if (!d) {
-            ffd_mesh_destroy(mesh);
-            continue;
-        }
-        ffd_error err = {{0}};
-        size_t n = ffd_mesh_vertex_count(mesh), count = ffd_deformer_control_count(d);
-        const double *rest = ffd_mesh_positions(mesh);
-        double diag = diagonal(rest, n);
-        CHECK(count > 0);
-        double *before = malloc(3 * n * sizeof *before), *after = malloc(3 * n * sizeof *after);
-        double *ctl = malloc(3 * count * sizeof *ctl);
-        CHECK_OK(ffd_deformer_eval(d, before, &err));
-        ffd_deformer_controls(d, ctl);
-        CHECK_OK(ffd_deformer_set_controls(d, NULL, count, ctl, &err));
-        CHECK_OK(ffd_deformer_eval(d, after, &err));
-        CHECK(max_diff(before, after, 3 * n) <= 1e-12 * diag);
-
-        uint32_t id = (uint32_t)(count / 2);
-        double delta[3] = {0.05 * diag, -0.02 * diag, 0.01 * diag};
-        double back[3] = {-delta[0], -delta[1], -delta[2]};
-        CHECK_OK(ffd_deformer_move_controls(d, &id, 1, delta, &err));
-        double *moved = malloc(3 * count * sizeof *moved);
-        ffd_deformer_controls(d, moved);
-        CHECK_NEAR(moved[3 * id] - ctl[3 * id], delta[0], 1e-12 * diag);
-        CHECK_OK(ffd_deformer_move_controls(d, &id, 1, back, &err));
-        CHECK_OK(ffd_deformer_eval(d, after, &err));
-        CHECK(max_diff(before, after, 3 * n) <= 1e-9 * diag);
-
-        CHECK_OK(ffd_deformer_reset(d, &err));
-        CHECK_OK(ffd_deformer_eval(d, after, &err));
-        size_t differ = 0;
-        for (size_t i = 0; i < 3 * n; i++)
-            differ += after[i] != rest[i];
-        if (differ)
-            fprintf(stderr, "%s: reset: %zu coordinates differ from rest\n", case_table[c].rig, differ);
-        CHECK(differ == 0);
-        free(before);
-        free(after);
-        free(ctl);
-        free(moved);
-        ffd_deformer_destroy(d);
-        ffd_mesh_destroy(mesh);
-    }
+    for_each_case(check_controls_and_reset);
 }
 
 /* The report is JSON naming the method and the counts; the handle is the
