@@ -4,7 +4,9 @@
  * counts are bounded here, not by the parser, so that each input stays
  * fast). */
 #include "ffd.h"
-#include "rig/rig.h"
+#include "gffd/gffd_method.h"
+#include "pbffd/pbffd_method.h"
+#include "tspline/tspline_method.h"
 
 #include <stdint.h>
 #include <stdlib.h>
@@ -28,17 +30,17 @@ static ffd_mesh *cube(void)
  * the (documented) cost of a 1024^3 lattice. */
 static int cheap(const ffd_rig *rig)
 {
-    const uint32_t *r = rig->deformer == FFD_RIG_TSPLINE ? rig->tsv.resolution : rig->resolution;
+    const uint32_t *r = rig->method == &ffd_method_tspline ? ffd_rig_tspline_of(rig)->resolution : rig->resolution;
     if ((double)r[0] * r[1] * r[2] > 4096)
         return 0;
-    if (rig->deformer == FFD_RIG_PBFFD)
-        return rig->pb.controls_auto ? 0 : rig->pb.control_count <= 64;
-    if (rig->deformer == FFD_RIG_GFFD)
-        return rig->gffd.options.max_samples != 0 && rig->gffd.options.max_samples <= 200 &&
-               rig->gffd.options.max_iterations <= 100 && rig->gffd.resample == 0 &&
-               rig->gffd.skeleton_count + rig->gffd.replace_count <= 4;
-    if (rig->deformer == FFD_RIG_TSPLINE)
-        return rig->tsv.step_count <= 4;
+    if (rig->method == &ffd_method_pbffd)
+        return ffd_rig_pbffd_of(rig)->controls_auto ? 0 : ffd_rig_pbffd_of(rig)->control_count <= 64;
+    if (rig->method == &ffd_method_gffd)
+        return ffd_rig_gffd_of(rig)->options.max_samples != 0 && ffd_rig_gffd_of(rig)->options.max_samples <= 200 &&
+               ffd_rig_gffd_of(rig)->options.max_iterations <= 100 && ffd_rig_gffd_of(rig)->resample == 0 &&
+               ffd_rig_gffd_of(rig)->skeleton_count + ffd_rig_gffd_of(rig)->replace_count <= 4;
+    if (rig->method == &ffd_method_tspline)
+        return ffd_rig_tspline_of(rig)->step_count <= 4;
     return 1;
 }
 

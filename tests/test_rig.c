@@ -807,13 +807,72 @@ static void test_registry_schemas(void)
         const ffd_method *m = ffd_method_at(i);
         CHECK(m->parse != NULL);
         ffd_rig *rig = parse_ok(rigs[i]);
-        CHECK(rig && strstr(rigs[i], m->name) && rig->deformer == m->id);
+        CHECK(rig && strstr(rigs[i], m->name) && rig->method == m);
         CHECK(rig && ffd_method_of_rig(rig) == m);
         ffd_rig_destroy(rig);
     }
     ffd_rig *rig = parse_ok("{\"moves\": []}");
-    CHECK(rig && rig->deformer == FFD_RIG_LATTICE);
+    CHECK(rig && rig->method == ffd_method_find("lattice"));
     ffd_rig_destroy(rig);
+}
+
+/* The registry's rig keys are the schema: a key of another method in a
+ * rig of a method with direct manipulation is refused naming its method
+ * (the first in registry order that has it), whatever the method; a rig of
+ * a method with its own key list names the list; and an uploaded rig's
+ * "file" is refused before anything is read. */
+static void test_registry_rig_keys(void)
+{
+    static const char *const linear[] = {"lattice", "pbffd"};
+    size_t refused = 0;
+    for (size_t l = 0; l < 2; l++) {
+        const ffd_method *own = ffd_method_find(linear[l]);
+        CHECK(own && own->rig_keys && own->rig_keys[0]);
+        for (size_t i = 0; own && i < ffd_method_count(); i++) {
+            const ffd_method *other = ffd_method_at(i);
+            for (const char *const *k = other->rig_keys; other != own && k && *k; k++) {
+                int shared = 0, first = 1;
+                for (const char *const *o = own->rig_keys; *o; o++)
+                    shared |= !strcmp(*o, *k);
+                for (size_t j = 0; j < i; j++)
+                    for (const char *const *o = ffd_method_at(j)->rig_keys;
+                         ffd_method_at(j) != own && o && *o; o++)
+                        first &= strcmp(*o, *k) != 0;
+                if (shared || !first)
+                    continue;
+                char json[160], want[160];
+                snprintf(json, sizeof json, "{\"deformer\": \"%s\", \"%s\": 1}", own->name, *k);
+                snprintf(want, sizeof want,
+                         "rig.json: %s: only for \"deformer\": \"%s\" rigs (this rig's deformer "
+                         "is \"%s\")",
+                         *k, other->name, own->name);
+                parse_bad(json, FFD_ERR_PARSE, want);
+                refused++;
+            }
+        }
+    }
+    CHECK(refused >= 10);
+    parse_bad("{\"steps\": []}", FFD_ERR_PARSE,
+              "steps: only for \"deformer\": \"tspline\" rigs (this rig's deformer is \"lattice\")");
+    parse_bad("{\"deformer\": \"tspline\", \"moves\": []}", FFD_ERR_PARSE,
+              "moves: not a key of \"deformer\": \"tspline\" rigs, expected one of \"resolution\", "
+              "\"padding\", \"steps\", \"fold_samples\"");
+    parse_bad("{\"moves\": [], \"margin\": 0, \"moves\": []}", FFD_ERR_PARSE, "moves: key given twice");
+
+    static const char gffd_file[] =
+        "{\"deformer\": \"gffd\", \"skeleton\": [{\"type\": \"polyline\", \"radius\": 1, "
+        "\"file\": \"/etc/passwd\"}]}";
+    const ffd_rig_files uploaded = {NULL};
+    ffd_rig *rig = (ffd_rig *)1;
+    ffd_error err = {{0}};
+    CHECK(ffd_rig_parse_json_files(gffd_file, strlen(gffd_file), "rig.json", &uploaded, &rig,
+                                   &err) == FFD_ERR_INVALID && rig == NULL);
+    CHECK(strstr(err.message, "rig.json: skeleton: refers to the file \"/etc/passwd\": an "
+                              "uploaded rig cannot read files"));
+    const ffd_rig_files under_tmp = {"/tmp"};
+    CHECK(ffd_rig_parse_json_files(gffd_file, strlen(gffd_file), "rig.json", &under_tmp, &rig,
+                                   &err) == FFD_ERR_INVALID && rig == NULL);
+    CHECK(strstr(err.message, "skeleton: the file \"/etc/passwd\" is outside the server's directory"));
 }
 
 /* The arrays of every method's schema (ffd_rig_read_array: elements that own
@@ -998,6 +1057,7 @@ int main(int argc, char **argv)
         {"allocation_failures", test_allocation_failures},
         {"allocation_failures_every_method", test_allocation_failures_every_method},
         {"registry_schemas", test_registry_schemas},
+        {"registry_rig_keys", test_registry_rig_keys},
     };
     return check_run(tests, sizeof tests / sizeof tests[0], argc, argv);
 }

@@ -75,8 +75,8 @@ static void test_parse_every_key(void)
           " \"resample\": {\"ratio\": 1.5, \"max_rounds\": 3, \"max_vertices\": 1000}}");
     if (!rig)
         return;
-    CHECK(rig->deformer == FFD_RIG_GFFD);
-    const ffd_rig_gffd *g = &rig->gffd;
+    CHECK(rig->method == &ffd_method_gffd);
+    const ffd_rig_gffd *g = ffd_rig_gffd_of(rig);
     CHECK(g->skeleton_count == 4);
     if (g->skeleton_count == 4) {
         CHECK(g->skeleton[0].kind == FFD_GFFD_POINT && g->skeleton[0].vertex_count == 1);
@@ -115,15 +115,15 @@ static void test_parse_every_key(void)
     /* defaults; replace; resample as a boolean */
     rig = parse_ok(G SK ", \"replace\": [" LINE "], \"resample\": true}");
     if (rig) {
-        CHECK(rig->gffd.replace_count == 1 && rig->gffd.replace[0].kind == FFD_GFFD_POLYLINE);
-        CHECK(rig->gffd.options.tracking == FFD_GFFD_TRACK_GRADIENT);
-        CHECK(rig->gffd.options.unit == 0 && rig->gffd.edit_count == 0);
-        CHECK(rig->gffd.resample == 1 && rig->gffd.resample_options.ratio == 0);
+        CHECK(ffd_rig_gffd_of(rig)->replace_count == 1 && ffd_rig_gffd_of(rig)->replace[0].kind == FFD_GFFD_POLYLINE);
+        CHECK(ffd_rig_gffd_of(rig)->options.tracking == FFD_GFFD_TRACK_GRADIENT);
+        CHECK(ffd_rig_gffd_of(rig)->options.unit == 0 && ffd_rig_gffd_of(rig)->edit_count == 0);
+        CHECK(ffd_rig_gffd_of(rig)->resample == 1 && ffd_rig_gffd_of(rig)->resample_options.ratio == 0);
         ffd_rig_destroy(rig);
     }
     rig = parse_ok(G SK ", \"resample\": false, \"tracking\": \"gradient\"}");
     if (rig) {
-        CHECK(rig->gffd.resample == 0);
+        CHECK(ffd_rig_gffd_of(rig)->resample == 0);
         ffd_rig_destroy(rig);
     }
     /* warp after replace is fine with correspondences */
@@ -410,14 +410,14 @@ static void test_skeleton_files(void)
              G "\"skeleton\": [{\"type\": \"polyline\", \"file\": \"%s\", \"radius\": 1}]}", path);
     rig = parse_ok(json);
     if (rig) {
-        CHECK(rig->gffd.skeleton[0].vertex_count == 3 && rig->gffd.skeleton[0].vertices[6] == 2);
+        CHECK(ffd_rig_gffd_of(rig)->skeleton[0].vertex_count == 3 && ffd_rig_gffd_of(rig)->skeleton[0].vertices[6] == 2);
         ffd_rig_destroy(rig);
     }
     write_text(path, "v 0 0 0\nv 1 0 0\nv 2 0 0\nl 3 -3 2\n");
     rig = parse_ok(json);
     if (rig) {
-        const double *v = rig->gffd.skeleton[0].vertices;
-        CHECK(rig->gffd.skeleton[0].vertex_count == 3 && v[0] == 2 && v[3] == 0 && v[6] == 1);
+        const double *v = ffd_rig_gffd_of(rig)->skeleton[0].vertices;
+        CHECK(ffd_rig_gffd_of(rig)->skeleton[0].vertex_count == 3 && v[0] == 2 && v[3] == 0 && v[6] == 1);
         ffd_rig_destroy(rig);
     }
 
@@ -429,8 +429,8 @@ static void test_skeleton_files(void)
              G "\"skeleton\": [{\"type\": \"polyline\", \"file\": \"%s\", \"radius\": 1}]}", path);
     rig = parse_ok(json);
     if (rig) {
-        const double *v = rig->gffd.skeleton[0].vertices;
-        CHECK(rig->gffd.skeleton[0].vertex_count == 3 && v[0] == 5 && v[3] == 1 && v[6] == 2);
+        const double *v = ffd_rig_gffd_of(rig)->skeleton[0].vertices;
+        CHECK(ffd_rig_gffd_of(rig)->skeleton[0].vertex_count == 3 && v[0] == 5 && v[3] == 1 && v[6] == 2);
         ffd_rig_destroy(rig);
     }
 
@@ -438,9 +438,9 @@ static void test_skeleton_files(void)
     rig = parse_ok(G "\"skeleton\": [{\"type\": \"polyhedron\", \"file\": \"" EXAMPLES
                      "/head.off\", \"radius\": 1}]}");
     if (rig) {
-        CHECK(rig->gffd.skeleton[0].vertex_count == 6 && rig->gffd.skeleton[0].face_count == 8);
-        CHECK(rig->gffd.skeleton[0].kind == FFD_GFFD_POLYHEDRON &&
-              rig->gffd.skeleton[0].radius == 1);
+        CHECK(ffd_rig_gffd_of(rig)->skeleton[0].vertex_count == 6 && ffd_rig_gffd_of(rig)->skeleton[0].face_count == 8);
+        CHECK(ffd_rig_gffd_of(rig)->skeleton[0].kind == FFD_GFFD_POLYHEDRON &&
+              ffd_rig_gffd_of(rig)->skeleton[0].radius == 1);
         ffd_rig_destroy(rig);
     }
 #undef FILE_RIG
@@ -479,8 +479,8 @@ static void test_relative_files(void)
     CHECK(chdir(dir) == 0);
     CHECK_OK(ffd_rig_read("sub/rig.json", &rig, &err));
     if (rig) {
-        CHECK(rig->gffd.skeleton_count == 1 && rig->gffd.skeleton[0].vertex_count == 3);
-        CHECK(rig->gffd.skeleton[0].vertices[0] == -1 && rig->gffd.skeleton[0].vertices[6] == 1);
+        CHECK(ffd_rig_gffd_of(rig)->skeleton_count == 1 && ffd_rig_gffd_of(rig)->skeleton[0].vertex_count == 3);
+        CHECK(ffd_rig_gffd_of(rig)->skeleton[0].vertices[0] == -1 && ffd_rig_gffd_of(rig)->skeleton[0].vertices[6] == 1);
         /* and it applies: the mesh near the moved end moves, the rest of the grid does not */
         ffd_mesh *mesh = grid_mesh(9);
         double *rest = copy_positions(mesh);
@@ -512,7 +512,7 @@ static void test_relative_files(void)
     snprintf(path, sizeof path, "%s/sub/rig.json", dir);
     CHECK_OK(ffd_rig_read(path, &rig, &err));
     if (rig) {
-        CHECK(rig->gffd.skeleton[0].vertex_count == 3 && rig->gffd.skeleton[0].vertices[0] == -1);
+        CHECK(ffd_rig_gffd_of(rig)->skeleton[0].vertex_count == 3 && ffd_rig_gffd_of(rig)->skeleton[0].vertices[0] == -1);
         ffd_rig_destroy(rig);
     }
     CHECK(chdir(cwd) == 0);

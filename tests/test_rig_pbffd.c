@@ -4,6 +4,7 @@
 #include "check.h"
 #include "report_details.h"
 #include "check_rig.h"
+#include "pbffd/pbffd_method.h"
 
 #include <stdio.h>
 #include <unistd.h>
@@ -49,8 +50,8 @@ static void test_parse_every_key(void)
            "   \"samples\": 20, \"moves\": [{\"index\": 2, \"delta\": [0,0,1]}]}]}");
     if (!rig)
         return;
-    CHECK(rig->deformer == FFD_RIG_PBFFD);
-    const ffd_rig_pbffd *pb = &rig->pb;
+    CHECK(rig->method == &ffd_method_pbffd);
+    const ffd_rig_pbffd *pb = ffd_rig_pbffd_of(rig);
     CHECK(pb->controls_auto == 0);
     CHECK(pb->control_count == 2);
     CHECK(pb->controls[0].disabled == 1 && pb->controls[1].disabled == 0);
@@ -73,20 +74,20 @@ static void test_parse_every_key(void)
                       " \"radius_factor\": 2, \"surface\": \"open\", \"voronoi_sites\": 500,"
                       " \"cover\": false}, \"master\": false}");
     if (rig) {
-        const ffd_placement_options *o = &rig->pb.placement;
-        CHECK(rig->pb.controls_auto == 1 && o->interior_count == 10 && o->exterior_count == 20);
+        const ffd_placement_options *o = &ffd_rig_pbffd_of(rig)->placement;
+        CHECK(ffd_rig_pbffd_of(rig)->controls_auto == 1 && o->interior_count == 10 && o->exterior_count == 20);
         CHECK(o->offset == 0.02 && o->radius_factor == 2 && o->surface == FFD_SURFACE_OPEN);
-        CHECK(o->voronoi_sites == 500 && o->no_cover == 1 && rig->pb.options.no_master == 1);
+        CHECK(o->voronoi_sites == 500 && o->no_cover == 1 && ffd_rig_pbffd_of(rig)->options.no_master == 1);
         ffd_rig_destroy(rig);
     }
     rig = parse_ok(PB "\"controls\": \"auto\"}");
     if (rig) {
-        CHECK(rig->pb.controls_auto == 1);
+        CHECK(ffd_rig_pbffd_of(rig)->controls_auto == 1);
         ffd_rig_destroy(rig);
     }
     rig = parse_ok("{\"deformer\": \"pbffd\"}"); /* auto placement is the default */
     if (rig) {
-        CHECK(rig->pb.controls_auto == 1 && rig->pb.options.levels == 0);
+        CHECK(ffd_rig_pbffd_of(rig)->controls_auto == 1 && ffd_rig_pbffd_of(rig)->options.levels == 0);
         ffd_rig_destroy(rig);
     }
 }
@@ -175,14 +176,14 @@ static void test_write_round_trip(void)
     ffd_rig *rig = NULL;
     CHECK_OK(ffd_rig_read(path, &rig, &err));
     if (rig) {
-        CHECK(rig->deformer == FFD_RIG_PBFFD && rig->pb.control_count == 3);
-        CHECK(rig->pb.options.levels == 3 && rig->pb.options.sigma == 2);
-        for (int i = 0; i < 3 && rig->pb.control_count == 3; i++) {
+        CHECK(rig->method == &ffd_method_pbffd && ffd_rig_pbffd_of(rig)->control_count == 3);
+        CHECK(ffd_rig_pbffd_of(rig)->options.levels == 3 && ffd_rig_pbffd_of(rig)->options.sigma == 2);
+        for (int i = 0; i < 3 && ffd_rig_pbffd_of(rig)->control_count == 3; i++) {
             /* 17 significant digits read back bit for bit */
-            CHECK(memcmp(rig->pb.controls[i].center, controls[i].center, 3 * sizeof(double)) == 0);
-            CHECK(memcmp(rig->pb.controls[i].radius, controls[i].radius, 3 * sizeof(double)) == 0);
-            CHECK(memcmp(rig->pb.controls[i].frame, controls[i].frame, 9 * sizeof(double)) == 0);
-            CHECK(rig->pb.controls[i].disabled == controls[i].disabled);
+            CHECK(memcmp(ffd_rig_pbffd_of(rig)->controls[i].center, controls[i].center, 3 * sizeof(double)) == 0);
+            CHECK(memcmp(ffd_rig_pbffd_of(rig)->controls[i].radius, controls[i].radius, 3 * sizeof(double)) == 0);
+            CHECK(memcmp(ffd_rig_pbffd_of(rig)->controls[i].frame, controls[i].frame, 9 * sizeof(double)) == 0);
+            CHECK(ffd_rig_pbffd_of(rig)->controls[i].disabled == controls[i].disabled);
         }
         ffd_rig_destroy(rig);
     }

@@ -8,6 +8,7 @@
 #include "check.h"
 #include "report_details.h"
 #include "check_rig.h"
+#include "tspline/tspline_method.h"
 
 #include <dirent.h>
 #include <stdio.h>
@@ -124,8 +125,8 @@ static void test_parse_every_key(void)
           "]}");
     if (!rig)
         return;
-    CHECK(rig->deformer == FFD_RIG_TSPLINE);
-    const ffd_rig_tspline *t = &rig->tsv;
+    CHECK(rig->method == &ffd_method_tspline);
+    const ffd_rig_tspline *t = ffd_rig_tspline_of(rig);
     CHECK(t->resolution[0] == 5 && t->resolution[1] == 6 && t->resolution[2] == 7);
     CHECK(t->options.padding == 0.25);
     CHECK(t->fold_samples == 4);
@@ -206,16 +207,16 @@ static void test_parse_every_key(void)
     /* defaults */
     rig = parse_ok(T "\"version\": 1}");
     if (rig) {
-        CHECK(rig->deformer == FFD_RIG_TSPLINE);
-        CHECK(rig->tsv.resolution[0] == 6 && rig->tsv.resolution[1] == 6 &&
-              rig->tsv.resolution[2] == 6);
-        CHECK(rig->tsv.options.padding == 0 && rig->tsv.step_count == 0 &&
-              rig->tsv.fold_samples == 0);
+        CHECK(rig->method == &ffd_method_tspline);
+        CHECK(ffd_rig_tspline_of(rig)->resolution[0] == 6 && ffd_rig_tspline_of(rig)->resolution[1] == 6 &&
+              ffd_rig_tspline_of(rig)->resolution[2] == 6);
+        CHECK(ffd_rig_tspline_of(rig)->options.padding == 0 && ffd_rig_tspline_of(rig)->step_count == 0 &&
+              ffd_rig_tspline_of(rig)->fold_samples == 0);
         ffd_rig_destroy(rig);
     }
     rig = parse_ok("{\"deformer\": \"tspline\", \"steps\": [], \"resolution\": [4, 256, 4]}");
     if (rig) {
-        CHECK(rig->tsv.step_count == 0 && rig->tsv.resolution[1] == 256);
+        CHECK(ffd_rig_tspline_of(rig)->step_count == 0 && ffd_rig_tspline_of(rig)->resolution[1] == 256);
         ffd_rig_destroy(rig);
     }
     /* bounds that are allowed */
@@ -223,9 +224,9 @@ static void test_parse_every_key(void)
                      "\"handles\": [{\"points\": [0], \"delta\": [0,0,0]}], \"iterations\": 1000,"
                      " \"weights\": {\"one_form\": 1e6}, \"freeze\": []}}]}");
     if (rig) {
-        CHECK(rig->tsv.options.padding == 100 && rig->tsv.fold_samples == 64);
-        CHECK(rig->tsv.steps[0].arap.iterations == 1000 &&
-              rig->tsv.steps[0].arap.w_one_form == 1e6 && rig->tsv.steps[0].freeze_count == 0);
+        CHECK(ffd_rig_tspline_of(rig)->options.padding == 100 && ffd_rig_tspline_of(rig)->fold_samples == 64);
+        CHECK(ffd_rig_tspline_of(rig)->steps[0].arap.iterations == 1000 &&
+              ffd_rig_tspline_of(rig)->steps[0].arap.w_one_form == 1e6 && ffd_rig_tspline_of(rig)->steps[0].freeze_count == 0);
         ffd_rig_destroy(rig);
     }
 }

@@ -12,7 +12,13 @@
 
 typedef struct ffd_method {
     const char *name;               /* the rig's "deformer" and the editor's "method" */
-    ffd_rig_deformer id;            /* the rig's tag for it */
+    /* The method's own top-level rig keys besides "version" and "deformer"
+     * (NULL-terminated): the rig reader names the method of a key a rig of
+     * another method must not have. */
+    const char *const *rig_keys;
+    /* The size of the method's rig section (rig->section: zeroed before its
+     * parse, freed after its release); 0: the method has none. */
+    size_t section_size;
     /* The method's schema: reads a rig's root object whose "deformer" names
      * it into rig (rig_json_<method>.c; ffd_rig_parse_json dispatches here,
      * the editor's "create" reads its body with it). */
@@ -27,8 +33,8 @@ typedef struct ffd_method {
     /* The method's deformer from the editor's "create" body. */
     ffd_status (*create)(const sess_ctx *ctx, const cJSON *body, sess_method **out,
                          ffd_error *err);
-    /* Frees the method's section of a rig (called for every method: an
-     * unused section is zero). */
+    /* Frees what the method's section of a rig holds (not the section
+     * itself); called when rig->section is not NULL. */
     void (*release)(ffd_rig *rig);
     /* The editor operations of the method's own (sess_vtable.op), NULL-terminated. */
     const char *const *ops;
@@ -37,6 +43,8 @@ typedef struct ffd_method {
 /* The registered methods, in registry order (i < ffd_method_count()). */
 size_t ffd_method_count(void);
 const ffd_method *ffd_method_at(size_t i);
+/* The method a rig without "deformer" (and a .prm file) uses. */
+const ffd_method *ffd_method_default(void);
 /* The method named name, NULL when none is. */
 const ffd_method *ffd_method_find(const char *name);
 /* The method of a parsed rig (never NULL for a rig the parser made). */

@@ -31,10 +31,12 @@ const ffd_method *ffd_method_find(const char *name)
 
 const ffd_method *ffd_method_of_rig(const ffd_rig *rig)
 {
-    for (size_t i = 0; rig && i < ffd_method_count(); i++)
-        if (registry[i]->id == rig->deformer)
-            return registry[i];
-    return NULL;
+    return rig ? rig->method : NULL;
+}
+
+const ffd_method *ffd_method_default(void)
+{
+    return registry[0];
 }
 
 int ffd_method_op_known(const char *op)

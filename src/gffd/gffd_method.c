@@ -7,7 +7,8 @@ static const char *const gffd_ops[] = {"primitive", NULL};
 
 const ffd_method ffd_method_gffd = {
     .name = "gffd",
-    .id = FFD_RIG_GFFD,
+    .rig_keys = ffd_rig_keys_gffd,
+    .section_size = sizeof(ffd_rig_gffd),
     .parse = ffd_rig_parse_gffd,
     .apply = ffd_rig_apply_gffd,
     .load = ffd_sess_gffd_load,

@@ -8,7 +8,76 @@
 #include "deformer/method.h"
 #include "rig/rig_json.h"
 
+/* The method's top-level rig keys (ffd_method.rig_keys; gffd_rig_json.c). */
+extern const char *const ffd_rig_keys_gffd[];
+
+/* The rig section (docs/rig.md "GFFD rigs"). */
+/* GFFD: one skeleton primitive, owned. */
+typedef struct ffd_rig_primitive {
+    ffd_gffd_kind kind;
+    double *vertices;     /* vertex_count by 3 */
+    size_t vertex_count;
+    uint32_t *face_offsets; /* face_count + 1 (patch, polyhedron) */
+    uint32_t *face_indices;
+    size_t face_count;
+    double radius;
+} ffd_rig_primitive;
+
+typedef enum ffd_rig_gffd_edit_kind {
+    FFD_RIG_EDIT_TRANSLATE = 0, /* every vertex += delta */
+    FFD_RIG_EDIT_ROTATE,        /* about axis through center by angle (radians) */
+    FFD_RIG_EDIT_SCALE,         /* about center by scale[3] */
+    FFD_RIG_EDIT_MOVE,          /* one vertex += delta */
+    FFD_RIG_EDIT_VERTICES       /* all vertices replaced */
+} ffd_rig_gffd_edit_kind;
+
+/* GFFD: one skeleton edit (§5, first way). */
+typedef struct ffd_rig_gffd_edit {
+    ffd_rig_gffd_edit_kind kind;
+    int all;              /* 1: every primitive (primitive ignored) */
+    uint32_t primitive;
+    uint32_t vertex;      /* MOVE */
+    double delta[3];      /* TRANSLATE, MOVE */
+    double axis[3];       /* ROTATE (any length) */
+    double angle;
+    double scale[3];      /* SCALE */
+    int has_center;       /* 0: the centroid of the vertices edited */
+    double center[3];
+    double *vertices;     /* VERTICES: vertex_count by 3 */
+    size_t vertex_count;
+} ffd_rig_gffd_edit;
+
+typedef struct ffd_rig_gffd {
+    ffd_rig_primitive *skeleton;
+    size_t skeleton_count;
+    ffd_rig_primitive *replace;   /* §5, second way; NULL when none */
+    size_t replace_count;
+    ffd_rig_gffd_edit *edits;
+    size_t edit_count;
+    double *corr_from, *corr_to;  /* user correspondences, corr_count by 3 each */
+    size_t corr_count;
+    ffd_gffd_options options;
+    int resample;
+    ffd_gffd_resample_options resample_options;
+} ffd_rig_gffd;
+
+/* The GFFD section of a rig whose method is gffd (rig->section). */
+static inline ffd_rig_gffd *ffd_rig_gffd_of(const ffd_rig *rig)
+{
+    return (ffd_rig_gffd *)rig->section;
+}
+
 void ffd_rig_release_gffd(ffd_rig *rig);
+
+/* A skeleton primitive (docs/rig.md "GFFD rigs"); a "file" is read
+ * relative to p->name's directory. On error prim may hold partial arrays
+ * (ffd_rig_primitive_free). */
+ffd_status ffd_rig_read_primitive(const ffd_rig_parser *p, const cJSON *item, const char *path,
+                              ffd_rig_primitive *prim);
+/* An array of at least one primitive (ffd_rig_read_array: on error nothing
+ * is left to free). */
+ffd_status ffd_rig_read_skeleton(const ffd_rig_parser *p, const cJSON *item, const char *key,
+                             ffd_rig_primitive **out, size_t *count);
 
 ffd_status ffd_sess_gffd_create(const sess_ctx *ctx, const cJSON *body, sess_method **out,
                             ffd_error *err);

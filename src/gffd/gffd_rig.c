@@ -216,7 +216,7 @@ static ffd_gffd_primitive *public_skeleton(const ffd_rig_primitive *r, size_t n)
 ffd_status ffd_rig_gffd_charge(const ffd_rig *rig, const ffd_rig_primitive *prims, size_t count,
                                const char *key, ffd_budget *budget, ffd_error *err)
 {
-    const ffd_rig_gffd *rg = &rig->gffd;
+    const ffd_rig_gffd *rg = ffd_rig_gffd_of(rig);
     size_t max_samples = rg->options.max_samples ? rg->options.max_samples : 4000;
     for (size_t i = 0; i < count; i++) {
         ffd_gffd_primitive p;
@@ -264,7 +264,7 @@ void ffd_rig_gffd_edit_center(const ffd_rig_gffd_edit *e, const ffd_gffd *g, dou
  * they touch, through ffd_gffd_set_vertices. */
 ffd_status ffd_rig_gffd_apply_edit(const ffd_rig *rig, ffd_gffd *g, size_t i, ffd_error *err)
 {
-    const ffd_rig_gffd_edit *e = &rig->gffd.edits[i];
+    const ffd_rig_gffd_edit *e = &ffd_rig_gffd_of(rig)->edits[i];
     size_t first = e->all ? 0 : e->primitive, last = e->all ? ffd_gffd_primitive_count(g) : first + 1;
     double center[3];
     ffd_rig_gffd_edit_center(e, g, center);
@@ -409,7 +409,7 @@ static ffd_status report_details(const ffd_rig_gffd *rg, const ffd_gffd *g,
 ffd_status ffd_rig_apply_gffd(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report *report,
                               ffd_budget *budget, ffd_error *err)
 {
-    const ffd_rig_gffd *rg = &rig->gffd;
+    const ffd_rig_gffd *rg = ffd_rig_gffd_of(rig);
     ffd_error inner = {{0}};
     ffd_gffd *g = NULL;
     ffd_gffd_primitive *prims = NULL;

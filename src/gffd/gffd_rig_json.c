@@ -150,6 +150,12 @@ ffd_status ffd_rig_read_primitive(const ffd_rig_parser *p, const cJSON *item, co
         char *resolved = resolve_path(p->name, file->valuestring);
         if (!resolved)
             return ffd_fail(p->err, FFD_ERR_NOMEM, "%s: out of memory", p->name);
+        char list[RIG_PATH_MAX + 64]; /* the top-level key: "skeleton", "replace" */
+        snprintf(list, sizeof list, "%.*s", (int)strcspn(path, "[."), path);
+        if ((s = ffd_rig_check_input(p, list, file->valuestring, resolved))) {
+            ffd_free(resolved);
+            return s;
+        }
         ffd_error inner = {{0}};
         ffd_rig_primitive loaded = {0};
         s = ffd_rig_load_primitive(resolved, &loaded, &inner);
@@ -407,21 +413,14 @@ static ffd_status read_resample(const ffd_rig_parser *p, const cJSON *item, ffd_
     return FFD_OK;
 }
 
+const char *const ffd_rig_keys_gffd[] = {"skeleton", "unit", "tolerance", "max_iterations", "tracking", "max_samples", "edits", "replace", "correspondences", "resample", NULL};
+
 ffd_status ffd_rig_parse_gffd(const ffd_rig_parser *p, const cJSON *root, ffd_rig *rig)
 {
-    static const char *const keys[] = {"version",   "deformer",       "skeleton",       "unit",
-                                       "tolerance", "max_iterations", "tracking",       "max_samples",
-                                       "edits",     "replace",        "correspondences", "resample",
-                                       NULL};
     static const char *const trackings[] = {"gradient", "warp", NULL};
-    ffd_rig_gffd *g = &rig->gffd;
+    ffd_rig_gffd *g = ffd_rig_gffd_of(rig);
     const cJSON *item;
-    rig->deformer = FFD_RIG_GFFD;
-    ffd_status s = ffd_rig_check_deformer_root(p, root, "gffd", keys,
-                                           "\"skeleton\", \"unit\", \"tolerance\", "
-                                           "\"max_iterations\", \"tracking\", \"max_samples\", "
-                                           "\"edits\", \"replace\", \"correspondences\", "
-                                           "\"resample\"");
+    ffd_status s = ffd_rig_check_deformer_root(p, root, &ffd_method_gffd);
     if (s)
         return s;
     if (!(item = cJSON_GetObjectItemCaseSensitive(root, "skeleton")))
@@ -516,15 +515,18 @@ ffd_status ffd_rig_parse_gffd(const ffd_rig_parser *p, const cJSON *root, ffd_ri
 
 void ffd_rig_release_gffd(ffd_rig *rig)
 {
-    for (size_t i = 0; i < rig->gffd.skeleton_count; i++)
-        ffd_rig_primitive_free(&rig->gffd.skeleton[i]);
-    ffd_free(rig->gffd.skeleton);
-    for (size_t i = 0; i < rig->gffd.replace_count; i++)
-        ffd_rig_primitive_free(&rig->gffd.replace[i]);
-    ffd_free(rig->gffd.replace);
-    for (size_t i = 0; i < rig->gffd.edit_count; i++)
-        ffd_free(rig->gffd.edits[i].vertices);
-    ffd_free(rig->gffd.edits);
-    ffd_free(rig->gffd.corr_from);
-    ffd_free(rig->gffd.corr_to);
+    ffd_rig_gffd *g = ffd_rig_gffd_of(rig);
+    if (!g)
+        return;
+    for (size_t i = 0; i < g->skeleton_count; i++)
+        ffd_rig_primitive_free(&g->skeleton[i]);
+    ffd_free(g->skeleton);
+    for (size_t i = 0; i < g->replace_count; i++)
+        ffd_rig_primitive_free(&g->replace[i]);
+    ffd_free(g->replace);
+    for (size_t i = 0; i < g->edit_count; i++)
+        ffd_free(g->edits[i].vertices);
+    ffd_free(g->edits);
+    ffd_free(g->corr_from);
+    ffd_free(g->corr_to);
 }

@@ -157,11 +157,14 @@ static ffd_status replay_skeleton(gf_method *m, ffd_error *err)
     ffd_error inner = {{0}};
     m->synced = 0;
     ffd_rig rig;
+    ffd_rig_gffd section;
     memset(&rig, 0, sizeof rig);
+    memset(&section, 0, sizeof section);
     rig.name = (char *)"skeleton";
-    rig.deformer = FFD_RIG_GFFD;
-    rig.gffd.edits = m->edits;
-    rig.gffd.edit_count = m->edit_count;
+    rig.method = &ffd_method_gffd;
+    rig.section = &section;
+    section.edits = m->edits;
+    section.edit_count = m->edit_count;
     ffd_status s = ffd_gffd_reset(m->g, &inner);
     for (size_t i = 0; !s && i < m->edit_count; i++) {
         const ffd_rig_gffd_edit *e = &m->edits[i];
@@ -325,7 +328,7 @@ ffd_status ffd_sess_gffd_create(const sess_ctx *ctx, const cJSON *body, sess_met
 {
     static const char *const keys[] = {"method", "skeleton", "unit", "tracking", "resample", NULL};
     *out = NULL;
-    ffd_rig_parser p = {"create", err};
+    ffd_rig_parser p = {"create", err, NULL};
     ffd_gffd_options opt;
     memset(&opt, 0, sizeof opt);
     ffd_rig_primitive *rest = NULL;
@@ -379,8 +382,8 @@ ffd_status ffd_sess_gffd_load(const sess_ctx *ctx, const ffd_rig *rig, sess_meth
                           ffd_error *err)
 {
     *out = NULL;
-    const ffd_rig_gffd *r = &rig->gffd;
-    if (rig->deformer != FFD_RIG_GFFD)
+    const ffd_rig_gffd *r = ffd_rig_gffd_of(rig);
+    if (rig->method != &ffd_method_gffd)
         return ffd_fail(err, FFD_ERR_INVALID, "%s: not a \"gffd\" rig", rig->name);
     if (r->replace)
         return ffd_fail(err, FFD_ERR_INVALID,
@@ -1025,7 +1028,7 @@ static ffd_status read_index(const ffd_rig_parser *p, const cJSON *body, const c
 static ffd_status op_primitive(gf_method *m, const cJSON *body, int *undo, ffd_error *err)
 {
     static const char *const keys[] = {"add", "index", "radius", "remove", NULL};
-    ffd_rig_parser p = {"primitive", err};
+    ffd_rig_parser p = {"primitive", err, NULL};
     const cJSON *add = cJSON_GetObjectItemCaseSensitive(body, "add");
     const cJSON *index = cJSON_GetObjectItemCaseSensitive(body, "index");
     const cJSON *radius = cJSON_GetObjectItemCaseSensitive(body, "radius");

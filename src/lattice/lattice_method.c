@@ -5,7 +5,7 @@
 
 const ffd_method ffd_method_lattice = {
     .name = "lattice",
-    .id = FFD_RIG_LATTICE,
+    .rig_keys = ffd_rig_keys_lattice,
     .parse = ffd_rig_parse_lattice,
     .apply = ffd_rig_apply_lattice,
     .load = ffd_sess_lattice_load,

@@ -8,6 +8,9 @@
 #include "deformer/method.h"
 #include "rig/rig_json.h"
 
+/* The method's top-level rig keys (ffd_method.rig_keys; lattice_rig_json.c). */
+extern const char *const ffd_rig_keys_lattice[];
+
 void ffd_rig_release_lattice(ffd_rig *rig);
 
 ffd_status ffd_sess_lattice_create(const sess_ctx *ctx, const cJSON *body, sess_method **out,

@@ -118,11 +118,12 @@ static ffd_status validate(const ffd_rig_parser *p, const ffd_rig *rig)
 }
 
 
+const char *const ffd_rig_keys_lattice[] = {"basis", "resolution", "box", "margin", "outside", "moves", NULL};
+
 ffd_status ffd_rig_parse_lattice(const ffd_rig_parser *p, const cJSON *root, ffd_rig *rig)
 {
     static const char *const bases[] = {"bspline", "bernstein", NULL};
     static const char *const outsides[] = {"fixed", "clamp", "extrapolate", NULL};
-    rig->deformer = FFD_RIG_LATTICE;
     const cJSON *item;
     ffd_status s = ffd_rig_read_linear_root(p, root, rig);
     if (s)

@@ -292,7 +292,7 @@ ffd_status ffd_sess_lattice_create(const sess_ctx *ctx, const cJSON *body, sess_
                                ffd_error *err)
 {
     static const char *const keys[] = {"method", "resolution", "basis", "margin", "outside", NULL};
-    ffd_rig_parser p = {"create", err};
+    ffd_rig_parser p = {"create", err, NULL};
     ffd_status st = ffd_rig_check_keys(&p, body, "body", keys, "method, resolution, basis, margin, outside");
     uint32_t res[3] = {5, 5, 5};
     int basis = 0, outside = 0;

@@ -7,7 +7,8 @@ static const char *const pbffd_ops[] = {"level", "frame", "curve", NULL};
 
 const ffd_method ffd_method_pbffd = {
     .name = "pbffd",
-    .id = FFD_RIG_PBFFD,
+    .rig_keys = ffd_rig_keys_pbffd,
+    .section_size = sizeof(ffd_rig_pbffd),
     .parse = ffd_rig_parse_pbffd,
     .apply = ffd_rig_apply_pbffd,
     .load = ffd_sess_pbffd_load,

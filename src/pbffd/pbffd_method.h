@@ -8,6 +8,60 @@
 #include "deformer/method.h"
 #include "rig/rig_json.h"
 
+/* The method's top-level rig keys (ffd_method.rig_keys; pbffd_rig_json.c). */
+extern const char *const ffd_rig_keys_pbffd[];
+
+/* The rig section (docs/rig.md "PB-FFD rigs"). */
+/* PB-FFD: a move or a frame edit of one control point at one level. */
+typedef struct ffd_rig_pb_edit {
+    uint32_t level;
+    uint32_t control;
+    int by_near;          /* 1: the control whose centre is nearest to near[] */
+    double near[3];
+    int has_delta;
+    double delta[3];      /* moves: world-space displacement */
+    int frame_kind;       /* frames: 1 = frame given, 2 = rotate/scale */
+    double frame[3][3];   /* frame_kind 1: the new frame */
+    double axis[3];       /* frame_kind 2: rotation axis (any length) and angle (radians) */
+    double angle;
+    double scale[3];      /* frame_kind 2: scale factors along the frame's own axes */
+} ffd_rig_pb_edit;
+
+typedef struct ffd_rig_curve_move {
+    uint32_t index;
+    double delta[3];
+} ffd_rig_curve_move;
+
+typedef struct ffd_rig_curve {
+    double *points;       /* point_count by 3 */
+    size_t point_count;
+    double radius;
+    uint32_t samples;     /* 0: automatic */
+    ffd_rig_curve_move *moves;
+    size_t move_count;
+} ffd_rig_curve;
+
+typedef struct ffd_rig_pbffd {
+    int controls_auto;                 /* 1: ffd_pbffd_place with placement */
+    ffd_placement_options placement;
+    ffd_ebf *controls;                 /* controls_auto == 0 */
+    size_t control_count;
+    ffd_pbffd_options options;         /* sigma, master, levels */
+    uint32_t constraint_level;
+    ffd_rig_pb_edit *moves;
+    size_t move_count;
+    ffd_rig_pb_edit *frames;
+    size_t frame_count;
+    ffd_rig_curve *curves;
+    size_t curve_count;
+} ffd_rig_pbffd;
+
+/* The PB-FFD section of a rig whose method is pbffd (rig->section). */
+static inline ffd_rig_pbffd *ffd_rig_pbffd_of(const ffd_rig *rig)
+{
+    return (ffd_rig_pbffd *)rig->section;
+}
+
 void ffd_rig_release_pbffd(ffd_rig *rig);
 
 ffd_status ffd_sess_pbffd_create(const sess_ctx *ctx, const cJSON *body, sess_method **out,

@@ -65,7 +65,7 @@ ffd_status ffd_rig_pb_edit_target(const ffd_rig *rig, const ffd_pbffd *pb, const
 ffd_status ffd_rig_pb_apply_edits(const ffd_rig *rig, ffd_pbffd *pb, size_t *resolved,
                                   double (*frames)[3][3], ffd_error *err)
 {
-    const ffd_rig_pbffd *r = &rig->pb;
+    const ffd_rig_pbffd *r = ffd_rig_pbffd_of(rig);
     ffd_error inner = {{0}};
     char context[64];
     ffd_status s;
@@ -108,7 +108,7 @@ ffd_status ffd_rig_pb_constraint_delta(const ffd_rig *rig, ffd_pbffd *pb, const 
                                       const double *current, double *delta,
                                       ffd_manip_result *result, ffd_error *err)
 {
-    const size_t k = rig->constraint_count, level = rig->pb.constraint_level;
+    const size_t k = rig->constraint_count, level = ffd_rig_pbffd_of(rig)->constraint_level;
     ffd_error inner = {{0}};
     ffd_linear_map map;
     ffd_status s = ffd_pbffd_linear_map(pb, level, &map, &inner);
@@ -163,13 +163,13 @@ done:
     return s;
 }
 
-/* Direct manipulation (§3.3) at rig->pb.constraint_level. rows[c] is the bound
+/* Direct manipulation (§3.3) at ffd_rig_pbffd_of(rig)->constraint_level. rows[c] is the bound
  * point of constraint c; current (all bound points) is updated on success. */
 static ffd_status solve_constraints(const ffd_rig *rig, ffd_pbffd *pb, const size_t *rows,
                                     double *current, double *reached, double *residuals,
                                     ffd_manip_result *result, ffd_error *err)
 {
-    const size_t k = rig->constraint_count, level = rig->pb.constraint_level;
+    const size_t k = rig->constraint_count, level = ffd_rig_pbffd_of(rig)->constraint_level;
     const size_t controls = ffd_pbffd_control_count(pb, level);
     ffd_error inner = {{0}};
     double *delta = ffd_calloc(controls ? controls : 1, 3 * sizeof *delta);
@@ -208,11 +208,11 @@ static ffd_status apply_curves(const ffd_rig *rig, double *positions, size_t n, 
 {
     ffd_error inner = {{0}};
     char context[64];
-    for (size_t c = 0; c < rig->pb.curve_count; c++) {
-        const ffd_rig_curve *rc = &rig->pb.curves[c];
+    for (size_t c = 0; c < ffd_rig_pbffd_of(rig)->curve_count; c++) {
+        const ffd_rig_curve *rc = &ffd_rig_pbffd_of(rig)->curves[c];
         ffd_pbffd_curve *curve = NULL;
         ffd_pbffd_options options = {0};
-        options.sigma = rig->pb.options.sigma;
+        options.sigma = ffd_rig_pbffd_of(rig)->options.sigma;
         ffd_status s = ffd_pbffd_curve_create(rc->points, rc->point_count, rc->radius, rc->samples,
                                               positions, n, &options, &curve, &inner);
         for (size_t m = 0; !s && m < rc->move_count; m++)
@@ -281,10 +281,10 @@ ffd_status ffd_rig_apply_pbffd(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_repor
     }
 
     double t0 = ffd_now();
-    const ffd_ebf *controls = rig->pb.controls;
-    size_t control_count = rig->pb.control_count;
-    if (rig->pb.controls_auto) {
-        if ((s = ffd_pbffd_place(mesh, &rig->pb.placement, &placed, &control_count, &placement,
+    const ffd_ebf *controls = ffd_rig_pbffd_of(rig)->controls;
+    size_t control_count = ffd_rig_pbffd_of(rig)->control_count;
+    if (ffd_rig_pbffd_of(rig)->controls_auto) {
+        if ((s = ffd_pbffd_place(mesh, &ffd_rig_pbffd_of(rig)->placement, &placed, &control_count, &placement,
                                  &inner))) {
             s = ffd_rig_wrap(err, s, name, "controls (automatic placement)", &inner);
             goto fail;
@@ -305,9 +305,9 @@ ffd_status ffd_rig_apply_pbffd(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_repor
             goto fail;
         }
     }
-    if ((s = ffd_pbffd_create(controls, control_count, bound, total, &rig->pb.options, &pb,
+    if ((s = ffd_pbffd_create(controls, control_count, bound, total, &ffd_rig_pbffd_of(rig)->options, &pb,
                               &inner))) {
-        s = ffd_rig_wrap(err, s, name, rig->pb.controls_auto ? "controls (placed)" : "controls", &inner);
+        s = ffd_rig_wrap(err, s, name, ffd_rig_pbffd_of(rig)->controls_auto ? "controls (placed)" : "controls", &inner);
         goto fail;
     }
     double t1 = ffd_now();
@@ -324,7 +324,7 @@ ffd_status ffd_rig_apply_pbffd(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_repor
     double t2 = ffd_now();
     timings.solve = t2 - t1;
 
-    if (rig->pb.curve_count == 0 && ffd_mesh_normal_count(mesh) > 0) {
+    if (ffd_rig_pbffd_of(rig)->curve_count == 0 && ffd_mesh_normal_count(mesh) > 0) {
         jacobians = ffd_malloc_array(total, 9 * sizeof *jacobians);
         if (!jacobians) {
             s = ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory for %zu Jacobians", name, total);
@@ -358,8 +358,8 @@ ffd_status ffd_rig_apply_pbffd(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_repor
         cJSON *details = ffd_rig_details_create(&mark);
         cJSON_AddNumberToObject(details, "levels", (double)ffd_pbffd_level_count(pb));
         cJSON_AddNumberToObject(details, "uncovered", (double)uncovered);
-        cJSON_AddBoolToObject(details, "placed", rig->pb.controls_auto != 0);
-        if (rig->pb.controls_auto) {
+        cJSON_AddBoolToObject(details, "placed", ffd_rig_pbffd_of(rig)->controls_auto != 0);
+        if (ffd_rig_pbffd_of(rig)->controls_auto) {
             cJSON *p = cJSON_AddObjectToObject(details, "placement");
             cJSON_AddNumberToObject(p, "interior", (double)placement.interior_count);
             cJSON_AddNumberToObject(p, "exterior", (double)placement.exterior_count);
@@ -369,7 +369,7 @@ ffd_status ffd_rig_apply_pbffd(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_repor
         }
         if ((s = ffd_rig_report_set_details(report, details, mark, name, err)))
             goto fail;
-        if (rig->pb.controls_auto && placement.note[0] &&
+        if (ffd_rig_pbffd_of(rig)->controls_auto && placement.note[0] &&
             (s = ffd_rig_report_note(report, name, err, "note: %s", placement.note)))
             goto fail;
     }

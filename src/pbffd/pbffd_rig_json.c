@@ -434,7 +434,7 @@ static ffd_status validate_pbffd(const ffd_rig_parser *p, const ffd_rig_pbffd *p
 
 static ffd_status read_pbffd_key(const ffd_rig_parser *p, const cJSON *item, ffd_rig *rig)
 {
-    ffd_rig_pbffd *pb = &rig->pb;
+    ffd_rig_pbffd *pb = ffd_rig_pbffd_of(rig);
     const char *key = item->string;
     ffd_status s;
     if (strcmp(key, "controls") == 0)
@@ -471,20 +471,21 @@ static ffd_status read_pbffd_key(const ffd_rig_parser *p, const cJSON *item, ffd
     return FFD_OK;
 }
 
+const char *const ffd_rig_keys_pbffd[] = {"controls", "sigma", "master", "levels", "moves", "frames", "curves", "constraint_level", NULL};
+
 ffd_status ffd_rig_parse_pbffd(const ffd_rig_parser *p, const cJSON *root, ffd_rig *rig)
 {
-    rig->deformer = FFD_RIG_PBFFD;
     const cJSON *item;
     ffd_status s = ffd_rig_read_linear_root(p, root, rig);
     if (s)
         return s;
-    rig->pb.controls_auto = 1;
+    ffd_rig_pbffd_of(rig)->controls_auto = 1;
     cJSON_ArrayForEach(item, root)
     {
         if ((s = read_pbffd_key(p, item, rig)))
             return s;
     }
-    return validate_pbffd(p, &rig->pb);
+    return validate_pbffd(p, ffd_rig_pbffd_of(rig));
 }
 
 /* ======================================================================
@@ -554,12 +555,15 @@ ffd_status ffd_rig_write_pbffd_controls(const char *path, const ffd_ebf *control
 
 void ffd_rig_release_pbffd(ffd_rig *rig)
 {
-    ffd_free(rig->pb.controls);
-    ffd_free(rig->pb.moves);
-    ffd_free(rig->pb.frames);
-    for (size_t i = 0; i < rig->pb.curve_count; i++) {
-        ffd_free(rig->pb.curves[i].points);
-        ffd_free(rig->pb.curves[i].moves);
+    ffd_rig_pbffd *pb = ffd_rig_pbffd_of(rig);
+    if (!pb)
+        return;
+    ffd_free(pb->controls);
+    ffd_free(pb->moves);
+    ffd_free(pb->frames);
+    for (size_t i = 0; i < pb->curve_count; i++) {
+        ffd_free(pb->curves[i].points);
+        ffd_free(pb->curves[i].moves);
     }
-    ffd_free(rig->pb.curves);
+    ffd_free(pb->curves);
 }

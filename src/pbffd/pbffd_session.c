@@ -395,7 +395,7 @@ ffd_status ffd_sess_pbffd_create(const sess_ctx *ctx, const cJSON *body, sess_me
                              ffd_error *err)
 {
     *out = NULL;
-    ffd_rig_parser p = {"create", err};
+    ffd_rig_parser p = {"create", err, NULL};
     ffd_placement_options po;
     ffd_pbffd_options opt;
     memset(&po, 0, sizeof po);
@@ -482,7 +482,7 @@ static ffd_status check_constraints(const ffd_rig *rig, size_t n, ffd_error *err
 
 static ffd_status load_constraints(pb_method *m, const ffd_rig *rig, ffd_error *err)
 {
-    const size_t k = rig->constraint_count, level = rig->pb.constraint_level;
+    const size_t k = rig->constraint_count, level = ffd_rig_pbffd_of(rig)->constraint_level;
     if (!k)
         return FFD_OK;
     const size_t controls = ffd_pbffd_control_count(m->pb, level);
@@ -509,7 +509,7 @@ static ffd_status load_constraints(pb_method *m, const ffd_rig *rig, ffd_error *
 /* The rig's moves and frames, logged with their resolved controls. */
 static ffd_status load_edits(pb_method *m, const ffd_rig *rig, ffd_error *err)
 {
-    const ffd_rig_pbffd *r = &rig->pb;
+    const ffd_rig_pbffd *r = ffd_rig_pbffd_of(rig);
     size_t total = r->move_count + r->frame_count;
     size_t *resolved = ffd_malloc_array(total ? total : 1, sizeof *resolved);
     double(*frames)[3][3] = ffd_malloc_array(r->frame_count ? r->frame_count : 1, sizeof *frames);
@@ -532,12 +532,12 @@ ffd_status ffd_sess_pbffd_load(const sess_ctx *ctx, const ffd_rig *rig, sess_met
                            ffd_error *err)
 {
     *out = NULL;
-    if (rig->deformer != FFD_RIG_PBFFD)
+    if (rig->method != &ffd_method_pbffd)
         return ffd_fail(err, FFD_ERR_INVALID, "%s: not a \"pbffd\" rig", rig->name);
     ffd_status s = check_constraints(rig, ctx->n, err);
     if (s)
         return s;
-    const ffd_rig_pbffd *r = &rig->pb;
+    const ffd_rig_pbffd *r = ffd_rig_pbffd_of(rig);
     ffd_error inner = {{0}};
     ffd_ebf *controls = NULL;
     size_t count = r->control_count;
@@ -1123,7 +1123,7 @@ static ffd_status pb_influence(sess_method *base, const uint32_t *ids, size_t k,
 static ffd_status op_level(pb_method *m, const cJSON *body, int *undo, ffd_error *err)
 {
     static const char *const keys[] = {"level", NULL};
-    ffd_rig_parser p = {"level", err};
+    ffd_rig_parser p = {"level", err, NULL};
     const cJSON *v = cJSON_GetObjectItemCaseSensitive(body, "level");
     uint32_t level = 0;
     ffd_status s = ffd_rig_check_keys(&p, body, "", keys, "\"level\"");
@@ -1182,7 +1182,7 @@ static ffd_status read_frame_edit(const ffd_rig_parser *p, const cJSON *body, ff
 
 static ffd_status op_frame(pb_method *m, const cJSON *body, int *undo, ffd_error *err)
 {
-    ffd_rig_parser p = {"frame", err};
+    ffd_rig_parser p = {"frame", err, NULL};
     ffd_rig_pb_edit e;
     ffd_status s = read_frame_edit(&p, body, &e);
     const cJSON *points = cJSON_GetObjectItemCaseSensitive(body, "points");
@@ -1267,7 +1267,7 @@ static ffd_status read_curve_body(const ffd_rig_parser *p, const cJSON *body, do
 
 static ffd_status op_curve(pb_method *m, const cJSON *body, int *undo, ffd_error *err)
 {
-    ffd_rig_parser p = {"curve", err};
+    ffd_rig_parser p = {"curve", err, NULL};
     pb_curve cv;
     memset(&cv, 0, sizeof cv);
     ffd_status s = read_curve_body(&p, body, m->base.ctx->diag, &cv);

@@ -9,6 +9,7 @@
  * JSON path of the offending key ("rig.json: moves[1].delta: expected an
  * array of 3 finite numbers"); syntax errors with line and column.
  * docs/rig.md describes the format. */
+#define _XOPEN_SOURCE 700 /* realpath */
 #include "rig/rig_json.h"
 
 #include "deformer/method.h"
@@ -16,6 +17,7 @@
 #include <ctype.h>
 #include <math.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 #include <strings.h>
 #include <sys/stat.h>
@@ -39,6 +41,7 @@ ffd_rig *ffd_rig_new(const char *name)
     rig->box_auto = 1;
     rig->margin = 0.05;
     rig->outside = FFD_OUTSIDE_FIXED;
+    rig->method = ffd_method_default();
     return rig;
 }
 
@@ -48,8 +51,9 @@ void ffd_rig_destroy(ffd_rig *rig)
         return;
     ffd_free(rig->name);
     ffd_free(rig->constraints);
-    for (size_t i = 0; i < ffd_method_count(); i++) /* every section, used or zero */
-        ffd_method_at(i)->release(rig);
+    if (rig->method && rig->method->release)
+        rig->method->release(rig);
+    ffd_free(rig->section);
     for (size_t i = 0; i < rig->input_file_count; i++)
         ffd_free(rig->input_files[i]);
     ffd_free(rig->input_files);
@@ -232,22 +236,56 @@ ffd_status ffd_rig_read_version(const ffd_rig_parser *p, const cJSON *root)
     return FFD_OK;
 }
 
-/* The top-level keys of a rig of one deformer: each in keys (else "not a
- * key of "deformer": "NAME" rigs, expected one of TEXT"), none twice; and
- * the version. */
-ffd_status ffd_rig_check_deformer_root(const ffd_rig_parser *p, const cJSON *root, const char *deformer,
-                                   const char *const *keys, const char *keys_text)
+/* The method that has key among its rig keys, other than own (registry
+ * order), or NULL. */
+static const ffd_method *key_owner(const char *key, const ffd_method *own)
 {
+    for (size_t i = 0; i < ffd_method_count(); i++) {
+        const ffd_method *m = ffd_method_at(i);
+        if (m != own && ffd_rig_lookup(key, m->rig_keys) >= 0)
+            return m;
+    }
+    return NULL;
+}
+
+/* '"a", "b", "c"': the keys of a NULL-terminated list, for messages. */
+static void keys_text(const char *const *keys, char *buf, size_t size)
+{
+    size_t used = 0;
+    buf[0] = 0;
+    for (size_t i = 0; keys && keys[i] && used < size; i++) {
+        int w = snprintf(buf + used, size - used, "%s\"%s\"", i ? ", " : "", keys[i]);
+        used += w > 0 ? (size_t)w : 0;
+    }
+}
+
+/* The top-level keys of a rig of one method: each "version", "deformer" or
+ * one of the method's rig keys (else "not a key of "deformer": "NAME" rigs,
+ * expected one of ..."), none twice; and the version. */
+ffd_status ffd_rig_check_deformer_root(const ffd_rig_parser *p, const cJSON *root,
+                                       const ffd_method *method)
+{
+    static const char *const common[] = {"version", "deformer", NULL};
+    char text[1024];
+    keys_text(method->rig_keys, text, sizeof text);
     const cJSON *item;
     cJSON_ArrayForEach(item, root)
     {
-        if (ffd_rig_lookup(item->string, keys) < 0)
+        if (ffd_rig_lookup(item->string, common) < 0 &&
+            ffd_rig_lookup(item->string, method->rig_keys) < 0)
             return ffd_fail(p->err, FFD_ERR_PARSE,
                             "%s: %.64s: not a key of \"deformer\": \"%s\" rigs, expected one of %s",
-                            p->name, item->string, deformer, keys_text);
+                            p->name, item->string, method->name, text);
     }
-    ffd_status s = ffd_rig_check_keys(p, root, "", keys, "");
-    return s ? s : ffd_rig_read_version(p, root);
+    /* every key is allowed: only the duplicates remain */
+    cJSON_ArrayForEach(item, root)
+    {
+        for (const cJSON *b = root->child; b != item; b = b->next)
+            if (strcmp(item->string, b->string) == 0)
+                return ffd_fail(p->err, FFD_ERR_PARSE, "%s: %.64s: key given twice", p->name,
+                                item->string);
+    }
+    return ffd_rig_read_version(p, root);
 }
 
 /* {"axis": [x,y,z], "angle": radians} and, when center is not NULL, an
@@ -423,57 +461,48 @@ ffd_status ffd_rig_read_array(const ffd_rig_parser *p, const cJSON *item, const 
  * Root: the method the rig's "deformer" names reads the rest
  * ====================================================================== */
 
-/* Keys of one deformer only; the other's are refused with a message naming it. */
-static const char *const lattice_only[] = {"basis", "resolution", "box", "margin", "outside", NULL};
-static const char *const pbffd_only[] = {"controls", "sigma",  "master", "levels",
-                                         "frames",   "curves", "constraint_level", NULL};
-static const char *const gffd_only[] = {"skeleton", "unit",    "tolerance",       "max_iterations",
-                                        "tracking", "max_samples", "edits",       "replace",
-                                        "correspondences", "resample", NULL};
-
 ffd_status ffd_rig_read_linear_root(const ffd_rig_parser *p, const cJSON *root, ffd_rig *rig)
 {
-    static const char *const keys[] = {"version", "deformer", "basis",   "resolution", "box",
-                                       "margin",  "outside",  "rcond",   "moves",
-                                       "constraints", "controls", "sigma", "master", "levels",
-                                       "frames",  "curves",   "constraint_level", NULL};
-    static const char *const deformers[] = {"lattice", "pbffd", "gffd", NULL};
+    static const char *const common[] = {"version", "deformer", "rcond", "constraints", NULL};
+    const ffd_method *own = rig->method;
     const cJSON *item;
-    cJSON_ArrayForEach(item, root)
-    {
-        if (ffd_rig_lookup(item->string, gffd_only) >= 0)
-            return ffd_fail(p->err, FFD_ERR_PARSE,
-                            "%s: %.64s: only for \"deformer\": \"gffd\" rigs", p->name,
-                            item->string);
-    }
-    ffd_status s = ffd_rig_check_keys(p, root, "", keys,
-                              "\"version\", \"deformer\", \"rcond\", \"moves\", \"constraints\", "
-                              "lattice: \"basis\", \"resolution\", \"box\", \"margin\", "
-                              "\"outside\"; pbffd: \"controls\", \"sigma\", \"master\", "
-                              "\"levels\", \"frames\", \"curves\", \"constraint_level\"");
-    if (s)
-        return s;
-    if ((s = ffd_rig_read_version(p, root)))
-        return s;
+    ffd_status s;
     if ((item = cJSON_GetObjectItemCaseSensitive(root, "deformer"))) {
         /* a "deformer" the registry knows went to its method (read_root):
          * this names what else is wrong with it */
-        int d = 0;
-        if ((s = ffd_rig_read_enum(p, item, "deformer", deformers,
-                           "\"lattice\", \"pbffd\", \"gffd\" or \"tspline\"", &d)))
-            return s;
+        char names[256];
+        if (!cJSON_IsString(item) || !ffd_method_find(item->valuestring))
+            return ffd_rig_expected(p, "deformer", ffd_method_names(names, sizeof names));
     }
-    const char *const *foreign = rig->deformer == FFD_RIG_PBFFD ? lattice_only : pbffd_only;
+    /* a key of another method: named as such */
     cJSON_ArrayForEach(item, root)
     {
-        if (ffd_rig_lookup(item->string, foreign) >= 0)
+        const ffd_method *other;
+        if (ffd_rig_lookup(item->string, common) < 0 &&
+            ffd_rig_lookup(item->string, own->rig_keys) < 0 &&
+            (other = key_owner(item->string, own)))
             return ffd_fail(p->err, FFD_ERR_PARSE,
                             "%s: %.64s: only for \"deformer\": \"%s\" rigs (this rig's deformer "
                             "is \"%s\")",
-                            p->name, item->string,
-                            rig->deformer == FFD_RIG_PBFFD ? "lattice" : "pbffd",
-                            rig->deformer == FFD_RIG_PBFFD ? "pbffd" : "lattice");
+                            p->name, item->string, other->name, own->name);
     }
+    size_t n_own = 0;
+    while (own->rig_keys && own->rig_keys[n_own])
+        n_own++;
+    const char *keys[32 + 5];
+    if (n_own > 32)
+        return ffd_fail(p->err, FFD_ERR_INVALID, "%s: the %s method has more than 32 rig keys",
+                        p->name, own->name);
+    size_t n = 0;
+    for (size_t i = 0; common[i]; i++)
+        keys[n++] = common[i];
+    for (size_t i = 0; i < n_own; i++)
+        keys[n++] = own->rig_keys[i];
+    keys[n] = NULL;
+    char text[1024];
+    keys_text(keys, text, sizeof text);
+    if ((s = ffd_rig_check_keys(p, root, "", keys, text)) || (s = ffd_rig_read_version(p, root)))
+        return s;
     if ((item = cJSON_GetObjectItemCaseSensitive(root, "rcond"))) {
         if ((s = ffd_rig_read_number(p, item, "rcond", &rig->rcond)))
             return s;
@@ -498,13 +527,47 @@ static ffd_status read_root(const ffd_rig_parser *p, const cJSON *root, ffd_rig 
     const cJSON *which = cJSON_GetObjectItemCaseSensitive(root, "deformer");
     const ffd_method *method = cJSON_IsString(which) ? ffd_method_find(which->valuestring) : NULL;
     if (!method)
-        method = ffd_method_find("lattice");
+        method = ffd_method_default();
+    rig->method = method;
+    if (method->section_size && !(rig->section = ffd_calloc(1, method->section_size)))
+        return ffd_fail(p->err, FFD_ERR_NOMEM, "%s: out of memory", p->name);
     return method->parse(p, root, rig);
 }
 
 
+ffd_status ffd_rig_check_input(const ffd_rig_parser *p, const char *key, const char *file,
+                               const char *path)
+{
+    if (!p->files)
+        return FFD_OK;
+    if (!p->files->root)
+        return ffd_fail(p->err, FFD_ERR_INVALID,
+                        "%s: %s: refers to the file \"%s\": an uploaded rig cannot read "
+                        "files (load it from the server's directory instead)",
+                        p->name, key, file);
+    /* a file that does not resolve is reported by its reader */
+    char *real = realpath(path, NULL);
+    char *real_root = realpath(p->files->root, NULL);
+    size_t rl = real_root ? strlen(real_root) : 0;
+    ffd_status s = FFD_OK;
+    if (real && real_root &&
+        !(strncmp(real, real_root, rl) == 0 && (real[rl] == '/' || real[rl] == 0)))
+        s = ffd_fail(p->err, FFD_ERR_INVALID,
+                     "%s: %s: the file \"%s\" is outside the server's directory", p->name, key,
+                     file);
+    free(real);
+    free(real_root);
+    return s;
+}
+
 ffd_status ffd_rig_parse_json(const char *text, size_t size, const char *name, ffd_rig **out,
                               ffd_error *err)
+{
+    return ffd_rig_parse_json_files(text, size, name, NULL, out, err);
+}
+
+ffd_status ffd_rig_parse_json_files(const char *text, size_t size, const char *name,
+                                    const ffd_rig_files *files, ffd_rig **out, ffd_error *err)
 {
     *out = NULL;
     name = ffd_name_or(name, "rig");
@@ -561,7 +624,7 @@ ffd_status ffd_rig_parse_json(const char *text, size_t size, const char *name, f
         cJSON_Delete(root);
         return ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory", name);
     }
-    ffd_rig_parser p = {name, err};
+    ffd_rig_parser p = {name, err, files};
     ffd_status s = read_root(&p, root, rig);
     cJSON_Delete(root);
     if (s) {

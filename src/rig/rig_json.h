@@ -12,12 +12,28 @@
 
 #define RIG_PATH_MAX 96
 
+/* Which files a rig may read besides itself (the "file" of a skeleton
+ * primitive): with no policy (NULL), any; with one, only files under root,
+ * and none when root is NULL (a rig uploaded to the editor's server). */
+typedef struct ffd_rig_files {
+    const char *root;
+} ffd_rig_files;
+
 /* Where messages go: "NAME: PATH: expected WHAT" (name: the rig file, or
- * the editor's op). */
+ * the editor's op); files: what the rig may read (NULL: anything). */
 typedef struct ffd_rig_parser {
     const char *name;
     ffd_error *err;
+    const ffd_rig_files *files;
 } ffd_rig_parser;
+
+/* A rig's "file" (as written) under the list key, resolved to path: refused
+ * (FFD_ERR_INVALID, naming key and file) when p->files does not allow it. */
+ffd_status ffd_rig_check_input(const ffd_rig_parser *p, const char *key, const char *file,
+                               const char *path);
+/* ffd_rig_parse_json with a file policy (files may be NULL: any). */
+ffd_status ffd_rig_parse_json_files(const char *text, size_t size, const char *name,
+                                    const ffd_rig_files *files, ffd_rig **out, ffd_error *err);
 
 ffd_status ffd_rig_expected(const ffd_rig_parser *p, const char *path, const char *what);
 ffd_status ffd_rig_read_number(const ffd_rig_parser *p, const cJSON *item, const char *path, double *out);
@@ -64,27 +80,19 @@ ffd_status ffd_rig_read_points(const ffd_rig_parser *p, const cJSON *item, const
 ffd_status ffd_rig_read_constraints(const ffd_rig_parser *p, const cJSON *item, const char *where,
                                 ffd_rig_constraint **out, size_t *count);
 
-/* A GFFD skeleton primitive (docs/rig.md "GFFD rigs"); a "file" is read
- * relative to p->name's directory. On error prim may hold partial arrays
- * (ffd_rig_primitive_free). */
-ffd_status ffd_rig_read_primitive(const ffd_rig_parser *p, const cJSON *item, const char *path,
-                              ffd_rig_primitive *prim);
-/* An array of at least one primitive (ffd_rig_read_array: on error nothing
- * is left to free). */
-ffd_status ffd_rig_read_skeleton(const ffd_rig_parser *p, const cJSON *item, const char *key,
-                             ffd_rig_primitive **out, size_t *count);
 
 /* "version", if given, is 1. */
 ffd_status ffd_rig_read_version(const ffd_rig_parser *p, const cJSON *root);
-/* The top-level keys of a one-deformer rig: each in keys (else "NAME: KEY: not
- * a key of "deformer": "DEFORMER" rigs, expected one of KEYS_TEXT"), none
- * twice; and the version. */
-ffd_status ffd_rig_check_deformer_root(const ffd_rig_parser *p, const cJSON *root, const char *deformer,
-                                   const char *const *keys, const char *keys_text);
+/* The top-level keys of a rig of one method: "version", "deformer" and the
+ * method's rig keys (else "NAME: KEY: not a key of "deformer": "METHOD"
+ * rigs, expected one of ..."), none twice; and the version. */
+ffd_status ffd_rig_check_deformer_root(const ffd_rig_parser *p, const cJSON *root,
+                                       const struct ffd_method *method);
 
-/* The top-level keys lattice and PB-FFD rigs share (rcond, constraints;
- * version, deformer and every key checked, a key of the other method named
- * as such); rig->deformer says which of the two the rig is. */
+/* The root of a rig of a method with direct manipulation (rig->method):
+ * the keys such rigs share ("rcond", "constraints"), every key checked (a
+ * key of another method named as such: "only for "deformer": "X" rigs"),
+ * "deformer" and "version". */
 ffd_status ffd_rig_read_linear_root(const ffd_rig_parser *p, const cJSON *root, ffd_rig *rig);
 
 

@@ -1,7 +1,6 @@
 /* session — the editor's model (ffd.h "Editing sessions"): the rest mesh,
  * one method (session.h), pins, the drag in progress, undo/redo, and the
  * frame / state / rig / export views of it. docs/editor.md lists the ops. */
-#define _XOPEN_SOURCE 700 /* realpath */
 #include "session/session.h"
 #include "deformer/method.h"
 
@@ -180,14 +179,15 @@ static ffd_status method_from_rig(const sess_ctx *ctx, const ffd_rig *rig, sess_
     if (!method)
         return ffd_fail(err, FFD_ERR_INVALID, "rig: unknown deformer");
     return method->load(ctx, rig, out, err);
-    return ffd_fail(err, FFD_ERR_INVALID, "rig: unknown deformer");
 }
 
+/* files: what the rig may read besides itself (NULL: anything). */
 static ffd_status method_from_text(const sess_ctx *ctx, const char *text, size_t size,
-                                   const char *name, sess_method **out, ffd_error *err)
+                                   const char *name, const ffd_rig_files *files,
+                                   sess_method **out, ffd_error *err)
 {
     ffd_rig *rig = NULL;
-    ffd_status st = ffd_rig_parse_json(text, size, name, &rig, err);
+    ffd_status st = ffd_rig_parse_json_files(text, size, name, files, &rig, err);
     if (!st)
         st = method_from_rig(ctx, rig, out, err);
     ffd_rig_destroy(rig);
@@ -241,7 +241,7 @@ static ffd_status apply_entry(ffd_session *s, undo_entry *e, undo_entry *inverse
                 st = s->method->vt->restore(s->method, e->blob, err);
         } else if (e->kind == UNDO_REBUILD && e->rig) {
             sess_method *m = NULL;
-            st = method_from_text(&s->ctx, e->rig, strlen(e->rig), "undo", &m, err);
+            st = method_from_text(&s->ctx, e->rig, strlen(e->rig), "undo", NULL, &m, err);
             if (!st) {
                 if (s->method)
                     s->method->vt->destroy(s->method);
@@ -346,72 +346,6 @@ static ffd_status op_create(ffd_session *s, const ffd_rig_parser *p, const cJSON
     return install(s, m, "create", err);
 }
 
-/* Every "file" of a GFFD rig's primitives must resolve under root. */
-static ffd_status check_rig_files(const char *text, size_t size, const char *name,
-                                  const char *root, ffd_error *err)
-{
-    /* The rig parser reads past a byte order mark and refuses NUL: so must
-     * this check, or a rig it cannot parse would skip it. */
-    ffd_status nul = ffd_json_refuse_nul(text, size, ffd_name_or(name, "rig"), err);
-    if (nul)
-        return nul;
-    size_t bom = ffd_utf8_bom_length(text, size);
-    unsigned long oom = ffd_json_alloc_failures();
-    cJSON *doc = cJSON_ParseWithLength(text + bom, size - bom);
-    if (!doc && ffd_json_alloc_failures() != oom)
-        return ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory parsing JSON",
-                        ffd_name_or(name, "rig"));
-    if (!doc)
-        return FFD_OK; /* the rig parser reports the syntax error */
-    ffd_status st = FFD_OK;
-    const char *lists[] = {"skeleton", "replace"};
-    for (int l = 0; l < 2 && !st; l++) {
-        const cJSON *prim;
-        const cJSON *arr = cJSON_GetObjectItemCaseSensitive(doc, lists[l]);
-        if (!cJSON_IsArray(arr))
-            continue;
-        cJSON_ArrayForEach(prim, arr)
-        {
-            const cJSON *file = cJSON_GetObjectItemCaseSensitive(prim, "file");
-            if (!cJSON_IsString(file))
-                continue;
-            if (!root) {
-                st = ffd_fail(err, FFD_ERR_INVALID,
-                              "%s: %s: refers to the file \"%s\": an uploaded rig cannot read "
-                              "files (load it from the server's directory instead)",
-                              name, lists[l], file->valuestring);
-                break;
-            }
-            const char *slash = strrchr(name, '/');
-            size_t dlen = slash ? (size_t)(slash - name) : 1;
-            size_t need = dlen + strlen(file->valuestring) + 2;
-            char *path = ffd_malloc(need);
-            if (!path) {
-                st = ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory", name);
-                break;
-            }
-            if (file->valuestring[0] == '/')
-                snprintf(path, need, "%s", file->valuestring);
-            else
-                snprintf(path, need, "%.*s/%s", (int)dlen, slash ? name : ".", file->valuestring);
-            char *real = realpath(path, NULL);
-            char *real_root = realpath(root, NULL);
-            size_t rl = real_root ? strlen(real_root) : 0;
-            if (real && real_root &&
-                !(strncmp(real, real_root, rl) == 0 && (real[rl] == '/' || real[rl] == 0)))
-                st = ffd_fail(err, FFD_ERR_INVALID, "%s: %s: the file \"%s\" is outside the "
-                              "server's directory", name, lists[l], file->valuestring);
-            free(real);
-            free(real_root);
-            ffd_free(path);
-            if (st)
-                break;
-        }
-    }
-    cJSON_Delete(doc);
-    return st;
-}
-
 ffd_status ffd_session_load_rig(ffd_session *s, const char *text, size_t size, const char *name,
                                 const char *root, ffd_error *err)
 {
@@ -420,10 +354,11 @@ ffd_status ffd_session_load_rig(ffd_session *s, const char *text, size_t size, c
     if (s->drag.kind)
         return conflict(err, "a drag is in progress", "rig/load");
     name = name ? name : "rig";
-    ffd_status st = check_rig_files(text, size, name, root, err);
+    /* an uploaded rig (no root) reads no file; one loaded from the
+     * server's directory only files under it */
+    const ffd_rig_files files = {root};
     sess_method *m = NULL;
-    if (!st)
-        st = method_from_text(&s->ctx, text, size, name, &m, err);
+    ffd_status st = method_from_text(&s->ctx, text, size, name, &files, &m, err);
     if (st)
         return st;
     return install(s, m, "load rig", err);
@@ -957,7 +892,7 @@ ffd_status ffd_session_command(ffd_session *s, const char *op, const char *body,
         cJSON_Delete(doc);
         return ffd_fail(err, FFD_ERR_PARSE, "%s: expected a JSON object", op);
     }
-    ffd_rig_parser p = {op, err};
+    ffd_rig_parser p = {op, err, NULL};
     ffd_status st;
     int is_drag_step = 0;
     int empty = cJSON_GetArraySize(doc) == 0;

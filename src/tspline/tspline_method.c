@@ -7,7 +7,8 @@ static const char *const tspline_ops[] = {"refine", "freeze", NULL};
 
 const ffd_method ffd_method_tspline = {
     .name = "tspline",
-    .id = FFD_RIG_TSPLINE,
+    .rig_keys = ffd_rig_keys_tspline,
+    .section_size = sizeof(ffd_rig_tspline),
     .parse = ffd_rig_parse_tspline,
     .apply = ffd_rig_apply_tspline,
     .load = ffd_sess_tspline_load,

@@ -532,7 +532,7 @@ static ffd_status report_details(const ffd_tsv *t, const tsv_tally *tally,
 ffd_status ffd_rig_apply_tspline(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report *report,
                                  ffd_budget *budget, ffd_error *err)
 {
-    const ffd_rig_tspline *rt = &rig->tsv;
+    const ffd_rig_tspline *rt = ffd_rig_tspline_of(rig);
     const char *name = rig->name;
     const size_t n = ffd_mesh_vertex_count(mesh);
     ffd_error inner = {{0}};

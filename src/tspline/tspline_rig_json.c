@@ -427,17 +427,14 @@ static ffd_status read_steps(const ffd_rig_parser *p, const cJSON *item, ffd_rig
     return s;
 }
 
+const char *const ffd_rig_keys_tspline[] = {"resolution", "padding", "steps", "fold_samples", NULL};
+
 ffd_status ffd_rig_parse_tspline(const ffd_rig_parser *p, const cJSON *root, ffd_rig *rig)
 {
-    static const char *const keys[] = {"version", "deformer", "resolution", "padding",
-                                       "steps",   "fold_samples", NULL};
-    ffd_rig_tspline *t = &rig->tsv;
-    rig->deformer = FFD_RIG_TSPLINE;
+    ffd_rig_tspline *t = ffd_rig_tspline_of(rig);
     t->resolution[0] = t->resolution[1] = t->resolution[2] = 6;
     const cJSON *item;
-    ffd_status s = ffd_rig_check_deformer_root(p, root, "tspline", keys,
-                                           "\"resolution\", \"padding\", \"steps\", "
-                                           "\"fold_samples\"");
+    ffd_status s = ffd_rig_check_deformer_root(p, root, &ffd_method_tspline);
     if (s)
         return s;
     if ((item = cJSON_GetObjectItemCaseSensitive(root, "resolution"))) {
@@ -469,5 +466,6 @@ ffd_status ffd_rig_parse_tspline(const ffd_rig_parser *p, const cJSON *root, ffd
 
 void ffd_rig_release_tspline(ffd_rig *rig)
 {
-    ffd_rig_tspline_free(&rig->tsv);
+    if (ffd_rig_tspline_of(rig))
+        ffd_rig_tspline_free(ffd_rig_tspline_of(rig));
 }

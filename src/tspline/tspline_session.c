@@ -358,7 +358,7 @@ static ffd_status refine_apply(tspline_method *t, const ffd_rig_tsv_step *step, 
 static ffd_status op_refine(tspline_method *t, const cJSON *body, ffd_error *err)
 {
     static const char *const keys[] = {"insertions", NULL};
-    ffd_rig_parser p = {"refine", err};
+    ffd_rig_parser p = {"refine", err, NULL};
     ffd_status st = ffd_rig_check_keys(&p, body, "body", keys, "insertions");
     const cJSON *list = cJSON_GetObjectItemCaseSensitive(body, "insertions");
     if (!st && !list)
@@ -375,7 +375,7 @@ static ffd_status op_refine(tspline_method *t, const cJSON *body, ffd_error *err
 static ffd_status op_freeze(tspline_method *t, const cJSON *body, ffd_error *err)
 {
     static const char *const keys[] = {"points", "frozen", NULL};
-    ffd_rig_parser p = {"freeze", err};
+    ffd_rig_parser p = {"freeze", err, NULL};
     uint32_t *ids = NULL;
     size_t k = 0;
     ffd_status st = ffd_rig_check_keys(&p, body, "body", keys, "points, frozen");
@@ -482,7 +482,7 @@ ffd_status ffd_sess_tspline_create(const sess_ctx *ctx, const cJSON *body, sess_
                                ffd_error *err)
 {
     static const char *const keys[] = {"method", "resolution", "padding", NULL};
-    ffd_rig_parser p = {"create", err};
+    ffd_rig_parser p = {"create", err, NULL};
     ffd_status st = ffd_rig_check_keys(&p, body, "body", keys, "method, resolution, padding");
     uint32_t res[3] = {6, 6, 6};
     double padding = 0;
@@ -509,7 +509,7 @@ ffd_status ffd_sess_tspline_create(const sess_ctx *ctx, const cJSON *body, sess_
 ffd_status ffd_sess_tspline_load(const sess_ctx *ctx, const ffd_rig *rig, sess_method **out,
                              ffd_error *err)
 {
-    const ffd_rig_tspline *rt = &rig->tsv;
+    const ffd_rig_tspline *rt = ffd_rig_tspline_of(rig);
     tspline_method *t = NULL;
     ffd_status st = tspline_build(ctx, rt->resolution, rt->options.padding, rig->name, &t, err);
     /* the rig's refinements, in order (the other steps only move points) */
