@@ -875,6 +875,87 @@ static void test_registry_rig_keys(void)
     CHECK(strstr(err.message, "skeleton: the file \"/etc/passwd\" is outside the server's directory"));
 }
 
+/* One schema per method: each method's writer (ffd_method.write, in the
+ * file of its reader) writes what its reader reads back to the same rig,
+ * every kind of entry of every method included: parse, write, parse, write
+ * gives the same text twice, and the text holds what the rig said. */
+static void test_registry_write_round_trip(void)
+{
+    static const struct {
+        const char *rig, *holds;
+    } rigs[] = {
+        {"{\"box\": {\"origin\": [0, 0, 0], \"axes\": [[2, 0, 0], [0, 1, 0], [0, 0, 1]]}, "
+         "\"basis\": \"bernstein\", \"resolution\": [3, 4, 5], \"outside\": \"clamp\", \"moves\": "
+         "[{\"index\": [1, 2, 3], \"delta\": [0.25, 0, -1]}], \"rcond\": 1e-6, \"constraints\": "
+         "[{\"vertex\": 3, \"target\": [1, 2, 3]}, {\"point\": [0.5, 0.5, 0.5], \"target\": [0, 0, 1]}]}",
+         "\"outside\":\t\"clamp\""},
+        {"{\"margin\": 0.2, \"resolution\": [2, 2, 2]}", "\"margin\":\t0.2"},
+        {"{\"deformer\": \"pbffd\", \"controls\": [{\"center\": [0, 0, 0], \"radius\": 1}, "
+         "{\"center\": [1, 0, 0], \"radius\": [1, 2, 1], \"enabled\": false}], \"sigma\": 2, "
+         "\"levels\": 2, \"master\": {\"radius\": 3, \"weight\": 0.5}, \"moves\": [{\"control\": 1, "
+         "\"delta\": [0, 0, 1]}, {\"near\": [1, 0, 0], \"level\": 1, \"delta\": [1, 0, 0]}], "
+         "\"frames\": [{\"control\": 0, \"scale\": [1, 2, 1]}, {\"control\": 1, \"frame\": [[1, 0, 0], "
+         "[0, 2, 0], [0, 0, 1]]}, {\"control\": 0, \"rotate\": {\"axis\": [0, 0, 1], \"angle\": 1}}], "
+         "\"curves\": [{\"points\": [[0, 0, 0], [1, 0, 0], [2, 0, 0]], \"radius\": 0.5, \"samples\": 9, "
+         "\"moves\": [{\"index\": 2, \"delta\": [0, 1, 0]}]}], \"constraint_level\": 1, "
+         "\"constraints\": [{\"vertex\": 0, \"target\": [0, 0, 0]}]}",
+         "\"enabled\":\tfalse"},
+        {"{\"deformer\": \"pbffd\", \"controls\": {\"interior\": 10, \"exterior\": 20, \"offset\": "
+         "0.2, \"radius_factor\": 2, \"surface\": \"open\", \"voronoi_sites\": 500, \"cover\": false}, "
+         "\"master\": false}",
+         "\"surface\":\t\"open\""},
+        {"{\"deformer\": \"gffd\", \"skeleton\": [{\"type\": \"polyline\", \"vertices\": [[0, 0, 0], "
+         "[1, 0, 0], [2, 0, 0]], \"radius\": 1}, {\"type\": \"patch\", \"vertices\": [[0, 0, 0], "
+         "[1, 0, 0], [0, 1, 0]], \"faces\": [[0, 1, 2]], \"radius\": 1}, {\"type\": \"point\", "
+         "\"position\": [5, 5, 5], \"radius\": 2}], \"unit\": 0.5, \"tracking\": \"warp\", "
+         "\"tolerance\": 0.01, \"max_iterations\": 7, \"max_samples\": 300, \"edits\": "
+         "[{\"primitive\": 0, \"vertices\": [[0, 0, 0], [1, 1, 0], [2, 0, 0]]}, {\"primitive\": 1, "
+         "\"move\": [0, 0, 1], \"vertex\": 2}, {\"primitive\": \"all\", \"translate\": [1, 0, 0]}, "
+         "{\"primitive\": 2, \"rotate\": {\"axis\": [0, 1, 0], \"angle\": 0.5}, \"center\": [0, 0, 0]}, "
+         "{\"primitive\": 1, \"scale\": [1, 2, 3]}], \"resample\": {\"ratio\": 2, \"max_rounds\": 3, "
+         "\"max_vertices\": 99}}",
+         "\"primitive\":\t\"all\""},
+        {"{\"deformer\": \"gffd\", \"skeleton\": [{\"type\": \"point\", \"position\": [0, 0, 0], "
+         "\"radius\": 1}], \"replace\": [{\"type\": \"polyline\", \"vertices\": [[0, 0, 0], "
+         "[1, 0, 0]], \"radius\": 1}], \"correspondences\": [{\"from\": [0, 0, 0], \"to\": "
+         "[1, 0, 0]}], \"resample\": true}",
+         "\"replace\":"},
+        {"{\"deformer\": \"tspline\", \"resolution\": [5, 6, 7], \"padding\": 0.1, \"fold_samples\": "
+         "16, \"steps\": [{\"refine\": [{\"cell\": 0}, {\"edge\": {\"near\": [0, 0, 0]}, \"ratio\": "
+         "0.25}, {\"cells\": \"proxy\"}, {\"face\": 3}]}, {\"deform\": {\"handles\": [{\"points\": "
+         "[1, 2], \"delta\": [0, 0, 1]}, {\"box\": {\"min\": [0, 0, 0], \"max\": [1, 1, 1]}, "
+         "\"rotate\": {\"axis\": [0, 0, 1], \"angle\": 0.5, \"center\": [1, 1, 1]}}], \"freeze\": "
+         "[{\"edges\": [3]}, {\"near\": [0, 0, 0]}, {\"faces\": [1]}], \"weights\": {\"one_form\": 2, "
+         "\"target\": 3}, \"iterations\": 9, \"soft\": true, \"only_target\": true}}, {\"move\": "
+         "[{\"cells\": [0, 1], \"delta\": [1, 0, 0]}]}, {\"constraints\": {\"targets\": [{\"vertex\": "
+         "4, \"target\": [1, 2, 3]}], \"freeze\": [{\"points\": [7]}]}}]}",
+         "\"only_target\":\ttrue"},
+    };
+    CHECK(ffd_method_count() == 4);
+    for (size_t i = 0; i < ffd_method_count(); i++)
+        CHECK(ffd_method_at(i)->write != NULL);
+    for (size_t r = 0; r < sizeof rigs / sizeof *rigs; r++) {
+        ffd_error err = {{0}};
+        ffd_rig *first = parse_ok(rigs[r].rig), *second = NULL;
+        char *text1 = NULL, *text2 = NULL;
+        CHECK(first && ffd_rig_write_json(first, &text1, &err) == FFD_OK);
+        CHECK(text1 && ffd_rig_parse_json(text1, strlen(text1), "written.json", &second, &err) ==
+                           FFD_OK);
+        if (!second)
+            fprintf(stderr, "  rig %zu: %s\n", r, err.message);
+        CHECK(second && ffd_rig_write_json(second, &text2, &err) == FFD_OK);
+        CHECK(text1 && text2 && strcmp(text1, text2) == 0);
+        CHECK(text1 && strstr(text1, rigs[r].holds));
+        if (!text1 || !strstr(text1, rigs[r].holds))
+            fprintf(stderr, "  rig %zu written as:\n%s\n  (%s)\n", r, text1 ? text1 : "(none)",
+                    err.message);
+        ffd_free(text1);
+        ffd_free(text2);
+        ffd_rig_destroy(first);
+        ffd_rig_destroy(second);
+    }
+}
+
 /* The arrays of every method's schema (ffd_rig_read_array: elements that own
  * memory, nested arrays) under every allocation failure: NOMEM, nothing
  * leaked (ASan), and the rig reads once allocation succeeds. */
@@ -1058,6 +1139,7 @@ int main(int argc, char **argv)
         {"allocation_failures_every_method", test_allocation_failures_every_method},
         {"registry_schemas", test_registry_schemas},
         {"registry_rig_keys", test_registry_rig_keys},
+        {"registry_write_round_trip", test_registry_write_round_trip},
     };
     return check_run(tests, sizeof tests / sizeof tests[0], argc, argv);
 }

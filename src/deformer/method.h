@@ -23,6 +23,10 @@ typedef struct ffd_method {
      * it into rig (rig_json_<method>.c; ffd_rig_parse_json dispatches here,
      * the editor's "create" reads its body with it). */
     ffd_status (*parse)(const ffd_rig_parser *p, const cJSON *root, ffd_rig *rig);
+    /* The method's writer, in the same file as parse: the section (and the
+     * keys of rig it owns) as parse reads them, added to root; 0 when out of
+     * memory. The editor's saved rigs are written with it. */
+    int (*write)(const ffd_rig *rig, cJSON *root);
     /* Applies a parsed rig of this method to mesh (ffd_rig_apply). */
     ffd_status (*apply)(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report *report,
                         ffd_budget *budget, ffd_error *err);

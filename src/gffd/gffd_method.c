@@ -14,5 +14,6 @@ const ffd_method ffd_method_gffd = {
     .load = ffd_sess_gffd_load,
     .create = ffd_sess_gffd_create,
     .release = ffd_rig_release_gffd,
+    .write = ffd_rig_write_gffd,
     .ops = gffd_ops,
 };

@@ -68,6 +68,13 @@ static inline ffd_rig_gffd *ffd_rig_gffd_of(const ffd_rig *rig)
 }
 
 void ffd_rig_release_gffd(ffd_rig *rig);
+/* The writer (ffd_method.write): the section as its reader reads it, into
+ * root; 0 when out of memory. */
+int ffd_rig_write_gffd(const ffd_rig *rig, cJSON *root);
+/* A primitive's "type", and its faces as JSON with vertex ids + offset
+ * (the editor's state shares them). */
+const char *ffd_rig_gffd_kind_name(ffd_gffd_kind kind);
+cJSON *ffd_rig_gffd_faces_json(const ffd_rig_primitive *p, size_t offset);
 
 /* A skeleton primitive (docs/rig.md "GFFD rigs"); a "file" is read
  * relative to p->name's directory. On error prim may hold partial arrays

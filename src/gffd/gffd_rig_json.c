@@ -513,6 +513,156 @@ ffd_status ffd_rig_parse_gffd(const ffd_rig_parser *p, const cJSON *root, ffd_ri
     return FFD_OK;
 }
 
+/* ======================================================================
+ * Writer: the section as the reader above reads it
+ * ====================================================================== */
+
+static const char *const kind_names[] = {"point", "polyline", "patch", "polyhedron", NULL};
+
+const char *ffd_rig_gffd_kind_name(ffd_gffd_kind kind)
+{
+    return kind_names[kind];
+}
+
+static cJSON *points_json(const double *v, size_t n)
+{
+    cJSON *a = cJSON_CreateArray();
+    for (size_t i = 0; a && i < n; i++)
+        if (!ffd_sess_add_to_array(a, ffd_sess_array(v + 3 * i, 3))) {
+            cJSON_Delete(a);
+            return NULL;
+        }
+    return a;
+}
+
+cJSON *ffd_rig_gffd_faces_json(const ffd_rig_primitive *p, size_t offset)
+{
+    cJSON *a = cJSON_CreateArray();
+    for (size_t f = 0; a && f < p->face_count; f++) {
+        cJSON *face = cJSON_CreateArray();
+        int ok = ffd_sess_add_to_array(a, face);
+        for (uint32_t c = p->face_offsets[f]; ok && c < p->face_offsets[f + 1]; c++)
+            ok = ffd_sess_add_to_array(face, cJSON_CreateNumber((double)(offset + p->face_indices[c])));
+        if (!ok) {
+            cJSON_Delete(a);
+            return NULL;
+        }
+    }
+    return a;
+}
+
+/* A primitive with its geometry inline (a "file" was read into it). */
+static cJSON *primitive_json(const ffd_rig_primitive *p)
+{
+    cJSON *o = cJSON_CreateObject();
+    int ok = o && cJSON_AddStringToObject(o, "type", kind_names[p->kind]) &&
+             ffd_sess_add_item(o, "radius", ffd_sess_number(p->radius));
+    if (ok && p->kind == FFD_GFFD_POINT)
+        ok = ffd_sess_add_item(o, "position", ffd_sess_array(p->vertices, 3));
+    else if (ok)
+        ok = ffd_sess_add_item(o, "vertices", points_json(p->vertices, p->vertex_count)) &&
+             (!p->face_count || ffd_sess_add_item(o, "faces", ffd_rig_gffd_faces_json(p, 0)));
+    if (!ok) {
+        cJSON_Delete(o);
+        return NULL;
+    }
+    return o;
+}
+
+static int add_skeleton(cJSON *root, const char *key, const ffd_rig_primitive *p, size_t count)
+{
+    cJSON *a = cJSON_AddArrayToObject(root, key);
+    int ok = a != NULL;
+    for (size_t i = 0; ok && i < count; i++)
+        ok = ffd_sess_add_to_array(a, primitive_json(&p[i]));
+    return ok;
+}
+
+static int add_options(cJSON *root, const ffd_gffd_options *o)
+{
+    return (!(o->unit > 0) || ffd_sess_add_item(root, "unit", ffd_sess_number(o->unit))) &&
+           cJSON_AddStringToObject(root, "tracking",
+                                   o->tracking == FFD_GFFD_TRACK_WARP ? "warp" : "gradient") &&
+           (!(o->tolerance > 0) || ffd_sess_add_item(root, "tolerance", ffd_sess_number(o->tolerance))) &&
+           (!o->max_iterations ||
+            cJSON_AddNumberToObject(root, "max_iterations", o->max_iterations)) &&
+           (!o->max_samples ||
+            cJSON_AddNumberToObject(root, "max_samples", (double)o->max_samples));
+}
+
+static cJSON *edit_json(const ffd_rig_gffd_edit *d)
+{
+    cJSON *e = cJSON_CreateObject(), *r = NULL;
+    int ok = e && (d->all ? cJSON_AddStringToObject(e, "primitive", "all") != NULL
+                          : cJSON_AddNumberToObject(e, "primitive", (double)d->primitive) != NULL);
+    switch (d->kind) {
+    case FFD_RIG_EDIT_ROTATE:
+        ok = ok && (r = cJSON_AddObjectToObject(e, "rotate")) &&
+             ffd_sess_add_item(r, "axis", ffd_sess_array(d->axis, 3)) &&
+             ffd_sess_add_item(r, "angle", ffd_sess_number(d->angle));
+        break;
+    case FFD_RIG_EDIT_TRANSLATE:
+        ok = ok && ffd_sess_add_item(e, "translate", ffd_sess_array(d->delta, 3));
+        break;
+    case FFD_RIG_EDIT_SCALE:
+        ok = ok && ffd_sess_add_item(e, "scale", ffd_sess_array(d->scale, 3));
+        break;
+    case FFD_RIG_EDIT_MOVE:
+        ok = ok && cJSON_AddNumberToObject(e, "vertex", (double)d->vertex) &&
+             ffd_sess_add_item(e, "move", ffd_sess_array(d->delta, 3));
+        break;
+    default:
+        ok = ok && ffd_sess_add_item(e, "vertices", points_json(d->vertices, d->vertex_count));
+    }
+    ok = ok && (!d->has_center || ffd_sess_add_item(e, "center", ffd_sess_array(d->center, 3)));
+    if (!ok) {
+        cJSON_Delete(e);
+        return NULL;
+    }
+    return e;
+}
+
+static cJSON *correspondences_json(const ffd_rig_gffd *g)
+{
+    cJSON *a = cJSON_CreateArray();
+    for (size_t i = 0; a && i < g->corr_count; i++) {
+        cJSON *o = cJSON_CreateObject();
+        if (!ffd_sess_add_to_array(a, o) ||
+            !ffd_sess_add_item(o, "from", ffd_sess_array(g->corr_from + 3 * i, 3)) ||
+            !ffd_sess_add_item(o, "to", ffd_sess_array(g->corr_to + 3 * i, 3))) {
+            cJSON_Delete(a);
+            return NULL;
+        }
+    }
+    return a;
+}
+
+static int add_resample(cJSON *root, const ffd_rig_gffd *g)
+{
+    const ffd_gffd_resample_options *o = &g->resample_options;
+    if (!o->ratio && !o->max_rounds && !o->max_vertices)
+        return cJSON_AddBoolToObject(root, "resample", g->resample != 0) != NULL;
+    cJSON *r = cJSON_AddObjectToObject(root, "resample");
+    return r && (!o->ratio || ffd_sess_add_item(r, "ratio", ffd_sess_number(o->ratio))) &&
+           (!o->max_rounds || cJSON_AddNumberToObject(r, "max_rounds", o->max_rounds)) &&
+           (!o->max_vertices || cJSON_AddNumberToObject(r, "max_vertices", (double)o->max_vertices));
+}
+
+int ffd_rig_write_gffd(const ffd_rig *rig, cJSON *root)
+{
+    const ffd_rig_gffd *g = ffd_rig_gffd_of(rig);
+    cJSON *edits = NULL;
+    int ok = add_skeleton(root, "skeleton", g->skeleton, g->skeleton_count) &&
+             add_options(root, &g->options) &&
+             (g->replace_count || (edits = cJSON_AddArrayToObject(root, "edits"))) &&
+             (!g->corr_count || ffd_sess_add_item(root, "correspondences", correspondences_json(g))) &&
+             (!g->replace_count || add_skeleton(root, "replace", g->replace, g->replace_count)) &&
+             (!g->resample || add_resample(root, g));
+    for (size_t i = 0; ok && edits && i < g->edit_count; i++)
+        ok = ffd_sess_add_to_array(edits, edit_json(&g->edits[i]));
+    return ok;
+}
+
 void ffd_rig_release_gffd(ffd_rig *rig)
 {
     ffd_rig_gffd *g = ffd_rig_gffd_of(rig);

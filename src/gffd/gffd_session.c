@@ -88,7 +88,6 @@ static ffd_rig_gffd_edit *edits_copy(const ffd_rig_gffd_edit *src, size_t n, siz
     }
     return e;
 }
-static const char *const kind_names[] = {"point", "polyline", "patch", "polyhedron", NULL};
 
 /* ---- skeletons ------------------------------------------------------- */
 
@@ -534,22 +533,6 @@ static int add_edges(const gf_method *m, cJSON *edges)
     return ok;
 }
 
-static cJSON *faces_json(const ffd_rig_primitive *p, size_t offset)
-{
-    cJSON *a = cJSON_CreateArray();
-    for (size_t f = 0; a && f < p->face_count; f++) {
-        cJSON *face = cJSON_CreateArray();
-        int ok = ffd_sess_add_to_array(a, face);
-        for (uint32_t c = p->face_offsets[f]; ok && c < p->face_offsets[f + 1]; c++)
-            ok = ffd_sess_add_to_array(face, cJSON_CreateNumber((double)(offset + p->face_indices[c])));
-        if (!ok) {
-            cJSON_Delete(a);
-            return NULL;
-        }
-    }
-    return a;
-}
-
 static ffd_status gf_describe(const sess_method *base, cJSON *params, cJSON *controls,
                               ffd_error *err)
 {
@@ -566,11 +549,11 @@ static ffd_status gf_describe(const sess_method *base, cJSON *params, cJSON *con
     for (size_t i = 0; ok && i < m->count; i++) {
         const ffd_rig_primitive *p = &m->rest[i];
         cJSON *o = cJSON_CreateObject();
-        ok = ffd_sess_add_to_array(prims, o) && cJSON_AddStringToObject(o, "type", kind_names[p->kind]) &&
+        ok = ffd_sess_add_to_array(prims, o) && cJSON_AddStringToObject(o, "type", ffd_rig_gffd_kind_name(p->kind)) &&
              cJSON_AddNumberToObject(o, "radius", p->radius) &&
              cJSON_AddNumberToObject(o, "offset", (double)m->offset[i]) &&
              cJSON_AddNumberToObject(o, "count", (double)p->vertex_count) &&
-             ffd_sess_add_item(o, "faces", faces_json(p, m->offset[i]));
+             ffd_sess_add_item(o, "faces", ffd_rig_gffd_faces_json(p, m->offset[i]));
     }
     return ok ? FFD_OK : ffd_fail(err, FFD_ERR_NOMEM, "state: out of memory");
 }
@@ -807,85 +790,27 @@ static ffd_status gf_reset(sess_method *base, ffd_error *err)
 
 /* ---- the rig --------------------------------------------------------- */
 
-static cJSON *points_json(const double *v, size_t n)
-{
-    cJSON *a = cJSON_CreateArray();
-    for (size_t i = 0; a && i < n; i++)
-        if (!ffd_sess_add_to_array(a, ffd_sess_array(v + 3 * i, 3))) {
-            cJSON_Delete(a);
-            return NULL;
-        }
-    return a;
-}
-
-static cJSON *primitive_json(const ffd_rig_primitive *p)
-{
-    cJSON *o = cJSON_CreateObject();
-    int ok = o && cJSON_AddStringToObject(o, "type", kind_names[p->kind]) &&
-             ffd_sess_add_item(o, "radius", ffd_sess_number(p->radius));
-    if (ok && p->kind == FFD_GFFD_POINT)
-        ok = ffd_sess_add_item(o, "position", ffd_sess_array(p->vertices, 3));
-    else if (ok)
-        ok = ffd_sess_add_item(o, "vertices", points_json(p->vertices, p->vertex_count)) &&
-             (!p->face_count || ffd_sess_add_item(o, "faces", faces_json(p, 0)));
-    if (!ok) {
-        cJSON_Delete(o);
-        return NULL;
-    }
-    return o;
-}
-
-static int add_options(cJSON *root, const ffd_gffd_options *o)
-{
-    return ffd_sess_add_item(root, "unit", ffd_sess_number(o->unit)) &&
-           cJSON_AddStringToObject(root, "tracking",
-                                   o->tracking == FFD_GFFD_TRACK_WARP ? "warp" : "gradient") &&
-           (!(o->tolerance > 0) || ffd_sess_add_item(root, "tolerance", ffd_sess_number(o->tolerance))) &&
-           (!o->max_iterations ||
-            cJSON_AddNumberToObject(root, "max_iterations", o->max_iterations)) &&
-           (!o->max_samples ||
-            cJSON_AddNumberToObject(root, "max_samples", (double)o->max_samples));
-}
-
-static cJSON *correspondences_json(const gf_method *m)
-{
-    cJSON *a = cJSON_CreateArray();
-    for (size_t i = 0; a && i < m->corr_count; i++) {
-        cJSON *o = cJSON_CreateObject();
-        if (!ffd_sess_add_to_array(a, o) || !ffd_sess_add_item(o, "from", ffd_sess_array(m->corr_from + 3 * i, 3)) ||
-            !ffd_sess_add_item(o, "to", ffd_sess_array(m->corr_to + 3 * i, 3))) {
-            cJSON_Delete(a);
-            return NULL;
-        }
-    }
-    return a;
-}
-
+/* The state as a rig: the rest skeleton, the edits since, the options and
+ * the correspondences, written by the rig's own writer (gffd_rig_json.c). */
 static ffd_status gf_rig(const sess_method *base, cJSON *root, ffd_error *err)
 {
     const gf_method *m = (const gf_method *)base;
-    cJSON *skeleton = NULL, *edits = NULL;
-    int ok = (skeleton = cJSON_AddArrayToObject(root, "skeleton")) && add_options(root, &m->opt) &&
-             (edits = cJSON_AddArrayToObject(root, "edits")) &&
-             (!m->corr_count || ffd_sess_add_item(root, "correspondences", correspondences_json(m)));
-    for (size_t i = 0; ok && i < m->count; i++)
-        ok = ffd_sess_add_to_array(skeleton, primitive_json(&m->rest[i]));
-    for (size_t i = 0; ok && i < m->edit_count; i++) {
-        const ffd_rig_gffd_edit *d = &m->edits[i];
-        cJSON *e = cJSON_CreateObject(), *r = NULL;
-        ok = ffd_sess_add_to_array(edits, e) &&
-             cJSON_AddNumberToObject(e, "primitive", (double)d->primitive);
-        if (ok && d->kind == FFD_RIG_EDIT_ROTATE)
-            ok = (r = cJSON_AddObjectToObject(e, "rotate")) &&
-                 ffd_sess_add_item(r, "axis", ffd_sess_array(d->axis, 3)) &&
-                 ffd_sess_add_item(r, "angle", ffd_sess_number(d->angle)) &&
-                 ffd_sess_add_item(e, "center", ffd_sess_array(d->center, 3));
-        else if (ok && d->kind == FFD_RIG_EDIT_TRANSLATE)
-            ok = ffd_sess_add_item(e, "translate", ffd_sess_array(d->delta, 3));
-        else if (ok)
-            ok = ffd_sess_add_item(e, "vertices", points_json(d->vertices, d->vertex_count));
-    }
-    return ok ? FFD_OK : ffd_fail(err, FFD_ERR_NOMEM, "rig: out of memory");
+    ffd_rig rig;
+    ffd_rig_gffd g;
+    memset(&rig, 0, sizeof rig);
+    memset(&g, 0, sizeof g);
+    rig.method = &ffd_method_gffd;
+    rig.section = &g; /* borrows the state's arrays */
+    g.skeleton = m->rest;
+    g.skeleton_count = m->count;
+    g.edits = m->edits;
+    g.edit_count = m->edit_count;
+    g.corr_from = m->corr_from;
+    g.corr_to = m->corr_to;
+    g.corr_count = m->corr_count;
+    g.options = m->opt;
+    return ffd_method_gffd.write(&rig, root) ? FFD_OK
+                                              : ffd_fail(err, FFD_ERR_NOMEM, "rig: out of memory");
 }
 
 /* ---- influence: the primitives' share of the merged field ------------ */

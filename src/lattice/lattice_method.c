@@ -11,4 +11,5 @@ const ffd_method ffd_method_lattice = {
     .load = ffd_sess_lattice_load,
     .create = ffd_sess_lattice_create,
     .release = ffd_rig_release_lattice,
+    .write = ffd_rig_write_lattice,
 };

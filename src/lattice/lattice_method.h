@@ -8,6 +8,9 @@
 #include "deformer/method.h"
 #include "rig/rig_json.h"
 
+/* The writer (ffd_method.write; lattice_rig_json.c): 0 when out of memory. */
+int ffd_rig_write_lattice(const ffd_rig *rig, cJSON *root);
+
 /* The method's top-level rig keys (ffd_method.rig_keys; lattice_rig_json.c). */
 extern const char *const ffd_rig_keys_lattice[];
 

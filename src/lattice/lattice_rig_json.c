@@ -163,6 +163,31 @@ ffd_status ffd_rig_parse_lattice(const ffd_rig_parser *p, const cJSON *root, ffd
     return validate(p, rig);
 }
 
+/* The writer (ffd_method.write): the lattice keys as the reader above reads
+ * them. */
+int ffd_rig_write_lattice(const ffd_rig *rig, cJSON *root)
+{
+    static const char *const bases[] = {"bspline", "bernstein"};
+    static const char *const outsides[] = {"fixed", "clamp", "extrapolate"};
+    cJSON *box = NULL, *moves = NULL;
+    int ok = rig->box_auto ? ffd_sess_add_item(root, "margin", ffd_sess_number(rig->margin))
+                           : (box = cJSON_AddObjectToObject(root, "box")) &&
+                                 ffd_sess_add_item(box, "origin", ffd_sess_vec3(rig->box.origin)) &&
+                                 ffd_sess_add_item(box, "axes", ffd_sess_matrix3(
+                                                                    (const double(*)[3])rig->box.axes));
+    ok = ok && (moves = cJSON_AddArrayToObject(root, "moves")) &&
+         cJSON_AddStringToObject(root, "basis", bases[rig->basis == FFD_BASIS_BERNSTEIN]) &&
+         ffd_sess_add_item(root, "resolution", ffd_sess_uint_array(rig->resolution, 3)) &&
+         cJSON_AddStringToObject(root, "outside", outsides[rig->outside]);
+    for (size_t i = 0; ok && i < rig->move_count; i++) {
+        cJSON *move = cJSON_CreateObject();
+        ok = ffd_sess_add_to_array(moves, move) &&
+             ffd_sess_add_item(move, "index", ffd_sess_uint_array(rig->moves[i].index, 3)) &&
+             ffd_sess_add_item(move, "delta", ffd_sess_vec3(rig->moves[i].delta));
+    }
+    return ok;
+}
+
 void ffd_rig_release_lattice(ffd_rig *rig)
 {
     ffd_free(rig->moves);

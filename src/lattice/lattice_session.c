@@ -165,46 +165,50 @@ static ffd_status lat_reset(sess_method *m, ffd_error *err)
     return FFD_OK;
 }
 
+/* The state as a rig: its box, basis, resolution and outside rule, and a
+ * move per displaced control point, written by the rig's own writer
+ * (lattice_rig_json.c). */
 static ffd_status lat_rig(const sess_method *m, cJSON *root, ffd_error *err)
 {
     const lattice_method *l = as_lattice(m);
-    uint32_t r[3];
-    ffd_box box;
-    ffd_lattice_resolution(l->lattice, r);
-    ffd_lattice_box(l->lattice, &box);
+    ffd_rig rig;
+    memset(&rig, 0, sizeof rig);
+    rig.method = &ffd_method_lattice;
+    rig.basis = ffd_lattice_basis(l->lattice);
+    rig.outside = l->outside;
+    ffd_lattice_resolution(l->lattice, rig.resolution);
+    ffd_lattice_box(l->lattice, &rig.box);
+    const uint32_t *r = rig.resolution;
     const double *p = ffd_lattice_control_points(l->lattice);
-    cJSON *jbox = cJSON_CreateObject(), *moves = cJSON_CreateArray();
-    /* ffd_sess_add_item deletes an item it could not add */
-    int ok = ffd_sess_add_item(root, "box", jbox);
-    if (ok)
-        ok = ffd_sess_add_item(root, "moves", moves);
-    else
-        cJSON_Delete(moves);
-    ok = ok &&
-         cJSON_AddStringToObject(root, "basis",
-                                 basis_names[ffd_lattice_basis(l->lattice) == FFD_BASIS_BERNSTEIN]) &&
-         ffd_sess_add_item(root, "resolution", ffd_sess_uint_array(r, 3)) &&
-         cJSON_AddStringToObject(root, "outside", outside_names[l->outside]) &&
-         ffd_sess_add_item(jbox, "origin", ffd_sess_vec3(box.origin)) &&
-         ffd_sess_add_item(jbox, "axes", ffd_sess_matrix3((const double(*)[3])box.axes));
-    for (uint32_t i = 0; ok && i < r[0]; i++)
-        for (uint32_t j = 0; ok && j < r[1]; j++)
-            for (uint32_t k = 0; ok && k < r[2]; k++) {
-                double rest[3], d[3];
+    size_t moved = 0; /* the displaced control points: one move each */
+    for (uint32_t i = 0; i < r[0]; i++)
+        for (uint32_t j = 0; j < r[1]; j++)
+            for (uint32_t k = 0; k < r[2]; k++) {
+                double rest[3];
                 const double *q = p + 3 * ((size_t)(i * r[1] + j) * r[2] + k);
                 ffd_lattice_rest_point(l->lattice, i, j, k, rest);
-                for (int a = 0; a < 3; a++)
-                    d[a] = q[a] - rest[a];
-                if (d[0] == 0 && d[1] == 0 && d[2] == 0)
-                    continue;
-                uint32_t index[3] = {i, j, k};
-                cJSON *move = cJSON_CreateObject();
-                ok = move && cJSON_AddItemToArray(moves, move);
-                if (!ok)
-                    cJSON_Delete(move);
-                ok = ok && ffd_sess_add_item(move, "index", ffd_sess_uint_array(index, 3)) &&
-                     ffd_sess_add_item(move, "delta", ffd_sess_vec3(d));
+                moved += q[0] != rest[0] || q[1] != rest[1] || q[2] != rest[2];
             }
+    rig.moves = ffd_malloc_array(moved ? moved : 1, sizeof *rig.moves);
+    if (!rig.moves)
+        return ffd_fail(err, FFD_ERR_NOMEM, "rig: out of memory");
+    for (uint32_t i = 0; i < r[0]; i++)
+        for (uint32_t j = 0; j < r[1]; j++)
+            for (uint32_t k = 0; k < r[2]; k++) {
+                double rest[3];
+                const double *q = p + 3 * ((size_t)(i * r[1] + j) * r[2] + k);
+                ffd_lattice_rest_point(l->lattice, i, j, k, rest);
+                if (q[0] == rest[0] && q[1] == rest[1] && q[2] == rest[2])
+                    continue;
+                ffd_rig_move *mv = &rig.moves[rig.move_count++];
+                for (int a = 0; a < 3; a++)
+                    mv->delta[a] = q[a] - rest[a];
+                mv->index[0] = i;
+                mv->index[1] = j;
+                mv->index[2] = k;
+            }
+    int ok = ffd_method_lattice.write(&rig, root);
+    ffd_free(rig.moves);
     return ok ? FFD_OK : ffd_fail(err, FFD_ERR_NOMEM, "rig: out of memory");
 }
 

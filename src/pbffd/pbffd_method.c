@@ -14,5 +14,6 @@ const ffd_method ffd_method_pbffd = {
     .load = ffd_sess_pbffd_load,
     .create = ffd_sess_pbffd_create,
     .release = ffd_rig_release_pbffd,
+    .write = ffd_rig_write_pbffd,
     .ops = pbffd_ops,
 };

@@ -63,6 +63,9 @@ static inline ffd_rig_pbffd *ffd_rig_pbffd_of(const ffd_rig *rig)
 }
 
 void ffd_rig_release_pbffd(ffd_rig *rig);
+/* The writer (ffd_method.write): the section as its reader reads it, into
+ * root; 0 when out of memory. */
+int ffd_rig_write_pbffd(const ffd_rig *rig, cJSON *root);
 
 ffd_status ffd_sess_pbffd_create(const sess_ctx *ctx, const cJSON *body, sess_method **out,
                              ffd_error *err);

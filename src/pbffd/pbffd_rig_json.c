@@ -489,6 +489,127 @@ ffd_status ffd_rig_parse_pbffd(const ffd_rig_parser *p, const cJSON *root, ffd_r
 }
 
 /* ======================================================================
+ * Writer: the section as the reader above reads it (ffd_method.write)
+ * ====================================================================== */
+
+static cJSON *placement_json(const ffd_placement_options *o)
+{
+    static const char *const surfaces[] = {"auto", "closed", "open"};
+    cJSON *c = cJSON_CreateObject();
+    int ok = c && (!o->interior_count || cJSON_AddNumberToObject(c, "interior", (double)o->interior_count)) &&
+             (!o->exterior_count || cJSON_AddNumberToObject(c, "exterior", (double)o->exterior_count)) &&
+             (!(o->offset > 0) || ffd_sess_add_item(c, "offset", ffd_sess_number(o->offset))) &&
+             (!(o->radius_factor > 0) ||
+              ffd_sess_add_item(c, "radius_factor", ffd_sess_number(o->radius_factor))) &&
+             (o->surface == FFD_SURFACE_AUTO ||
+              cJSON_AddStringToObject(c, "surface", surfaces[o->surface == FFD_SURFACE_CLOSED ? 1 : 2])) &&
+             (!o->voronoi_sites || cJSON_AddNumberToObject(c, "voronoi_sites", (double)o->voronoi_sites)) &&
+             (!o->no_cover || cJSON_AddFalseToObject(c, "cover"));
+    if (!ok) {
+        cJSON_Delete(c);
+        return NULL;
+    }
+    return c;
+}
+
+/* An explicit control: centre, radius, frame (as given), "enabled": false
+ * when disabled. */
+static cJSON *control_json(const ffd_ebf *e)
+{
+    cJSON *o = cJSON_CreateObject();
+    int ok = o && ffd_sess_add_item(o, "center", ffd_sess_array(e->center, 3)) &&
+             ffd_sess_add_item(o, "radius", ffd_sess_array(e->radius, 3)) &&
+             ffd_sess_add_item(o, "frame", ffd_sess_matrix3((const double(*)[3])e->frame)) &&
+             (!e->disabled || cJSON_AddBoolToObject(o, "enabled", 0));
+    if (!ok) {
+        cJSON_Delete(o);
+        return NULL;
+    }
+    return o;
+}
+
+static int add_options(cJSON *root, const ffd_pbffd_options *o)
+{
+    if (o->sigma > 0 && !ffd_sess_add_item(root, "sigma", ffd_sess_number(o->sigma)))
+        return 0;
+    if (o->levels > 1 && !cJSON_AddNumberToObject(root, "levels", o->levels))
+        return 0;
+    if (o->no_master)
+        return cJSON_AddFalseToObject(root, "master") != NULL;
+    if (o->master_radius > 0 || o->master_weight > 0) {
+        cJSON *ms = cJSON_CreateObject();
+        return ffd_sess_add_item(root, "master", ms) &&
+               (!(o->master_radius > 0) || ffd_sess_add_item(ms, "radius", ffd_sess_number(o->master_radius))) &&
+               (!(o->master_weight > 0) || ffd_sess_add_item(ms, "weight", ffd_sess_number(o->master_weight)));
+    }
+    return 1;
+}
+
+/* A move (frames == 0) or a frame edit. */
+static cJSON *pb_edit_json(const ffd_rig_pb_edit *e, int frames)
+{
+    cJSON *o = cJSON_CreateObject(), *r = NULL;
+    int ok = o && (e->by_near ? ffd_sess_add_item(o, "near", ffd_sess_array(e->near, 3))
+                              : cJSON_AddNumberToObject(o, "control", e->control) != NULL) &&
+             cJSON_AddNumberToObject(o, "level", e->level);
+    if (ok && !frames)
+        ok = ffd_sess_add_item(o, "delta", ffd_sess_array(e->delta, 3));
+    else if (ok && e->frame_kind == 1)
+        ok = ffd_sess_add_item(o, "frame", ffd_sess_matrix3((const double(*)[3])e->frame));
+    else if (ok)
+        ok = (r = cJSON_AddObjectToObject(o, "rotate")) &&
+             ffd_sess_add_item(r, "axis", ffd_sess_array(e->axis, 3)) &&
+             ffd_sess_add_item(r, "angle", ffd_sess_number(e->angle)) &&
+             ffd_sess_add_item(o, "scale", ffd_sess_array(e->scale, 3));
+    if (!ok) {
+        cJSON_Delete(o);
+        return NULL;
+    }
+    return o;
+}
+
+static cJSON *curve_json(const ffd_rig_curve *cv)
+{
+    cJSON *o = cJSON_CreateObject();
+    cJSON *pts = cJSON_AddArrayToObject(o, "points"), *mv = cJSON_AddArrayToObject(o, "moves");
+    int ok = pts && mv && ffd_sess_add_item(o, "radius", ffd_sess_number(cv->radius)) &&
+             (!cv->samples || cJSON_AddNumberToObject(o, "samples", cv->samples));
+    for (size_t i = 0; ok && i < cv->point_count; i++)
+        ok = ffd_sess_add_to_array(pts, ffd_sess_array(cv->points + 3 * i, 3));
+    for (size_t k = 0; ok && k < cv->move_count; k++) {
+        cJSON *e = cJSON_CreateObject();
+        ok = ffd_sess_add_to_array(mv, e) && cJSON_AddNumberToObject(e, "index", cv->moves[k].index) &&
+             ffd_sess_add_item(e, "delta", ffd_sess_array(cv->moves[k].delta, 3));
+    }
+    if (!ok) {
+        cJSON_Delete(o);
+        return NULL;
+    }
+    return o;
+}
+
+int ffd_rig_write_pbffd(const ffd_rig *rig, cJSON *root)
+{
+    const ffd_rig_pbffd *pb = ffd_rig_pbffd_of(rig);
+    cJSON *controls = pb->controls_auto ? placement_json(&pb->placement) : cJSON_CreateArray();
+    int ok = ffd_sess_add_item(root, "controls", controls) && add_options(root, &pb->options);
+    for (size_t j = 0; ok && !pb->controls_auto && j < pb->control_count; j++)
+        ok = ffd_sess_add_to_array(controls, control_json(&pb->controls[j]));
+    cJSON *moves = ok ? cJSON_AddArrayToObject(root, "moves") : NULL;
+    cJSON *frames = moves ? cJSON_AddArrayToObject(root, "frames") : NULL;
+    cJSON *curves = frames ? cJSON_AddArrayToObject(root, "curves") : NULL;
+    ok = curves && (!pb->constraint_level ||
+                    cJSON_AddNumberToObject(root, "constraint_level", pb->constraint_level));
+    for (size_t i = 0; ok && i < pb->move_count; i++)
+        ok = ffd_sess_add_to_array(moves, pb_edit_json(&pb->moves[i], 0));
+    for (size_t i = 0; ok && i < pb->frame_count; i++)
+        ok = ffd_sess_add_to_array(frames, pb_edit_json(&pb->frames[i], 1));
+    for (size_t c = 0; ok && c < pb->curve_count; c++)
+        ok = ffd_sess_add_to_array(curves, curve_json(&pb->curves[c]));
+    return ok;
+}
+
+/* ======================================================================
  * Writer: a PB-FFD rig holding an explicit control set
  * ====================================================================== */
 

@@ -612,23 +612,20 @@ static void pb_controls(const sess_method *base, double *out)
 
 /* ---- describe -------------------------------------------------------- */
 
-/* One EBF: the rig's explicit control (with its centre), or the state's
- * (unit frame directions and "enabled"). */
-static cJSON *ebf_json(const ffd_ebf *e, int rig)
+/* One EBF in the state: unit frame directions and "enabled". */
+static cJSON *ebf_json(const ffd_ebf *e)
 {
     double frame[3][3];
     for (int a = 0; a < 3; a++) {
         double len = sqrt(e->frame[a][0] * e->frame[a][0] + e->frame[a][1] * e->frame[a][1] +
                           e->frame[a][2] * e->frame[a][2]);
         for (int b = 0; b < 3; b++)
-            frame[a][b] = rig ? e->frame[a][b] : e->frame[a][b] / len;
+            frame[a][b] = e->frame[a][b] / len;
     }
     cJSON *o = cJSON_CreateObject();
-    const double(*f)[3] = (const double(*)[3])frame;
-    int ok = o && (!rig || ffd_sess_add_item(o, "center", ffd_sess_array(e->center, 3))) &&
-             ffd_sess_add_item(o, "radius", rig ? ffd_sess_array(e->radius, 3) : ffd_sess_vec3(e->radius)) &&
-             ffd_sess_add_item(o, "frame", rig ? ffd_sess_matrix3(f) : ffd_sess_matrix3(f)) &&
-             ((rig && !e->disabled) || cJSON_AddBoolToObject(o, "enabled", !e->disabled));
+    int ok = o && ffd_sess_add_item(o, "radius", ffd_sess_vec3(e->radius)) &&
+             ffd_sess_add_item(o, "frame", ffd_sess_matrix3((const double(*)[3])frame)) &&
+             cJSON_AddBoolToObject(o, "enabled", !e->disabled);
     if (!ok) {
         cJSON_Delete(o);
         return NULL;
@@ -677,7 +674,7 @@ static ffd_status pb_describe(const sess_method *base, cJSON *params, cJSON *con
     for (size_t j = 0; ok && j < k; j++) {
         ffd_ebf e;
         ok = ffd_pbffd_control(m->pb, m->level, j, &e, NULL) == FFD_OK &&
-             ffd_sess_add_to_array(ebfs, ebf_json(&e, 0));
+             ffd_sess_add_to_array(ebfs, ebf_json(&e));
     }
     cJSON *edges = ok ? cJSON_CreateArray() : NULL;
     ok = ok && ffd_sess_add_item(controls, "edges", edges);
@@ -990,95 +987,53 @@ static ffd_status pb_reset(sess_method *base, ffd_error *err)
 
 /* ---- the rig --------------------------------------------------------- */
 
-static cJSON *controls_json(const pb_method *m)
-{
-    cJSON *a = cJSON_CreateArray();
-    for (size_t j = 0; a && j < m->control_count; j++)
-        if (!ffd_sess_add_to_array(a, ebf_json(&m->controls[j], 1))) {
-            cJSON_Delete(a);
-            return NULL;
-        }
-    return a;
-}
-
-static cJSON *moves_json(const pb_method *m)
-{
-    cJSON *a = cJSON_CreateArray();
-    for (size_t i = 0; a && i < m->move_count; i++) {
-        const pb_move *e = &m->moves[i];
-        cJSON *o = cJSON_CreateObject();
-        if (!ffd_sess_add_to_array(a, o) || !cJSON_AddNumberToObject(o, "control", e->index) ||
-            !cJSON_AddNumberToObject(o, "level", e->level) ||
-            !ffd_sess_add_item(o, "delta", ffd_sess_array(e->delta, 3))) {
-            cJSON_Delete(a);
-            return NULL;
-        }
-    }
-    return a;
-}
-
-static cJSON *frames_json(const pb_method *m)
-{
-    cJSON *a = cJSON_CreateArray();
-    for (size_t i = 0; a && i < m->frame_count; i++) {
-        const pb_frame *f = &m->frames[i];
-        cJSON *o = cJSON_CreateObject();
-        if (!ffd_sess_add_to_array(a, o) || !cJSON_AddNumberToObject(o, "control", f->index) ||
-            !cJSON_AddNumberToObject(o, "level", f->level) ||
-            !ffd_sess_add_item(o, "frame", ffd_sess_matrix3((const double(*)[3])f->frame))) {
-            cJSON_Delete(a);
-            return NULL;
-        }
-    }
-    return a;
-}
-
-static cJSON *curve_json(const pb_curve *cv)
-{
-    cJSON *o = cJSON_CreateObject();
-    cJSON *pts = cJSON_AddArrayToObject(o, "points"), *mv = cJSON_AddArrayToObject(o, "moves");
-    int ok = pts && mv && ffd_sess_add_item(o, "radius", ffd_sess_number(cv->radius)) &&
-             (!cv->samples || cJSON_AddNumberToObject(o, "samples", cv->samples));
-    for (size_t i = 0; ok && i < cv->count; i++)
-        ok = ffd_sess_add_to_array(pts, ffd_sess_array(cv->points + 3 * i, 3));
-    for (size_t k = 0; ok && k < cv->move_count; k++) {
-        cJSON *e = cJSON_CreateObject();
-        ok = ffd_sess_add_to_array(mv, e) && cJSON_AddNumberToObject(e, "index", cv->moves[k].index) &&
-             ffd_sess_add_item(e, "delta", ffd_sess_array(cv->moves[k].delta, 3));
-    }
-    if (!ok) {
-        cJSON_Delete(o);
-        return NULL;
-    }
-    return o;
-}
-
-static int add_options(cJSON *root, const ffd_pbffd_options *o)
-{
-    if (o->sigma > 0 && !ffd_sess_add_item(root, "sigma", ffd_sess_number(o->sigma)))
-        return 0;
-    if (o->levels > 1 && !cJSON_AddNumberToObject(root, "levels", o->levels))
-        return 0;
-    if (o->no_master)
-        return cJSON_AddFalseToObject(root, "master") != NULL;
-    if (o->master_radius > 0 || o->master_weight > 0) {
-        cJSON *ms = cJSON_CreateObject();
-        return ffd_sess_add_item(root, "master", ms) &&
-               (!(o->master_radius > 0) || ffd_sess_add_item(ms, "radius", ffd_sess_number(o->master_radius))) &&
-               (!(o->master_weight > 0) || ffd_sess_add_item(ms, "weight", ffd_sess_number(o->master_weight)));
-    }
-    return 1;
-}
-
+/* The state as a rig: its explicit controls, options, the logs of moves and
+ * frame edits and the curves, written by the rig's own writer
+ * (pbffd_rig_json.c). */
 static ffd_status pb_rig(const sess_method *base, cJSON *root, ffd_error *err)
 {
     const pb_method *m = (const pb_method *)base;
-    cJSON *curves = NULL;
-    int ok = ffd_sess_add_item(root, "controls", controls_json(m)) && add_options(root, &m->opt) &&
-             ffd_sess_add_item(root, "moves", moves_json(m)) && ffd_sess_add_item(root, "frames", frames_json(m)) &&
-             (curves = cJSON_AddArrayToObject(root, "curves")) != NULL;
-    for (size_t c = 0; ok && c < m->curve_count; c++)
-        ok = ffd_sess_add_to_array(curves, curve_json(&m->curves[c]));
+    ffd_rig rig;
+    ffd_rig_pbffd pb;
+    memset(&rig, 0, sizeof rig);
+    memset(&pb, 0, sizeof pb);
+    rig.method = &ffd_method_pbffd;
+    rig.section = &pb; /* borrows the controls; the logs in the rig's form */
+    pb.controls = m->controls;
+    pb.control_count = m->control_count;
+    pb.options = m->opt;
+    pb.moves = ffd_calloc(m->move_count ? m->move_count : 1, sizeof *pb.moves);
+    pb.frames = ffd_calloc(m->frame_count ? m->frame_count : 1, sizeof *pb.frames);
+    pb.curves = ffd_calloc(m->curve_count ? m->curve_count : 1, sizeof *pb.curves);
+    int ok = pb.moves && pb.frames && pb.curves;
+    for (size_t i = 0; ok && i < m->move_count; i++) {
+        ffd_rig_pb_edit *e = &pb.moves[pb.move_count++];
+        e->level = m->moves[i].level;
+        e->control = m->moves[i].index;
+        e->has_delta = 1;
+        memcpy(e->delta, m->moves[i].delta, sizeof e->delta);
+    }
+    for (size_t i = 0; ok && i < m->frame_count; i++) {
+        ffd_rig_pb_edit *e = &pb.frames[pb.frame_count++];
+        e->level = m->frames[i].level;
+        e->control = m->frames[i].index;
+        e->frame_kind = 1;
+        memcpy(e->frame, m->frames[i].frame, sizeof e->frame);
+    }
+    for (size_t c = 0; ok && c < m->curve_count; c++) {
+        const pb_curve *cv = &m->curves[c];
+        ffd_rig_curve *rc = &pb.curves[pb.curve_count++];
+        rc->points = cv->points;
+        rc->point_count = cv->count;
+        rc->radius = cv->radius;
+        rc->samples = cv->samples;
+        rc->moves = cv->moves;
+        rc->move_count = cv->move_count;
+    }
+    ok = ok && ffd_method_pbffd.write(&rig, root);
+    ffd_free(pb.moves);
+    ffd_free(pb.frames);
+    ffd_free(pb.curves);
     return ok ? FFD_OK : ffd_fail(err, FFD_ERR_NOMEM, "rig: out of memory");
 }
 

@@ -635,6 +635,48 @@ ffd_status ffd_rig_parse_json_files(const char *text, size_t size, const char *n
     return FFD_OK;
 }
 
+/* ======================================================================
+ * Writer: the rig as its reader reads it
+ * ====================================================================== */
+
+static cJSON *constraints_json(const ffd_rig *rig)
+{
+    cJSON *a = cJSON_CreateArray();
+    for (size_t i = 0; a && i < rig->constraint_count; i++) {
+        const ffd_rig_constraint *c = &rig->constraints[i];
+        cJSON *o = cJSON_CreateObject();
+        int ok = ffd_sess_add_to_array(a, o) &&
+                 (c->kind == FFD_RIG_CONSTRAINT_VERTEX
+                      ? cJSON_AddNumberToObject(o, "vertex", c->vertex) != NULL
+                      : ffd_sess_add_item(o, "point", ffd_sess_vec3(c->point))) &&
+                 ffd_sess_add_item(o, "target", ffd_sess_vec3(c->target));
+        if (!ok) {
+            cJSON_Delete(a);
+            return NULL;
+        }
+    }
+    return a;
+}
+
+ffd_status ffd_rig_write_json(const ffd_rig *rig, char **text, ffd_error *err)
+{
+    *text = NULL;
+    if (!rig || !rig->method || !rig->method->write)
+        return ffd_fail(err, FFD_ERR_INVALID, "ffd_rig_write_json: no rig, or its method has no writer");
+    cJSON *root = cJSON_CreateObject();
+    int ok = root && cJSON_AddNumberToObject(root, "version", 1) &&
+             cJSON_AddStringToObject(root, "deformer", rig->method->name) &&
+             rig->method->write(rig, root) &&
+             (!(rig->rcond > 0) || ffd_sess_add_item(root, "rcond", ffd_sess_number(rig->rcond))) &&
+             (!rig->constraint_count ||
+              ffd_sess_add_item(root, "constraints", constraints_json(rig)));
+    char *printed = ok ? cJSON_Print(root) : NULL;
+    cJSON_Delete(root);
+    *text = printed ? ffd_strdup(printed) : NULL;
+    cJSON_free(printed);
+    return *text ? FFD_OK : ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory writing the rig", rig->name);
+}
+
 static int has_prm_extension(const char *path)
 {
     size_t n = strlen(path);

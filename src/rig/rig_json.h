@@ -31,6 +31,10 @@ typedef struct ffd_rig_parser {
  * (FFD_ERR_INVALID, naming key and file) when p->files does not allow it. */
 ffd_status ffd_rig_check_input(const ffd_rig_parser *p, const char *key, const char *file,
                                const char *path);
+/* The rig as JSON text its reader reads back to the same rig: "version",
+ * "deformer", the method's writer (ffd_method.write), then "rcond" and
+ * "constraints" when set (*text ffd_free'd by the caller). */
+ffd_status ffd_rig_write_json(const ffd_rig *rig, char **text, ffd_error *err);
 /* ffd_rig_parse_json with a file policy (files may be NULL: any). */
 ffd_status ffd_rig_parse_json_files(const char *text, size_t size, const char *name,
                                     const ffd_rig_files *files, ffd_rig **out, ffd_error *err);

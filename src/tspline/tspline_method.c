@@ -14,5 +14,6 @@ const ffd_method ffd_method_tspline = {
     .load = ffd_sess_tspline_load,
     .create = ffd_sess_tspline_create,
     .release = ffd_rig_release_tspline,
+    .write = ffd_rig_write_tspline,
     .ops = tspline_ops,
 };

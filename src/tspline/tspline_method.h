@@ -94,6 +94,9 @@ ffd_status ffd_rig_tsv_resolve(ffd_tsv *t, const ffd_rig_tsv_step *st, ffd_tsv_i
                                size_t *out_count, ffd_error *err);
 
 void ffd_rig_release_tspline(ffd_rig *rig);
+/* The writer (ffd_method.write): the section as its reader reads it, into
+ * root; 0 when out of memory. */
+int ffd_rig_write_tspline(const ffd_rig *rig, cJSON *root);
 
 ffd_status ffd_sess_tspline_create(const sess_ctx *ctx, const cJSON *body, sess_method **out,
                                ffd_error *err);

@@ -464,6 +464,141 @@ ffd_status ffd_rig_parse_tspline(const ffd_rig_parser *p, const cJSON *root, ffd
     return FFD_OK;
 }
 
+/* ======================================================================
+ * Writer: the section as the reader above reads it (ffd_method.write)
+ * ====================================================================== */
+
+static int add_ids(cJSON *o, const char *key, const uint32_t *ids, size_t n)
+{
+    return ffd_sess_add_item(o, key, ffd_sess_uint_array(ids, n));
+}
+
+/* The selector key of sel, added to o. */
+static int add_selection(cJSON *o, const ffd_rig_tsv_selection *sel)
+{
+    cJSON *box;
+    switch (sel->kind) {
+    case FFD_RIG_SELECT_NEAR:
+        return ffd_sess_add_item(o, "near", ffd_sess_vec3(sel->near));
+    case FFD_RIG_SELECT_BOX:
+        return (box = cJSON_AddObjectToObject(o, "box")) &&
+               ffd_sess_add_item(box, "min", ffd_sess_vec3(sel->box_min)) &&
+               ffd_sess_add_item(box, "max", ffd_sess_vec3(sel->box_max));
+    default: /* the id selectors, in selector_keys order */
+        return add_ids(o, selector_keys[sel->kind == FFD_RIG_SELECT_POINTS  ? 0
+                                        : sel->kind == FFD_RIG_SELECT_EDGES ? 3
+                                        : sel->kind == FFD_RIG_SELECT_FACES ? 4
+                                                                            : 5],
+                       sel->ids, sel->id_count);
+    }
+}
+
+static int add_handles(cJSON *parent, const char *key, const ffd_rig_tsv_handle *h, size_t n)
+{
+    cJSON *a = cJSON_AddArrayToObject(parent, key);
+    int ok = a != NULL;
+    for (size_t i = 0; ok && i < n; i++) {
+        cJSON *o = cJSON_CreateObject(), *r = NULL;
+        ok = ffd_sess_add_to_array(a, o) && add_selection(o, &h[i].sel);
+        if (ok && h[i].has_delta)
+            ok = ffd_sess_add_item(o, "delta", ffd_sess_vec3(h[i].delta));
+        else if (ok)
+            ok = (r = cJSON_AddObjectToObject(o, "rotate")) &&
+                 ffd_sess_add_item(r, "axis", ffd_sess_vec3(h[i].axis)) &&
+                 ffd_sess_add_item(r, "angle", ffd_sess_number(h[i].angle)) &&
+                 (!h[i].has_center || ffd_sess_add_item(r, "center", ffd_sess_vec3(h[i].center)));
+    }
+    return ok;
+}
+
+static int add_freeze(cJSON *parent, const ffd_rig_tsv_selection *sel, size_t n)
+{
+    cJSON *a = n ? cJSON_AddArrayToObject(parent, "freeze") : NULL;
+    int ok = !n || a;
+    for (size_t i = 0; ok && i < n; i++) {
+        cJSON *o = cJSON_CreateObject();
+        ok = ffd_sess_add_to_array(a, o) && add_selection(o, &sel[i]);
+    }
+    return ok;
+}
+
+static int add_refinements(cJSON *step, const ffd_rig_tsv_step *st)
+{
+    static const char *const kinds[] = {"edge", "face", "cell"};
+    cJSON *a = cJSON_AddArrayToObject(step, "refine");
+    int ok = a != NULL;
+    for (size_t i = 0; ok && i < st->refinement_count; i++) {
+        const ffd_rig_tsv_refinement *r = &st->refinements[i];
+        cJSON *o = cJSON_CreateObject(), *near = NULL;
+        ok = ffd_sess_add_to_array(a, o);
+        if (ok && r->proxy_cells)
+            ok = cJSON_AddStringToObject(o, "cells", "proxy") != NULL;
+        else if (ok && r->by_near)
+            ok = (near = cJSON_AddObjectToObject(o, kinds[r->kind])) &&
+                 ffd_sess_add_item(near, "near", ffd_sess_vec3(r->near));
+        else if (ok)
+            ok = cJSON_AddNumberToObject(o, kinds[r->kind], r->id) != NULL;
+        ok = ok && (r->kind != FFD_TSV_EDGE || r->ratio == 0 ||
+                    cJSON_AddNumberToObject(o, "ratio", r->ratio));
+    }
+    return ok;
+}
+
+static int add_deform(cJSON *step, const ffd_rig_tsv_step *st)
+{
+    const ffd_tsv_arap_options *o = &st->arap;
+    cJSON *d = cJSON_AddObjectToObject(step, "deform"), *w = NULL;
+    int weights = o->w_one_form > 0 || o->w_proxy > 0 || o->w_volume > 0 || o->w_target > 0;
+    return d && add_handles(d, "handles", st->handles, st->handle_count) &&
+           add_freeze(d, st->freeze, st->freeze_count) &&
+           (!weights ||
+            ((w = cJSON_AddObjectToObject(d, "weights")) &&
+             (!(o->w_one_form > 0) || ffd_sess_add_item(w, "one_form", ffd_sess_number(o->w_one_form))) &&
+             (!(o->w_proxy > 0) || ffd_sess_add_item(w, "proxy", ffd_sess_number(o->w_proxy))) &&
+             (!(o->w_volume > 0) || ffd_sess_add_item(w, "volume", ffd_sess_number(o->w_volume))) &&
+             (!(o->w_target > 0) || ffd_sess_add_item(w, "target", ffd_sess_number(o->w_target))))) &&
+           (!o->iterations || cJSON_AddNumberToObject(d, "iterations", o->iterations)) &&
+           (!o->soft || cJSON_AddTrueToObject(d, "soft")) &&
+           (!o->only_target || cJSON_AddTrueToObject(d, "only_target"));
+}
+
+static int add_constrain(cJSON *step, const ffd_rig_tsv_step *st)
+{
+    cJSON *c = cJSON_AddObjectToObject(step, "constraints");
+    cJSON *t = c ? cJSON_AddArrayToObject(c, "targets") : NULL;
+    int ok = t != NULL;
+    for (size_t i = 0; ok && i < st->constraint_count; i++) {
+        cJSON *o = cJSON_CreateObject();
+        ok = ffd_sess_add_to_array(t, o) &&
+             cJSON_AddNumberToObject(o, "vertex", st->constraints[i].vertex) &&
+             ffd_sess_add_item(o, "target", ffd_sess_vec3(st->constraints[i].target));
+    }
+    return ok && add_freeze(c, st->freeze, st->freeze_count);
+}
+
+int ffd_rig_write_tspline(const ffd_rig *rig, cJSON *root)
+{
+    const ffd_rig_tspline *t = ffd_rig_tspline_of(rig);
+    cJSON *steps = cJSON_AddArrayToObject(root, "steps");
+    int ok = steps && ffd_sess_add_item(root, "resolution", ffd_sess_uint_array(t->resolution, 3)) &&
+             cJSON_AddNumberToObject(root, "padding", t->options.padding) &&
+             (!t->fold_samples || cJSON_AddNumberToObject(root, "fold_samples", t->fold_samples));
+    for (size_t i = 0; ok && i < t->step_count; i++) {
+        const ffd_rig_tsv_step *st = &t->steps[i];
+        cJSON *step = cJSON_CreateObject();
+        ok = ffd_sess_add_to_array(steps, step);
+        if (ok && st->kind == FFD_RIG_STEP_REFINE)
+            ok = add_refinements(step, st);
+        else if (ok && st->kind == FFD_RIG_STEP_DEFORM)
+            ok = add_deform(step, st);
+        else if (ok && st->kind == FFD_RIG_STEP_MOVE)
+            ok = add_handles(step, "move", st->handles, st->handle_count);
+        else if (ok)
+            ok = add_constrain(step, st);
+    }
+    return ok;
+}
+
 void ffd_rig_release_tspline(ffd_rig *rig)
 {
     if (ffd_rig_tspline_of(rig))
