@@ -3,13 +3,14 @@
 #define FFD_TOLERANCE_H
 
 /* Local coordinate slack: a point whose local coordinate lies within this of
- * [0,1] is on the lattice boundary and deforms with it (no seam). */
+ * [0,1] is on the boundary of the control volume and deforms with it (no
+ * seam). */
 #define FFD_TOL_BOUNDARY 1e-12
 
 /* A box whose |det(axes)| is below this times |a||b||c| has zero volume. */
 #define FFD_TOL_VOLUME 1e-12
 
-/* Extents a fitted box (lattice "auto" box, T-spline parameter box) may
+/* Extents a fitted box (a rig's "auto" box, a method's parameter box) may
  * have: its volume (a product of three extents) and the inverse of its axes
  * stay normal doubles. Bounding boxes outside are refused, not fitted. */
 #define FFD_BOX_MIN_EXTENT 1e-100
@@ -21,17 +22,17 @@
 /* Newton iterations of the outer-segment cubic solve stop at this step in t. */
 #define FFD_TOL_CUBIC 1e-15
 
-/* PB-FFD placement: each Voronoi site moves by up to this times the
+/* Voronoi placement: each Voronoi site moves by up to this times the
  * bounding-box diagonal, along each axis, by a fixed hash of its vertex index
  * (deterministic), so that cospherical or cocircular vertices (spheres,
  * cylinders, boxes) are in general position for Qhull. */
 #define FFD_TOL_SITE_JITTER 1e-9
 
-/* PB-FFD placement: Delaunay cells whose shape quality 6|V|/L^3 is below this
- * give no Voronoi vertex (a sliver's circumcentre is set by the jitter). */
+/* Voronoi placement: Delaunay cells whose shape quality 6|V|/L^3 is below
+ * this give no Voronoi vertex (a sliver's circumcentre is set by the jitter). */
 #define FFD_TOL_SLIVER 1e-4
 
-/* PB-FFD placement: interior points closer than this times the bounding-box
+/* Voronoi placement: interior points closer than this times the bounding-box
  * diagonal are one medial point (a sphere's Voronoi vertices all lie at its
  * centre, within the jitter's reach). */
 #define FFD_TOL_MEDIAL_WELD 1e-3

@@ -10,6 +10,40 @@ DATA=$SRC/tests/data/rig
 ok --help
 has stdout "usage: ffd COMMAND"
 has stdout "deform"
+# The top-level help and the command messages are built from the CLI's table
+# of method commands (tools/cli/cli_methods.c): byte for byte what they were
+# when main.c spelled them out.
+cat >"$T/help.expected" <<'HELP'
+usage: ffd COMMAND [ARGS]
+       ffd --help | --version
+
+Free-form deformation of triangle and polygon meshes (OBJ, PLY, OFF, STL).
+
+commands:
+  info MESH [--json]                     counts, bounding box and edge topology
+  convert IN OUT [--ascii|--binary|--binary-be]
+                                         rewrite a mesh in the format of OUT's extension
+  deform IN -o OUT --rig RIG [--report] [--timings] [--in-place]
+         [--ascii|--binary|--binary-be]  apply a rig (JSON or PyGeM .prm) to a mesh
+  pbffd place MESH -o CONTROLS.json [--interior N] [--exterior N] ...
+                                         place PB-FFD control points, write them as a rig
+  tspline proxy MESH -o PROXY.obj [--resolution L,M,N] [--rig RIG] [--lattice F]
+                                         write the T-spline proxy (and T-lattice) of a mesh
+  serve [MESH] [--port N] [--host ADDR] [--root DIR] [--web DIR] [--max-upload MB]
+        [--verbose]                      the editor: a local web server, deform in a browser
+
+Run 'ffd COMMAND --help' for a command's options.
+Exit status: 0 success, 1 bad or unreadable input (or a failed write), 2 usage error.
+HELP
+cmp -s "$T/stdout" "$T/help.expected" || fail "ffd --help differs: $(diff "$T/help.expected" "$T/stdout")"
+bad 2
+has stderr "ffd: missing command (info, convert, deform, pbffd, tspline, serve)"
+bad 2 bogus
+has stderr "ffd: unknown command 'bogus' (expected info, convert, deform, pbffd, tspline or serve)"
+for c in pbffd tspline; do
+    ok "$c" --help
+    has stdout "usage: ffd $c"
+done
 ok --version
 has stdout "ffd 0.1.0"
 for c in info convert deform; do

@@ -69,7 +69,7 @@ typedef struct cli_file {
  * returns CLI_EXIT_USAGE. */
 int cli_check_files(const char *command, const cli_file *files, size_t count);
 /* cli_check_files for the outputs in files (count of them) against the files
- * the rig read besides itself (ffd_rig_input_path: GFFD skeleton files), once
+ * the rig read besides itself (ffd_rig_input_path: files its method section names), once
  * the rig is read and before any work. */
 int cli_check_rig_inputs(const char *command, const ffd_rig *rig, const cli_file *files,
                          size_t count);
@@ -85,8 +85,18 @@ void cli_json_number(FILE *f, double v);
 int cmd_info(int argc, char **argv);
 int cmd_convert(int argc, char **argv);
 int cmd_deform(int argc, char **argv);
-int cmd_pbffd(int argc, char **argv);
-int cmd_tspline(int argc, char **argv);
 int cmd_serve(int argc, char **argv);
+
+/* A method's own command (`ffd METHOD SUBCOMMAND ...`), described in the
+ * method's tools/cli/cmd_<method>.c and listed in cli_methods.c. */
+typedef struct cli_command {
+    const char *name;  /* argv[1] */
+    const char *usage; /* its lines of the top-level help, each "  ...\n" */
+    int (*run)(int argc, char **argv); /* argv[0] is name; returns the exit code */
+} cli_command;
+
+/* The methods' commands, in the order the help lists them (i < count). */
+size_t cli_method_command_count(void);
+const cli_command *cli_method_command_at(size_t i);
 
 #endif

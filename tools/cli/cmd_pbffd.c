@@ -227,7 +227,7 @@ done:
     return code;
 }
 
-int cmd_pbffd(int argc, char **argv)
+static int cmd_pbffd(int argc, char **argv)
 {
     if (argc < 2)
         return cli_usage_error("pbffd", "missing subcommand (place)");
@@ -239,3 +239,9 @@ int cmd_pbffd(int argc, char **argv)
         return cmd_place(argc - 1, argv + 1);
     return cli_usage_error("pbffd", "unknown subcommand '%s' (expected place)", argv[1]);
 }
+
+const cli_command cli_command_pbffd = {
+    "pbffd",
+    "  pbffd place MESH -o CONTROLS.json [--interior N] [--exterior N] ...\n"
+    "                                         place PB-FFD control points, write them as a rig\n",
+    cmd_pbffd};

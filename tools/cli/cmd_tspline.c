@@ -67,7 +67,7 @@ static size_t detail_count(const cJSON *details, const char *key)
     return v >= 0 && v < 1e18 ? (size_t)v : 0;
 }
 
-int cmd_tspline(int argc, char **argv)
+static int cmd_tspline(int argc, char **argv)
 {
     if (argc < 2 || cli_is_help(argv[1])) {
         fputs(usage, argc < 2 ? stderr : stdout);
@@ -201,3 +201,9 @@ done:
     ffd_mesh_destroy(mesh);
     return code;
 }
+
+const cli_command cli_command_tspline = {
+    "tspline",
+    "  tspline proxy MESH -o PROXY.obj [--resolution L,M,N] [--rig RIG] [--lattice F]\n"
+    "                                         write the T-spline proxy (and T-lattice) of a mesh\n",
+    cmd_tspline};

@@ -13,7 +13,9 @@
 #include <time.h>
 #include <unistd.h>
 
-static const char usage[] =
+/* The help: the generic commands, the methods' commands (cli_methods.c)
+ * between deform and serve, then the rest. */
+static const char usage_head[] =
     "usage: ffd COMMAND [ARGS]\n"
     "       ffd --help | --version\n"
     "\n"
@@ -24,11 +26,8 @@ static const char usage[] =
     "  convert IN OUT [--ascii|--binary|--binary-be]\n"
     "                                         rewrite a mesh in the format of OUT's extension\n"
     "  deform IN -o OUT --rig RIG [--report] [--timings] [--in-place]\n"
-    "         [--ascii|--binary|--binary-be]  apply a rig (JSON or PyGeM .prm) to a mesh\n"
-    "  pbffd place MESH -o CONTROLS.json [--interior N] [--exterior N] ...\n"
-    "                                         place PB-FFD control points, write them as a rig\n"
-    "  tspline proxy MESH -o PROXY.obj [--resolution L,M,N] [--rig RIG] [--lattice F]\n"
-    "                                         write the T-spline proxy (and T-lattice) of a mesh\n"
+    "         [--ascii|--binary|--binary-be]  apply a rig (JSON or PyGeM .prm) to a mesh\n";
+static const char usage_tail[] =
     "  serve [MESH] [--port N] [--host ADDR] [--root DIR] [--web DIR] [--max-upload MB]\n"
     "        [--verbose]                      the editor: a local web server, deform in a browser\n"
     "\n"
@@ -266,13 +265,29 @@ void cli_json_number(FILE *f, double v)
         fputs("null", f);
 }
 
+/* The command names for messages: "info, convert, deform, M1, M2, serve",
+ * the last separator being last_sep (", " or " or "). */
+static const char *command_list(char *buf, size_t size, const char *last_sep)
+{
+    int n = snprintf(buf, size, "info, convert, deform");
+    for (size_t i = 0; i < cli_method_command_count() && n >= 0 && (size_t)n < size; i++)
+        n += snprintf(buf + n, size - (size_t)n, ", %s", cli_method_command_at(i)->name);
+    if (n >= 0 && (size_t)n < size)
+        snprintf(buf + n, size - (size_t)n, "%sserve", last_sep);
+    return buf;
+}
+
 int main(int argc, char **argv)
 {
+    char names[512];
     if (argc < 2)
-        return cli_usage_error(NULL, "missing command (info, convert, deform, pbffd, tspline, serve)");
+        return cli_usage_error(NULL, "missing command (%s)", command_list(names, sizeof names, ", "));
     const char *command = argv[1];
     if (cli_is_help(command)) {
-        fputs(usage, stdout);
+        fputs(usage_head, stdout);
+        for (size_t i = 0; i < cli_method_command_count(); i++)
+            fputs(cli_method_command_at(i)->usage, stdout);
+        fputs(usage_tail, stdout);
         return CLI_EXIT_OK;
     }
     if (strcmp(command, "--version") == 0) {
@@ -285,14 +300,15 @@ int main(int argc, char **argv)
         return cmd_convert(argc - 1, argv + 1);
     if (strcmp(command, "deform") == 0)
         return cmd_deform(argc - 1, argv + 1);
-    if (strcmp(command, "pbffd") == 0)
-        return cmd_pbffd(argc - 1, argv + 1);
-    if (strcmp(command, "tspline") == 0)
-        return cmd_tspline(argc - 1, argv + 1);
+    for (size_t i = 0; i < cli_method_command_count(); i++) {
+        const cli_command *c = cli_method_command_at(i);
+        if (strcmp(command, c->name) == 0)
+            return c->run(argc - 1, argv + 1);
+    }
     if (strcmp(command, "serve") == 0)
         return cmd_serve(argc - 1, argv + 1);
     if (command[0] == '-')
         return cli_usage_error(NULL, "unknown option '%s'", command);
-    return cli_usage_error(NULL, "unknown command '%s' (expected info, convert, deform, pbffd, tspline or serve)",
-                           command);
+    return cli_usage_error(NULL, "unknown command '%s' (expected %s)", command,
+                           command_list(names, sizeof names, " or "));
 }
