@@ -556,14 +556,20 @@ ffd_status ffd_rig_parse_json(const char *text, size_t size, const char *name, f
         return syntax_error(name, text, size, rest, "unexpected text after the JSON value", err);
     }
 
+    ffd_status s = ffd_rig_parse_tree(root, name, out, err);
+    cJSON_Delete(root);
+    return s;
+}
+
+ffd_status ffd_rig_parse_tree(const cJSON *root, const char *name, ffd_rig **out, ffd_error *err)
+{
+    *out = NULL;
+    name = ffd_name_or(name, "rig");
     ffd_rig *rig = ffd_rig_new(name);
-    if (!rig) {
-        cJSON_Delete(root);
+    if (!rig)
         return ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory", name);
-    }
     ffd_rig_parser p = {name, err};
     ffd_status s = read_root(&p, root, rig);
-    cJSON_Delete(root);
     if (s) {
         ffd_rig_destroy(rig);
         return s;

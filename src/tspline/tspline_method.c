@@ -5,13 +5,16 @@
 
 static const char *const tspline_ops[] = {"refine", "freeze", NULL};
 
+/* The rig keys of the editor's "create" body (docs/editor.md). */
+static const char *const tspline_create_keys[] = {"resolution", "padding", NULL};
+
 const ffd_method ffd_method_tspline = {
     .name = "tspline",
     .id = FFD_RIG_TSPLINE,
     .parse = ffd_rig_parse_tspline,
     .apply = ffd_rig_apply_tspline,
     .load = ffd_sess_tspline_load,
-    .create = ffd_sess_tspline_create,
+    .create_keys = tspline_create_keys,
     .release = ffd_rig_release_tspline,
     .ops = tspline_ops,
 };

@@ -478,32 +478,12 @@ static ffd_status tspline_build(const sess_ctx *ctx, const uint32_t res[3], doub
     return FFD_OK;
 }
 
+/* The editor's "create": the rig's creation keys, with the rig's defaults
+ * (ffd_method_create). */
 ffd_status ffd_sess_tspline_create(const sess_ctx *ctx, const cJSON *body, sess_method **out,
-                               ffd_error *err)
+                                   ffd_error *err)
 {
-    static const char *const keys[] = {"method", "resolution", "padding", NULL};
-    ffd_rig_parser p = {"create", err};
-    ffd_status st = ffd_rig_check_keys(&p, body, "body", keys, "method, resolution, padding");
-    uint32_t res[3] = {6, 6, 6};
-    double padding = 0;
-    const cJSON *item;
-    if (!st && (item = cJSON_GetObjectItemCaseSensitive(body, "resolution")))
-        st = ffd_rig_read_uint3(&p, item, "resolution", res);
-    if (!st && (item = cJSON_GetObjectItemCaseSensitive(body, "padding"))) {
-        st = ffd_rig_read_number(&p, item, "padding", &padding);
-        if (!st && (padding < 0 || padding > 100))
-            st = ffd_fail(err, FFD_ERR_INVALID, "create: padding: %g: expected 0..100", padding);
-    }
-    for (int a = 0; !st && a < 3; a++)
-        if (res[a] < 4 || res[a] > 256)
-            st = ffd_fail(err, FFD_ERR_INVALID, "create: resolution[%d]: %u: expected 4..256", a,
-                          res[a]);
-    tspline_method *t = NULL;
-    if (!st)
-        st = tspline_build(ctx, res, padding, "create", &t, err);
-    if (!st)
-        *out = &t->base;
-    return st;
+    return ffd_method_create(&ffd_method_tspline, ctx, body, out, err);
 }
 
 ffd_status ffd_sess_tspline_load(const sess_ctx *ctx, const ffd_rig *rig, sess_method **out,
