@@ -99,12 +99,13 @@ ffd_status ffd_method_create(const ffd_method *method, const sess_ctx *ctx, cons
     unsigned long oom = ffd_json_alloc_failures();
     cJSON *copy = cJSON_Duplicate(body, 1);
     ffd_rig *rig = NULL;
+    int has_name = 0;
     if (copy) {
         cJSON_DeleteItemFromObjectCaseSensitive(copy, "method");
         cJSON_DeleteItemFromObjectCaseSensitive(copy, "deformer");
-        cJSON_AddStringToObject(copy, "deformer", method->name);
+        has_name = cJSON_AddStringToObject(copy, "deformer", method->name) != NULL;
     }
-    if (!copy || ffd_json_alloc_failures() != oom) {
+    if (!has_name || ffd_json_alloc_failures() != oom) {
         s = ffd_fail(err, FFD_ERR_NOMEM, "create: out of memory");
         goto done;
     }

@@ -322,9 +322,9 @@ ffd_status ffd_sess_gffd_create_body(const sess_ctx *ctx, cJSON *body, const ffd
     ffd_rig_primitive *d = NULL;
     if (default_skeleton(ctx, &d, &inner))
         return ffd_fail(p->err, FFD_ERR_NOMEM, "%s: out of memory", p->name);
-    cJSON *array = cJSON_AddArrayToObject(body, "skeleton"), *prim = cJSON_CreateObject();
-    cJSON *vertices = NULL;
-    int ok = array && ffd_sess_add_to_array(array, prim) &&
+    cJSON *array = cJSON_AddArrayToObject(body, "skeleton");
+    cJSON *prim = array ? cJSON_CreateObject() : NULL, *vertices = NULL;
+    int ok = ffd_sess_add_to_array(array, prim) &&
              cJSON_AddStringToObject(prim, "type", kind_names[d->kind]) &&
              (vertices = cJSON_AddArrayToObject(prim, "vertices")) &&
              cJSON_AddNumberToObject(prim, "radius", d->radius);

@@ -307,16 +307,18 @@ ffd_status ffd_sess_lattice_load(const sess_ctx *ctx, const ffd_rig *rig, sess_m
     const uint32_t *r = rig->resolution;
     if ((st = ffd_sess_check_controls(ctx, (double)r[0] * r[1] * r[2], rig->name, err)))
         return st;
-    /* The rig's moves and constraints, as ffd deform applies them. */
+    /* The rig's moves and constraints, as ffd deform applies them; a rig
+     * without any (the editor's create) leaves the lattice at rest, as built. */
+    const int replay = rig->move_count || rig->constraint_count;
     ffd_rig_report report = {0};
-    if ((st = ffd_sess_apply_rig(ctx, rig, &report, err)))
+    if (replay && (st = ffd_sess_apply_rig(ctx, rig, &report, err)))
         return st;
     sess_method *m = NULL;
     st = lattice_build(ctx, rig->basis, rig->resolution, &box, rig->outside, rig->margin,
                        rig->name, &m, err);
-    if (!st && report.control_count != lat_count(m))
+    if (!st && replay && report.control_count != lat_count(m))
         st = ffd_fail(err, FFD_ERR_INVALID, "%s: the rig's lattice does not match", rig->name);
-    if (!st)
+    if (!st && replay)
         st = ffd_lattice_set_control_points(as_lattice(m)->lattice, report.control_points, err);
     ffd_rig_report_free(&report);
     if (st) {

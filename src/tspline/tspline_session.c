@@ -499,13 +499,15 @@ ffd_status ffd_sess_tspline_load(const sess_ctx *ctx, const ffd_rig *rig, sess_m
             snprintf(what, sizeof what, "%s: steps[%zu].refine", rig->name, i);
             st = refine_apply(t, &rt->steps[i], what, err);
         }
-    /* where its deform, move and constraints steps leave the points */
+    /* where its deform, move and constraints steps leave the points (a rig
+     * without steps, the editor's create, leaves them at rest, as built) */
     ffd_rig_report report = {0};
-    if (!st)
+    const int replay = rt->step_count > 0;
+    if (!st && replay)
         st = ffd_sess_apply_rig(ctx, rig, &report, err);
-    if (!st && report.control_count != tsv_count(&t->base))
+    if (!st && replay && report.control_count != tsv_count(&t->base))
         st = ffd_fail(err, FFD_ERR_INVALID, "%s: the rig's T-lattice does not match", rig->name);
-    if (!st)
+    if (!st && replay)
         st = ffd_tsv_set_control_points(t->t, report.control_points, err);
     ffd_rig_report_free(&report);
     if (st) {
