@@ -372,18 +372,18 @@ static void test_bad_bodies(void)
     if (!fixture_open(&f, COW))
         return;
     create_bad(&f, "{\"method\": \"pbffd\", \"interior\": 0}", FFD_ERR_PARSE,
-               "create: interior: expected a positive integer");
+               "create: controls.interior: expected a positive integer");
     create_bad(&f, "{\"method\": \"pbffd\", \"resolution\": [3,3,3]}", FFD_ERR_PARSE,
                "create: resolution: unknown key");
     create_bad(&f, "{\"method\": \"pbffd\", \"sigma\": 0.01}", FFD_ERR_INVALID, "create: sigma");
     create_bad(&f, "{\"method\": \"pbffd\", \"levels\": 33}", FFD_ERR_INVALID, "create: levels");
-    create_bad(&f, "{\"method\": \"pbffd\", \"offset\": 2}", FFD_ERR_INVALID, "create: offset");
+    create_bad(&f, "{\"method\": \"pbffd\", \"offset\": 2}", FFD_ERR_INVALID, "create: controls.offset");
     create_bad(&f, "{\"method\": \"pbffd\", \"voronoi_sites\": 2}", FFD_ERR_INVALID,
-               "create: voronoi_sites");
+               "create: controls.voronoi_sites");
     create_bad(&f, "{\"method\": \"pbffd\", \"radius_factor\": \"big\"}", FFD_ERR_PARSE,
-               "create: radius_factor: expected a number");
+               "create: controls.radius_factor: expected a number");
     create_bad(&f, "{\"method\": \"pbffd\", \"interior\": 100000}", FFD_ERR_INVALID,
-               "create: placement:");
+               "create: controls (automatic placement):");
     sess_method *m = create(&f, SMALL "}");
     if (m) {
         size_t e = m->vt->control_count(m);

@@ -350,7 +350,11 @@ function resolvePins() {
 }
 
 const ops = {
-  create(b) {
+  create(body) {
+    // a rig's creation keys ("deformer", PB-FFD placement inside "controls"), or the old form
+    const { method, deformer, controls, ...rest } = body;
+    const placement = controls && typeof controls === 'object' && !Array.isArray(controls) ? controls : {};
+    const b = { ...placement, ...rest, method: deformer || method };
     const before = snapshot();
     S.method = b.method;
     S.params = { ...b };
@@ -592,7 +596,7 @@ async function api(req, res, url) {
   }
   const op = ops[path];
   if (!op) return fail('unknown URL', 404, 'not_found');
-  if (path === 'create' && b.method === 'pbffd') await sleep(1500); // automatic placement takes a while
+  if (path === 'create' && (b.deformer || b.method) === 'pbffd') await sleep(1500); // automatic placement takes a while
   const r = op(b);
   S.busy = performance.now() - t0;
   if (r && r.frame) return send(res, 200, frameBuf(r.frame), 'application/octet-stream');

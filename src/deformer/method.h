@@ -34,15 +34,32 @@ typedef struct ffd_method {
      * mesh (ffd_deformer_create, the session's load_rig and undo). */
     ffd_status (*load)(const sess_ctx *ctx, const ffd_rig *rig, sess_method **out,
                        ffd_error *err);
-    /* The method's deformer from the editor's "create" body. */
-    ffd_status (*create)(const sess_ctx *ctx, const cJSON *body, sess_method **out,
-                         ffd_error *err);
+    /* The editor's "create" body is the creation part of a rig of this
+     * method (ffd_method_create): create_keys are the rig keys it may hold
+     * besides "version" and "deformer" (NULL-terminated); create_body, when
+     * not NULL, prepares the body (the session's copy) before the rig
+     * reader reads it: the editor's defaults for absent keys, the old forms
+     * of keys turned into the rig's, and what an editing session refuses
+     * (messages through p). */
+    const char *const *create_keys;
+    ffd_status (*create_body)(const sess_ctx *ctx, cJSON *body, const ffd_rig_parser *p);
     /* Frees what the method's section of a rig holds (not the section
      * itself); called when rig->section is not NULL. */
     void (*release)(ffd_rig *rig);
     /* The editor operations of the method's own (sess_vtable.op), NULL-terminated. */
     const char *const *ops;
 } ffd_method;
+
+/* The method a "create" body names by "deformer" or by "method" (the old
+ * name of the key; both given must agree): FFD_ERR_PARSE naming the key. */
+ffd_status ffd_method_of_body(const ffd_rig_parser *p, const cJSON *body, const ffd_method **out);
+/* The method's deformer from the editor's "create" body (docs/editor.md):
+ * the body (a JSON object; its "deformer" or "method", if any, names this
+ * method) is read by the rig reader as a rig of the method, after
+ * method->create_body, and built by method->load; a key outside
+ * create_keys is refused by name. Messages start with "create: ". */
+ffd_status ffd_method_create(const ffd_method *method, const sess_ctx *ctx, const cJSON *body,
+                             sess_method **out, ffd_error *err);
 
 /* The registered methods, in registry order (i < ffd_method_count()). */
 size_t ffd_method_count(void);

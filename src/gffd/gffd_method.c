@@ -5,6 +5,9 @@
 
 static const char *const gffd_ops[] = {"primitive", NULL};
 
+/* The rig keys of the editor's "create" body (docs/editor.md). */
+static const char *const gffd_create_keys[] = {"skeleton", "unit", "tolerance", "max_iterations", "tracking", "max_samples", NULL};
+
 const ffd_method ffd_method_gffd = {
     .name = "gffd",
     .rig_keys = ffd_rig_keys_gffd,
@@ -12,7 +15,8 @@ const ffd_method ffd_method_gffd = {
     .parse = ffd_rig_parse_gffd,
     .apply = ffd_rig_apply_gffd,
     .load = ffd_sess_gffd_load,
-    .create = ffd_sess_gffd_create,
+    .create_keys = gffd_create_keys,
+    .create_body = ffd_sess_gffd_create_body,
     .release = ffd_rig_release_gffd,
     .write = ffd_rig_write_gffd,
     .ops = gffd_ops,

@@ -88,6 +88,9 @@ ffd_status ffd_rig_read_skeleton(const ffd_rig_parser *p, const cJSON *item, con
 
 ffd_status ffd_sess_gffd_create(const sess_ctx *ctx, const cJSON *body, sess_method **out,
                             ffd_error *err);
+/* The descriptor's create_body: the editor's defaults and old body forms
+ * (gffd_session.c). */
+ffd_status ffd_sess_gffd_create_body(const sess_ctx *ctx, cJSON *body, const ffd_rig_parser *p);
 
 ffd_status ffd_sess_gffd_load(const sess_ctx *ctx, const ffd_rig *rig, sess_method **out,
                           ffd_error *err);

@@ -294,14 +294,21 @@ static ffd_status default_skeleton(const sess_ctx *ctx, ffd_rig_primitive **out,
     return FFD_OK;
 }
 
-/* The body's skeleton: primitives as in rigs, geometry inline only. */
-static ffd_status read_body_skeleton(const ffd_rig_parser *p, const cJSON *item, ffd_rig_primitive **out,
-                                     size_t *count)
+/* The editor's "create": the body is a GFFD rig's creation part
+ * (ffd_method_create); this hook is what the editor does differently from a
+ * rig: no "resample" (it adds vertices), no skeleton "file" (an editing
+ * session reads no files), and the default skeleton when none is given. */
+ffd_status ffd_sess_gffd_create_body(const sess_ctx *ctx, cJSON *body, const ffd_rig_parser *p)
 {
-    const cJSON *c;
+    if (cJSON_GetObjectItemCaseSensitive(body, "resample"))
+        return ffd_fail(p->err, FFD_ERR_INVALID,
+                        "%s: resample: adaptive resampling adds vertices, which an editing "
+                        "session cannot; use ffd deform with a rig for that",
+                        p->name);
+    const cJSON *skeleton = cJSON_GetObjectItemCaseSensitive(body, "skeleton"), *c;
     size_t i = 0;
-    if (cJSON_IsArray(item))
-        cJSON_ArrayForEach(c, item)
+    if (cJSON_IsArray(skeleton))
+        cJSON_ArrayForEach(c, skeleton)
         {
             if (cJSON_IsObject(c) && cJSON_GetObjectItemCaseSensitive(c, "file"))
                 return ffd_fail(p->err, FFD_ERR_PARSE,
@@ -310,57 +317,30 @@ static ffd_status read_body_skeleton(const ffd_rig_parser *p, const cJSON *item,
                                 p->name, i);
             i++;
         }
-    return ffd_rig_read_skeleton(p, item, "skeleton", out, count);
-}
-
-static ffd_status read_tracking(const ffd_rig_parser *p, const cJSON *item, ffd_gffd_options *opt)
-{
-    static const char *const trackings[] = {"gradient", "warp", NULL};
-    int t = 0;
-    ffd_status s = ffd_rig_read_enum(p, item, "tracking", trackings, "\"gradient\" or \"warp\"", &t);
-    opt->tracking = t ? FFD_GFFD_TRACK_WARP : FFD_GFFD_TRACK_GRADIENT;
-    return s;
+    if (skeleton)
+        return FFD_OK;
+    /* the default skeleton, written as the rig's primitive (numbers kept exactly) */
+    ffd_error inner = {{0}};
+    ffd_rig_primitive *d = NULL;
+    if (default_skeleton(ctx, &d, &inner))
+        return ffd_fail(p->err, FFD_ERR_NOMEM, "%s: out of memory", p->name);
+    cJSON *array = cJSON_AddArrayToObject(body, "skeleton");
+    cJSON *prim = array ? cJSON_CreateObject() : NULL, *vertices = NULL;
+    int ok = ffd_sess_add_to_array(array, prim) &&
+             cJSON_AddStringToObject(prim, "type", ffd_rig_gffd_kind_name(d->kind)) &&
+             (vertices = cJSON_AddArrayToObject(prim, "vertices")) &&
+             cJSON_AddNumberToObject(prim, "radius", d->radius);
+    for (size_t v = 0; ok && v < d->vertex_count; v++)
+        ok = ffd_sess_add_to_array(vertices, cJSON_CreateDoubleArray(d->vertices + 3 * v, 3));
+    ffd_rig_primitive_free(d);
+    ffd_free(d);
+    return ok ? FFD_OK : ffd_fail(p->err, FFD_ERR_NOMEM, "%s: out of memory", p->name);
 }
 
 ffd_status ffd_sess_gffd_create(const sess_ctx *ctx, const cJSON *body, sess_method **out,
-                            ffd_error *err)
+                                ffd_error *err)
 {
-    static const char *const keys[] = {"method", "skeleton", "unit", "tracking", "resample", NULL};
-    *out = NULL;
-    ffd_rig_parser p = {"create", err, NULL};
-    ffd_gffd_options opt;
-    memset(&opt, 0, sizeof opt);
-    ffd_rig_primitive *rest = NULL;
-    size_t count = 0;
-    const cJSON *v;
-    ffd_status s = body && !cJSON_IsObject(body) ? ffd_rig_expected(&p, "body", "a JSON object")
-                   : body                        ? ffd_rig_check_keys(&p, body, "", keys,
-                                                                  "\"method\", \"skeleton\", \"unit\", \"tracking\"")
-                                                 : FFD_OK;
-    if (!s && body && cJSON_GetObjectItemCaseSensitive(body, "resample"))
-        s = ffd_fail(err, FFD_ERR_INVALID,
-                     "create: resample: adaptive resampling adds vertices, which an editing "
-                     "session cannot; use ffd deform with a rig for that");
-    if (!s && body && (v = cJSON_GetObjectItemCaseSensitive(body, "unit")))
-        s = ffd_rig_read_positive(&p, v, "unit", &opt.unit);
-    if (!s && body && (v = cJSON_GetObjectItemCaseSensitive(body, "tracking")))
-        s = read_tracking(&p, v, &opt);
-    if (!s && body && (v = cJSON_GetObjectItemCaseSensitive(body, "skeleton")))
-        s = read_body_skeleton(&p, v, &rest, &count);
-    else if (!s && (s = default_skeleton(ctx, &rest, err)) == FFD_OK)
-        count = 1;
-    ffd_gffd *g = NULL;
-    if (!s)
-        s = gffd_bind(ctx, rest, count, &opt, "create", &g, err);
-    if (s) {
-        skeleton_free(rest, count);
-        return s;
-    }
-    gf_method *m = NULL;
-    if ((s = gf_new(ctx, rest, count, &opt, g, &m, err)))
-        return s;
-    *out = &m->base;
-    return FFD_OK;
+    return ffd_method_create(&ffd_method_gffd, ctx, body, out, err);
 }
 
 static ffd_status copy_correspondences(gf_method *m, const ffd_rig_gffd *r, ffd_error *err)

@@ -292,40 +292,12 @@ static ffd_status lattice_build(const sess_ctx *ctx, ffd_basis basis, const uint
     return FFD_OK;
 }
 
+/* The editor's "create": the rig's creation keys, with the rig's defaults
+ * (ffd_method_create). */
 ffd_status ffd_sess_lattice_create(const sess_ctx *ctx, const cJSON *body, sess_method **out,
-                               ffd_error *err)
+                                   ffd_error *err)
 {
-    static const char *const keys[] = {"method", "resolution", "basis", "margin", "outside", NULL};
-    ffd_rig_parser p = {"create", err, NULL};
-    ffd_status st = ffd_rig_check_keys(&p, body, "body", keys, "method, resolution, basis, margin, outside");
-    uint32_t res[3] = {5, 5, 5};
-    int basis = 0, outside = 0;
-    double margin = 0.05;
-    const cJSON *item;
-    if (!st && (item = cJSON_GetObjectItemCaseSensitive(body, "resolution")))
-        st = ffd_rig_read_uint3(&p, item, "resolution", res);
-    if (!st && (item = cJSON_GetObjectItemCaseSensitive(body, "basis")))
-        st = ffd_rig_read_enum(&p, item, "basis", basis_names, "\"bspline\" or \"bernstein\"", &basis);
-    if (!st && (item = cJSON_GetObjectItemCaseSensitive(body, "outside")))
-        st = ffd_rig_read_enum(&p, item, "outside", outside_names,
-                           "\"fixed\", \"clamp\" or \"extrapolate\"", &outside);
-    if (!st && (item = cJSON_GetObjectItemCaseSensitive(body, "margin"))) {
-        st = ffd_rig_read_number(&p, item, "margin", &margin);
-        if (!st && margin < 0)
-            st = ffd_fail(err, FFD_ERR_INVALID, "create: margin: %g: expected >= 0", margin);
-    }
-    for (int a = 0; !st && a < 3; a++)
-        if (res[a] < 2 || res[a] > 1024)
-            st = ffd_fail(err, FFD_ERR_INVALID, "create: resolution[%d]: %u: expected 2..1024", a,
-                          res[a]);
-    ffd_box box;
-    ffd_error inner = {{0}};
-    if (!st && (st = ffd_box_fit(ctx->rest, ctx->n, margin, &box, &inner)))
-        st = ffd_fail(err, st, "create: box: %s", inner.message);
-    if (st)
-        return st;
-    return lattice_build(ctx, basis ? FFD_BASIS_BERNSTEIN : FFD_BASIS_BSPLINE, res, &box,
-                         (ffd_outside)outside, margin, "create", out, err);
+    return ffd_method_create(&ffd_method_lattice, ctx, body, out, err);
 }
 
 ffd_status ffd_sess_lattice_load(const sess_ctx *ctx, const ffd_rig *rig, sess_method **out,
@@ -339,16 +311,18 @@ ffd_status ffd_sess_lattice_load(const sess_ctx *ctx, const ffd_rig *rig, sess_m
     const uint32_t *r = rig->resolution;
     if ((st = ffd_sess_check_controls(ctx, (double)r[0] * r[1] * r[2], rig->name, err)))
         return st;
-    /* The rig's moves and constraints, as ffd deform applies them. */
+    /* The rig's moves and constraints, as ffd deform applies them; a rig
+     * without any (the editor's create) leaves the lattice at rest, as built. */
+    const int replay = rig->move_count || rig->constraint_count;
     ffd_rig_report report = {0};
-    if ((st = ffd_sess_apply_rig(ctx, rig, &report, err)))
+    if (replay && (st = ffd_sess_apply_rig(ctx, rig, &report, err)))
         return st;
     sess_method *m = NULL;
     st = lattice_build(ctx, rig->basis, rig->resolution, &box, rig->outside, rig->margin,
                        rig->name, &m, err);
-    if (!st && report.control_count != lat_count(m))
+    if (!st && replay && report.control_count != lat_count(m))
         st = ffd_fail(err, FFD_ERR_INVALID, "%s: the rig's lattice does not match", rig->name);
-    if (!st)
+    if (!st && replay)
         st = ffd_lattice_set_control_points(as_lattice(m)->lattice, report.control_points, err);
     ffd_rig_report_free(&report);
     if (st) {

@@ -5,6 +5,9 @@
 
 static const char *const pbffd_ops[] = {"level", "frame", "curve", NULL};
 
+/* The rig keys of the editor's "create" body (docs/editor.md). */
+static const char *const pbffd_create_keys[] = {"controls", "sigma", "master", "levels", NULL};
+
 const ffd_method ffd_method_pbffd = {
     .name = "pbffd",
     .rig_keys = ffd_rig_keys_pbffd,
@@ -12,7 +15,8 @@ const ffd_method ffd_method_pbffd = {
     .parse = ffd_rig_parse_pbffd,
     .apply = ffd_rig_apply_pbffd,
     .load = ffd_sess_pbffd_load,
-    .create = ffd_sess_pbffd_create,
+    .create_keys = pbffd_create_keys,
+    .create_body = ffd_sess_pbffd_create_body,
     .release = ffd_rig_release_pbffd,
     .write = ffd_rig_write_pbffd,
     .ops = pbffd_ops,

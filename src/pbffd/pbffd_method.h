@@ -69,6 +69,9 @@ int ffd_rig_write_pbffd(const ffd_rig *rig, cJSON *root);
 
 ffd_status ffd_sess_pbffd_create(const sess_ctx *ctx, const cJSON *body, sess_method **out,
                              ffd_error *err);
+/* The descriptor's create_body: the editor's defaults and old body forms
+ * (pbffd_session.c). */
+ffd_status ffd_sess_pbffd_create_body(const sess_ctx *ctx, cJSON *body, const ffd_rig_parser *p);
 
 ffd_status ffd_sess_pbffd_load(const sess_ctx *ctx, const ffd_rig *rig, sess_method **out,
                            ffd_error *err);

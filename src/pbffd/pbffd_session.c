@@ -320,114 +320,63 @@ static ffd_status put_frame(pb_frame **frames, size_t *count, size_t *cap, size_
     return FFD_OK;
 }
 
-/* ---- create ---------------------------------------------------------- */
+/* ---- create ----------------------------------------------------------
+ * The body is a PB-FFD rig's creation part (ffd_method_create); this hook
+ * is what the editor does differently from a rig. */
 
-static ffd_status read_count(const ffd_rig_parser *p, const cJSON *body, const char *key, size_t *out)
-{
-    const cJSON *v = cJSON_GetObjectItemCaseSensitive(body, key);
-    uint32_t n = 0;
-    if (!v)
-        return FFD_OK;
-    ffd_status s = ffd_rig_read_index(p, v, key, "a positive integer", &n);
-    if (!s && n == 0)
-        return ffd_rig_expected(p, key, "a positive integer");
-    if (!s)
-        *out = n;
-    return s;
-}
+#define EDITOR_PLACED 60 /* the editor's interior and exterior counts */
 
-static ffd_status read_create_body(const ffd_rig_parser *p, const cJSON *body, ffd_placement_options *po,
-                                   ffd_pbffd_options *opt)
+/* The old body's top-level placement options, the same as inside "controls". */
+static const char *const old_placement_keys[] = {"interior", "exterior", "offset",
+                                                 "radius_factor", "voronoi_sites", NULL};
+
+ffd_status ffd_sess_pbffd_create_body(const sess_ctx *ctx, cJSON *body, const ffd_rig_parser *p)
 {
-    static const char *const keys[] = {"method",        "interior",      "exterior",
-                                       "levels",        "sigma",         "offset",
-                                       "radius_factor", "voronoi_sites", NULL};
-    ffd_status s = ffd_rig_check_keys(p, body, "", keys,
-                                  "\"method\", \"interior\", \"exterior\", \"levels\", "
-                                  "\"sigma\", \"offset\", \"radius_factor\", \"voronoi_sites\"");
-    size_t levels = 1, sites = 0;
-    po->interior_count = po->exterior_count = 60;
-    if (s || (s = read_count(p, body, "interior", &po->interior_count)) ||
-        (s = read_count(p, body, "exterior", &po->exterior_count)) ||
-        (s = read_count(p, body, "levels", &levels)) ||
-        (s = read_count(p, body, "voronoi_sites", &sites)))
-        return s;
-    if (levels > 32)
-        return ffd_fail(p->err, FFD_ERR_INVALID, "%s: levels: %zu: expected 1 to 32", p->name,
-                        levels);
-    opt->levels = (uint32_t)levels;
-    if (sites && sites < 5)
-        return ffd_fail(p->err, FFD_ERR_INVALID, "%s: voronoi_sites: %zu: expected at least 5",
-                        p->name, sites);
-    po->voronoi_sites = sites;
-    const cJSON *v;
-    if ((v = cJSON_GetObjectItemCaseSensitive(body, "sigma"))) {
-        if ((s = ffd_rig_read_positive(p, v, "sigma", &opt->sigma)))
-            return s;
-        if (opt->sigma < 0.05 || opt->sigma > 1e6)
-            return ffd_fail(p->err, FFD_ERR_INVALID,
-                            "%s: sigma: %g: expected a number in "
-                            "[0.05, 1e6]",
-                            p->name, opt->sigma);
+    (void)ctx;
+    /* automatic placement ("controls" absent or "auto") with the editor's counts */
+    cJSON *controls = cJSON_GetObjectItemCaseSensitive(body, "controls");
+    if (!controls || (cJSON_IsString(controls) && !strcmp(controls->valuestring, "auto"))) {
+        cJSON *placement = cJSON_CreateObject();
+        if (!placement || !(controls ? cJSON_ReplaceItemInObjectCaseSensitive(body, "controls", placement)
+                                     : cJSON_AddItemToObject(body, "controls", placement))) {
+            cJSON_Delete(placement);
+            return ffd_fail(p->err, FFD_ERR_NOMEM, "%s: out of memory", p->name);
+        }
+        controls = placement;
     }
-    if ((v = cJSON_GetObjectItemCaseSensitive(body, "offset"))) {
-        if ((s = ffd_rig_read_positive(p, v, "offset", &po->offset)))
-            return s;
-        if (po->offset > 1)
-            return ffd_fail(p->err, FFD_ERR_INVALID,
-                            "%s: offset: %g: expected a fraction of "
-                            "the bounding-box diagonal in (0, 1]",
-                            p->name, po->offset);
+    for (const char *const *k = old_placement_keys; *k; k++) {
+        cJSON *item = cJSON_GetObjectItemCaseSensitive(body, *k);
+        if (!item)
+            continue;
+        if (!cJSON_IsObject(controls))
+            return ffd_fail(p->err, FFD_ERR_PARSE,
+                            "%s: %s: a placement option (the old form of controls.%s), but "
+                            "\"controls\" does not place them",
+                            p->name, *k, *k);
+        if (cJSON_GetObjectItemCaseSensitive(controls, *k))
+            return ffd_fail(p->err, FFD_ERR_PARSE,
+                            "%s: %s: given twice, at the top level (the old form) and as "
+                            "controls.%s",
+                            p->name, *k, *k);
+        cJSON_DetachItemViaPointer(body, item);
+        if (!cJSON_AddItemToObject(controls, *k, item)) {
+            cJSON_Delete(item);
+            return ffd_fail(p->err, FFD_ERR_NOMEM, "%s: out of memory", p->name);
+        }
     }
-    if ((v = cJSON_GetObjectItemCaseSensitive(body, "radius_factor"))) {
-        if ((s = ffd_rig_read_positive(p, v, "radius_factor", &po->radius_factor)))
-            return s;
-        if (po->radius_factor > 100)
-            return ffd_fail(p->err, FFD_ERR_INVALID,
-                            "%s: radius_factor: %g: expected a "
-                            "number in (0, 100]",
-                            p->name, po->radius_factor);
+    if (cJSON_IsObject(controls)) {
+        if (!cJSON_GetObjectItemCaseSensitive(controls, "interior"))
+            cJSON_AddNumberToObject(controls, "interior", EDITOR_PLACED);
+        if (!cJSON_GetObjectItemCaseSensitive(controls, "exterior"))
+            cJSON_AddNumberToObject(controls, "exterior", EDITOR_PLACED);
     }
     return FFD_OK;
 }
 
 ffd_status ffd_sess_pbffd_create(const sess_ctx *ctx, const cJSON *body, sess_method **out,
-                             ffd_error *err)
+                                 ffd_error *err)
 {
-    *out = NULL;
-    ffd_rig_parser p = {"create", err, NULL};
-    ffd_placement_options po;
-    ffd_pbffd_options opt;
-    memset(&po, 0, sizeof po);
-    memset(&opt, 0, sizeof opt);
-    if (body && !cJSON_IsObject(body))
-        return ffd_rig_expected(&p, "body", "a JSON object");
-    ffd_status s = body ? read_create_body(&p, body, &po, &opt) : FFD_OK;
-    if (s)
-        return s;
-    if (!body)
-        po.interior_count = po.exterior_count = 60;
-    ffd_error inner = {{0}};
-    ffd_ebf *controls = NULL;
-    size_t count = 0;
-    ffd_placement_report report;
-    memset(&report, 0, sizeof report);
-    /* automatic placement (§3.2.1), then the hierarchy and binding (§3.4) */
-    if ((s = ffd_pbffd_place(ctx->mesh, &po, &controls, &count, &report, &inner)))
-        return ffd_fail(err, s, "create: placement: %s", inner.message);
-    ffd_pbffd *pb = NULL;
-    if ((s = ffd_pbffd_create(controls, count, ctx->rest, ctx->n, &opt, &pb, &inner))) {
-        ffd_free(controls);
-        return ffd_fail(err, s, "create: %s", inner.message);
-    }
-    pb_method *m = NULL;
-    if ((s = pb_new(ctx, controls, count, &opt, pb, &m, err)))
-        return s;
-    m->placed = 1;
-    m->interior = report.interior_count;
-    m->exterior = report.exterior_count;
-    *out = &m->base;
-    return FFD_OK;
+    return ffd_method_create(&ffd_method_pbffd, ctx, body, out, err);
 }
 
 /* ---- load ------------------------------------------------------------ */

@@ -619,14 +619,21 @@ ffd_status ffd_rig_parse_json_files(const char *text, size_t size, const char *n
         return syntax_error(name, text, size, rest, "unexpected text after the JSON value", err);
     }
 
+    ffd_status s = ffd_rig_parse_tree(root, name, files, out, err);
+    cJSON_Delete(root);
+    return s;
+}
+
+ffd_status ffd_rig_parse_tree(const cJSON *root, const char *name, const ffd_rig_files *files,
+                              ffd_rig **out, ffd_error *err)
+{
+    *out = NULL;
+    name = ffd_name_or(name, "rig");
     ffd_rig *rig = ffd_rig_new(name);
-    if (!rig) {
-        cJSON_Delete(root);
+    if (!rig)
         return ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory", name);
-    }
     ffd_rig_parser p = {name, err, files};
     ffd_status s = read_root(&p, root, rig);
-    cJSON_Delete(root);
     if (s) {
         ffd_rig_destroy(rig);
         return s;

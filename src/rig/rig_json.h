@@ -100,6 +100,13 @@ ffd_status ffd_rig_check_deformer_root(const ffd_rig_parser *p, const cJSON *roo
 ffd_status ffd_rig_read_linear_root(const ffd_rig_parser *p, const cJSON *root, ffd_rig *rig);
 
 
+/* A rig from its parsed JSON tree (what ffd_rig_parse_json does after the
+ * syntax checks; the editor's "create" body is read by it): name is used in
+ * messages and for the files the rig refers to, files says which it may
+ * read (NULL: any). *out NULL on error. */
+ffd_status ffd_rig_parse_tree(const cJSON *root, const char *name, const ffd_rig_files *files,
+                              ffd_rig **out, ffd_error *err);
+
 /* The section reader of each method (ffd_method.parse, one file each): the
  * whole root object of a rig of that method, into rig (which it tags with
  * the method); what it read stays in rig for ffd_rig_destroy, on error too. */

@@ -331,16 +331,16 @@ static ffd_status install(ffd_session *s, sess_method *m, const char *label, ffd
 }
 
 
+/* The body is the creation part of a rig of the method it names
+ * (ffd_method_create: the rig reader, then the method's load). */
 static ffd_status op_create(ffd_session *s, const ffd_rig_parser *p, const cJSON *body, ffd_error *err)
 {
-    const cJSON *name = cJSON_GetObjectItemCaseSensitive(body, "method");
-    char names[256];
-    ffd_method_names(names, sizeof names - 16);
-    const ffd_method *method = cJSON_IsString(name) ? ffd_method_find(name->valuestring) : NULL;
-    if (!method)
-        return ffd_rig_expected(p, "method", name ? names : strcat(names, " (missing)"));
+    const ffd_method *method = NULL;
+    ffd_status st = ffd_method_of_body(p, body, &method);
+    if (st)
+        return st;
     sess_method *m = NULL;
-    ffd_status st = method->create(&s->ctx, body, &m, err);
+    st = ffd_method_create(method, &s->ctx, body, &m, err);
     if (st)
         return st;
     return install(s, m, "create", err);

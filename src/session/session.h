@@ -132,8 +132,9 @@ struct sess_vtable {
     void *(*handle)(sess_method *m);
 };
 
-/* Constructors. create: from the body of the "create" op (keys checked,
- * defaults per docs/editor.md). load: from a parsed rig of this method
+/* Constructors. create: from the body of the "create" op, which is a rig's
+ * creation part (ffd_method_create, deformer/method.h: the rig reader, the
+ * method's create_body defaults, then load). load: from a parsed rig of this method
  * (the whole rig replayed; the result must describe the same positions as
  * ffd_rig_apply of that rig). */
 /* Shared helpers (session_util.c). */

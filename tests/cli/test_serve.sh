@@ -488,6 +488,11 @@ if [ "${FFD_SERVE_STUB:-0}" != 1 ]; then
     expect 400 parse POST /api/create --data-binary '{"method": "lattice"'
     expect 400 parse POST /api/create --data-binary '{"method": "lattice", "resolution": "5"}'
     expect 400 invalid POST /api/create --data-binary '{"method": "lattice", "resolution": [1, 1, 1]}'
+    # the create body is a rig's creation part: other rig keys are refused by name
+    expect 400 parse POST /api/create --data-binary '{"deformer": "lattice", "moves": []}'
+    grep -qF 'create: moves: unknown key' "$T/body" || fail "create with moves: $(show)"
+    expect 400 parse POST /api/create --data-binary '{"method": "lattice", "deformer": "tspline"}'
+    grep -qF 'name different methods' "$T/body" || fail "create with two methods: $(show)"
     req GET /api/state
     cp "$T/body" "$T/state0"
     expect_ok POST /api/create --data-binary '{"method": "lattice", "resolution": [4, 4, 4]}'

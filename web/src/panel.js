@@ -113,7 +113,8 @@ export class Panel {
 
   async create() {
     const name = this.form.method;
-    const body = { method: name, ...methodOf(name).createBody(this.form[name]) };
+    // the creation part of a rig of the method (docs/editor.md "Operations")
+    const body = { deformer: name, ...methodOf(name).createBody(this.form[name]) };
     this.ed.setSelection([]);
     await this.ed.run('create', body, { label: `Creating ${name}…` });
     this.ed.vp.requestRender();

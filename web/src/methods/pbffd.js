@@ -19,7 +19,7 @@ export default {
       h('div', { class: 'hint-text' }, 'Automatic placement of EBF control points (interior / exterior counts), then binding.')];
   },
 
-  createBody(p) { return { interior: p.interior, exterior: p.exterior, levels: p.levels, sigma: p.sigma }; },
+  createBody(p) { return { controls: { interior: p.interior, exterior: p.exterior }, levels: p.levels, sigma: p.sigma }; },
 
   status(c) { return c.level !== undefined ? ` · level <b>${c.level}</b>` : ''; },
 
