@@ -1,5 +1,5 @@
 /* method — the method registry: one descriptor per deformation method
- * (lattice, pbffd, gffd, tspline). Everything generic — ffd_rig_apply, the
+ * (registry.c lists them). Everything generic — ffd_rig_apply, the
  * public ffd_deformer, the editor session, the server's list of methods —
  * looks a method up here instead of switching on it. Adding a method is its
  * folder, one descriptor file (src/<method>/<method>_method.c) and one line
@@ -72,14 +72,9 @@ const ffd_method *ffd_method_find(const char *name);
 const ffd_method *ffd_method_of_rig(const ffd_rig *rig);
 /* 1 when op is one of some registered method's own editor operations. */
 int ffd_method_op_known(const char *op);
-/* Writes "\"lattice\", \"pbffd\", \"gffd\" or \"tspline\"" (the names, for
- * messages) into buf (truncated to size); returns buf. */
+/* Writes the names quoted, as a list for messages ("\"a\", \"b\" or
+ * \"c\"", registry order) into buf (truncated to size); returns buf. */
 const char *ffd_method_names(char *buf, size_t size);
 
-/* The descriptors (one file each, in the method's folder). */
-extern const ffd_method ffd_method_lattice;
-extern const ffd_method ffd_method_pbffd;
-extern const ffd_method ffd_method_gffd;
-extern const ffd_method ffd_method_tspline;
 
 #endif

@@ -4,6 +4,12 @@
 #include <stdio.h>
 #include <string.h>
 
+/* The descriptors (one file each, src/<method>/<method>_method.c). */
+extern const ffd_method ffd_method_lattice;
+extern const ffd_method ffd_method_pbffd;
+extern const ffd_method ffd_method_gffd;
+extern const ffd_method ffd_method_tspline;
+
 static const ffd_method *const registry[] = {
     &ffd_method_lattice,
     &ffd_method_pbffd,

@@ -8,6 +8,9 @@
 #include "deformer/method.h"
 #include "rig/rig_json.h"
 
+/* The method's descriptor (gffd_method.c; listed in deformer/registry.c). */
+extern const ffd_method ffd_method_gffd;
+
 /* The method's top-level rig keys (ffd_method.rig_keys; gffd_rig_json.c). */
 extern const char *const ffd_rig_keys_gffd[];
 

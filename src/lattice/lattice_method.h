@@ -8,6 +8,9 @@
 #include "deformer/method.h"
 #include "rig/rig_json.h"
 
+/* The method's descriptor (lattice_method.c; listed in deformer/registry.c). */
+extern const ffd_method ffd_method_lattice;
+
 /* The writer (ffd_method.write; lattice_rig_json.c): 0 when out of memory. */
 int ffd_rig_write_lattice(const ffd_rig *rig, cJSON *root);
 

@@ -1,8 +1,8 @@
 /* manip — direct manipulation of free-form deformations (Hsu, Hughes & Kaufman
  * 1992, §3): move selected points to targets by the minimum-norm change of the
  * control points, dP = (B S)^+ dq (eq. 5-7), for one or many points that may
- * share control points (§3.2). Works on any ffd_linear_map: the lattice today,
- * the other linear deformers tomorrow. */
+ * share control points (§3.2). Works on any ffd_linear_map, so on every
+ * method whose deformer has one (ffd_deformer_linear_map). */
 #include "manip/manip.h"
 #include "math/dense.h"
 #include "math/tolerance.h"

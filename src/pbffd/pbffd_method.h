@@ -8,6 +8,9 @@
 #include "deformer/method.h"
 #include "rig/rig_json.h"
 
+/* The method's descriptor (pbffd_method.c; listed in deformer/registry.c). */
+extern const ffd_method ffd_method_pbffd;
+
 /* The method's top-level rig keys (ffd_method.rig_keys; pbffd_rig_json.c). */
 extern const char *const ffd_rig_keys_pbffd[];
 

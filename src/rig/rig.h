@@ -11,7 +11,7 @@ typedef struct ffd_rig_move {
 
 typedef enum ffd_rig_constraint_kind {
     FFD_RIG_CONSTRAINT_VERTEX = 0, /* a mesh vertex id */
-    FFD_RIG_CONSTRAINT_POINT       /* an arbitrary point (rest position) inside the lattice */
+    FFD_RIG_CONSTRAINT_POINT       /* an arbitrary point (rest position) inside the control volume */
 } ffd_rig_constraint_kind;
 
 typedef struct ffd_rig_constraint {

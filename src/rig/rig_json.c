@@ -1,8 +1,8 @@
 /* rig — the rig JSON format: the syntax checks, the value readers every
  * method's section reader shares (rig_json.h), and the root, which hands the
  * rig to the section reader of the method its "deformer" names (the method
- * registry, deformer/method.h: lattice_rig_json.c, pbffd_rig_json.c,
- * gffd_rig_json.c, tspline_rig_json.c); also the dispatch of .prm files.
+ * registry, deformer/method.h: each method's src/<method>/<method>_rig_json.c);
+ * the writer of the shared keys; also the dispatch of .prm files.
  *
  * With the rig_json_<method>.c files, the only files that read cJSON
  * (rig_json.h). Every rejected value is reported with the file name and the
@@ -517,8 +517,8 @@ ffd_status ffd_rig_read_linear_root(const ffd_rig_parser *p, const cJSON *root, 
 }
 
 /* The method named by "deformer" reads the rig (ffd_method.parse); with no
- * "deformer", or one no method has, the lattice's reader, which defaults to
- * the lattice or names what is wrong. */
+ * "deformer", or one no method has, the registry's default method's reader,
+ * which reads the rig as its own or names what is wrong. */
 static ffd_status read_root(const ffd_rig_parser *p, const cJSON *root, ffd_rig *rig)
 {
     if (!cJSON_IsObject(root))
