@@ -157,11 +157,8 @@ static ffd_status replay_skeleton(gf_method *m, ffd_error *err)
     m->synced = 0;
     ffd_rig rig;
     ffd_rig_gffd section;
-    memset(&rig, 0, sizeof rig);
-    memset(&section, 0, sizeof section);
+    ffd_rig_view(&rig, &ffd_method_gffd, &section, sizeof section);
     rig.name = (char *)"skeleton";
-    rig.method = &ffd_method_gffd;
-    rig.section = &section;
     section.edits = m->edits;
     section.edit_count = m->edit_count;
     ffd_status s = ffd_gffd_reset(m->g, &inner);
@@ -776,11 +773,8 @@ static ffd_status gf_rig(const sess_method *base, cJSON *root, ffd_error *err)
 {
     const gf_method *m = (const gf_method *)base;
     ffd_rig rig;
-    ffd_rig_gffd g;
-    memset(&rig, 0, sizeof rig);
-    memset(&g, 0, sizeof g);
-    rig.method = &ffd_method_gffd;
-    rig.section = &g; /* borrows the state's arrays */
+    ffd_rig_gffd g; /* borrows the state's arrays */
+    ffd_rig_view(&rig, &ffd_method_gffd, &g, sizeof g);
     g.skeleton = m->rest;
     g.skeleton_count = m->count;
     g.edits = m->edits;

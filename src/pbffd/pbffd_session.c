@@ -943,11 +943,8 @@ static ffd_status pb_rig(const sess_method *base, cJSON *root, ffd_error *err)
 {
     const pb_method *m = (const pb_method *)base;
     ffd_rig rig;
-    ffd_rig_pbffd pb;
-    memset(&rig, 0, sizeof rig);
-    memset(&pb, 0, sizeof pb);
-    rig.method = &ffd_method_pbffd;
-    rig.section = &pb; /* borrows the controls; the logs in the rig's form */
+    ffd_rig_pbffd pb; /* borrows the controls; the logs in the rig's form */
+    ffd_rig_view(&rig, &ffd_method_pbffd, &pb, sizeof pb);
     pb.controls = m->controls;
     pb.control_count = m->control_count;
     pb.options = m->opt;

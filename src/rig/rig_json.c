@@ -665,6 +665,15 @@ static cJSON *constraints_json(const ffd_rig *rig)
     return a;
 }
 
+void ffd_rig_view(ffd_rig *rig, const ffd_method *method, void *section, size_t size)
+{
+    memset(rig, 0, sizeof *rig);
+    if (section)
+        memset(section, 0, size);
+    rig->method = method;
+    rig->section = section;
+}
+
 ffd_status ffd_rig_write_json(const ffd_rig *rig, char **text, ffd_error *err)
 {
     *text = NULL;

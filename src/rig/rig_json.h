@@ -31,6 +31,10 @@ typedef struct ffd_rig_parser {
  * (FFD_ERR_INVALID, naming key and file) when p->files does not allow it. */
 ffd_status ffd_rig_check_input(const ffd_rig_parser *p, const char *key, const char *file,
                                const char *path);
+/* A rig on the caller's stack, for a method's writer or steps: zeroed, of
+ * method, with section zeroed (size bytes; NULL, 0 for none) as its
+ * section. Never ffd_rig_destroy'd: what it points to is the caller's. */
+void ffd_rig_view(ffd_rig *rig, const struct ffd_method *method, void *section, size_t size);
 /* The rig as JSON text its reader reads back to the same rig: "version",
  * "deformer", the method's writer (ffd_method.write), then "rcond" and
  * "constraints" when set (*text ffd_free'd by the caller). */

@@ -255,64 +255,65 @@ static ffd_status tsv_reset_method(sess_method *m, ffd_error *err)
     return FFD_OK;
 }
 
-static int add_insertion(cJSON *list, const ffd_tsv_insertion *in)
-{
-    static const char *const kinds[] = {"edge", "face", "cell"};
-    cJSON *o = cJSON_CreateObject();
-    if (!o || !cJSON_AddItemToArray(list, o)) {
-        cJSON_Delete(o);
-        return 0;
-    }
-    return cJSON_AddNumberToObject(o, kinds[in->kind], in->id) &&
-           (in->kind != FFD_TSV_EDGE || in->ratio == 0 ||
-            cJSON_AddNumberToObject(o, "ratio", in->ratio));
-}
-
+/* The state as a rig: a refine step per refinement edit, then one move step
+ * with a move per displaced control point, written by the rig's own writer
+ * (tspline_rig_json.c). */
 static ffd_status tsv_rig(const sess_method *m, cJSON *root, ffd_error *err)
 {
     const tspline_method *t = as_tsv(m);
-    cJSON *steps = cJSON_CreateArray();
-    int ok = steps && cJSON_AddItemToObject(root, "steps", steps);
-    if (!ok)
-        cJSON_Delete(steps);
-    ok = ok && ffd_sess_add_item(root, "resolution", ffd_sess_uint_array(t->res, 3)) &&
-         cJSON_AddNumberToObject(root, "padding", t->padding);
-    for (size_t e = 0; ok && e < t->edit_count; e++) {
-        cJSON *step = cJSON_CreateObject(), *list = cJSON_CreateArray();
-        ok = step && cJSON_AddItemToArray(steps, step);
-        if (!ok)
-            cJSON_Delete(step);
-        if (ok)
-            ok = ffd_sess_add_item(step, "refine", list);
-        else
-            cJSON_Delete(list);
-        for (size_t i = 0; ok && i < t->edits[e].count; i++)
-            ok = add_insertion(list, &t->edits[e].ins[i]);
+    const size_t points = tsv_count(m);
+    size_t insertions = 0;
+    for (size_t e = 0; e < t->edit_count; e++)
+        insertions += t->edits[e].count;
+    ffd_rig rig;
+    ffd_rig_tspline ts;
+    ffd_rig_view(&rig, &ffd_method_tspline, &ts, sizeof ts);
+    memcpy(ts.resolution, t->res, sizeof ts.resolution);
+    ts.options.padding = t->padding;
+    ts.steps = ffd_calloc(t->edit_count + 1, sizeof *ts.steps);
+    ffd_rig_tsv_refinement *refs = ffd_calloc(insertions ? insertions : 1, sizeof *refs);
+    ffd_rig_tsv_handle *moves = ffd_calloc(points ? points : 1, sizeof *moves);
+    uint32_t *ids = ffd_malloc_array(points ? points : 1, sizeof *ids);
+    int ok = ts.steps && refs && moves && ids;
+    for (size_t e = 0, r = 0; ok && e < t->edit_count; e++) {
+        ffd_rig_tsv_step *st = &ts.steps[ts.step_count++];
+        st->kind = FFD_RIG_STEP_REFINE;
+        st->refinements = refs + r;
+        st->refinement_count = t->edits[e].count;
+        for (size_t i = 0; i < t->edits[e].count; i++, r++) {
+            refs[r].kind = t->edits[e].ins[i].kind;
+            refs[r].id = t->edits[e].ins[i].id;
+            refs[r].ratio = t->edits[e].ins[i].ratio;
+        }
     }
-    cJSON *moves = NULL;
     const double *P = ffd_tsv_control_points(t->t);
-    for (size_t v = 0; ok && v < tsv_count(m); v++) {
-        double rest[3], d[3];
+    size_t moved = 0;
+    for (size_t v = 0; ok && v < points; v++) {
+        double rest[3];
+        ffd_rig_tsv_handle *h = &moves[moved];
         ok = ffd_tsv_rest_point(t->t, (uint32_t)v, rest, NULL) == FFD_OK;
         for (int a = 0; a < 3; a++)
-            d[a] = P[3 * v + a] - rest[a];
-        if (!ok || (d[0] == 0 && d[1] == 0 && d[2] == 0))
+            h->delta[a] = P[3 * v + a] - rest[a];
+        if (!ok || (h->delta[0] == 0 && h->delta[1] == 0 && h->delta[2] == 0))
             continue;
-        if (!moves) {
-            cJSON *step = cJSON_CreateObject();
-            ok = step && cJSON_AddItemToArray(steps, step);
-            if (!ok)
-                cJSON_Delete(step);
-            ok = ok && (moves = cJSON_AddArrayToObject(step, "move")) != NULL;
-        }
-        uint32_t id = (uint32_t)v;
-        cJSON *h = ok ? cJSON_CreateObject() : NULL;
-        ok = h && cJSON_AddItemToArray(moves, h);
-        if (!ok)
-            cJSON_Delete(h);
-        ok = ok && ffd_sess_add_item(h, "points", ffd_sess_uint_array(&id, 1)) &&
-             ffd_sess_add_item(h, "delta", ffd_sess_vec3(d));
+        ids[moved] = (uint32_t)v;
+        h->sel.kind = FFD_RIG_SELECT_POINTS;
+        h->sel.ids = &ids[moved];
+        h->sel.id_count = 1;
+        h->has_delta = 1;
+        moved++;
     }
+    if (ok && moved) {
+        ffd_rig_tsv_step *st = &ts.steps[ts.step_count++];
+        st->kind = FFD_RIG_STEP_MOVE;
+        st->handles = moves;
+        st->handle_count = moved;
+    }
+    ok = ok && ffd_method_tspline.write(&rig, root);
+    ffd_free(ts.steps);
+    ffd_free(refs);
+    ffd_free(moves);
+    ffd_free(ids);
     return ok ? FFD_OK : ffd_fail(err, FFD_ERR_NOMEM, "rig: out of memory");
 }
 
