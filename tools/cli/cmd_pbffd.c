@@ -214,10 +214,10 @@ static int cmd_place(int argc, char **argv)
         goto done;
     }
     if (report.note[0])
-        fprintf(stderr, "ffd: note: %s\n", report.note);
+        cli_note("ffd: note: %s\n", report.note);
     if (want_report)
         print_report(&report, count);
-    fprintf(stderr, "wrote %s (%zu control points: %zu interior, %zu exterior; %s surface; %.3f s)\n",
+    cli_note("wrote %s (%zu control points: %zu interior, %zu exterior; %s surface; %.3f s)\n",
             out, count, report.interior_count, report.exterior_count,
             report.open ? "open" : "closed", report.seconds_total);
     code = CLI_EXIT_OK;

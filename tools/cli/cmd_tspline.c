@@ -191,7 +191,7 @@ static int cmd_tspline(int argc, char **argv)
         printf("}\n");
     }
     cJSON_Delete(details);
-    fprintf(stderr, "wrote %s (proxy: %zu points, %zu faces; lattice: %zu control points, %zu cells)\n",
+    cli_note("wrote %s (proxy: %zu points, %zu faces; lattice: %zu control points, %zu cells)\n",
             out, report.control_mesh_point_count, report.control_face_count, report.control_count,
             cells);
     code = CLI_EXIT_OK;
