@@ -46,6 +46,18 @@ same_bytes "convert from stdin" "$T/conv.obj" "$T/conv3.obj"
 "$FFD" info - --format ply <"$PLY" >"$T/stdout" 2>"$T/stderr" || fail "info -"
 has stdout "<stdin> (ply)"
 
+# the methods' commands read their mesh (and tspline its rig) from standard input too
+EL=$SRC/examples/pbffd/elephant.off
+ok pbffd place "$EL" -o "$T/place1.json"
+"$FFD" pbffd place - -o "$T/place2.json" --format off <"$EL" 2>/dev/null || fail "pbffd place -"
+same_bytes "pbffd place from stdin" "$T/place1.json" "$T/place2.json"
+printf '{"deformer": "tspline", "resolution": [5, 5, 5]}\n' >"$T/ts.json"
+ok tspline proxy "$OBJ" -o "$T/proxy1.obj" --rig "$T/ts.json"
+"$FFD" tspline proxy - -o "$T/proxy2.obj" --rig "$T/ts.json" --format obj <"$OBJ" 2>/dev/null || fail "tspline proxy -"
+same_bytes "tspline proxy from stdin" "$T/proxy1.obj" "$T/proxy2.obj"
+"$FFD" tspline proxy "$OBJ" -o "$T/proxy3.obj" --rig - <"$T/ts.json" 2>/dev/null || fail "tspline proxy --rig -"
+same_bytes "tspline proxy, rig from stdin" "$T/proxy1.obj" "$T/proxy3.obj"
+
 # refusals: exit 2, a message, nothing on stdout
 refused() { # refused FRAGMENT ARGS... (stdin: the PLY)
     local fragment=$1
@@ -64,6 +76,10 @@ refused "unknown format" deform - -o - --rig "$RIG" --format xyz
 refused "--report prints on standard output" deform "$PLY" -o - --rig "$RIG" --report
 refused "only the mesh (-o) can go to standard output" deform "$PLY" -o "$T/y.ply" --rig "$RIG" --lattice-out -
 refused "--in-place: standard input" deform - --in-place --rig "$RIG" --format ply
+refused "this command writes files only" pbffd place "$EL" -o -
+refused "this command writes files only" tspline proxy "$OBJ" -o "$T/x.obj" --lattice -
+refused "both read standard input" tspline proxy - -o "$T/x.obj" --rig - --format obj
+[ -e "$T/x.obj" ] && fail "a refused tspline proxy wrote its proxy"
 [ -e "$T/x.ply" ] || [ -e "$T/y.ply" ] && fail "a refused command wrote a file"
 
 # a failing deform with -o - leaves stdout empty (a constraint on a vertex the mesh lacks)
@@ -91,7 +107,6 @@ else
 fi
 
 # --progress: plain lines on a stderr that is not a terminal; none without it
-EL=$SRC/examples/pbffd/elephant.off
 ok pbffd place "$EL" -o "$T/ctl.json" --progress
 grep -qE "^ffd: placement: [0-9]+%$" "$T/stderr" || fail "--progress: no placement lines: $(cat "$T/stderr")"
 has stderr "ffd: placement: 100%"
