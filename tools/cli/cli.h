@@ -102,6 +102,9 @@ ffd_status cli_rig_read(const char *path, ffd_rig **out, ffd_error *err);
  * error and returns the exit code. */
 int cli_mesh_write(const ffd_mesh *mesh, const char *path, const ffd_write_options *options,
                    ffd_error *err);
+/* Ends an unfinished progress bar's line (a stage that failed), so that a
+ * message starts on a line of its own. */
+void cli_progress_break(void);
 /* A note or warning on stderr, unless --quiet. */
 void cli_note(const char *fmt, ...) CLI_PRINTF(1, 2);
 /* Installs the progress hook: a bar when stderr is a terminal (and not

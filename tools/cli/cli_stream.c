@@ -10,6 +10,7 @@
 
 int cli_quiet;
 int cli_progress_lines;
+static int bar_open; /* a progress bar is on stderr's last line */
 
 /* The largest rig read from standard input: the rig reader's own limit
  * (docs/rig.md); one byte more is read so that the reader refuses it with
@@ -171,10 +172,18 @@ int cli_mesh_write(const ffd_mesh *mesh, const char *path, const ffd_write_optio
     return CLI_EXIT_OK;
 }
 
+void cli_progress_break(void)
+{
+    if (bar_open)
+        fputc('\n', stderr);
+    bar_open = 0;
+}
+
 void cli_note(const char *fmt, ...)
 {
     if (cli_quiet)
         return;
+    cli_progress_break();
     va_list ap;
     va_start(ap, fmt);
     vfprintf(stderr, fmt, ap);
@@ -196,6 +205,7 @@ static void draw_progress(void *user, const char *stage, double fraction)
         fprintf(stderr, "\rffd: %-16s [%s] %3d%%%s", stage, bar, percent,
                 fraction >= 1 ? "\n" : "");
         fflush(stderr);
+        bar_open = fraction < 1;
         return;
     }
     if (fraction == 0)

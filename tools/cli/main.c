@@ -44,6 +44,7 @@ static const char usage_tail[] =
 
 static void print_message(const char *fmt, va_list ap)
 {
+    cli_progress_break();
     fputs("ffd: ", stderr);
     vfprintf(stderr, fmt, ap);
     fputc('\n', stderr);
@@ -297,9 +298,9 @@ int main(int argc, char **argv)
     /* the global options, taken out wherever they are */
     int want_progress = 0, kept = 1;
     for (int i = 1; i < argc; i++) {
-        if (i >= 2 && strcmp(argv[i], "--progress") == 0)
+        if (strcmp(argv[i], "--progress") == 0)
             want_progress = 1;
-        else if (i >= 2 && strcmp(argv[i], "--quiet") == 0)
+        else if (strcmp(argv[i], "--quiet") == 0)
             cli_quiet = 1;
         else
             argv[kept++] = argv[i];
