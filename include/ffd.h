@@ -9,7 +9,8 @@
  *     sizes size_t; angles radians.
  *   - Whoever creates destroys; destroy functions accept NULL.
  *   - The library never prints, never exits, keeps no mutable global state
- *     except the optional allocator hook (ffd_set_allocator).
+ *     except the optional allocator and progress hooks (ffd_set_allocator,
+ *     ffd_set_progress).
  *   - One thread per handle at a time; evaluation is parallel inside (OpenMP)
  *     and bitwise identical for any thread count.
  *   - Each method's own API (handle, options, operations, and what it puts in
@@ -73,6 +74,20 @@ void ffd_set_allocator(const ffd_allocator *allocator);
 
 /* Frees memory the library returned to the caller (e.g. ffd_mesh_write_memory). */
 void ffd_free(void *ptr);
+
+/* Optional progress hook, for hosts that show progress (the ffd command draws
+ * it on stderr). Long operations call fn(user, stage, fraction) for each of
+ * their stages: fraction 0 first, then larger fractions below 1 at most about
+ * 20 times a second, and 1 exactly once when the stage is done (a stage that
+ * fails stops without its 1). Stages: "reading" and "writing" (a mesh),
+ * "placement" (ffd_pbffd_place), "binding" (a lattice or PB-FFD binding),
+ * "tracking" (GFFD), "T-spline set-up" (ffd_tsv_create, ffd_tsv_refine) and
+ * "ARAP" (ffd_tsv_arap_begin's factorisation); stage is a static string. fn
+ * is called on the thread that called the library, never from OpenMP worker
+ * threads, and must not call the library. Pass NULL to remove it. Like
+ * ffd_set_allocator, set it before other library calls; it is global. */
+typedef void (*ffd_progress_fn)(void *user, const char *stage, double fraction);
+void ffd_set_progress(ffd_progress_fn fn, void *user);
 
 /* ======================================================================
  * Meshes

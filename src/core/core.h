@@ -49,6 +49,19 @@ ffd_status ffd_read_file(const char *path, unsigned char **data, size_t *size, f
  * existing file keeps its permissions. FFD_ERR_IO naming path on failure. */
 ffd_status ffd_write_file_atomic(const char *path, const void *data, size_t size, ffd_error *err);
 
+/* Progress of one stage of a long operation (progress.c, ffd_set_progress):
+ * begin reports 0, update a larger fraction in [0, 1) at most every 0.05 s,
+ * end reports 1. Calls from OpenMP worker threads other than the master are
+ * ignored; without a hook set each call costs a test. */
+typedef struct ffd_progress {
+    const char *stage;
+    double fraction;  /* the last fraction reported */
+    double last_time; /* ffd_now() of the last report */
+} ffd_progress;
+void ffd_progress_begin(ffd_progress *p, const char *stage);
+void ffd_progress_update(ffd_progress *p, double fraction);
+void ffd_progress_end(ffd_progress *p);
+
 /* Text input (text.c). Length of a UTF-8 byte order mark at text: 3 or 0. */
 size_t ffd_utf8_bom_length(const void *text, size_t size);
 /* 1-based line and column (in bytes) of text[offset]. */

@@ -255,9 +255,14 @@ ffd_status ffd_gffd_track_points(const ffd_gffd_tracker *t, const double *points
         return ffd_fail(err, FFD_ERR_NOMEM, "tracking %zu points: out of memory", n);
     }
     long long count = (long long)n;
+    /* progress from the master thread only (ffd_progress_update ignores the
+     * others); dynamic chunks are handed out in order, so its i grows */
+    ffd_progress progress;
+    ffd_progress_begin(&progress, "tracking");
 #pragma omp parallel for schedule(dynamic, 64)
     for (long long i = 0; i < count; i++) {
         const double *p0 = points + 3 * i;
+        ffd_progress_update(&progress, (double)i / (double)count);
         iters[i] = 0;
         errors[i] = 0;
         if (!(e0[i] > 0)) {
@@ -287,6 +292,7 @@ ffd_status ffd_gffd_track_points(const ffd_gffd_tracker *t, const double *points
                 memcpy(x, p0, 3 * sizeof(double));
         }
     }
+    ffd_progress_end(&progress);
     ffd_gffd_track_report r;
     memset(&r, 0, sizeof r);
     for (size_t i = 0; i < n; i++) {

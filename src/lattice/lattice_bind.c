@@ -249,6 +249,8 @@ ffd_status ffd_lattice_bind(const ffd_lattice *lat, const double *points, size_t
 
     size_t first_bad = SIZE_MAX;
     int ok = 1;
+    ffd_progress progress;
+    ffd_progress_begin(&progress, "binding");
 #pragma omp parallel num_threads(nt) reduction(min : first_bad)
     {
         size_t T = (size_t)omp_get_num_threads(), t = (size_t)omp_get_thread_num();
@@ -292,8 +294,10 @@ ffd_status ffd_lattice_bind(const ffd_lattice *lat, const double *points, size_t
         return ffd_fail(err, FFD_ERR_NONFINITE, "point %zu has a non-finite coordinate",
                         first_bad);
     }
+    ffd_progress_update(&progress, 0.8);
     if (ok != 1 || !bind_blocks(&x))
         goto oom;
+    ffd_progress_end(&progress);
     ffd_free(x.hist);
     ffd_free(x.out_at);
     *out = b;

@@ -426,11 +426,14 @@ ffd_status ffd_mesh_read_owned(unsigned char *data, size_t size, ffd_format form
     }
     m->src = data;
     m->src_size = size;
+    ffd_progress progress;
+    ffd_progress_begin(&progress, "reading");
     ffd_status s = codec->read(m, name, err);
     if (s != FFD_OK) {
         ffd_mesh_destroy(m);
         return s;
     }
+    ffd_progress_end(&progress);
     *out = m;
     return FFD_OK;
 }

@@ -224,6 +224,8 @@ ffd_status ffd_mesh_write_memory(const ffd_mesh *mesh, const ffd_write_options *
 
     ffd_buf b = {0};
     ffd_status s;
+    ffd_progress progress;
+    ffd_progress_begin(&progress, "writing");
     if (same_format && enc == mesh->encoding)
         s = codec->patch(mesh, &b, err);
     else if (same_format && codec->transcode)
@@ -242,6 +244,7 @@ ffd_status ffd_mesh_write_memory(const ffd_mesh *mesh, const ffd_write_options *
             return ffd_fail(err, FFD_ERR_NOMEM, "out of memory");
         b.data[0] = 0;
     }
+    ffd_progress_end(&progress);
     *data = b.data;
     *size = b.size;
     return FFD_OK;

@@ -385,6 +385,9 @@ ffd_status ffd_pbffd_place(const ffd_mesh *mesh, const ffd_placement_options *op
                  "placed as an open surface as asked (PB-FFD 3.2.3), without interior points");
     }
 
+    /* progress: the steps' rough shares of the time (ffd_set_progress) */
+    ffd_progress progress;
+    ffd_progress_begin(&progress, "placement");
     double *normals = ffd_malloc_array(3 * (nv ? nv : 1), sizeof *normals);
     size_t *surface = ffd_malloc_array(nv ? nv : 1, sizeof *surface);
     double *candidates = NULL, *voronoi = NULL, *points = NULL, *spos = NULL;
@@ -441,6 +444,7 @@ ffd_status ffd_pbffd_place(const ffd_mesh *mesh, const ffd_placement_options *op
         }
     }
 
+    ffd_progress_update(&progress, 0.1);
     if (!rep.open) {
         /* Steps 1-3: Voronoi vertices inside the mesh. */
         interior = opt.interior_count;
@@ -534,9 +538,11 @@ ffd_status ffd_pbffd_place(const ffd_mesh *mesh, const ffd_placement_options *op
                      distinct == 1 ? "" : "s", interior);
         interior = distinct;
     }
+    ffd_progress_update(&progress, 0.6);
     status = ffd_decimate_points(candidates, nc, exterior, points + 3 * interior, err);
     if (status != FFD_OK)
         goto fail;
+    ffd_progress_update(&progress, 0.8);
 
     /* Steps 5 and 8: one EBF per point, radius from the nearest other point. */
     size_t m = interior + exterior;
@@ -570,6 +576,7 @@ ffd_status ffd_pbffd_place(const ffd_mesh *mesh, const ffd_placement_options *op
 
     rep.interior_count = interior;
     rep.exterior_count = exterior;
+    ffd_progress_end(&progress);
     *controls = ebf;
     *count = m;
     ebf = NULL;

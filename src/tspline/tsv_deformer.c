@@ -33,15 +33,23 @@ static ffd_status rebuild_derived(ffd_tsv *t, ffd_error *err)
     tsv_support *S = NULL;
     tsv_phi phi = {0};
     tsv_proxy proxy = {0};
+    /* progress (ffd_set_progress): the shares are the stages' usual times */
+    ffd_progress progress;
+    ffd_progress_begin(&progress, "T-spline set-up");
     ffd_status st = ffd_tsv_support_build(t->L, &S, err);
+    ffd_progress_update(&progress, 0.1);
     if (st == FFD_OK)
         st = ffd_tsv_phi_build(t->L, S, t->params, t->n, &phi, err);
+    ffd_progress_update(&progress, 0.6);
     if (st == FFD_OK) {
         tsv_object obj = {t->params, t->n, t->face_offsets, t->face_indices, t->face_count};
         st = ffd_tsv_proxy_build(t->L, &obj, &proxy, err);
     }
+    ffd_progress_update(&progress, 0.9);
     if (st == FFD_OK)
         st = sync_current(t, err);
+    if (st == FFD_OK)
+        ffd_progress_end(&progress);
     if (st != FFD_OK) {
         ffd_tsv_support_destroy(S);
         ffd_tsv_phi_free(&phi);
@@ -765,8 +773,11 @@ ffd_status ffd_tsv_arap_begin(ffd_tsv *t, const uint32_t *handles, size_t k,
         memcpy(L->verts[v].P[TSV_REFERENCE], L->verts[v].P[TSV_CURRENT], 3 * sizeof(double));
         memcpy(a->targets + 3 * v, L->verts[v].P[TSV_CURRENT], 3 * sizeof(double));
     }
+    ffd_progress progress;
+    ffd_progress_begin(&progress, "ARAP");
     tsv_arap_graph g = {0};
     st = ffd_tsv_arap_graph_build(L, &t->proxy, &g, err);
+    ffd_progress_update(&progress, 0.3);
     if (st == FFD_OK) {
         tsv_arap_weights w = {opt.w_one_form, opt.w_proxy, opt.w_volume, opt.w_target};
         st = ffd_tsv_arap_solver_create(&g, roles, &w, &a->solver, err);
@@ -777,6 +788,7 @@ ffd_status ffd_tsv_arap_begin(ffd_tsv *t, const uint32_t *handles, size_t k,
         ffd_tsv_arap_destroy(a);
         return st;
     }
+    ffd_progress_end(&progress);
     *out = a;
     return FFD_OK;
 }

@@ -32,6 +32,14 @@ commands:
   serve [MESH] [--port N] [--host ADDR] [--root DIR] [--web DIR] [--max-upload MB]
         [--verbose]                      the editor: a local web server, deform in a browser
 
+global options (any command):
+  --progress                             progress on stderr as lines when it is not
+                                         a terminal (on a terminal: always a bar)
+  --quiet                                no notes, warnings or progress bar on stderr
+                                         (errors are still printed)
+
+'-' as a mesh or rig file reads standard input or writes standard output;
+--format FMT (obj, ply, off, stl) names its format (docs/cli.md "Pipes").
 Run 'ffd COMMAND --help' for a command's options.
 Exit status: 0 success, 1 bad or unreadable input (or a failed write), 2 usage error.
 HELP

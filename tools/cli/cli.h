@@ -74,6 +74,43 @@ int cli_check_files(const char *command, const cli_file *files, size_t count);
 int cli_check_rig_inputs(const char *command, const ffd_rig *rig, const cli_file *files,
                          size_t count);
 
+/* Standard input and output (cli_stream.c, docs/cli.md "Pipes"). */
+extern int cli_quiet;          /* --quiet: no notes or warnings on stderr */
+extern int cli_progress_lines; /* progress as "ffd: STAGE: N%" lines */
+/* 1 when path is "-": standard input (an input) or output (an output). */
+int cli_is_stdio(const char *path);
+/* The format named by --format ("obj", "ply", ...: the codec table's
+ * extensions), or FFD_FORMAT_AUTO when unknown. */
+ffd_format cli_format_from_name(const char *name);
+/* "OBJ", "PLY", ...: for messages. */
+const char *cli_format_label(ffd_format format);
+/* Parses --format (format_text may be NULL: *format AUTO) and refuses two
+ * inputs that are both "-". inputs: count/2 pairs (how the user named it,
+ * path). Returns 0 or the usage error's exit code. */
+int cli_check_stdio(const char *command, const char *const *inputs, size_t count,
+                    const char *format_text, ffd_format *format);
+/* Reads all of standard input (free *data with free); limit 0: none, else reading stops after a
+ * little more than limit bytes (the parser then refuses it naming its limit). */
+ffd_status cli_read_stdin(size_t limit, unsigned char **data, size_t *size, ffd_error *err);
+/* ffd_mesh_read, or for "-" standard input in format (not AUTO). */
+ffd_status cli_mesh_read(const char *path, ffd_format format, ffd_mesh **out, ffd_error *err);
+/* ffd_rig_read, or for "-" a JSON rig from standard input ("<stdin>"). */
+ffd_status cli_rig_read(const char *path, ffd_rig **out, ffd_error *err);
+/* ffd_mesh_write, or for "-" the whole mesh made in memory and then written
+ * to standard output (nothing on failure; binary bytes are refused when
+ * stdout is a terminal). options->format must be set for "-". Prints the
+ * error and returns the exit code. */
+int cli_mesh_write(const ffd_mesh *mesh, const char *path, const ffd_write_options *options,
+                   ffd_error *err);
+/* Ends an unfinished progress bar's line (a stage that failed), so that a
+ * message starts on a line of its own. */
+void cli_progress_break(void);
+/* A note or warning on stderr, unless --quiet. */
+void cli_note(const char *fmt, ...) CLI_PRINTF(1, 2);
+/* Installs the progress hook: a bar when stderr is a terminal (and not
+ * --quiet), "ffd: STAGE: N%" lines when want_lines (--progress) and it is not. */
+void cli_progress_setup(int want_lines);
+
 /* Monotonic seconds. */
 double cli_now(void);
 

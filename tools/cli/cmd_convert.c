@@ -4,9 +4,12 @@
 #include <string.h>
 
 static const char usage[] =
-    "usage: ffd convert IN OUT [--ascii|--binary|--binary-be] [--in-place]\n"
+    "usage: ffd convert IN OUT [--ascii|--binary|--binary-be] [--in-place] [--format FMT]\n"
+    "       ffd convert IN -o OUT [options]\n"
     "\n"
     "Reads IN and writes OUT in the format of OUT's extension (.obj .ply .off .stl).\n"
+    "IN or OUT '-' is standard input or output, in the format --format names (OUT\n"
+    "'-' without --format: the format of IN's extension).\n"
     "The same format keeps every byte but the positions; another format writes the\n"
     "geometry and the attributes that format can hold. OUT is written atomically:\n"
     "on failure an existing OUT is untouched.\n"
@@ -16,11 +19,14 @@ static const char usage[] =
     "  --binary      binary little-endian (PLY binary_little_endian, STL binary)\n"
     "  --binary-be   binary big-endian (PLY only)\n"
     "  --in-place    allow OUT to be IN itself\n"
+    "  -o, --output OUT\n"
+    "                the output, instead of the second argument\n"
+    "  --format FMT  the format of '-' (obj, ply, off, stl)\n"
     "  -h, --help    this help\n";
 
 int cmd_convert(int argc, char **argv)
 {
-    const char *in = NULL, *out = NULL;
+    const char *in = NULL, *out = NULL, *format_text = NULL;
     ffd_write_options options = {FFD_FORMAT_AUTO, FFD_ENCODING_SAME};
     int in_place = 0;
     for (int i = 1; i < argc; i++) {
@@ -33,6 +39,12 @@ int cmd_convert(int argc, char **argv)
             if (e < 0)
                 return cli_usage_error("convert", "'%s' conflicts with an earlier encoding option",
                                        arg);
+        } else if ((e = cli_option_value(argc, argv, &i, "--output", "-o", &out)) != 0) {
+            if (e < 0)
+                return cli_option_error("convert", arg, e);
+        } else if ((e = cli_option_value(argc, argv, &i, "--format", NULL, &format_text)) != 0) {
+            if (e < 0)
+                return cli_option_error("convert", arg, e);
         } else if (strcmp(arg, "--in-place") == 0) {
             in_place = 1;
         } else if (arg[0] == '-' && arg[1] != 0) {
@@ -47,8 +59,20 @@ int cmd_convert(int argc, char **argv)
     }
     if (!in || !out)
         return cli_usage_error("convert", "expected IN and OUT");
-    int bad = cli_check_output("convert", in, out, in_place);
+    ffd_format stdio_format;
+    const char *inputs[] = {"the input mesh", in};
+    int bad = cli_check_stdio("convert", inputs, 2, format_text, &stdio_format);
     if (bad)
+        return bad;
+    if (cli_is_stdio(in) && !stdio_format)
+        return cli_usage_error("convert", "IN '-' (standard input) needs --format FMT "
+                                          "(obj, ply, off or stl)");
+    if (cli_is_stdio(out))
+        options.format = stdio_format ? stdio_format : ffd_format_from_path(in);
+    if (cli_is_stdio(out) && !options.format)
+        return cli_usage_error("convert", "OUT '-' (standard output) needs --format FMT "
+                                          "(obj, ply, off or stl)");
+    if ((bad = cli_check_output("convert", in, out, in_place)))
         return bad;
     const cli_file files[] = {{"the input mesh", in, CLI_FILE_INPUT}, {"OUT", out, CLI_FILE_OUTPUT}};
     if (!in_place && (bad = cli_check_files("convert", files, 2)))
@@ -56,13 +80,13 @@ int cmd_convert(int argc, char **argv)
 
     ffd_error err = {{0}};
     ffd_mesh *mesh = NULL;
-    if (ffd_mesh_read(in, &mesh, &err) != FFD_OK)
+    if (cli_mesh_read(in, stdio_format, &mesh, &err) != FFD_OK)
         return cli_error(CLI_EXIT_INPUT, "%s", err.message);
-    ffd_status s = ffd_mesh_write(mesh, out, &options, &err);
+    int code = cli_mesh_write(mesh, out, &options, &err);
     size_t nv = ffd_mesh_vertex_count(mesh), nf = ffd_mesh_face_count(mesh);
     ffd_mesh_destroy(mesh);
-    if (s != FFD_OK)
-        return cli_error(CLI_EXIT_INPUT, "%s", err.message);
-    fprintf(stderr, "wrote %s (%zu vertices, %zu faces)\n", out, nv, nf);
+    if (code != CLI_EXIT_OK)
+        return code;
+    cli_note("wrote %s (%zu vertices, %zu faces)\n", cli_is_stdio(out) ? "<stdout>" : out, nv, nf);
     return CLI_EXIT_OK;
 }

@@ -10,15 +10,20 @@
 static const char usage[] =
     "usage: ffd deform IN -o OUT --rig RIG [options]\n"
     "       ffd deform IN --in-place --rig RIG [options]\n"
+    "       ffd deform - -o - --rig RIG --format FMT < IN > OUT\n"
     "\n"
     "Reads the mesh IN and the rig RIG (JSON, or PyGeM FFD parameters when the name\n"
     "ends in .prm; see docs/rig.md), deforms the mesh and writes OUT in the format\n"
     "of its extension. OUT is written atomically: on failure an existing OUT is\n"
-    "untouched, and IN is never modified unless --in-place is given.\n"
+    "untouched, and IN is never modified unless --in-place is given. IN, OUT or\n"
+    "RIG '-' is standard input or output (one input at most; a rig from standard\n"
+    "input is JSON); OUT '-' is written only when all went well.\n"
     "\n"
     "options:\n"
     "  -o, --output OUT  the deformed mesh\n"
     "  -r, --rig RIG     the rig file\n"
+    "  --format FMT      the format of IN or OUT '-' (obj, ply, off, stl; OUT '-'\n"
+    "                    without it: the format of IN's extension)\n"
     "  --in-place        allow OUT to be IN (OUT defaults to IN)\n"
     "  --report          print the report as JSON on stdout: residuals, then the\n"
     "                    method's details (docs/rig.md \"The report\")\n"
@@ -130,7 +135,7 @@ int cmd_deform(int argc, char **argv)
     const char *in = NULL, *out = NULL, *rig_path = NULL, *lattice_out = NULL, *proxy_out = NULL;
     ffd_write_options options = {FFD_FORMAT_AUTO, FFD_ENCODING_SAME};
     int in_place = 0, want_report = 0, want_timings = 0;
-    const char *max_memory = NULL;
+    const char *max_memory = NULL, *format_text = NULL;
     ffd_limits limits = {0};
     for (int i = 1; i < argc; i++) {
         const char *arg = argv[i];
@@ -163,6 +168,9 @@ int cmd_deform(int argc, char **argv)
             /* more memory granted: proportionally more work (docs/rig.md "Limits") */
             double scale = (double)limits.max_memory / 2147483648.0;
             limits.max_work = 3e10 * (scale > 1 ? scale : 1);
+        } else if ((e = cli_option_value(argc, argv, &i, "--format", NULL, &format_text)) != 0) {
+            if (e < 0)
+                return cli_option_error("deform", arg, e);
         } else if (strcmp(arg, "--no-limits") == 0) {
             limits.unlimited = 1;
         } else if ((e = cli_encoding_option(arg, &options.encoding)) != 0) {
@@ -192,8 +200,27 @@ int cmd_deform(int argc, char **argv)
             return cli_usage_error("deform", "missing -o OUT (or --in-place to overwrite IN)");
         out = in;
     }
-    int bad = cli_check_output("deform", in, out, in_place);
+    ffd_format stdio_format;
+    const char *inputs[] = {"the input mesh", in, "--rig", rig_path};
+    int bad = cli_check_stdio("deform", inputs, 4, format_text, &stdio_format);
     if (bad)
+        return bad;
+    if (cli_is_stdio(in) && !stdio_format)
+        return cli_usage_error("deform", "IN '-' (standard input) needs --format FMT "
+                                         "(obj, ply, off or stl)");
+    if (cli_is_stdio(out)) {
+        options.format = stdio_format ? stdio_format : ffd_format_from_path(in);
+        if (!options.format)
+            return cli_usage_error("deform", "-o - (standard output) needs --format FMT "
+                                             "(obj, ply, off or stl)");
+        if (want_report)
+            return cli_usage_error("deform", "--report prints on standard output, which -o - "
+                                             "writes the mesh to: use -o FILE");
+    }
+    if (cli_is_stdio(lattice_out) || cli_is_stdio(proxy_out))
+        return cli_usage_error("deform", "%s -: only the mesh (-o) can go to standard output",
+                               cli_is_stdio(lattice_out) ? "--lattice-out" : "--proxy-out");
+    if ((bad = cli_check_output("deform", in, out, in_place)))
         return bad;
     const cli_file files[] = {
         {in_place ? "the input mesh (--in-place)" : "the input mesh", in,
@@ -212,7 +239,8 @@ int cmd_deform(int argc, char **argv)
     ffd_rig_report report = {0};
     int code = CLI_EXIT_INPUT;
     double t0 = cli_now();
-    if (ffd_mesh_read(in, &mesh, &err) != FFD_OK || ffd_rig_read(rig_path, &rig, &err) != FFD_OK) {
+    if (cli_mesh_read(in, stdio_format, &mesh, &err) != FFD_OK ||
+        cli_rig_read(rig_path, &rig, &err) != FFD_OK) {
         cli_error(code, "%s", err.message);
         goto done;
     }
@@ -231,6 +259,7 @@ int cmd_deform(int argc, char **argv)
      * on a write failure the outputs this run created are removed, and files
      * that existed before keep their old bytes or get the complete new ones
      * (each write is atomic). */
+    int to_stdout = cli_is_stdio(out);
     int lattice_existed = lattice_out && access(lattice_out, F_OK) == 0;
     int proxy_existed = proxy_out && access(proxy_out, F_OK) == 0;
     ffd_write_options check = options;
@@ -238,11 +267,11 @@ int cmd_deform(int argc, char **argv)
         check.format = ffd_format_from_path(out);
     unsigned char *bytes = NULL;
     size_t nbytes = 0;
-    if (ffd_mesh_write_memory(mesh, &check, &bytes, &nbytes, &err) != FFD_OK) {
+    if (!to_stdout && ffd_mesh_write_memory(mesh, &check, &bytes, &nbytes, &err) != FFD_OK) {
         cli_error(code, "%s: %s", out, err.message);
         goto done;
     }
-    ffd_free(bytes);
+    ffd_free(bytes); /* standard output: made once, by cli_mesh_write, before it writes */
     if (lattice_out && ffd_rig_report_write_lattice(&report, lattice_out, &err) != FFD_OK) {
         cli_error(code, "%s", err.message);
         goto done;
@@ -253,8 +282,8 @@ int cmd_deform(int argc, char **argv)
             unlink(lattice_out);
         goto done;
     }
-    if (ffd_mesh_write(mesh, out, &options, &err) != FFD_OK) {
-        cli_error(code, "%s", err.message);
+    if ((bad = cli_mesh_write(mesh, out, &options, &err)) != CLI_EXIT_OK) {
+        code = bad;
         if (lattice_out && !lattice_existed)
             unlink(lattice_out);
         if (proxy_out && !proxy_existed)
@@ -266,15 +295,15 @@ int cmd_deform(int argc, char **argv)
     for (const char *line = report.notes; line && *line;) {
         const char *eol = strchr(line, '\n');
         int len = eol ? (int)(eol - line) : (int)strlen(line);
-        fprintf(stderr, "ffd: %.*s\n", len, line);
+        cli_note("ffd: %.*s\n", len, line);
         line += len + (eol != NULL);
     }
     if (want_report)
         print_report(&report);
     if (want_timings)
         print_timings(t1 - t0, &report.timings, t3 - t2);
-    fprintf(stderr, "wrote %s (%zu vertices, %zu faces)\n", out, ffd_mesh_vertex_count(mesh),
-            ffd_mesh_face_count(mesh));
+    cli_note("wrote %s (%zu vertices, %zu faces)\n", to_stdout ? "<stdout>" : out,
+             ffd_mesh_vertex_count(mesh), ffd_mesh_face_count(mesh));
     code = CLI_EXIT_OK;
 done:
     ffd_rig_report_free(&report);

@@ -4,15 +4,16 @@
 #include <string.h>
 
 static const char usage[] =
-    "usage: ffd info MESH [--json]\n"
+    "usage: ffd info MESH [--json] [--format FMT]\n"
     "\n"
     "Prints the vertex, face, corner, edge, normal and texture-coordinate counts,\n"
     "the bounding box, whether the surface is closed, and its boundary and\n"
     "non-manifold edges (after welding exactly equal positions).\n"
     "\n"
     "options:\n"
-    "  --json      one JSON object on stdout instead of text\n"
-    "  -h, --help  this help\n";
+    "  --json        one JSON object on stdout instead of text\n"
+    "  --format FMT  MESH '-' is standard input in this format (obj, ply, off, stl)\n"
+    "  -h, --help    this help\n";
 
 static const char *format_name(ffd_format format)
 {
@@ -76,15 +77,19 @@ static void print_text(const char *path, ffd_format format, const ffd_mesh_info 
 
 int cmd_info(int argc, char **argv)
 {
-    const char *path = NULL;
+    const char *path = NULL, *format_text = NULL;
     int json = 0;
     for (int i = 1; i < argc; i++) {
         const char *arg = argv[i];
+        int e;
         if (cli_is_help(arg)) {
             fputs(usage, stdout);
             return CLI_EXIT_OK;
         } else if (strcmp(arg, "--json") == 0) {
             json = 1;
+        } else if ((e = cli_option_value(argc, argv, &i, "--format", NULL, &format_text)) != 0) {
+            if (e < 0)
+                return cli_option_error("info", arg, e);
         } else if (arg[0] == '-' && arg[1] != 0) {
             return cli_usage_error("info", "unknown option '%s'", arg);
         } else if (!path) {
@@ -95,10 +100,18 @@ int cmd_info(int argc, char **argv)
     }
     if (!path)
         return cli_usage_error("info", "missing MESH");
+    ffd_format stdio_format;
+    const char *inputs[] = {"MESH", path};
+    int bad = cli_check_stdio("info", inputs, 2, format_text, &stdio_format);
+    if (bad)
+        return bad;
+    if (cli_is_stdio(path) && !stdio_format)
+        return cli_usage_error("info", "MESH '-' (standard input) needs --format FMT "
+                                       "(obj, ply, off or stl)");
 
     ffd_error err = {{0}};
     ffd_mesh *mesh = NULL;
-    if (ffd_mesh_read(path, &mesh, &err) != FFD_OK)
+    if (cli_mesh_read(path, stdio_format, &mesh, &err) != FFD_OK)
         return cli_error(CLI_EXIT_INPUT, "%s", err.message);
     ffd_mesh_info info;
     ffd_status s = ffd_mesh_compute_info(mesh, &info, &err);
@@ -106,9 +119,10 @@ int cmd_info(int argc, char **argv)
     ffd_mesh_destroy(mesh);
     if (s != FFD_OK)
         return cli_error(CLI_EXIT_INPUT, "%s: %s", path, err.message);
+    const char *name = cli_is_stdio(path) ? "<stdin>" : path;
     if (json)
-        print_json(path, format, &info);
+        print_json(name, format, &info);
     else
-        print_text(path, format, &info);
+        print_text(name, format, &info);
     return CLI_EXIT_OK;
 }

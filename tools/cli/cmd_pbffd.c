@@ -28,6 +28,7 @@ static const char usage[] =
     "  --levels N            hierarchy levels recorded in the rig (default 1)\n"
     "  --points F            also write the control points as an OBJ point cloud\n"
     "  --report              print the placement report as JSON on stdout\n"
+    "  --format FMT          MESH '-' is standard input in this format (obj, ply, off, stl)\n"
     "  -h, --help            this help\n";
 
 /* A positive integer, or -1. */
@@ -91,7 +92,7 @@ static int cmd_place(int argc, char **argv)
 {
     const char *in = NULL, *out = NULL, *points = NULL;
     const char *interior = NULL, *exterior = NULL, *offset = NULL, *factor = NULL;
-    const char *surface = NULL, *sites = NULL, *levels = NULL;
+    const char *surface = NULL, *sites = NULL, *levels = NULL, *format_text = NULL;
     int want_report = 0;
     ffd_placement_options options = {0};
     ffd_pbffd_options pb_options = {0};
@@ -110,7 +111,8 @@ static int cmd_place(int argc, char **argv)
             (e = cli_option_value(argc, argv, &i, "--surface", NULL, &surface)) ||
             (e = cli_option_value(argc, argv, &i, "--voronoi-sites", NULL, &sites)) ||
             (e = cli_option_value(argc, argv, &i, "--levels", NULL, &levels)) ||
-            (e = cli_option_value(argc, argv, &i, "--points", NULL, &points))) {
+            (e = cli_option_value(argc, argv, &i, "--points", NULL, &points)) ||
+            (e = cli_option_value(argc, argv, &i, "--format", NULL, &format_text))) {
             if (e < 0)
                 return cli_option_error("pbffd place", arg, e);
         } else if (strcmp(arg, "--no-cover") == 0) {
@@ -172,12 +174,23 @@ static int cmd_place(int argc, char **argv)
             return cli_usage_error("pbffd place", "--surface '%s': expected auto, closed or open",
                                    surface);
     }
+    ffd_format stdio_format;
+    const char *inputs[] = {"MESH", in};
+    int bad = cli_check_stdio("pbffd place", inputs, 2, format_text, &stdio_format);
+    if (bad)
+        return bad;
+    if (cli_is_stdio(in) && !stdio_format)
+        return cli_usage_error("pbffd place", "MESH '-' (standard input) needs --format FMT "
+                                              "(obj, ply, off or stl)");
+    if (cli_is_stdio(out) || cli_is_stdio(points))
+        return cli_usage_error("pbffd place", "%s -: this command writes files only",
+                               cli_is_stdio(out) ? "-o" : "--points");
     const cli_file files[] = {
         {"the input mesh", in, CLI_FILE_INPUT},
         {"-o", out, CLI_FILE_OUTPUT},
         {"--points", points, CLI_FILE_OUTPUT},
     };
-    int bad = cli_check_files("pbffd place", files, sizeof files / sizeof *files);
+    bad = cli_check_files("pbffd place", files, sizeof files / sizeof *files);
     if (bad)
         return bad;
     if (points && ffd_format_from_path(points) == FFD_FORMAT_AUTO)
@@ -191,7 +204,7 @@ static int cmd_place(int argc, char **argv)
     size_t count = 0;
     ffd_placement_report report = {0};
     int code = CLI_EXIT_INPUT;
-    if (ffd_mesh_read(in, &mesh, &err) != FFD_OK) {
+    if (cli_mesh_read(in, stdio_format, &mesh, &err) != FFD_OK) {
         cli_error(code, "%s", err.message);
         goto done;
     }
@@ -214,10 +227,10 @@ static int cmd_place(int argc, char **argv)
         goto done;
     }
     if (report.note[0])
-        fprintf(stderr, "ffd: note: %s\n", report.note);
+        cli_note("ffd: note: %s\n", report.note);
     if (want_report)
         print_report(&report, count);
-    fprintf(stderr, "wrote %s (%zu control points: %zu interior, %zu exterior; %s surface; %.3f s)\n",
+    cli_note("wrote %s (%zu control points: %zu interior, %zu exterior; %s surface; %.3f s)\n",
             out, count, report.interior_count, report.exterior_count,
             report.open ? "open" : "closed", report.seconds_total);
     code = CLI_EXIT_OK;

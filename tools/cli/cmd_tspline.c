@@ -28,6 +28,8 @@ static const char usage[] =
     "  -r, --rig RIG         a \"tspline\" rig whose lattice and steps to use\n"
     "  --lattice F           also write the full T-lattice (OBJ: points and edges)\n"
     "  --report              print the counts as JSON on stdout\n"
+    "  --format FMT          MESH '-' is standard input in this format (obj, ply, off, stl);\n"
+    "                        RIG '-' reads a JSON rig from standard input\n"
     "  -h, --help            this help\n";
 
 /* "6" or "6,7,5": control points per axis. */
@@ -76,6 +78,7 @@ static int cmd_tspline(int argc, char **argv)
     if (strcmp(argv[1], "proxy") != 0)
         return cli_usage_error("tspline", "unknown subcommand '%s' (expected proxy)", argv[1]);
     const char *in = NULL, *out = NULL, *rig_path = NULL, *lattice = NULL, *res_text = NULL;
+    const char *format_text = NULL;
     int want_report = 0;
     for (int i = 2; i < argc; i++) {
         const char *arg = argv[i];
@@ -90,6 +93,9 @@ static int cmd_tspline(int argc, char **argv)
             if (e < 0)
                 return cli_option_error("tspline proxy", arg, e);
         } else if ((e = cli_option_value(argc, argv, &i, "--lattice", NULL, &lattice)) != 0) {
+            if (e < 0)
+                return cli_option_error("tspline proxy", arg, e);
+        } else if ((e = cli_option_value(argc, argv, &i, "--format", NULL, &format_text)) != 0) {
             if (e < 0)
                 return cli_option_error("tspline proxy", arg, e);
         } else if ((e = cli_option_value(argc, argv, &i, "--resolution", NULL, &res_text)) != 0) {
@@ -116,7 +122,18 @@ static int cmd_tspline(int argc, char **argv)
     if (res_text && parse_resolution(res_text, res) != 0)
         return cli_usage_error("tspline proxy",
                                "--resolution '%s': expected N or L,M,N (positive integers)", res_text);
-    int bad = cli_check_format("tspline proxy", out);
+    ffd_format stdio_format;
+    const char *inputs[] = {"MESH", in, "--rig", rig_path};
+    int bad = cli_check_stdio("tspline proxy", inputs, 4, format_text, &stdio_format);
+    if (bad)
+        return bad;
+    if (cli_is_stdio(in) && !stdio_format)
+        return cli_usage_error("tspline proxy", "MESH '-' (standard input) needs --format FMT "
+                                                "(obj, ply, off or stl)");
+    if (cli_is_stdio(out) || cli_is_stdio(lattice))
+        return cli_usage_error("tspline proxy", "%s -: this command writes files only",
+                               cli_is_stdio(out) ? "-o" : "--lattice");
+    bad = cli_check_format("tspline proxy", out);
     if (!bad)
         bad = cli_check_format("tspline proxy", lattice);
     const cli_file files[] = {
@@ -135,12 +152,12 @@ static int cmd_tspline(int argc, char **argv)
     ffd_rig *rig = NULL;
     ffd_rig_report report = {0};
     int code = CLI_EXIT_INPUT;
-    if (ffd_mesh_read(in, &mesh, &err) != FFD_OK) {
+    if (cli_mesh_read(in, stdio_format, &mesh, &err) != FFD_OK) {
         cli_error(code, "%s", err.message);
         goto done;
     }
     if (rig_path) {
-        if (ffd_rig_read(rig_path, &rig, &err) != FFD_OK) {
+        if (cli_rig_read(rig_path, &rig, &err) != FFD_OK) {
             cli_error(code, "%s", err.message);
             goto done;
         }
@@ -191,7 +208,7 @@ static int cmd_tspline(int argc, char **argv)
         printf("}\n");
     }
     cJSON_Delete(details);
-    fprintf(stderr, "wrote %s (proxy: %zu points, %zu faces; lattice: %zu control points, %zu cells)\n",
+    cli_note("wrote %s (proxy: %zu points, %zu faces; lattice: %zu control points, %zu cells)\n",
             out, report.control_mesh_point_count, report.control_face_count, report.control_count,
             cells);
     code = CLI_EXIT_OK;

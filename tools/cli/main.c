@@ -31,11 +31,20 @@ static const char usage_tail[] =
     "  serve [MESH] [--port N] [--host ADDR] [--root DIR] [--web DIR] [--max-upload MB]\n"
     "        [--verbose]                      the editor: a local web server, deform in a browser\n"
     "\n"
+    "global options (any command):\n"
+    "  --progress                             progress on stderr as lines when it is not\n"
+    "                                         a terminal (on a terminal: always a bar)\n"
+    "  --quiet                                no notes, warnings or progress bar on stderr\n"
+    "                                         (errors are still printed)\n"
+    "\n"
+    "'-' as a mesh or rig file reads standard input or writes standard output;\n"
+    "--format FMT (obj, ply, off, stl) names its format (docs/cli.md \"Pipes\").\n"
     "Run 'ffd COMMAND --help' for a command's options.\n"
     "Exit status: 0 success, 1 bad or unreadable input (or a failed write), 2 usage error.\n";
 
 static void print_message(const char *fmt, va_list ap)
 {
+    cli_progress_break();
     fputs("ffd: ", stderr);
     vfprintf(stderr, fmt, ap);
     fputc('\n', stderr);
@@ -186,6 +195,8 @@ int cli_check_files(const char *command, const cli_file *files, size_t count)
             const cli_file *a = &files[i], *b = &files[j];
             if (!a->path || !b->path || (a->role == CLI_FILE_INPUT && b->role == CLI_FILE_INPUT))
                 continue;
+            if (cli_is_stdio(a->path) || cli_is_stdio(b->path))
+                continue; /* standard input and output are not files of the command */
             if (!cli_same_file(a->path, b->path))
                 continue;
             /* name the output first (the later of two outputs) */
@@ -201,7 +212,7 @@ int cli_check_files(const char *command, const cli_file *files, size_t count)
 
 int cli_check_format(const char *command, const char *out)
 {
-    if (out && ffd_format_from_path(out) == FFD_FORMAT_AUTO)
+    if (out && !cli_is_stdio(out) && ffd_format_from_path(out) == FFD_FORMAT_AUTO)
         return cli_usage_error(command,
                                "%s: unknown output format (expected .obj, .ply, .off or .stl)", out);
     return 0;
@@ -211,6 +222,10 @@ int cli_check_output(const char *command, const char *in, const char *out, int i
 {
     if (cli_check_format(command, out))
         return CLI_EXIT_USAGE;
+    if (in_place && (cli_is_stdio(in) || cli_is_stdio(out)))
+        return cli_usage_error(command, "--in-place: standard input or output ('-') is not a file");
+    if (cli_is_stdio(in) || cli_is_stdio(out))
+        return 0;
     int same = cli_same_file(in, out);
     if (!in_place && same)
         return cli_usage_error(command,
@@ -280,6 +295,19 @@ static const char *command_list(char *buf, size_t size, const char *last_sep)
 int main(int argc, char **argv)
 {
     char names[512];
+    /* the global options, taken out wherever they are */
+    int want_progress = 0, kept = 1;
+    for (int i = 1; i < argc; i++) {
+        if (strcmp(argv[i], "--progress") == 0)
+            want_progress = 1;
+        else if (strcmp(argv[i], "--quiet") == 0)
+            cli_quiet = 1;
+        else
+            argv[kept++] = argv[i];
+    }
+    argc = kept;
+    argv[argc] = NULL;
+    cli_progress_setup(want_progress);
     if (argc < 2)
         return cli_usage_error(NULL, "missing command (%s)", command_list(names, sizeof names, ", "));
     const char *command = argv[1];
