@@ -30,7 +30,8 @@ install(FILES ${CMAKE_BINARY_DIR}/ffdConfig.cmake ${CMAKE_BINARY_DIR}/ffdConfigV
 
 # the page is a build output of web/ (npm run build): installed when it exists
 # at install time; without it `ffd serve` warns at start
-install(DIRECTORY ${CMAKE_SOURCE_DIR}/web/dist/ DESTINATION ${CMAKE_INSTALL_DATADIR}/ffd/web OPTIONAL)
+install(DIRECTORY ${CMAKE_SOURCE_DIR}/web/dist/ DESTINATION ${CMAKE_INSTALL_DATADIR}/ffd/web OPTIONAL
+        PATTERN "*.map" EXCLUDE)
 install(DIRECTORY ${CMAKE_SOURCE_DIR}/examples/ DESTINATION ${CMAKE_INSTALL_DATADIR}/ffd/examples)
 
 # Debian package: `cpack -G DEB` in the build directory (README "Install")

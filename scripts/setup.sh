@@ -5,7 +5,8 @@ PKGS=(build-essential cmake pkg-config
       liblapacke-dev libopenblas-dev libcjson-dev
       clang libclang-rt-14-dev
       libqhull-dev libsuitesparse-dev
-      libmicrohttpd-dev chromium curl libomp-dev valgrind)
+      libmicrohttpd-dev chromium curl libomp-dev valgrind
+      dpkg-dev file binutils)
 missing=()
 for p in "${PKGS[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
