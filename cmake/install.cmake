@@ -13,9 +13,12 @@ file(GLOB FFD_PUBLIC_HEADERS ${CMAKE_SOURCE_DIR}/include/ffd*.h)
 install(FILES ${FFD_PUBLIC_HEADERS} DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})
 
 # pkg-config: -lffd links the shared library; the private dependencies are for
-# `pkg-config --static` (libffd.a)
-set(FFD_PC_LIBS_PRIVATE "-lqhull_r -lcholmod -lsuitesparseconfig -lopenblas -lm ${OpenMP_C_FLAGS}")
+# `pkg-config --static` (libffd.a). Named as libraries, not Requires.private:
+# pkg-config would demand lapacke.pc and libcjson.pc (the -dev packages) even
+# for the shared library
+set(FFD_PC_LIBS_PRIVATE "-llapacke -lcjson -lqhull_r -lcholmod -lsuitesparseconfig -lopenblas -lm ${OpenMP_C_FLAGS}")
 file(RELATIVE_PATH FFD_PC_TO_PREFIX ${CMAKE_INSTALL_FULL_LIBDIR}/pkgconfig ${CMAKE_INSTALL_PREFIX})
+string(REGEX REPLACE "/$" "" FFD_PC_TO_PREFIX "${FFD_PC_TO_PREFIX}")
 configure_file(${CMAKE_SOURCE_DIR}/cmake/ffd.pc.in ${CMAKE_BINARY_DIR}/ffd.pc @ONLY)
 install(FILES ${CMAKE_BINARY_DIR}/ffd.pc DESTINATION ${CMAKE_INSTALL_LIBDIR}/pkgconfig)
 
