@@ -27,6 +27,16 @@
 extern "C" {
 #endif
 
+/* FFD_API marks the library's public functions: the shared library is built
+ * with hidden visibility and exports exactly these (tests/install/check_exports.sh). */
+#ifndef FFD_API
+#if defined(__GNUC__) || defined(__clang__)
+#define FFD_API __attribute__((visibility("default")))
+#else
+#define FFD_API
+#endif
+#endif
+
 #define FFD_VERSION_MAJOR 0
 #define FFD_VERSION_MINOR 1
 #define FFD_VERSION_PATCH 0
@@ -53,7 +63,7 @@ typedef struct ffd_error {
 } ffd_error;
 
 /* A static, human-readable name for a status ("ok", "parse error", ...). */
-const char *ffd_status_string(ffd_status status);
+FFD_API const char *ffd_status_string(ffd_status status);
 
 /* Optional allocator. All library allocation goes through these (tests use
  * it to fail the N-th allocation). Pass NULL to restore malloc/realloc/free.
@@ -70,10 +80,10 @@ typedef struct ffd_allocator {
     void (*free_fn)(void *ptr, void *user);
     void *user;
 } ffd_allocator;
-void ffd_set_allocator(const ffd_allocator *allocator);
+FFD_API void ffd_set_allocator(const ffd_allocator *allocator);
 
 /* Frees memory the library returned to the caller (e.g. ffd_mesh_write_memory). */
-void ffd_free(void *ptr);
+FFD_API void ffd_free(void *ptr);
 
 /* Optional progress hook, for hosts that show progress (the ffd command draws
  * it on stderr). Long operations call fn(user, stage, fraction) for each of
@@ -117,7 +127,7 @@ typedef struct ffd_write_options {
 } ffd_write_options;
 
 /* Format implied by a path's extension, or FFD_FORMAT_AUTO when unknown. */
-ffd_format ffd_format_from_path(const char *path);
+FFD_API ffd_format ffd_format_from_path(const char *path);
 
 /* Reads a mesh. Format from the extension. Everything the file holds is kept
  * so that writing it back in the same format without changes reproduces it
@@ -126,11 +136,11 @@ ffd_format ffd_format_from_path(const char *path);
  * file, directory, unreadable), FFD_ERR_PARSE (message "path:line: ..." for text, "path: byte N: ..." for
  * binary), FFD_ERR_NONFINITE (NaN/Inf coordinate), FFD_ERR_RANGE (bad face
  * index), FFD_ERR_NOMEM. */
-ffd_status ffd_mesh_read(const char *path, ffd_mesh **out, ffd_error *err);
+FFD_API ffd_status ffd_mesh_read(const char *path, ffd_mesh **out, ffd_error *err);
 
 /* Same from memory; name is used in messages (may be NULL). format must not be AUTO. */
-ffd_status ffd_mesh_read_memory(const void *data, size_t size, ffd_format format,
-                                const char *name, ffd_mesh **out, ffd_error *err);
+FFD_API ffd_status ffd_mesh_read_memory(const void *data, size_t size, ffd_format format,
+                                        const char *name, ffd_mesh **out, ffd_error *err);
 
 /* Writes atomically: on failure, or when the process is killed, an existing
  * file at path is untouched and no partial file is left (an unnamed O_TMPFILE
@@ -141,39 +151,39 @@ ffd_status ffd_mesh_read_memory(const void *data, size_t size, ffd_format format
  * every non-position byte is kept; changed positions (and their normals) are
  * rewritten with 17 significant digits (text) or in the file's own binary
  * type. Another format: written from the mesh's geometry and attributes. */
-ffd_status ffd_mesh_write(const ffd_mesh *mesh, const char *path,
-                          const ffd_write_options *options, ffd_error *err);
+FFD_API ffd_status ffd_mesh_write(const ffd_mesh *mesh, const char *path,
+                                  const ffd_write_options *options, ffd_error *err);
 
 /* Same into a buffer the caller frees with ffd_free. options->format must not be AUTO. */
-ffd_status ffd_mesh_write_memory(const ffd_mesh *mesh, const ffd_write_options *options,
-                                 unsigned char **data, size_t *size, ffd_error *err);
+FFD_API ffd_status ffd_mesh_write_memory(const ffd_mesh *mesh, const ffd_write_options *options,
+                                         unsigned char **data, size_t *size, ffd_error *err);
 
 /* Builds a mesh from arrays (copied). face_offsets has face_count+1 entries,
  * face_offsets[0]==0; face_indices has face_offsets[face_count] entries.
  * positions may be NULL only when vertex_count==0; faces may be NULL when face_count==0. */
-ffd_status ffd_mesh_create(const double *positions, size_t vertex_count,
-                           const uint32_t *face_offsets, const uint32_t *face_indices,
-                           size_t face_count, ffd_mesh **out, ffd_error *err);
+FFD_API ffd_status ffd_mesh_create(const double *positions, size_t vertex_count,
+                                   const uint32_t *face_offsets, const uint32_t *face_indices,
+                                   size_t face_count, ffd_mesh **out, ffd_error *err);
 
-void ffd_mesh_destroy(ffd_mesh *mesh);
+FFD_API void ffd_mesh_destroy(ffd_mesh *mesh);
 
-ffd_format ffd_mesh_source_format(const ffd_mesh *mesh);
-size_t ffd_mesh_vertex_count(const ffd_mesh *mesh);
-size_t ffd_mesh_face_count(const ffd_mesh *mesh);
+FFD_API ffd_format ffd_mesh_source_format(const ffd_mesh *mesh);
+FFD_API size_t ffd_mesh_vertex_count(const ffd_mesh *mesh);
+FFD_API size_t ffd_mesh_face_count(const ffd_mesh *mesh);
 /* #V by 3, current positions. Valid until the mesh changes or is destroyed. */
-const double *ffd_mesh_positions(const ffd_mesh *mesh);
+FFD_API const double *ffd_mesh_positions(const ffd_mesh *mesh);
 /* #F+1 offsets into face_indices; face f has vertices face_indices[off[f] .. off[f+1]). */
-const uint32_t *ffd_mesh_face_offsets(const ffd_mesh *mesh);
-const uint32_t *ffd_mesh_face_indices(const ffd_mesh *mesh);
+FFD_API const uint32_t *ffd_mesh_face_offsets(const ffd_mesh *mesh);
+FFD_API const uint32_t *ffd_mesh_face_indices(const ffd_mesh *mesh);
 
 /* Normals stored in the file (OBJ vn, PLY nx/ny/nz, STL facet normals):
  * #N by 3. normal_anchor[i] is the vertex whose deformation carries normal i
  * (OBJ: the first vertex that uses it in a face; PLY: its vertex; STL: the
  * first corner of its facet), or UINT32_MAX for an OBJ normal no face uses
  * (left unchanged by ffd_mesh_set_positions). NULL when the mesh has none. */
-size_t ffd_mesh_normal_count(const ffd_mesh *mesh);
-const double *ffd_mesh_normals(const ffd_mesh *mesh);
-const uint32_t *ffd_mesh_normal_anchors(const ffd_mesh *mesh);
+FFD_API size_t ffd_mesh_normal_count(const ffd_mesh *mesh);
+FFD_API const double *ffd_mesh_normals(const ffd_mesh *mesh);
+FFD_API const uint32_t *ffd_mesh_normal_anchors(const ffd_mesh *mesh);
 
 /* Replaces the positions (#V by 3, all finite, else FFD_ERR_NONFINITE and no
  * change). Normals are updated: with jacobians (#V by 9, row-major
@@ -187,8 +197,8 @@ const uint32_t *ffd_mesh_normal_anchors(const ffd_mesh *mesh);
  * its Jacobian is exactly the identity or neither its anchor nor any corner
  * of a face around the anchor moved; a facet normal, where no corner of its
  * facet moved. */
-ffd_status ffd_mesh_set_positions(ffd_mesh *mesh, const double *positions,
-                                  const double *jacobians, ffd_error *err);
+FFD_API ffd_status ffd_mesh_set_positions(ffd_mesh *mesh, const double *positions,
+                                          const double *jacobians, ffd_error *err);
 
 typedef struct ffd_mesh_info {
     size_t vertex_count;
@@ -209,7 +219,7 @@ typedef struct ffd_mesh_info {
 /* Counts, bounding box and edge topology. Edges join the file's own vertex
  * indices, so unwelded patches (the teapot) show their boundaries; STL facets
  * are joined through welded positions. */
-ffd_status ffd_mesh_compute_info(const ffd_mesh *mesh, ffd_mesh_info *info, ffd_error *err);
+FFD_API ffd_status ffd_mesh_compute_info(const ffd_mesh *mesh, ffd_mesh_info *info, ffd_error *err);
 
 /* ======================================================================
  * Linear deformers: the interface direct manipulation needs
@@ -253,10 +263,10 @@ typedef struct ffd_manip_result {
  * map->variable_count by 3 (zero where untouched). residuals (k, may be NULL)
  * receives |current + B S dV - target| per constraint. Rank deficiency and
  * over-determination are normal (SVD, LAPACK gelsd). k == 0 gives delta 0. */
-ffd_status ffd_manip_solve(const ffd_linear_map *map, const size_t *points, size_t k,
-                           const double *current, const double *targets,
-                           const ffd_manip_options *options, double *delta,
-                           double *residuals, ffd_manip_result *result, ffd_error *err);
+FFD_API ffd_status ffd_manip_solve(const ffd_linear_map *map, const size_t *points, size_t k,
+                                   const double *current, const double *targets,
+                                   const ffd_manip_options *options, double *delta,
+                                   double *residuals, ffd_manip_result *result, ffd_error *err);
 
 /* ======================================================================
  * Rigs: a recorded deformation (JSON, or a PyGeM .prm parameter file)
@@ -270,17 +280,17 @@ typedef struct ffd_rig ffd_rig;
  * leading UTF-8 byte order mark is read past; a NUL in JSON text (a \u0000
  * escape in a key or string, or a raw NUL byte) is FFD_ERR_PARSE with
  * "name:line:column". */
-ffd_status ffd_rig_read(const char *path, ffd_rig **out, ffd_error *err);
-ffd_status ffd_rig_parse_json(const char *text, size_t size, const char *name,
-                              ffd_rig **out, ffd_error *err);
-ffd_status ffd_rig_parse_prm(const char *text, size_t size, const char *name,
-                             ffd_rig **out, ffd_error *err);
-void ffd_rig_destroy(ffd_rig *rig);
+FFD_API ffd_status ffd_rig_read(const char *path, ffd_rig **out, ffd_error *err);
+FFD_API ffd_status ffd_rig_parse_json(const char *text, size_t size, const char *name,
+                                      ffd_rig **out, ffd_error *err);
+FFD_API ffd_status ffd_rig_parse_prm(const char *text, size_t size, const char *name,
+                                     ffd_rig **out, ffd_error *err);
+FFD_API void ffd_rig_destroy(ffd_rig *rig);
 /* The files a rig read besides itself (files its method section names), each as
  * resolved against the rig's directory, for tools that must never write over
  * an input: i < ffd_rig_input_count(rig); NULL past the end. Borrowed. */
-size_t ffd_rig_input_count(const ffd_rig *rig);
-const char *ffd_rig_input_path(const ffd_rig *rig, size_t i);
+FFD_API size_t ffd_rig_input_count(const ffd_rig *rig);
+FFD_API const char *ffd_rig_input_path(const ffd_rig *rig, size_t i);
 
 /* Seconds spent in each phase of ffd_rig_apply. */
 typedef struct ffd_timings {
@@ -331,21 +341,21 @@ typedef struct ffd_rig_report {
      * in the method's header. */
     char *details;
 } ffd_rig_report;
-void ffd_rig_report_free(ffd_rig_report *report);
+FFD_API void ffd_rig_report_free(ffd_rig_report *report);
 
 /* Writes the report's deformed control structure as an OBJ file (one 'v' per
  * control point; one 'l' per control edge, or along the three directions of
  * the resolution grid; the points only for a method with neither; the
  * method's header says which), atomically. */
-ffd_status ffd_rig_report_write_lattice(const ffd_rig_report *report, const char *path,
-                                        ffd_error *err);
+FFD_API ffd_status ffd_rig_report_write_lattice(const ffd_rig_report *report, const char *path,
+                                                ffd_error *err);
 /* Writes the report's control mesh (its control points, deformed, and its
  * polygons) as an OBJ file, atomically; FFD_ERR_INVALID for reports without
  * one (the method's header says which have one). The file is the manifold
  * control mesh: one 'v' per point (control_mesh_points order: by control id, a control
  * point on several sheets once per sheet). */
-ffd_status ffd_rig_report_write_proxy(const ffd_rig_report *report, const char *path,
-                                      ffd_error *err);
+FFD_API ffd_status ffd_rig_report_write_proxy(const ffd_rig_report *report, const char *path,
+                                              ffd_error *err);
 
 /* Bounds on the work of one request (a rig applied, an editor operation).
  * Before each large step the library estimates its peak memory (the bytes of
@@ -366,8 +376,8 @@ typedef struct ffd_limits {
 } ffd_limits;
 
 /* As ffd_rig_apply, under limits (NULL: the defaults). */
-ffd_status ffd_rig_apply_limited(const ffd_rig *rig, ffd_mesh *mesh, const ffd_limits *limits,
-                                 ffd_rig_report *report, ffd_error *err);
+FFD_API ffd_status ffd_rig_apply_limited(const ffd_rig *rig, ffd_mesh *mesh, const ffd_limits *limits,
+                                         ffd_rig_report *report, ffd_error *err);
 
 /* Applies the rig to the mesh: builds the deformer, binds the vertices,
  * applies moves, then solves the constraints, evaluates, and sets the mesh's
@@ -377,8 +387,8 @@ ffd_status ffd_rig_apply_limited(const ffd_rig *rig, ffd_mesh *mesh, const ffd_l
  * faces). report may be NULL.
  * Errors: FFD_ERR_RANGE (vertex id), FFD_ERR_INVALID (also: a step over
  * the default ffd_limits), FFD_ERR_NONFINITE; on error the mesh is unchanged. */
-ffd_status ffd_rig_apply(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report *report,
-                         ffd_error *err);
+FFD_API ffd_status ffd_rig_apply(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report *report,
+                                 ffd_error *err);
 
 
 /* ======================================================================
@@ -399,58 +409,58 @@ typedef struct ffd_deformer ffd_deformer;
  * the method's own construction read it: its header says how) and is
  * only read during the call. The bound points are then mesh's vertices.
  * limits: NULL for the defaults (ffd_limits). Errors as ffd_rig_apply. */
-ffd_status ffd_deformer_create(const ffd_rig *rig, const ffd_mesh *mesh, const ffd_limits *limits,
-                               ffd_deformer **out, ffd_error *err);
+FFD_API ffd_status ffd_deformer_create(const ffd_rig *rig, const ffd_mesh *mesh, const ffd_limits *limits,
+                                       ffd_deformer **out, ffd_error *err);
 /* As ffd_deformer_create from rig JSON text (name names it in errors; a file
  * the rig refers to is resolved relative to name's directory). */
-ffd_status ffd_deformer_create_json(const char *text, size_t size, const char *name,
-                                    const ffd_mesh *mesh, const ffd_limits *limits,
-                                    ffd_deformer **out, ffd_error *err);
-void ffd_deformer_destroy(ffd_deformer *d);
+FFD_API ffd_status ffd_deformer_create_json(const char *text, size_t size, const char *name,
+                                            const ffd_mesh *mesh, const ffd_limits *limits,
+                                            ffd_deformer **out, ffd_error *err);
+FFD_API void ffd_deformer_destroy(ffd_deformer *d);
 /* The method's name, as the rig's "deformer" key spells it. */
-const char *ffd_deformer_method(const ffd_deformer *d);
+FFD_API const char *ffd_deformer_method(const ffd_deformer *d);
 /* The method's own handle when the deformer is of that method (the handle
  * type the method's header names for ffd_deformer_handle), NULL otherwise.
  * Borrowed; method-specific edits made through it are seen by the next
  * evaluation. */
-void *ffd_deformer_handle(ffd_deformer *d, const char *method);
+FFD_API void *ffd_deformer_handle(ffd_deformer *d, const char *method);
 
 /* Binds n points given at rest (n by 3, copied): a second surface, a volume
  * mesh's nodes, one partition of a distributed mesh. Replaces the previous
  * binding; a point bound here deforms exactly as the same point would as a
  * vertex of the mesh. FFD_ERR_NONFINITE; on error the binding is unchanged. */
-ffd_status ffd_deformer_bind(ffd_deformer *d, const double *points, size_t n, ffd_error *err);
-size_t ffd_deformer_point_count(const ffd_deformer *d);
+FFD_API ffd_status ffd_deformer_bind(ffd_deformer *d, const double *points, size_t n, ffd_error *err);
+FFD_API size_t ffd_deformer_point_count(const ffd_deformer *d);
 /* Deformed positions of the bound points, point_count by 3. */
-ffd_status ffd_deformer_eval(ffd_deformer *d, double *out, ffd_error *err);
+FFD_API ffd_status ffd_deformer_eval(ffd_deformer *d, double *out, ffd_error *err);
 /* Jacobians d(x')/d(x) of the map at the bound points, point_count by 9
  * row-major. FFD_ERR_UNSUPPORTED for a method without one. */
-ffd_status ffd_deformer_jacobian(ffd_deformer *d, double *out, ffd_error *err);
+FFD_API ffd_status ffd_deformer_jacobian(ffd_deformer *d, double *out, ffd_error *err);
 /* The bound points' deformed positions as a linear map of the control
  * variables: rows are the bound points, and the tie maps every column to
  * the control it moves (variable j is control j, variable_count ==
  * ffd_deformer_control_count): x'_i = sum_c w_ic p_tie(c) plus what does not
  * depend on the controls. Borrows d until the next bind, control change,
  * method operation (e.g. a refinement) or destroy. FFD_ERR_UNSUPPORTED where the map is not linear in the controls. */
-ffd_status ffd_deformer_linear_map(ffd_deformer *d, ffd_linear_map *map, ffd_error *err);
+FFD_API ffd_status ffd_deformer_linear_map(ffd_deformer *d, ffd_linear_map *map, ffd_error *err);
 
 /* The control variables: count, current positions (count by 3), positions
  * set (ids NULL: all count, in order) or moved by deltas (k by 3), and every
  * control back at rest. Setting goes through the method's own edit (with
  * whatever else that edit does, e.g. re-tracking: the method's header).
  * FFD_ERR_RANGE for an id, FFD_ERR_NONFINITE; on error nothing changed. */
-size_t ffd_deformer_control_count(const ffd_deformer *d);
-void ffd_deformer_controls(const ffd_deformer *d, double *out);
-ffd_status ffd_deformer_set_controls(ffd_deformer *d, const uint32_t *ids, size_t k,
-                                     const double *positions, ffd_error *err);
-ffd_status ffd_deformer_move_controls(ffd_deformer *d, const uint32_t *ids, size_t k,
-                                      const double *deltas, ffd_error *err);
-ffd_status ffd_deformer_reset(ffd_deformer *d, ffd_error *err);
+FFD_API size_t ffd_deformer_control_count(const ffd_deformer *d);
+FFD_API void ffd_deformer_controls(const ffd_deformer *d, double *out);
+FFD_API ffd_status ffd_deformer_set_controls(ffd_deformer *d, const uint32_t *ids, size_t k,
+                                             const double *positions, ffd_error *err);
+FFD_API ffd_status ffd_deformer_move_controls(ffd_deformer *d, const uint32_t *ids, size_t k,
+                                              const double *deltas, ffd_error *err);
+FFD_API ffd_status ffd_deformer_reset(ffd_deformer *d, ffd_error *err);
 
 /* The method's report as JSON (ffd_free the text): {"method", "points",
  * "controls": {"count", ...the method's structure...}, "params": {...}};
  * the keys under "controls" and "params" are the method's (docs/api.md). */
-ffd_status ffd_deformer_report(const ffd_deformer *d, char **json, size_t *size, ffd_error *err);
+FFD_API ffd_status ffd_deformer_report(const ffd_deformer *d, char **json, size_t *size, ffd_error *err);
 
 /* ======================================================================
  * Editing sessions: the editor's model (ffd serve is HTTP around it)
@@ -475,12 +485,12 @@ typedef struct ffd_session_options {
 
 /* Creates a session on mesh, which it takes over on success (destroyed with
  * the session; untouched on error). name labels the mesh (the file name). */
-ffd_status ffd_session_create(ffd_mesh *mesh, const char *name, const ffd_session_options *options,
-                              ffd_session **out, ffd_error *err);
-void ffd_session_destroy(ffd_session *s);
+FFD_API ffd_status ffd_session_create(ffd_mesh *mesh, const char *name, const ffd_session_options *options,
+                                      ffd_session **out, ffd_error *err);
+FFD_API void ffd_session_destroy(ffd_session *s);
 /* The rest mesh (positions as loaded) and its label. */
-const ffd_mesh *ffd_session_mesh(const ffd_session *s);
-const char *ffd_session_name(const ffd_session *s);
+FFD_API const ffd_mesh *ffd_session_mesh(const ffd_session *s);
+FFD_API const char *ffd_session_name(const ffd_session *s);
 
 /* Runs one operation (op: "create", "drag_begin", "drag", "undo", ...) with
  * its JSON body (may be empty for operations without parameters). On
@@ -492,37 +502,37 @@ const char *ffd_session_name(const ffd_session *s);
  * FFD_ERR_INVALID (a well-formed request the state refuses: no deformer,
  * wrong method, no drag in progress), FFD_ERR_RANGE (an id), FFD_ERR_UNSUPPORTED
  * (unknown op), FFD_ERR_NONFINITE, FFD_ERR_NOMEM. */
-ffd_status ffd_session_command(ffd_session *s, const char *op, const char *body, size_t size,
-                               void **reply, size_t *reply_size, int *binary, ffd_error *err);
+FFD_API ffd_status ffd_session_command(ffd_session *s, const char *op, const char *body, size_t size,
+                                       void **reply, size_t *reply_size, int *binary, ffd_error *err);
 /* The names of the operations ffd_session_command knows: the session's own,
  * then each method's (refine, frame, ...); NULL for i past the end. */
-const char *ffd_session_op_name(size_t i);
+FFD_API const char *ffd_session_op_name(size_t i);
 
 /* The state as JSON (mesh, method, parameters, control structure, pins,
  * undo/redo depth, revision): see docs/editor.md. ffd_free the text. */
-ffd_status ffd_session_state(const ffd_session *s, char **json, size_t *size, ffd_error *err);
+FFD_API ffd_status ffd_session_state(const ffd_session *s, char **json, size_t *size, ffd_error *err);
 /* The current frame (binary, little-endian, docs/editor.md): deformed vertex
  * positions, control positions and pin residuals as float32. */
-ffd_status ffd_session_frame(const ffd_session *s, void **data, size_t *size, ffd_error *err);
+FFD_API ffd_status ffd_session_frame(const ffd_session *s, void **data, size_t *size, ffd_error *err);
 /* The rest mesh's triangles (polygons fanned) and rest positions (binary). */
-ffd_status ffd_session_topology(const ffd_session *s, void **data, size_t *size, ffd_error *err);
+FFD_API ffd_status ffd_session_topology(const ffd_session *s, void **data, size_t *size, ffd_error *err);
 /* The session's state as a rig (JSON text, ffd_free): replays with
  * ffd_rig_apply / ffd deform to the session's positions. FFD_ERR_INVALID
  * without a deformer. */
-ffd_status ffd_session_rig(const ffd_session *s, char **json, size_t *size, ffd_error *err);
+FFD_API ffd_status ffd_session_rig(const ffd_session *s, char **json, size_t *size, ffd_error *err);
 /* Replaces the deformer by the one a rig builds (an undoable step). name
  * names the rig in errors; files a rig refers to are resolved
  * relative to name's directory and must lie under root (NULL: a rig that
  * refers to files is refused). On error nothing changes. */
-ffd_status ffd_session_load_rig(ffd_session *s, const char *text, size_t size, const char *name,
-                                const char *root, ffd_error *err);
+FFD_API ffd_status ffd_session_load_rig(ffd_session *s, const char *text, size_t size, const char *name,
+                                        const char *root, ffd_error *err);
 /* The deformed mesh in memory, in options->format (FFD_FORMAT_AUTO: the
  * format it was read in); ffd_free the data. */
-ffd_status ffd_session_export(const ffd_session *s, const ffd_write_options *options,
-                              void **data, size_t *size, ffd_error *err);
+FFD_API ffd_status ffd_session_export(const ffd_session *s, const ffd_write_options *options,
+                                      void **data, size_t *size, ffd_error *err);
 /* The deformed mesh (a new mesh, ffd_mesh_destroy it): the rest mesh with
  * the session's rig applied, exactly what ffd deform writes. */
-ffd_status ffd_session_deformed(const ffd_session *s, ffd_mesh **out, ffd_error *err);
+FFD_API ffd_status ffd_session_deformed(const ffd_session *s, ffd_mesh **out, ffd_error *err);
 
 #ifdef __cplusplus
 }

@@ -87,23 +87,23 @@ typedef struct ffd_gffd ffd_gffd;
  * vertex or zero area; a polyhedron that is not closed; too many samples;
  * options out of range), FFD_ERR_RANGE (face index), FFD_ERR_NONFINITE,
  * FFD_ERR_NOMEM. n may be 0 (points NULL). */
-ffd_status ffd_gffd_create(const ffd_gffd_primitive *skeleton, size_t count, const double *points,
-                           size_t n, const ffd_gffd_options *options, ffd_gffd **out,
-                           ffd_error *err);
-void ffd_gffd_destroy(ffd_gffd *g);
+FFD_API ffd_status ffd_gffd_create(const ffd_gffd_primitive *skeleton, size_t count, const double *points,
+                                   size_t n, const ffd_gffd_options *options, ffd_gffd **out,
+                                   ffd_error *err);
+FFD_API void ffd_gffd_destroy(ffd_gffd *g);
 
-size_t ffd_gffd_point_count(const ffd_gffd *g);
+FFD_API size_t ffd_gffd_point_count(const ffd_gffd *g);
 /* Bound points with e_0 > 0 (the ones tracking may move). */
-size_t ffd_gffd_influenced_count(const ffd_gffd *g);
-double ffd_gffd_unit(const ffd_gffd *g);
+FFD_API size_t ffd_gffd_influenced_count(const ffd_gffd *g);
+FFD_API double ffd_gffd_unit(const ffd_gffd *g);
 /* Primitives of the current skeleton, and their current geometry (borrowed,
  * valid until the skeleton changes). */
-size_t ffd_gffd_primitive_count(const ffd_gffd *g);
-ffd_status ffd_gffd_get_primitive(const ffd_gffd *g, size_t index, ffd_gffd_primitive *out,
-                                  ffd_error *err);
+FFD_API size_t ffd_gffd_primitive_count(const ffd_gffd *g);
+FFD_API ffd_status ffd_gffd_get_primitive(const ffd_gffd *g, size_t index, ffd_gffd_primitive *out,
+                                          ffd_error *err);
 /* 1 when some primitive's field solve was singular and fell back to least
  * squares (coincident or coplanar samples). */
-int ffd_gffd_regularised(const ffd_gffd *g);
+FFD_API int ffd_gffd_regularised(const ffd_gffd *g);
 
 /* Skeleton edit (§5, first way): gives primitive index of the current
  * skeleton new vertex positions (same count, same faces); only that
@@ -112,8 +112,8 @@ int ffd_gffd_regularised(const ffd_gffd *g);
  * ffd_gffd_set_correspondences gave others. FFD_ERR_RANGE,
  * FFD_ERR_NONFINITE, FFD_ERR_INVALID (the edit makes the primitive
  * degenerate); on error nothing changes. */
-ffd_status ffd_gffd_set_vertices(ffd_gffd *g, size_t index, const double *vertices,
-                                 ffd_error *err);
+FFD_API ffd_status ffd_gffd_set_vertices(ffd_gffd *g, size_t index, const double *vertices,
+                                         ffd_error *err);
 /* Rigid skeleton edit: moves primitive index of the current skeleton by
  * x -> rotation x + translation (rotation: 3 by 3, row-major, a proper
  * rotation to 1e-12), and its field with it, exactly (no refit). Unlike new
@@ -125,22 +125,22 @@ ffd_status ffd_gffd_set_vertices(ffd_gffd *g, size_t index, const double *vertic
  * FFD_ERR_RANGE, FFD_ERR_NONFINITE, FFD_ERR_INVALID (not a rotation; a
  * moved coordinate beyond 1e100 or too far for the unit), FFD_ERR_NOMEM; on
  * error nothing changes. */
-ffd_status ffd_gffd_transform(ffd_gffd *g, size_t index, const double rotation[9],
-                              const double translation[3], ffd_error *err);
+FFD_API ffd_status ffd_gffd_transform(ffd_gffd *g, size_t index, const double rotation[9],
+                                      const double translation[3], ffd_error *err);
 /* Skeleton replacement (§5, second way): the current skeleton becomes
  * another one (any primitives, any count). There are no automatic
  * correspondences then: warp tracking needs ffd_gffd_set_correspondences
  * (ffd_gffd_track fails with FFD_ERR_INVALID without them). Errors as
  * ffd_gffd_create; on error nothing changes. */
-ffd_status ffd_gffd_replace(ffd_gffd *g, const ffd_gffd_primitive *skeleton, size_t count,
-                            ffd_error *err);
+FFD_API ffd_status ffd_gffd_replace(ffd_gffd *g, const ffd_gffd_primitive *skeleton, size_t count,
+                                    ffd_error *err);
 /* Back to the rest skeleton (and the automatic correspondences). */
-ffd_status ffd_gffd_reset(ffd_gffd *g, ffd_error *err);
+FFD_API ffd_status ffd_gffd_reset(ffd_gffd *g, ffd_error *err);
 /* User correspondences for the warp (eq. 4): from[j] on the rest skeleton
  * goes to to[j] (k by 3 each); k == 0 returns to the automatic ones.
  * FFD_ERR_NONFINITE, FFD_ERR_NOMEM. */
-ffd_status ffd_gffd_set_correspondences(ffd_gffd *g, const double *from, const double *to,
-                                        size_t k, ffd_error *err);
+FFD_API ffd_status ffd_gffd_set_correspondences(ffd_gffd *g, const double *from, const double *to,
+                                                size_t k, ffd_error *err);
 
 /* What a tracking pass did. */
 typedef struct ffd_gffd_track_report {
@@ -184,19 +184,19 @@ typedef struct ffd_gffd_track_report {
  * it with ffd_gffd_track_report_free. Parallel over points, bitwise
  * identical for any thread count. FFD_ERR_INVALID (warp tracking without
  * correspondences), FFD_ERR_NOMEM. */
-ffd_status ffd_gffd_track(const ffd_gffd *g, double *out, ffd_gffd_track_report *report,
-                          ffd_error *err);
-void ffd_gffd_track_report_free(ffd_gffd_track_report *report);
+FFD_API ffd_status ffd_gffd_track(const ffd_gffd *g, double *out, ffd_gffd_track_report *report,
+                                  ffd_error *err);
+FFD_API void ffd_gffd_track_report_free(ffd_gffd_track_report *report);
 
 /* The merged field E (eq. 1-2) of the rest (current == 0) or current
  * (current == 1) skeleton at n points: values (n) and gradients (n by 3,
  * may be NULL). */
-ffd_status ffd_gffd_field(const ffd_gffd *g, int current, const double *points, size_t n,
-                          double *values, double *gradients, ffd_error *err);
+FFD_API ffd_status ffd_gffd_field(const ffd_gffd *g, int current, const double *points, size_t n,
+                                  double *values, double *gradients, ffd_error *err);
 /* The recorded field values e_0 of the bound points (n). */
-const double *ffd_gffd_bound_values(const ffd_gffd *g);
+FFD_API const double *ffd_gffd_bound_values(const ffd_gffd *g);
 /* The blend weights b of the bound points (n, in [0, 1]; see ffd_gffd_track). */
-const double *ffd_gffd_bound_weights(const ffd_gffd *g);
+FFD_API const double *ffd_gffd_bound_weights(const ffd_gffd *g);
 
 /* Zero means default for every field. */
 typedef struct ffd_gffd_resample_options {
@@ -231,10 +231,10 @@ typedef struct ffd_gffd_resample_report {
  * attributes; its positions are the deformed ones. report may be NULL;
  * free it with ffd_gffd_resample_report_free. FFD_ERR_INVALID (vertex count
  * differs from the bound points), FFD_ERR_NOMEM. */
-ffd_status ffd_gffd_resample(const ffd_gffd *g, const ffd_mesh *mesh,
-                             const ffd_gffd_resample_options *options, ffd_mesh **out,
-                             ffd_gffd_resample_report *report, ffd_error *err);
-void ffd_gffd_resample_report_free(ffd_gffd_resample_report *report);
+FFD_API ffd_status ffd_gffd_resample(const ffd_gffd *g, const ffd_mesh *mesh,
+                                     const ffd_gffd_resample_options *options, ffd_mesh **out,
+                                     ffd_gffd_resample_report *report, ffd_error *err);
+FFD_API void ffd_gffd_resample_report_free(ffd_gffd_resample_report *report);
 
 /* --- Behind the generic interfaces (ffd.h) ---
  * ffd_deformer_handle(d, "gffd") is the ffd_gffd. Tracking is not linear in

@@ -44,71 +44,71 @@ typedef struct ffd_box {
  * a single point). margin >= 0. FFD_ERR_INVALID when n == 0 or when the
  * largest extent of the points is above 1e100 or nonzero and below 1e-100
  * (the message gives the extents), FFD_ERR_NONFINITE. */
-ffd_status ffd_box_fit(const double *points, size_t n, double margin, ffd_box *box, ffd_error *err);
+FFD_API ffd_status ffd_box_fit(const double *points, size_t n, double margin, ffd_box *box, ffd_error *err);
 
 /* Minimum control points per direction for a basis (2 for both). */
-uint32_t ffd_basis_min_resolution(ffd_basis basis);
+FFD_API uint32_t ffd_basis_min_resolution(ffd_basis basis);
 
 /* Creates a lattice of res[0] x res[1] x res[2] control points at rest,
  * evenly spaced on the box. Errors: FFD_ERR_INVALID (resolution below the
  * minimum or above 1024, zero or negative volume box), FFD_ERR_NONFINITE. */
-ffd_status ffd_lattice_create(ffd_basis basis, const ffd_box *box, const uint32_t res[3],
-                              ffd_lattice **out, ffd_error *err);
-void ffd_lattice_destroy(ffd_lattice *lattice);
+FFD_API ffd_status ffd_lattice_create(ffd_basis basis, const ffd_box *box, const uint32_t res[3],
+                                      ffd_lattice **out, ffd_error *err);
+FFD_API void ffd_lattice_destroy(ffd_lattice *lattice);
 
-ffd_basis ffd_lattice_basis(const ffd_lattice *lattice);
-void ffd_lattice_box(const ffd_lattice *lattice, ffd_box *box);
-void ffd_lattice_resolution(const ffd_lattice *lattice, uint32_t res[3]);
+FFD_API ffd_basis ffd_lattice_basis(const ffd_lattice *lattice);
+FFD_API void ffd_lattice_box(const ffd_lattice *lattice, ffd_box *box);
+FFD_API void ffd_lattice_resolution(const ffd_lattice *lattice, uint32_t res[3]);
 /* l*m*n; control point (i,j,k) has index (i*m + j)*n + k. */
-size_t ffd_lattice_control_count(const ffd_lattice *lattice);
+FFD_API size_t ffd_lattice_control_count(const ffd_lattice *lattice);
 /* Current control points, count by 3. */
-const double *ffd_lattice_control_points(const ffd_lattice *lattice);
+FFD_API const double *ffd_lattice_control_points(const ffd_lattice *lattice);
 /* Rest position of control point (i,j,k). */
-void ffd_lattice_rest_point(const ffd_lattice *lattice, uint32_t i, uint32_t j, uint32_t k,
-                            double out[3]);
+FFD_API void ffd_lattice_rest_point(const ffd_lattice *lattice, uint32_t i, uint32_t j, uint32_t k,
+                                    double out[3]);
 /* Replaces all control points (count by 3, finite). */
-ffd_status ffd_lattice_set_control_points(ffd_lattice *lattice, const double *points, ffd_error *err);
+FFD_API ffd_status ffd_lattice_set_control_points(ffd_lattice *lattice, const double *points, ffd_error *err);
 /* Adds delta to control point (i,j,k). FFD_ERR_RANGE, FFD_ERR_NONFINITE. */
-ffd_status ffd_lattice_move(ffd_lattice *lattice, const uint32_t index[3], const double delta[3],
-                            ffd_error *err);
+FFD_API ffd_status ffd_lattice_move(ffd_lattice *lattice, const uint32_t index[3], const double delta[3],
+                                    ffd_error *err);
 /* Adds delta (count by 3) to every control point. */
-ffd_status ffd_lattice_add(ffd_lattice *lattice, const double *delta, ffd_error *err);
+FFD_API ffd_status ffd_lattice_add(ffd_lattice *lattice, const double *delta, ffd_error *err);
 /* Puts every control point back at rest. */
-void ffd_lattice_reset(ffd_lattice *lattice);
+FFD_API void ffd_lattice_reset(ffd_lattice *lattice);
 
 /* Local coordinates of n points (paper §2: inverting the rest map, directly
  * in the inner segments, by a cubic root solve in the two outer segments of
  * the B-spline). The binding is valid for this lattice's box, resolution and
  * basis; moving control points never re-binds. FFD_ERR_NONFINITE. */
-ffd_status ffd_lattice_bind(const ffd_lattice *lattice, const double *points, size_t n,
-                            ffd_outside outside, ffd_lattice_binding **out, ffd_error *err);
-void ffd_lattice_binding_destroy(ffd_lattice_binding *binding);
-size_t ffd_lattice_binding_count(const ffd_lattice_binding *binding);
-size_t ffd_lattice_binding_inside_count(const ffd_lattice_binding *binding);
+FFD_API ffd_status ffd_lattice_bind(const ffd_lattice *lattice, const double *points, size_t n,
+                                    ffd_outside outside, ffd_lattice_binding **out, ffd_error *err);
+FFD_API void ffd_lattice_binding_destroy(ffd_lattice_binding *binding);
+FFD_API size_t ffd_lattice_binding_count(const ffd_lattice_binding *binding);
+FFD_API size_t ffd_lattice_binding_inside_count(const ffd_lattice_binding *binding);
 /* Spline parameters of point i: B-spline: in [0, l+1] x [0, m+1] x [0, n+1]
  * (integer part = segment); Bernstein: in [0,1]^3 (outside for outside points).
  * Returns 1 when the point is inside the box, 0 otherwise. */
-int ffd_lattice_binding_params(const ffd_lattice_binding *binding, size_t i, double stu[3]);
+FFD_API int ffd_lattice_binding_params(const ffd_lattice_binding *binding, size_t i, double stu[3]);
 
 /* Deformed positions of the bound points, n by 3 (paper eq. 1, evaluated as
  * the point plus sum_j B_j (P_j - P_rest,j): a point whose support holds no
  * moved control point keeps its bits). */
-ffd_status ffd_lattice_eval(const ffd_lattice *lattice, const ffd_lattice_binding *binding,
-                            double *out, ffd_error *err);
+FFD_API ffd_status ffd_lattice_eval(const ffd_lattice *lattice, const ffd_lattice_binding *binding,
+                                    double *out, ffd_error *err);
 /* Jacobians d(x')/d(x) of the deformation at the bound points, n by 9
  * row-major (I plus the displacement's derivative: exactly I where nothing
  * moved; a clamped outside point does not vary along its clamped axes). */
-ffd_status ffd_lattice_jacobian(const ffd_lattice *lattice, const ffd_lattice_binding *binding,
-                                double *out, ffd_error *err);
+FFD_API ffd_status ffd_lattice_jacobian(const ffd_lattice *lattice, const ffd_lattice_binding *binding,
+                                        double *out, ffd_error *err);
 /* Evaluates the map at spline parameters directly (no binding), 3 doubles. */
-void ffd_lattice_eval_params(const ffd_lattice *lattice, const double stu[3], double out[3]);
+FFD_API void ffd_lattice_eval_params(const ffd_lattice *lattice, const double stu[3], double out[3]);
 
 /* The binding as a linear map for ffd_manip_solve. Columns are the raw
  * control slots: for the B-spline the (l+4)(m+4)(n+4) tripled-border net,
  * tied by S to the l*m*n distinct control points; for Bernstein the l*m*n
  * control points. The map borrows lattice and binding. */
-void ffd_lattice_linear_map(const ffd_lattice *lattice, const ffd_lattice_binding *binding,
-                            ffd_linear_map *map);
+FFD_API void ffd_lattice_linear_map(const ffd_lattice *lattice, const ffd_lattice_binding *binding,
+                                    ffd_linear_map *map);
 
 /* --- Behind the generic interfaces (ffd.h) ---
  * ffd_deformer_handle(d, "lattice") is the ffd_lattice. In a rig report

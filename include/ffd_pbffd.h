@@ -86,25 +86,25 @@ typedef struct ffd_pbffd ffd_pbffd;
  * holds ceil(half) of the one below and a level of one control cannot be
  * halved; options: sigma < 0, master_radius in (0, 1), master_weight < 0),
  * FFD_ERR_NONFINITE, FFD_ERR_NOMEM. */
-ffd_status ffd_pbffd_create(const ffd_ebf *controls, size_t count, const double *points, size_t n,
-                            const ffd_pbffd_options *options, ffd_pbffd **out, ffd_error *err);
-void ffd_pbffd_destroy(ffd_pbffd *pb);
+FFD_API ffd_status ffd_pbffd_create(const ffd_ebf *controls, size_t count, const double *points, size_t n,
+                                    const ffd_pbffd_options *options, ffd_pbffd **out, ffd_error *err);
+FFD_API void ffd_pbffd_destroy(ffd_pbffd *pb);
 
-size_t ffd_pbffd_point_count(const ffd_pbffd *pb);     /* bound points n */
-size_t ffd_pbffd_level_count(const ffd_pbffd *pb);
+FFD_API size_t ffd_pbffd_point_count(const ffd_pbffd *pb);     /* bound points n */
+        FFD_API size_t ffd_pbffd_level_count(const ffd_pbffd *pb);
 /* Controls at level (0 = finest); 0 for a level out of range. */
-size_t ffd_pbffd_control_count(const ffd_pbffd *pb, size_t level);
+FFD_API size_t ffd_pbffd_control_count(const ffd_pbffd *pb, size_t level);
 /* The current state of control index at level. FFD_ERR_RANGE. */
-ffd_status ffd_pbffd_control(const ffd_pbffd *pb, size_t level, size_t index, ffd_ebf *out,
-                             ffd_error *err);
+FFD_API ffd_status ffd_pbffd_control(const ffd_pbffd *pb, size_t level, size_t index, ffd_ebf *out,
+                                     ffd_error *err);
 /* The master control point of level; 0 when there is none. */
-int ffd_pbffd_master(const ffd_pbffd *pb, size_t level, ffd_ebf *out);
+FFD_API int ffd_pbffd_master(const ffd_pbffd *pb, size_t level, ffd_ebf *out);
 /* Bound points under no control point but the master (they move only
  * through the master, i.e. not at all), and under fewer than two. */
-size_t ffd_pbffd_uncovered_count(const ffd_pbffd *pb);
-size_t ffd_pbffd_single_covered_count(const ffd_pbffd *pb);
+FFD_API size_t ffd_pbffd_uncovered_count(const ffd_pbffd *pb);
+FFD_API size_t ffd_pbffd_single_covered_count(const ffd_pbffd *pb);
 /* Number of control points (master excluded) whose ROI holds bound point i. */
-size_t ffd_pbffd_point_support(const ffd_pbffd *pb, size_t i);
+FFD_API size_t ffd_pbffd_point_support(const ffd_pbffd *pb, size_t i);
 
 /* Moves control index of level by delta (an edit at that level, §3.4): the
  * finer levels and the bound points follow (eq. 9-10); the coarser levels
@@ -114,18 +114,18 @@ size_t ffd_pbffd_point_support(const ffd_pbffd *pb, size_t i);
  * name a changed point; their frames are kept. A point moved outside every
  * ROI of the next coarser level no longer follows it (§3.4). FFD_ERR_RANGE,
  * FFD_ERR_NONFINITE. */
-ffd_status ffd_pbffd_move(ffd_pbffd *pb, size_t level, size_t index, const double delta[3],
-                          ffd_error *err);
+FFD_API ffd_status ffd_pbffd_move(ffd_pbffd *pb, size_t level, size_t index, const double delta[3],
+                                  ffd_error *err);
 /* Replaces the frame (the matrix A of eq. 7) of control index of level:
  * rotating it twists, scaling it stretches the space around the point.
  * The parameterisation is kept (no re-binding). FFD_ERR_RANGE,
  * FFD_ERR_NONFINITE, FFD_ERR_INVALID (degenerate frame). */
-ffd_status ffd_pbffd_set_frame(ffd_pbffd *pb, size_t level, size_t index,
-                               const double frame[3][3], ffd_error *err);
+FFD_API ffd_status ffd_pbffd_set_frame(ffd_pbffd *pb, size_t level, size_t index,
+                                       const double frame[3][3], ffd_error *err);
 /* Puts every control point of every level back where it was created
  * (or where the last control-set edit left it), and undoes the
  * re-parameterisations made by moves since. */
-void ffd_pbffd_reset(ffd_pbffd *pb);
+FFD_API void ffd_pbffd_reset(ffd_pbffd *pb);
 
 /* Control-set edits on level 0, made in the current (possibly deformed)
  * state: the bound points whose parameterisation the edit changes (those
@@ -143,21 +143,21 @@ void ffd_pbffd_reset(ffd_pbffd *pb);
  * results are bitwise those without the edit. Errors: FFD_ERR_RANGE,
  * FFD_ERR_INVALID and FFD_ERR_NONFINITE for a bad control ("control[4]:
  * ..."), FFD_ERR_NOMEM; on error nothing changes. */
-ffd_status ffd_pbffd_add(ffd_pbffd *pb, const ffd_ebf *control, size_t *index, ffd_error *err);
-ffd_status ffd_pbffd_remove(ffd_pbffd *pb, size_t index, ffd_error *err);
-ffd_status ffd_pbffd_set_enabled(ffd_pbffd *pb, size_t index, int enabled, ffd_error *err);
+FFD_API ffd_status ffd_pbffd_add(ffd_pbffd *pb, const ffd_ebf *control, size_t *index, ffd_error *err);
+FFD_API ffd_status ffd_pbffd_remove(ffd_pbffd *pb, size_t index, ffd_error *err);
+FFD_API ffd_status ffd_pbffd_set_enabled(ffd_pbffd *pb, size_t index, int enabled, ffd_error *err);
 /* Redefines control index (centre, frame, radius) in the current state; its
  * enabled state is kept (control->disabled is ignored: use set_enabled). */
-ffd_status ffd_pbffd_redefine(ffd_pbffd *pb, size_t index, const ffd_ebf *control,
-                              ffd_error *err);
+FFD_API ffd_status ffd_pbffd_redefine(ffd_pbffd *pb, size_t index, const ffd_ebf *control,
+                                      ffd_error *err);
 
 /* Deformed positions of the bound points, n by 3: V = W P + D A (eq. 7),
  * evaluated as rest + W dP + D dA, so that at rest it is exact (bitwise). */
-ffd_status ffd_pbffd_eval(const ffd_pbffd *pb, double *out, ffd_error *err);
+FFD_API ffd_status ffd_pbffd_eval(const ffd_pbffd *pb, double *out, ffd_error *err);
 /* Jacobians d(x')/d(x) of the deformation at the bound points, n by 9
  * row-major, with respect to the points as bound (after a control-set edit,
  * a re-parameterised point's Jacobian composes with the one it had then). */
-ffd_status ffd_pbffd_jacobian(const ffd_pbffd *pb, double *out, ffd_error *err);
+FFD_API ffd_status ffd_pbffd_jacobian(const ffd_pbffd *pb, double *out, ffd_error *err);
 
 /* The bound points as a linear map of the control points of level (0 =
  * finest; coarser levels compose eq. 10), for ffd_manip_solve (§3.3): the
@@ -166,7 +166,7 @@ ffd_status ffd_pbffd_jacobian(const ffd_pbffd *pb, double *out, ffd_error *err);
  * at one level keep the map exact). The map borrows pb and owns scratch
  * inside it (composed rows): it is not thread-safe; a control-set edit, or a
  * new map of the same level, invalidates it. */
-ffd_status ffd_pbffd_linear_map(ffd_pbffd *pb, size_t level, ffd_linear_map *map, ffd_error *err);
+FFD_API ffd_status ffd_pbffd_linear_map(ffd_pbffd *pb, size_t level, ffd_linear_map *map, ffd_error *err);
 
 /* --- Automatic placement (§3.2.1, Figure 2) --- */
 
@@ -223,9 +223,9 @@ typedef struct ffd_placement_report {
  * FFD_ERR_INVALID (no faces; more points requested than candidates exist:
  * the message says how many there are), FFD_ERR_NUMERIC (Qhull failed: its
  * message is captured, never printed), FFD_ERR_NOMEM. */
-ffd_status ffd_pbffd_place(const ffd_mesh *mesh, const ffd_placement_options *options,
-                           ffd_ebf **controls, size_t *count, ffd_placement_report *report,
-                           ffd_error *err);
+FFD_API ffd_status ffd_pbffd_place(const ffd_mesh *mesh, const ffd_placement_options *options,
+                                   ffd_ebf **controls, size_t *count, ffd_placement_report *report,
+                                   ffd_error *err);
 
 /* --- Curve-based deformation (§3.5) --- */
 
@@ -241,25 +241,25 @@ typedef struct ffd_pbffd_curve ffd_pbffd_curve;
  * their curve parameter when it moves; options->levels is ignored (one
  * level). FFD_ERR_INVALID (count < 2, radius <= 0, samples 1 or above
  * 100000, coincident consecutive control points), FFD_ERR_NONFINITE. */
-ffd_status ffd_pbffd_curve_create(const double *control_points, size_t count, double radius,
-                                  size_t samples, const double *points, size_t n,
-                                  const ffd_pbffd_options *options, ffd_pbffd_curve **out,
-                                  ffd_error *err);
-void ffd_pbffd_curve_destroy(ffd_pbffd_curve *curve);
-size_t ffd_pbffd_curve_control_count(const ffd_pbffd_curve *curve);
+FFD_API ffd_status ffd_pbffd_curve_create(const double *control_points, size_t count, double radius,
+                                          size_t samples, const double *points, size_t n,
+                                          const ffd_pbffd_options *options, ffd_pbffd_curve **out,
+                                          ffd_error *err);
+FFD_API void ffd_pbffd_curve_destroy(ffd_pbffd_curve *curve);
+FFD_API size_t ffd_pbffd_curve_control_count(const ffd_pbffd_curve *curve);
 /* Current curve control points, count by 3. */
-const double *ffd_pbffd_curve_control_points(const ffd_pbffd_curve *curve);
+FFD_API const double *ffd_pbffd_curve_control_points(const ffd_pbffd_curve *curve);
 /* Moves curve control point index by delta: the samples and their frames
  * (rotation-minimising from the first sample's, turned with its tangent; the
  * tangent axis scaled by the local stretch) follow the new curve.
  * FFD_ERR_RANGE, FFD_ERR_NONFINITE, FFD_ERR_INVALID (consecutive control
  * points would coincide); on error nothing changes. */
-ffd_status ffd_pbffd_curve_move(ffd_pbffd_curve *curve, size_t index, const double delta[3],
-                                ffd_error *err);
+FFD_API ffd_status ffd_pbffd_curve_move(ffd_pbffd_curve *curve, size_t index, const double delta[3],
+                                        ffd_error *err);
 /* Deformed positions of the n points (points outside every ROI unchanged, bitwise). */
-ffd_status ffd_pbffd_curve_eval(const ffd_pbffd_curve *curve, double *out, ffd_error *err);
+FFD_API ffd_status ffd_pbffd_curve_eval(const ffd_pbffd_curve *curve, double *out, ffd_error *err);
 /* 1 when point i lies in the curve's ROI. */
-int ffd_pbffd_curve_point_inside(const ffd_pbffd_curve *curve, size_t i);
+FFD_API int ffd_pbffd_curve_point_inside(const ffd_pbffd_curve *curve, size_t i);
 
 /* --- The control set as a rig --- */
 
@@ -267,8 +267,8 @@ int ffd_pbffd_curve_point_inside(const ffd_pbffd_curve *curve, size_t i);
  * as JSON, atomically: what `ffd pbffd place` writes, ready to edit and to
  * replay with ffd_rig_read. options (may be NULL) adds "sigma", "master" and
  * "levels" when they differ from the defaults. */
-ffd_status ffd_rig_write_pbffd_controls(const char *path, const ffd_ebf *controls, size_t count,
-                                        const ffd_pbffd_options *options, ffd_error *err);
+FFD_API ffd_status ffd_rig_write_pbffd_controls(const char *path, const ffd_ebf *controls, size_t count,
+                                                const ffd_pbffd_options *options, ffd_error *err);
 
 /* --- Behind the generic interfaces (ffd.h) ---
  * ffd_deformer_handle(d, "pbffd") is the ffd_pbffd; ffd_deformer_create

@@ -53,45 +53,45 @@ typedef struct ffd_tsv_options {
  * axis, n == 0, more than 2^31 control points, an extent of the points above
  * 1e100), FFD_ERR_RANGE (face index),
  * FFD_ERR_NONFINITE, FFD_ERR_NOMEM. */
-ffd_status ffd_tsv_create(const double *points, size_t n, const uint32_t *face_offsets,
-                          const uint32_t *face_indices, size_t face_count, const uint32_t res[3],
-                          const ffd_tsv_options *options, ffd_tsv **out, ffd_error *err);
-void ffd_tsv_destroy(ffd_tsv *t);
+FFD_API ffd_status ffd_tsv_create(const double *points, size_t n, const uint32_t *face_offsets,
+                                  const uint32_t *face_indices, size_t face_count, const uint32_t res[3],
+                                  const ffd_tsv_options *options, ffd_tsv **out, ffd_error *err);
+FFD_API void ffd_tsv_destroy(ffd_tsv *t);
 
-size_t ffd_tsv_point_count(const ffd_tsv *t);
+FFD_API size_t ffd_tsv_point_count(const ffd_tsv *t);
 /* The parameter box: min and max corners (the padded bounding box). */
-void ffd_tsv_box(const ffd_tsv *t, double min[3], double max[3]);
+FFD_API void ffd_tsv_box(const ffd_tsv *t, double min[3], double max[3]);
 /* Parameters (s,t,u) in [0,1]^3 of bound point i. */
-void ffd_tsv_point_params(const ffd_tsv *t, size_t i, double stu[3]);
+FFD_API void ffd_tsv_point_params(const ffd_tsv *t, size_t i, double stu[3]);
 
-size_t ffd_tsv_control_count(const ffd_tsv *t);
+FFD_API size_t ffd_tsv_control_count(const ffd_tsv *t);
 /* Current control points P_v, control_count by 3 (borrowed; valid until the
  * next edit). */
-const double *ffd_tsv_control_points(const ffd_tsv *t);
+FFD_API const double *ffd_tsv_control_points(const ffd_tsv *t);
 /* Rest position of control point v (where it sits in the identity map). */
-ffd_status ffd_tsv_rest_point(const ffd_tsv *t, uint32_t v, double out[3], ffd_error *err);
+FFD_API ffd_status ffd_tsv_rest_point(const ffd_tsv *t, uint32_t v, double out[3], ffd_error *err);
 /* Weight W_v (1 on analysis-suitable lattices; kept exactly as refinement
  * leaves it) and the topological coordinates of control point v (its knot
  * line on each axis, in the lattice's index space sigma, where -1 and 2 are
  * the doubled end layers and (0,1) the parameter values). */
-ffd_status ffd_tsv_control_info(const ffd_tsv *t, uint32_t v, double *weight, double sigma[3],
-                                ffd_error *err);
+FFD_API ffd_status ffd_tsv_control_info(const ffd_tsv *t, uint32_t v, double *weight, double sigma[3],
+                                        ffd_error *err);
 /* Local knot vectors of control point v (eq. 1), parameter values, 3 by 5. */
-ffd_status ffd_tsv_knots(const ffd_tsv *t, uint32_t v, double knots[3][5], ffd_error *err);
+FFD_API ffd_status ffd_tsv_knots(const ffd_tsv *t, uint32_t v, double knots[3][5], ffd_error *err);
 /* max |W_v - 1| over the control points (a diagnostic). */
-double ffd_tsv_max_weight_deviation(const ffd_tsv *t);
+FFD_API double ffd_tsv_max_weight_deviation(const ffd_tsv *t);
 
 /* Replaces all control points (count by 3, finite). */
-ffd_status ffd_tsv_set_control_points(ffd_tsv *t, const double *points, ffd_error *err);
+FFD_API ffd_status ffd_tsv_set_control_points(ffd_tsv *t, const double *points, ffd_error *err);
 /* Adds delta to control point v. FFD_ERR_RANGE, FFD_ERR_NONFINITE. */
-ffd_status ffd_tsv_move(ffd_tsv *t, uint32_t v, const double delta[3], ffd_error *err);
+FFD_API ffd_status ffd_tsv_move(ffd_tsv *t, uint32_t v, const double delta[3], ffd_error *err);
 /* All control points back at rest. */
-void ffd_tsv_reset(ffd_tsv *t);
+FFD_API void ffd_tsv_reset(ffd_tsv *t);
 
 /* Frozen control points stay where they are in ARAP solves and are not
  * variables of direct manipulation. */
-ffd_status ffd_tsv_set_frozen(ffd_tsv *t, uint32_t v, int frozen, ffd_error *err);
-int ffd_tsv_frozen(const ffd_tsv *t, uint32_t v);
+FFD_API ffd_status ffd_tsv_set_frozen(ffd_tsv *t, uint32_t v, int frozen, ffd_error *err);
+FFD_API int ffd_tsv_frozen(const ffd_tsv *t, uint32_t v);
 
 /* --- Lattice elements (current topology) --- */
 
@@ -101,26 +101,26 @@ typedef enum ffd_tsv_element {
     FFD_TSV_CELL
 } ffd_tsv_element;
 
-size_t ffd_tsv_element_count(const ffd_tsv *t, ffd_tsv_element kind);
+FFD_API size_t ffd_tsv_element_count(const ffd_tsv *t, ffd_tsv_element kind);
 /* Edge e's two control points (lower end first) and its axis (0 s, 1 t, 2 u). */
-ffd_status ffd_tsv_edge(const ffd_tsv *t, uint32_t e, uint32_t ends[2], int *axis, ffd_error *err);
+FFD_API ffd_status ffd_tsv_edge(const ffd_tsv *t, uint32_t e, uint32_t ends[2], int *axis, ffd_error *err);
 /* Element's box in parameter space: lo, hi in [0,1]^3 (zero thickness across
  * a face's normal, along all but an edge's axis; the end layers have zero
  * knot interval). */
-ffd_status ffd_tsv_element_box(const ffd_tsv *t, ffd_tsv_element kind, uint32_t id, double lo[3],
-                               double hi[3], ffd_error *err);
+FFD_API ffd_status ffd_tsv_element_box(const ffd_tsv *t, ffd_tsv_element kind, uint32_t id, double lo[3],
+                                       double hi[3], ffd_error *err);
 /* Control points on element id's closed boundary, in order: a face's ring
  * (corners and the hanging points on its sides, counter-clockwise about its
  * normal axis), a cell's corners and hanging points (ascending ids), an
  * edge's two ends. *ids freed with ffd_free. */
-ffd_status ffd_tsv_element_points(const ffd_tsv *t, ffd_tsv_element kind, uint32_t id,
-                                  uint32_t **ids, size_t *count, ffd_error *err);
+FFD_API ffd_status ffd_tsv_element_points(const ffd_tsv *t, ffd_tsv_element kind, uint32_t id,
+                                          uint32_t **ids, size_t *count, ffd_error *err);
 /* The element of kind nearest to a point given in rest world coordinates
  * (for a cell: the cell that contains its parameters, clamped into the box;
  * for a face or edge: the nearest one in parameter space scaled by the box,
  * lowest id on ties). FFD_ERR_NONFINITE. */
-ffd_status ffd_tsv_locate(const ffd_tsv *t, ffd_tsv_element kind, const double point[3],
-                          uint32_t *id, ffd_error *err);
+FFD_API ffd_status ffd_tsv_locate(const ffd_tsv *t, ffd_tsv_element kind, const double point[3],
+                                  uint32_t *id, ffd_error *err);
 
 /* --- Local refinement (§3.2-3.3) --- */
 
@@ -151,8 +151,8 @@ typedef struct ffd_tsv_refine_report {
  * FFD_ERR_INVALID (an edge or face in an end layer whose knot interval is 0
  * in every direction the rule would split: "edge 3: zero knot interval";
  * ratio outside (0,1); the closure exceeded its guard), FFD_ERR_NOMEM. */
-ffd_status ffd_tsv_refine(ffd_tsv *t, const ffd_tsv_insertion *insertions, size_t count,
-                          ffd_tsv_refine_report *report, ffd_error *err);
+FFD_API ffd_status ffd_tsv_refine(ffd_tsv *t, const ffd_tsv_insertion *insertions, size_t count,
+                                  ffd_tsv_refine_report *report, ffd_error *err);
 
 /* --- Evaluation --- */
 
@@ -160,20 +160,20 @@ ffd_status ffd_tsv_refine(ffd_tsv *t, const ffd_tsv_insertion *insertions, size_
  * point plus the displacement Phi (P - P_rest): the rest lattice gives every
  * point back bitwise, and points no moved control point reaches keep their
  * bits). */
-ffd_status ffd_tsv_eval(const ffd_tsv *t, double *out, ffd_error *err);
+FFD_API ffd_status ffd_tsv_eval(const ffd_tsv *t, double *out, ffd_error *err);
 /* Jacobians d(x')/d(x) at the bound points, n by 9 row-major (I plus the
  * displacement's derivative: exactly I where nothing moved). */
-ffd_status ffd_tsv_jacobian(const ffd_tsv *t, double *out, ffd_error *err);
+FFD_API ffd_status ffd_tsv_jacobian(const ffd_tsv *t, double *out, ffd_error *err);
 /* The map at parameters (clamped into [0,1]^3), 3 doubles; jacobian (9,
  * d(x')/d(x), may be NULL). */
-void ffd_tsv_eval_params(const ffd_tsv *t, const double stu[3], double out[3], double *jacobian);
+FFD_API void ffd_tsv_eval_params(const ffd_tsv *t, const double stu[3], double out[3], double *jacobian);
 /* Sum over v of W_v B_v at stu (1 everywhere: partition of unity). */
-double ffd_tsv_weight_sum(const ffd_tsv *t, const double stu[3]);
+FFD_API double ffd_tsv_weight_sum(const ffd_tsv *t, const double stu[3]);
 /* The bound points as a linear map of the control points (x_i = sum_v
  * W_v B_v(s_i) P_v) for ffd_manip_solve: columns are control ids, frozen
  * ones tied FFD_TIE_FIXED. The map borrows t (and owns a tie vector in it):
  * refinement or a change of the frozen set invalidates it. */
-ffd_status ffd_tsv_linear_map(ffd_tsv *t, ffd_linear_map *map, ffd_error *err);
+FFD_API ffd_status ffd_tsv_linear_map(ffd_tsv *t, ffd_linear_map *map, ffd_error *err);
 
 /* --- The proxy (§3.2-3.3) --- */
 
@@ -202,7 +202,7 @@ typedef struct ffd_tsv_proxy {
     const uint32_t *point_controls; /* point_count: each point's control id, ascending */
     const uint32_t *face_points;   /* face_offsets layout: the point at each corner */
 } ffd_tsv_proxy;
-void ffd_tsv_get_proxy(const ffd_tsv *t, ffd_tsv_proxy *out);
+FFD_API void ffd_tsv_get_proxy(const ffd_tsv *t, ffd_tsv_proxy *out);
 
 /* --- Proxy-driven ARAP deformation (§3.4, eq. 3-8) --- */
 
@@ -228,10 +228,10 @@ typedef struct ffd_tsv_arap ffd_tsv_arap;
  * Errors: FFD_ERR_RANGE (id), FFD_ERR_INVALID (a handle is frozen: "handle
  * 12 is frozen"; nothing constrained: the system would be singular; a
  * repeated handle), FFD_ERR_NUMERIC (the factorisation failed), FFD_ERR_NOMEM. */
-ffd_status ffd_tsv_arap_begin(ffd_tsv *t, const uint32_t *handles, size_t k,
-                              const ffd_tsv_arap_options *options, ffd_tsv_arap **out,
-                              ffd_error *err);
-void ffd_tsv_arap_destroy(ffd_tsv_arap *arap);
+FFD_API ffd_status ffd_tsv_arap_begin(ffd_tsv *t, const uint32_t *handles, size_t k,
+                                      const ffd_tsv_arap_options *options, ffd_tsv_arap **out,
+                                      ffd_error *err);
+FFD_API void ffd_tsv_arap_destroy(ffd_tsv_arap *arap);
 
 typedef struct ffd_tsv_arap_report {
     uint32_t iterations;
@@ -244,8 +244,8 @@ typedef struct ffd_tsv_arap_report {
  * refit the rotations; warm-started from the previous step) and sets the
  * lattice's control points. FFD_ERR_INVALID when the lattice was refined
  * or the frozen set changed since begin; FFD_ERR_NONFINITE. */
-ffd_status ffd_tsv_arap_solve(ffd_tsv_arap *arap, const double *targets,
-                              ffd_tsv_arap_report *report, ffd_error *err);
+FFD_API ffd_status ffd_tsv_arap_solve(ffd_tsv_arap *arap, const double *targets,
+                                      ffd_tsv_arap_report *report, ffd_error *err);
 
 /* --- Fold-over check (beyond the paper: its stated limitation) --- */
 
@@ -262,9 +262,9 @@ typedef struct ffd_tsv_fold_report {
 
 /* Samples det J on a samples^3 grid in each cell (0: 3) that has nonzero
  * volume in parameter space, and checks the object's faces. */
-ffd_status ffd_tsv_check_folds(const ffd_tsv *t, uint32_t samples, ffd_tsv_fold_report *report,
-                               ffd_error *err);
-void ffd_tsv_fold_report_free(ffd_tsv_fold_report *report);
+FFD_API ffd_status ffd_tsv_check_folds(const ffd_tsv *t, uint32_t samples, ffd_tsv_fold_report *report,
+                                       ffd_error *err);
+FFD_API void ffd_tsv_fold_report_free(ffd_tsv_fold_report *report);
 
 /* --- Behind the generic interfaces (ffd.h) ---
  * ffd_deformer_handle(d, "tspline") is the ffd_tsv; ffd_deformer_create

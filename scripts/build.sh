@@ -4,7 +4,9 @@ set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 dir=${1:-"$root/build"}
 shift || true
-cmake -S "$root" -B "$dir" -DCMAKE_BUILD_TYPE=Release "$@" >/dev/null
+# the tests, benchmarks and fuzz targets are optional in CMake; the scripts build them all
+cmake -S "$root" -B "$dir" -DCMAKE_BUILD_TYPE=Release -DBUILD_TESTING=ON -DFFD_BUILD_BENCH=ON \
+    -DFFD_BUILD_FUZZ=ON "$@" >/dev/null
 cmake --build "$dir" -j"$(nproc)" >/dev/null
 # The editor's page (three.js, bundled by esbuild) when its npm packages are installed.
 if [ -d "$root/web/node_modules" ]; then

@@ -6,7 +6,7 @@ PKGS=(build-essential cmake pkg-config
       clang libclang-rt-14-dev
       libqhull-dev libsuitesparse-dev
       libmicrohttpd-dev chromium curl libomp-dev valgrind
-      groff-base)
+      groff-base dpkg-dev file binutils)
 missing=()
 for p in "${PKGS[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

@@ -10,15 +10,21 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include <unistd.h>
+
 #ifndef FFD_SOURCE_DIR
 #define FFD_SOURCE_DIR "."
+#endif
+/* the installed share/ffd seen from the installed ffd's directory (CMakeLists.txt) */
+#ifndef FFD_DATA_FROM_BIN
+#define FFD_DATA_FROM_BIN "../share/ffd"
 #endif
 
 static const char usage[] =
     "usage: ffd serve [MESH] [options]\n"
     "\n"
     "Starts the editor: a local web server around an editing session of MESH\n"
-    "(default: the bundled bunny). Prints 'ffd serve: http://HOST:PORT/' once\n"
+    "(default: the bundled bunny, examples/lattice/bunny.obj). Prints 'ffd serve: http://HOST:PORT/' once\n"
     "it listens and runs until interrupted. See docs/editor.md.\n"
     "\n"
     "options:\n"
@@ -27,7 +33,8 @@ static const char usage[] =
     "                    loopback is reachable by others: the editor has no authentication\n"
     "  --root DIR        the only directory files are opened from and saved to\n"
     "                    (default: the directory of MESH)\n"
-    "  --web DIR         the page's files (default: the built page, web/dist)\n"
+    "  --web DIR         the page's files (default: share/ffd/web beside the installed\n"
+    "                    ffd, else the source tree's built page, web/dist)\n"
     "  --max-upload MB   largest uploaded mesh or rig (default 256)\n"
     "  --client-connections N\n"
     "                    connections one client address may hold at a time (default 32;\n"
@@ -36,6 +43,40 @@ static const char usage[] =
     "                    (default 30)\n"
     "  --verbose         one line per request on stderr\n"
     "  -h, --help        this help\n";
+
+/* The bundled file or directory `rel` (under share/ffd once installed): first
+ * FFD_DATA_FROM_BIN/installed_rel from the directory of the running ffd
+ * (/proc/self/exe), then FFD_SOURCE_DIR/source_rel of the build tree it came
+ * from. Writes the first that exists to out (the last tried when none does)
+ * and the candidates to tried ("A, B"). Returns 1 when one exists. */
+static int find_bundled(const char *installed_rel, const char *source_rel, char *out, size_t size,
+                        char *tried, size_t tried_size)
+{
+    char exe[4096];
+    const char *dirs[2], *rels[2];
+    int count = 0;
+    ssize_t n = readlink("/proc/self/exe", exe, sizeof exe - 1);
+    char *slash = n > 0 ? (exe[n] = 0, strrchr(exe, '/')) : NULL;
+    if (slash) {
+        *slash = 0;
+        dirs[count] = exe;
+        rels[count++] = installed_rel;
+    }
+    dirs[count] = FFD_SOURCE_DIR;
+    rels[count++] = source_rel;
+    size_t used = 0;
+    tried[0] = 0;
+    for (int i = 0; i < count; i++) {
+        int len = i == 0 && slash ? snprintf(out, size, "%s/%s/%s", dirs[i], FFD_DATA_FROM_BIN, rels[i])
+                                  : snprintf(out, size, "%s/%s", dirs[i], rels[i]);
+        int t = snprintf(tried + used, tried_size - used, "%s%s", i ? ", " : "", out);
+        if (t > 0 && (size_t)t < tried_size - used)
+            used += (size_t)t;
+        if (len > 0 && (size_t)len < size && access(out, F_OK) == 0)
+            return 1;
+    }
+    return 0;
+}
 
 /* A whole number in [lo, hi]; -1 when s is not one. */
 static long parse_number(const char *s, long lo, long hi)
@@ -100,8 +141,15 @@ int cmd_serve(int argc, char **argv)
     int loopback = serve_is_loopback(host);
     if (loopback < 0)
         return cli_usage_error("serve", "--host '%s': expected an IPv4 address or localhost", host);
-    if (!mesh_path)
-        mesh_path = FFD_SOURCE_DIR "/examples/lattice/bunny.obj";
+    char bundled_mesh[4096], tried[8400];
+    if (!mesh_path) {
+        if (!find_bundled("examples/lattice/bunny.obj", "examples/lattice/bunny.obj", bundled_mesh,
+                          sizeof bundled_mesh, tried, sizeof tried))
+            return cli_error(CLI_EXIT_INPUT,
+                             "serve: no MESH given and the bundled bunny is not installed (tried %s)",
+                             tried);
+        mesh_path = bundled_mesh;
+    }
     char root_default[4096];
     if (!root) {
         const char *slash = strrchr(mesh_path, '/');
@@ -114,8 +162,14 @@ int cmd_serve(int argc, char **argv)
         root = root_default;
     }
     int web_given = web != NULL;
-    if (!web)
-        web = FFD_SOURCE_DIR "/web/dist";
+    char bundled_web[4096], web_tried[8400];
+    int web_found = 1;
+    if (!web) {
+        web_found = find_bundled("web/index.html", "web/dist/index.html", bundled_web,
+                                 sizeof bundled_web, web_tried, sizeof web_tried);
+        *strrchr(bundled_web, '/') = 0; /* the directory of index.html */
+        web = bundled_web;
+    }
 
     ffd_error err = {{0}};
     ffd_mesh *mesh = NULL;
@@ -162,6 +216,11 @@ int cmd_serve(int argc, char **argv)
         else
             fclose(f);
     }
+    if (!web_found)
+        fprintf(stderr,
+                "ffd: warning: the editor's page is not installed (no index.html at %s): the API "
+                "answers but / is a 404; build it (cd web && npm run build) or pass --web DIR\n",
+                web_tried);
     printf("ffd serve: http://%s:%u/\n", serve_host(server), serve_port(server));
     fflush(stdout);
 

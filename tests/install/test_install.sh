@@ -1,0 +1,148 @@
+#!/usr/bin/env bash
+# Installing and linking libffd (README "Install" and "Link", docs/api.md
+# "Linking"): the shared library exports only the public API
+# (check_exports.sh); `cmake --install` into a temporary prefix installs the
+# libraries, headers, ffd.pc, the CMake package, ffd, the page (when web/dist
+# is built) and the example meshes; a program built with pkg-config (shared)
+# and one built with find_package(ffd) (ffd::ffd, and ffd::ffd_static) run
+# and deform a cube; the installed `ffd serve` with no mesh opens its
+# installed bunny and serves its page and /api/state (or, when the page was
+# never built, warns naming the paths it tried); `cpack -G DEB` builds a .deb
+# whose file list (dpkg-deb -c) holds all of it, when cpack and dpkg-deb exist.
+# Nothing is installed outside the temporary directory.
+# usage: bash test_install.sh BUILD_DIR SOURCE_DIR [SANITIZER_FLAGS]
+set -u
+BUILD=$(cd "$1" && pwd)
+SRC=$(cd "$2" && pwd)
+SAN=${3:-}
+T=$(mktemp -d)
+PID=
+cleanup() {
+    [ -n "$PID" ] && kill "$PID" 2>/dev/null
+    rm -rf "$T"
+}
+trap cleanup EXIT
+failures=0
+fail() {
+    echo "FAIL: $*"
+    failures=$((failures + 1))
+}
+for tool in cc pkg-config curl cmake; do
+    command -v $tool >/dev/null || { echo "FAIL: $tool is not installed (scripts/setup.sh)"; exit 1; }
+done
+
+bash "$SRC/tests/install/check_exports.sh" "$BUILD/libffd.so" "$SRC/include" || fail "exports"
+
+# ---- cmake --install into a temporary prefix ----
+P=$T/prefix
+cmake --install "$BUILD" --prefix "$P" >"$T/install.log" 2>&1 || fail "cmake --install: $(cat "$T/install.log")"
+LIBDIR=$(dirname "$(find "$P" -name 'libffd.so.0' | head -1)")
+[ -d "$LIBDIR" ] || { fail "no libffd.so.0 under $P: $(cd "$P" && find . | head -50)"; exit 1; }
+for f in "$LIBDIR/libffd.so" "$LIBDIR/libffd.a" "$LIBDIR/pkgconfig/ffd.pc" \
+    "$LIBDIR/cmake/ffd/ffdConfig.cmake" "$LIBDIR/cmake/ffd/ffdConfigVersion.cmake" \
+    "$LIBDIR/cmake/ffd/ffdTargets.cmake" "$P/include/ffd.h" "$P/include/ffd_lattice.h" \
+    "$P/include/ffd_methods.h" "$P/bin/ffd" "$P/share/ffd/examples/lattice/bunny.obj"; do
+    [ -e "$f" ] || fail "not installed: ${f#"$P"/}"
+done
+PAGE=0
+if [ -f "$SRC/web/dist/index.html" ]; then
+    PAGE=1
+    [ -f "$P/share/ffd/web/index.html" ] || fail "web/dist is built but share/ffd/web/index.html is not installed"
+fi
+readelf -d "$LIBDIR/libffd.so.0" 2>/dev/null | grep -q 'SONAME.*libffd\.so\.0' ||
+    fail "libffd.so.0 has no soname libffd.so.0: $(readelf -d "$LIBDIR/libffd.so.0" | grep SONAME)"
+
+# ---- a program linked with pkg-config (the shared library) ----
+export PKG_CONFIG_PATH=$LIBDIR/pkgconfig
+# shellcheck disable=SC2046,SC2086
+cc -std=c11 $SAN -o "$T/cube_pc" "$SRC/tests/install/cube.c" $(pkg-config --cflags --libs ffd) -lm \
+    2>"$T/cc.err" || fail "cc with pkg-config ffd: $(cat "$T/cc.err")"
+if [ -x "$T/cube_pc" ]; then
+    readelf -d "$T/cube_pc" | grep -q 'NEEDED.*libffd\.so\.0' || fail "cube_pc is not linked to libffd.so.0"
+    LD_LIBRARY_PATH=$LIBDIR "$T/cube_pc" >"$T/pc.out" 2>&1 || fail "cube (pkg-config): $(cat "$T/pc.out")"
+    grep -q 'corner x 1.5, centre x 0.5625' "$T/pc.out" || fail "cube (pkg-config) printed: $(cat "$T/pc.out")"
+fi
+# the static library with pkg-config --static
+# shellcheck disable=SC2046,SC2086
+cc -std=c11 $SAN -o "$T/cube_pc_static" "$SRC/tests/install/cube.c" "$LIBDIR/libffd.a" \
+    $(pkg-config --cflags --libs --static ffd | sed 's/-lffd//') -lm 2>"$T/cc.err" ||
+    fail "cc with pkg-config --static ffd: $(cat "$T/cc.err")"
+if [ -x "$T/cube_pc_static" ]; then
+    "$T/cube_pc_static" >"$T/pcs.out" 2>&1 || fail "cube (pkg-config --static): $(cat "$T/pcs.out")"
+fi
+
+# ---- a CMake project with find_package(ffd) (tests/install/CMakeLists.txt) ----
+for target in ffd::ffd ffd::ffd_static; do
+    B=$T/cmake-${target#ffd::}
+    cmake -S "$SRC/tests/install" -B "$B" -DCMAKE_PREFIX_PATH="$P" -DFFD_TARGET=$target \
+        -DCMAKE_C_FLAGS="$SAN" -DCMAKE_EXE_LINKER_FLAGS="$SAN" >"$T/cm.log" 2>&1 &&
+        cmake --build "$B" >>"$T/cm.log" 2>&1 || { fail "find_package(ffd) with $target: $(tail -30 "$T/cm.log")"; continue; }
+    "$B/cube" >"$T/cm.out" 2>&1 || fail "cube ($target): $(cat "$T/cm.out")"
+    grep -q 'corner x 1.5, centre x 0.5625' "$T/cm.out" || fail "cube ($target) printed: $(cat "$T/cm.out")"
+done
+readelf -d "$T/cmake-ffd/cube" 2>/dev/null | grep -q 'NEEDED.*libffd\.so\.0' ||
+    fail "find_package(ffd)'s ffd::ffd is not the shared library"
+
+# ---- the installed ffd serve, no mesh argument ----
+# the installed bunny is replaced by a cube: the server must open the installed
+# file (from its own location), not the source tree's bunny compiled in
+printf 'v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\nf 1 2 3 4\nf 5 8 7 6\n' \
+    >"$P/share/ffd/examples/lattice/bunny.obj"
+"$P/bin/ffd" serve --port 0 >"$T/serve.out" 2>"$T/serve.err" &
+PID=$!
+URL=
+for _ in $(seq 1 200); do
+    URL=$(sed -n 's/^ffd serve: \(http:.*\)$/\1/p' "$T/serve.out")
+    [ -n "$URL" ] && break
+    kill -0 "$PID" 2>/dev/null || break
+    sleep 0.05
+done
+if [ -z "$URL" ]; then
+    fail "the installed ffd serve printed no URL: $(cat "$T/serve.out" "$T/serve.err")"
+else
+    URL=${URL%/}
+    code=$(curl -s --max-time 30 -o "$T/state" -w '%{http_code}' "$URL/api/state")
+    [ "$code" = 200 ] || fail "GET /api/state: $code"
+    grep -q '"vertices":8,' "$T/state" || fail "the installed ffd serve did not open the installed bunny.obj: $(head -c 300 "$T/state")"
+    code=$(curl -s --max-time 30 -o "$T/page" -w '%{http_code}' "$URL/")
+    if [ "$PAGE" = 1 ]; then
+        [ "$code" = 200 ] && grep -qi '<html' "$T/page" || fail "GET /: $code $(head -c 200 "$T/page")"
+        grep -q 'warning' "$T/serve.err" && fail "warning with the page installed: $(cat "$T/serve.err")"
+    else
+        # no page built: a warning at start naming where it looked
+        grep -qF "no index.html at $P/bin/../share/ffd/web/index.html, $SRC/web/dist/index.html" "$T/serve.err" ||
+            fail "no warning naming the paths tried for the missing page: $(cat "$T/serve.err")"
+    fi
+    kill -TERM "$PID"
+    wait "$PID" || fail "ffd serve exited $? after SIGTERM: $(cat "$T/serve.err")"
+    PID=
+    grep -q -e 'Sanitizer' -e 'runtime error' "$T/serve.err" && fail "serve: $(cat "$T/serve.err")"
+fi
+
+# ---- the Debian package ----
+if command -v cpack >/dev/null && command -v dpkg-deb >/dev/null && [ -z "$SAN" ]; then
+    (cd "$T" && cpack -G DEB --config "$BUILD/CPackConfig.cmake" -B "$T/deb") >"$T/cpack.log" 2>&1 ||
+        fail "cpack -G DEB: $(tail -30 "$T/cpack.log")"
+    DEB=$(ls "$T"/deb/*.deb 2>/dev/null | head -1)
+    if [ -z "$DEB" ]; then
+        fail "cpack made no .deb: $(tail -30 "$T/cpack.log")"
+    else
+        dpkg-deb -c "$DEB" | awk '{print $NF}' >"$T/deb.list"
+        dpkg-deb -f "$DEB" Depends >"$T/deb.depends"
+        for f in ./usr/bin/ffd ./usr/include/ffd.h ./usr/share/ffd/examples/lattice/bunny.obj; do
+            grep -qxF "$f" "$T/deb.list" || fail "the .deb lacks $f"
+        done
+        for pat in '/libffd\.so\.0\.' '/libffd\.a$' '/pkgconfig/ffd\.pc$' '/cmake/ffd/ffdConfig\.cmake$'; do
+            grep -qE "$pat" "$T/deb.list" || fail "the .deb lacks $pat"
+        done
+        [ "$PAGE" = 0 ] || grep -qxF ./usr/share/ffd/web/index.html "$T/deb.list" || fail "the .deb lacks the page"
+        for dep in libcjson libmicrohttpd libqhull libcholmod; do
+            grep -q "$dep" "$T/deb.depends" || fail "the .deb does not depend on $dep: $(cat "$T/deb.depends")"
+        done
+    fi
+else
+    echo "skip: the .deb (cpack/dpkg-deb missing, or a sanitizer build)"
+fi
+
+[ "$failures" -eq 0 ] && echo "ok: install, link (pkg-config, find_package), serve${DEB:+, .deb}"
+[ "$failures" -eq 0 ]
