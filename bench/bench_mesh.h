@@ -11,6 +11,22 @@
 #include <stdlib.h>
 #include <string.h>
 
+/* The repository's data/ folder (see data/SOURCES.md), the benchmarks'
+ * default DATA_DIR, found from this header's own path
+ * (<root>/bench/bench_mesh.h) so that a benchmark runs from any directory. */
+static inline const char *bench_data_dir(char *buf, size_t size)
+{
+    snprintf(buf, size, "%s", __FILE__);
+    char *slash = strrchr(buf, '/');
+    if (slash)
+        *slash = '\0';
+    else
+        snprintf(buf, size, "bench");
+    size_t len = strlen(buf);
+    snprintf(buf + len, size - len, "/../data");
+    return buf;
+}
+
 /* 1 -> 4 midpoint subdivision of a triangle mesh (edge midpoints shared). */
 static inline void subdivide(const double *P, size_t nv, const uint32_t *off, const uint32_t *idx,
                       size_t nf, double **outP, size_t *out_nv, uint32_t **out_off,

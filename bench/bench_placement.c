@@ -2,8 +2,8 @@
  * cow (2.9K vertices) and the refined elephant (44K vertices), 100 interior + 100 exterior
  * points, with the Voronoi diagram built from all vertices, the default subsample (8000)
  * and every fourth vertex.
- * Usage: bench_placement [DATA_DIR] [--quick]   (DATA_DIR defaults to ../shared/data beside
- * the source tree; results go to docs/benchmarks.md by hand)
+ * Usage: bench_placement [DATA_DIR] [--quick]   (DATA_DIR defaults to the repository's data/;
+ * results go to docs/benchmarks.md by hand)
  *
  * Quality of a subsample, against the interior points placed with all vertices as sites:
  * "to ref" is the mean distance from each reference interior point to the nearest interior
@@ -90,14 +90,14 @@ int main(int argc, char **argv)
     }
     char fallback[1024];
     if (!dir) {
-        /* __FILE__ is <root>/bench/bench_placement.c; the data lives in <root>/../shared/data */
+        /* __FILE__ is <root>/bench/bench_placement.c; the data lives in <root>/data */
         snprintf(fallback, sizeof fallback, "%s", __FILE__);
         char *slash = strrchr(fallback, '/');
         if (slash)
             *slash = '\0';
         else
             snprintf(fallback, sizeof fallback, ".");
-        strncat(fallback, "/../../shared/data", sizeof fallback - strlen(fallback) - 1);
+        strncat(fallback, "/../data", sizeof fallback - strlen(fallback) - 1);
         dir = fallback;
     }
     const char *meshes[] = {"cow.off", "refined_elephant.off"};

@@ -4,7 +4,8 @@
  * 100K vertices, for each method. bench/editor_drag.mjs measures the same
  * step through HTTP and the page.
  *
- * usage: bench_session [SHARED_DATA_DIR] [--write MESH.ply] [--steps N]
+ * usage: bench_session [DATA_DIR] [--write MESH.ply] [--steps N]
+ * DATA_DIR: where refined_elephant.off is; default the repository's data/.
  * --write: also writes the 100K mesh (binary PLY) for editor_drag.mjs. */
 #include "ffd.h"
 #include "bench_mesh.h"
@@ -73,7 +74,8 @@ static int measure(ffd_session *s, const char *label, const char *create, const 
 
 int main(int argc, char **argv)
 {
-    const char *dir = "../shared/data", *write = NULL;
+    char data_dir[1024];
+    const char *dir = bench_data_dir(data_dir, sizeof data_dir), *write = NULL;
     int steps = 60;
     for (int i = 1; i < argc; i++) {
         if (!strcmp(argv[i], "--write") && i + 1 < argc)

@@ -1,7 +1,7 @@
 /* bench_tspline — proxy-driven T-spline FFD (Zhang, Zheng & Cai 2020)
  * timings set beside the paper's Table 1 and Fig. 10.
  *
- * Part 1, per example: the meshes of ../shared/data with the lattice sizes of
+ * Part 1, per example: the meshes of data/ with the lattice sizes of
  * Table 1; set-up (lattice, binding, proxy) + one refinement edit (an octree
  * split of the proxy cells in the upper third of the box, all in one batch)
  * + a 5-iteration ARAP deformation (the proxy points of the lower quarter
@@ -13,7 +13,8 @@
  * step = ARAP solve (5 iterations, cached factor) + re-evaluation of every
  * vertex. Target: <= 16 ms per step.
  *
- * Usage: bench_tspline [data_dir]. Prints a Markdown table. */
+ * Usage: bench_tspline [data_dir] (default: the repository's data/). Prints a
+ * Markdown table. */
 #include "ffd.h"
 #include "bench_mesh.h"
 
@@ -230,7 +231,8 @@ static int drag(const char *dir, size_t limit)
 
 int main(int argc, char **argv)
 {
-    const char *dir = argc > 1 ? argv[1] : "../shared/data";
+    char data_dir[1024];
+    const char *dir = argc > 1 ? argv[1] : bench_data_dir(data_dir, sizeof data_dir);
     printf("| mesh (#v) | lattice (#cp) | proxy #v / #f | refined #cp | proxy after #v / #f | "
            "set-up ms | refine ms | ARAP+eval ms | total ms | paper (Table 1) |\n"
            "|---|---|---|---|---|---:|---:|---:|---:|---|\n");

@@ -1,7 +1,7 @@
 #!/usr/bin/env node
 // Drag rate of the editor (`ffd serve` + the page) on a large mesh.
 //
-//   build/bench_session ../shared/data --write /tmp/elephant100k.ply   # the 100K-vertex mesh
+//   build/bench_session data --write /tmp/elephant100k.ply   # the 100K-vertex mesh
 //   node bench/editor_drag.mjs --ffd build/ffd --mesh /tmp/elephant100k.ply [--steps 100]
 //                              [--chromium PATH] [--no-browser]
 //
@@ -35,7 +35,7 @@ const EXE = opt('chromium', ['/usr/bin/chromium', '/usr/bin/chromium-browser', '
 const WEB = path.join(REPO, 'web', 'dist');
 
 if (!existsSync(FFD)) { console.error(`no ffd binary at ${FFD} (--ffd)`); process.exit(2); }
-if (!existsSync(MESH)) { console.error(`no mesh at ${MESH}: build/bench_session ../shared/data --write ${MESH}`); process.exit(2); }
+if (!existsSync(MESH)) { console.error(`no mesh at ${MESH}: build/bench_session data --write ${MESH}`); process.exit(2); }
 
 let server = null;
 let BASE = '';

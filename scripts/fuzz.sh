@@ -3,7 +3,7 @@
 # the project's sources compiled in) and runs each for SECONDS.
 #   scripts/fuzz.sh [SECONDS] [TARGET...]      default: 30 seconds, every target
 # Seeds: fuzz/corpus/<target> (hand-made cases and saved crash regressions)
-# plus the meshes of ../shared/data for the mesh readers. The growing corpus
+# plus the meshes of data/ (those up to 1 MiB) for the mesh readers. The growing corpus
 # is kept in build-fuzz/corpus/<target>; crashes go to build-fuzz/crashes/<target>/
 # (copy each into fuzz/corpus/<target>/ once fixed: every build replays it).
 # Prints one line per target: executions, coverage, corpus size.
@@ -20,7 +20,7 @@ build="$root/build-fuzz"
 CC=clang cmake -S "$root" -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DFFD_FUZZ=ON \
     -DFFD_WERROR=OFF >/dev/null
 cmake --build "$build" -j"$(nproc)" --target "${targets[@]}" >/dev/null
-shared="$root/../shared/data"
+data="$root/data"
 status=0
 for t in "${targets[@]}"; do
   corpus="$build/corpus/$t"
@@ -30,9 +30,9 @@ for t in "${targets[@]}"; do
   case $t in
     fuzz_obj) ext=obj ;; fuzz_ply) ext=ply ;; fuzz_off) ext=off ;; fuzz_stl) ext=stl ;; *) ext= ;;
   esac
-  if [ -n "$ext" ] && [ -d "$shared" ]; then
+  if [ -n "$ext" ]; then
     mkdir -p "$build/seeds/$t"
-    find "$shared" -maxdepth 1 -name "*.$ext" -size -2M -exec cp {} "$build/seeds/$t/" \;
+    find "$data" -maxdepth 1 -name "*.$ext" -size -2M -exec cp {} "$build/seeds/$t/" \;
     seeds+=("$build/seeds/$t")
   fi
   log="$build/$t.log"

@@ -446,7 +446,7 @@ static void test_resample(void)
 static void test_resample_bunny(void)
 {
     ffd_mesh *m = NULL;
-    CHECK_OK(ffd_mesh_read(FFD_SHARED_DATA "/bunny.obj", &m, NULL));
+    CHECK_OK(ffd_mesh_read(FFD_DATA_DIR "/bunny.obj", &m, NULL));
     if (!m)
         return;
     size_t n = ffd_mesh_vertex_count(m);

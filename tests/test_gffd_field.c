@@ -658,7 +658,7 @@ static void test_distance_polyhedron_bunny(void)
 {
     ffd_mesh *mesh = NULL;
     ffd_error err = {{0}};
-    CHECK_OK(ffd_mesh_read(FFD_SHARED_DATA "/bunny.obj", &mesh, &err));
+    CHECK_OK(ffd_mesh_read(FFD_DATA_DIR "/bunny.obj", &mesh, &err));
     if (!mesh)
         return;
     size_t nv = ffd_mesh_vertex_count(mesh), nf = ffd_mesh_face_count(mesh);

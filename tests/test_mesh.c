@@ -14,7 +14,7 @@
 #include <unistd.h>
 
 #define FIX FFD_SOURCE_DIR "/tests/data/mesh/"
-#define SHARED FFD_SHARED_DATA "/"
+#define SHARED FFD_DATA_DIR "/"
 
 static const char *const shared_files[] = {
     "bunny.obj", "teapot.obj", "elephant.off", "hinge.stl", "double-torus-example.off",

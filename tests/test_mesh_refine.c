@@ -13,7 +13,7 @@
 #include <string.h>
 
 #define FIX FFD_SOURCE_DIR "/tests/data/mesh/"
-#define SHARED FFD_SHARED_DATA "/"
+#define SHARED FFD_DATA_DIR "/"
 
 /* ---------------------------------------------------------------------- */
 /* A tetrahedron, faces (0 2 1) (0 1 3) (0 3 2) (1 2 3), refined by: new
@@ -698,6 +698,8 @@ static void test_identity_byte_for_byte(void)
         ffd_mesh *m = NULL;
         CHECK_OK(ffd_read_file(files[i], &src, &size, NULL));
         CHECK_OK(ffd_mesh_read(files[i], &m, NULL));
+        if (!src || !m)
+            fprintf(stderr, "%s: cannot read the test mesh %s\n", check_current, files[i]);
         if (src && m)
             check_identity(m, src, size, files[i]);
         ffd_mesh_destroy(m);

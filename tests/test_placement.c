@@ -1,6 +1,6 @@
 /* Tests of PB-FFD automatic placement (McDonnell & Qin §3.2.1, §3.2.3): the
  * Voronoi wrapper against brute-force empty spheres, the k-d tree against
- * brute force, octree decimation, and ffd_pbffd_place on the shared meshes
+ * brute force, octree decimation, and ffd_pbffd_place on the meshes of data/
  * (exact counts, coverage by direct sphere tests, interior points inside by
  * ray-casting parity, open-surface fallback, error messages). */
 #include "check.h"
@@ -17,7 +17,7 @@
 #include <string.h>
 #include <unistd.h>
 
-#define SHARED FFD_SHARED_DATA "/"
+#define SHARED FFD_DATA_DIR "/"
 
 static ffd_mesh *read_shared(const char *name)
 {
@@ -27,7 +27,7 @@ static ffd_mesh *read_shared(const char *name)
     ffd_error err = {{0}};
     if (ffd_mesh_read(path, &m, &err) != FFD_OK) {
         fprintf(stderr, "read %s: %s\n", path, err.message);
-        CHECK(!"cannot read a shared mesh");
+        CHECK(!"cannot read a mesh of data/");
     }
     return m;
 }

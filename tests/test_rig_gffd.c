@@ -355,9 +355,9 @@ static void test_skeleton_files(void)
               "rig.json: skeleton[0].file: /nonexistent-dir/trunk.obj");
 
     /* STL is refused for skeletons, before reading it */
-    parse_bad(G "\"skeleton\": [{\"type\": \"patch\", \"file\": \"" FFD_SHARED_DATA
+    parse_bad(G "\"skeleton\": [{\"type\": \"patch\", \"file\": \"" FFD_DATA_DIR
                 "/hinge.stl\", \"radius\": 1}]}",
-              FFD_ERR_UNSUPPORTED, "skeleton[0].file: " FFD_SHARED_DATA "/hinge.stl: STL has no shared vertices");
+              FFD_ERR_UNSUPPORTED, "skeleton[0].file: " FFD_DATA_DIR "/hinge.stl: STL has no shared vertices");
     parse_bad(FILE_RIG("/nonexistent-dir/x.STL"), FFD_ERR_UNSUPPORTED, "STL has no shared vertices");
 
     /* a polyline OBJ with two l statements */

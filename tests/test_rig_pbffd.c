@@ -380,7 +380,7 @@ static void test_apply_placed_cow(void)
 {
     ffd_mesh *mesh = NULL;
     ffd_error err = {{0}};
-    CHECK_OK(ffd_mesh_read(FFD_SHARED_DATA "/cow.off", &mesh, &err));
+    CHECK_OK(ffd_mesh_read(FFD_DATA_DIR "/cow.off", &mesh, &err));
     if (!mesh)
         return;
     size_t n = ffd_mesh_vertex_count(mesh);

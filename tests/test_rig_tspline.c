@@ -16,7 +16,7 @@
 #include <unistd.h>
 
 #define T "{\"deformer\": \"tspline\", "
-#define BUNNY FFD_SHARED_DATA "/bunny.obj"
+#define BUNNY FFD_DATA_DIR "/bunny.obj"
 /* a handle that moves every control point */
 #define ALL "\"box\": {\"min\": [-1e9, -1e9, -1e9], \"max\": [1e9, 1e9, 1e9]}"
 
@@ -588,7 +588,7 @@ static void test_doc_errors_apply(void)
 
 static void test_identity(void)
 {
-    const char *meshes[] = {BUNNY, FFD_SHARED_DATA "/cow.off", FFD_SHARED_DATA "/teapot.obj"};
+    const char *meshes[] = {BUNNY, FFD_DATA_DIR "/cow.off", FFD_DATA_DIR "/teapot.obj"};
     for (size_t m = 0; m < 3; m++) {
         ffd_mesh *mesh = read_mesh(meshes[m]);
         if (!mesh)
@@ -978,8 +978,8 @@ static void test_write_files(void)
 /* Other meshes: a few examples run (no folds for gentle edits). */
 static void test_other_meshes(void)
 {
-    const char *meshes[] = {FFD_SHARED_DATA "/cow.off", FFD_SHARED_DATA "/hinge.stl",
-                            FFD_SHARED_DATA "/double-torus-example.off"};
+    const char *meshes[] = {FFD_DATA_DIR "/cow.off", FFD_DATA_DIR "/hinge.stl",
+                            FFD_DATA_DIR "/double-torus-example.off"};
     for (size_t m = 0; m < 3; m++) {
         ffd_mesh *mesh = read_mesh(meshes[m]);
         if (!mesh)

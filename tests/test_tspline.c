@@ -8,16 +8,25 @@
 
 #include <ffd.h>
 
-#define DATA FFD_SHARED_DATA
 /* see check_proxy_tol */
 #define TOL_REFINED 0.05
 
+/* A mesh of the repository's data/ folder (FFD_DATA_DIR; the environment's
+ * FFD_TEST_DATA_DIR replaces it, which tests/cli/test_data.sh uses to check
+ * this path). A file that cannot be read is a failure naming the file, and
+ * NULL: every caller returns at once, since the ffd_tsv getters take no NULL
+ * (a NULL mesh makes ffd_tsv_create fail and leave the lattice NULL). */
 static ffd_mesh *load(const char *name)
 {
+    const char *dir = getenv("FFD_TEST_DATA_DIR");
     char path[512];
-    snprintf(path, sizeof path, "%s/%s", DATA, name);
+    snprintf(path, sizeof path, "%s/%s", dir && *dir ? dir : FFD_DATA_DIR, name);
     ffd_mesh *m = NULL;
-    CHECK_OK(ffd_mesh_read(path, &m, NULL));
+    ffd_error err = {{0}};
+    if (ffd_mesh_read(path, &m, &err) != FFD_OK) {
+        fprintf(stderr, "%s: cannot read the test mesh %s: %s\n", check_current, path, err.message);
+        CHECK(!"test mesh missing or unreadable");
+    }
     return m;
 }
 
@@ -101,6 +110,8 @@ static void random_refine(ffd_tsv *t, size_t count)
 static void test_identity_at_rest(void)
 {
     ffd_mesh *m = load("bunny.obj");
+    if (!m)
+        return;
     ffd_tsv *t = make(m, 6, 7, 5);
     double *x = eval_all(t);
     size_t n = ffd_mesh_vertex_count(m);
@@ -209,6 +220,8 @@ static void test_exact_identity_and_partial_move(void)
 static void test_partition_of_unity(void)
 {
     ffd_mesh *m = load("cow.off");
+    if (!m)
+        return;
     ffd_tsv *t = make(m, 5, 6, 4);
     random_refine(t, 12);
     double worst = 0;
@@ -228,6 +241,8 @@ static void test_partition_of_unity(void)
 static void test_refinement_invariance(void)
 {
     ffd_mesh *m = load("bunny.obj");
+    if (!m)
+        return;
     size_t n = ffd_mesh_vertex_count(m);
     for (int round = 0; round < 4; round++) {
         ffd_tsv *t = make(m, 5 + round % 2, 6, 5);
@@ -266,6 +281,8 @@ static void test_refinement_invariance(void)
 static void test_batch_octree(void)
 {
     ffd_mesh *m = load("elephant.off");
+    if (!m)
+        return;
     ffd_tsv *t = make(m, 5, 5, 5);
     perturb(t, 0.05);
     double *before = eval_all(t);
@@ -431,6 +448,8 @@ static void check_proxy(const ffd_tsv *t, const ffd_mesh *m)
 static void test_proxy(void)
 {
     ffd_mesh *m = load("bunny.obj");
+    if (!m)
+        return;
     ffd_tsv *t = make(m, 6, 7, 5);
     check_proxy(t, m);
     ffd_tsv_proxy px;
@@ -459,6 +478,8 @@ static uint32_t *proxy_points(const ffd_tsv *t, size_t *k)
 static void test_arap_rigid(void)
 {
     ffd_mesh *m = load("cow.off");
+    if (!m)
+        return;
     ffd_tsv *t = make(m, 6, 5, 5);
     size_t n = ffd_mesh_vertex_count(m), k;
     uint32_t *h = proxy_points(t, &k);
@@ -518,6 +539,8 @@ static void test_arap_rigid(void)
 static void test_arap_targets_frozen(void)
 {
     ffd_mesh *m = load("elephant.off");
+    if (!m)
+        return;
     ffd_tsv *t = make(m, 5, 6, 5);
     size_t k;
     uint32_t *h = proxy_points(t, &k);
@@ -580,6 +603,8 @@ static void test_arap_targets_frozen(void)
 static void test_refine_after_deformation(void)
 {
     ffd_mesh *m = load("bunny.obj");
+    if (!m)
+        return;
     ffd_tsv *t = make(m, 6, 7, 5);
     size_t k;
     uint32_t *h = proxy_points(t, &k);
@@ -613,6 +638,8 @@ static void test_refine_after_deformation(void)
 static void test_direct_manipulation(void)
 {
     ffd_mesh *m = load("cow.off");
+    if (!m)
+        return;
     ffd_tsv *t = make(m, 6, 5, 5);
     ffd_tsv_insertion ins = {FFD_TSV_CELL, 30, 0};
     CHECK_OK(ffd_tsv_refine(t, &ins, 1, NULL, NULL));
@@ -646,6 +673,8 @@ static void test_direct_manipulation(void)
 static void test_fold_check(void)
 {
     ffd_mesh *m = load("bunny.obj");
+    if (!m)
+        return;
     ffd_tsv *t = make(m, 5, 5, 5);
     ffd_tsv_fold_report fr;
     CHECK_OK(ffd_tsv_check_folds(t, 0, &fr, NULL));
@@ -677,6 +706,8 @@ static void test_fold_check(void)
 static void test_bad_input(void)
 {
     ffd_mesh *m = load("bunny.obj");
+    if (!m)
+        return;
     uint32_t res[3] = {3, 6, 6};
     ffd_tsv *t = NULL;
     ffd_error err = {{0}};
@@ -734,6 +765,8 @@ static void test_bad_input(void)
 static void test_allocation_failures(void)
 {
     ffd_mesh *m = load("bunny.obj");
+    if (!m)
+        return;
     for (long k = 0; k < 4000; k += 7) {
         fail_alloc fa = {k, 0};
         ffd_allocator a = {fa_malloc, fa_realloc, fa_free, &fa};

@@ -14,7 +14,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#define SHARED FFD_SHARED_DATA "/"
+#define SHARED FFD_DATA_DIR "/"
 
 /* CHECK_OK that prints the error message; expr uses &e_ */
 #define CHECK_E(expr)                                                                     \
@@ -1485,7 +1485,7 @@ static void test_failing_allocations(void)
     obj_free(&pts);
 }
 
-/* (6) timing on the largest shared mesh (~89K triangles). */
+/* (6) timing on the largest mesh of data/ (~89K triangles). */
 static void test_timing(void)
 {
     obj o;

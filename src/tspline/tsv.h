@@ -1,7 +1,7 @@
 /* tsv — the tailored cubic T-spline volume of proxy-driven FFD (Zhang, Zheng
  * & Cai 2020) and its refinable T-lattice. Internal to the library.
  *
- * Design: ../shared/design/tspline-volume.md (section numbers below refer
+ * Design: docs/design/tspline-volume.md (section numbers below refer
  * to it as "design §n"; "paper" is the Zhang-Zheng-Cai paper).
  *
  * Modules (one writer each):

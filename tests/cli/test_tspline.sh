@@ -9,9 +9,8 @@
 set -u
 source "$(dirname "$0")/lib.sh" "$@"
 case $FFD in /*) ;; *) FFD=$(cd "$(dirname "$FFD")" && pwd)/$(basename "$FFD") ;; esac
-DATA=$(cd "$SRC/.." && pwd)/shared/data
-BUNNY=$DATA/bunny.obj
-[ -f "$BUNNY" ] || BUNNY=$SRC/examples/tspline/bunny.obj
+BUNNY=$SRC/data/bunny.obj
+[ -f "$BUNNY" ] || { echo "FAIL: missing test mesh $BUNNY"; exit 1; }
 
 # field FILE KEY: the number after "KEY": in FILE (first occurrence)
 field() {
