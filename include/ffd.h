@@ -81,11 +81,12 @@ void ffd_free(void *ptr);
 typedef struct ffd_mesh ffd_mesh;
 
 typedef enum ffd_format {
-    FFD_FORMAT_AUTO = 0, /* from the file extension (.obj .ply .off .stl, case-insensitive) */
+    FFD_FORMAT_AUTO = 0, /* from the file extension (.obj .ply .off .stl .gltf .glb, any case) */
     FFD_FORMAT_OBJ,
     FFD_FORMAT_PLY,
     FFD_FORMAT_OFF,
-    FFD_FORMAT_STL
+    FFD_FORMAT_STL,
+    FFD_FORMAT_GLTF /* glTF 2.0: .gltf (ASCII encoding) and .glb (BINARY_LE); docs/mesh-formats.md */
 } ffd_format;
 
 typedef enum ffd_encoding {

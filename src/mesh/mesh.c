@@ -53,6 +53,8 @@ void ffd_mesh_destroy(ffd_mesh *mesh)
     ffd_free(mesh->normals);
     ffd_free(mesh->normal_spans);
     ffd_free(mesh->normal_anchors);
+    if (mesh->codec_state_free)
+        mesh->codec_state_free(mesh->codec_state);
     ffd_free(mesh);
 }
 
