@@ -452,6 +452,10 @@ static void test_external_buffer(void)
         unlink(glb);
     }
     ffd_mesh_destroy(m);
+    /* from memory, an external buffer is not looked for beside the name */
+    CHECK(ffd_mesh_read_memory(json, strlen(json), FFD_FORMAT_GLTF, in, &m, &err) ==
+          FFD_ERR_UNSUPPORTED);
+    CHECK(!m && strstr(err.message, "external buffer \"cube%20data.bin\" in a glTF read from memory"));
     /* missing buffer file */
     unlink(real_bin);
     CHECK(ffd_mesh_read(in, &m, &err) == FFD_ERR_IO);

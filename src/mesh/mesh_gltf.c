@@ -440,6 +440,10 @@ static ffd_status read_buffers(reader *r, const unsigned char *bin, size_t bin_s
                 gb->text_len = gb->text_len >= pre ? gb->text_len - pre : 0;
             }
         } else {
+            if (!r->m->source_is_path)
+                return unsupported(r, "$.buffers[%zu].uri: external buffer \"%s\" in a glTF read "
+                                      "from memory (read the file by its path, or use .glb or "
+                                      "embedded buffers)", i, u);
             if (strstr(u, "://") || u[0] == '/')
                 return unsupported(r, "$.buffers[%zu].uri: \"%s\" is not a relative file name", i,
                                    u);
