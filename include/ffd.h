@@ -111,10 +111,15 @@ ffd_format ffd_format_from_path(const char *path);
  * file or PLY header is read past and kept). Errors: FFD_ERR_IO (missing
  * file, directory, unreadable), FFD_ERR_PARSE (message "path:line: ..." for text, "path: byte N: ..." for
  * binary), FFD_ERR_NONFINITE (NaN/Inf coordinate), FFD_ERR_RANGE (bad face
- * index), FFD_ERR_NOMEM. */
+ * index), FFD_ERR_NOMEM. glTF (.gltf, .glb): the triangles of the default
+ * scene in world space, external buffers read next to path; FFD_ERR_PARSE /
+ * FFD_ERR_UNSUPPORTED name the JSON path ("$.accessors[3]: ...") or byte
+ * offset of what cannot be written back losslessly (docs/mesh-formats.md). */
 ffd_status ffd_mesh_read(const char *path, ffd_mesh **out, ffd_error *err);
 
-/* Same from memory; name is used in messages (may be NULL). format must not be AUTO. */
+/* Same from memory; name is used in messages (may be NULL). format must not
+ * be AUTO. A glTF read from memory may not name external buffer files
+ * (FFD_ERR_UNSUPPORTED). */
 ffd_status ffd_mesh_read_memory(const void *data, size_t size, ffd_format format,
                                 const char *name, ffd_mesh **out, ffd_error *err);
 
@@ -126,11 +131,16 @@ ffd_status ffd_mesh_read_memory(const void *data, size_t size, ffd_format format
  * library function that writes a file does it this way. Same format as the source:
  * every non-position byte is kept; changed positions (and their normals) are
  * rewritten with 17 significant digits (text) or in the file's own binary
- * type. Another format: written from the mesh's geometry and attributes. */
+ * type. Another format: written from the mesh's geometry and attributes.
+ * glTF: only POSITION/NORMAL data and POSITION min/max change; a .gltf's
+ * external buffers are written next to path (refused, FFD_ERR_UNSUPPORTED,
+ * where that would replace the source's own buffer file); .gltf and .glb
+ * are not converted into each other. */
 ffd_status ffd_mesh_write(const ffd_mesh *mesh, const char *path,
                           const ffd_write_options *options, ffd_error *err);
 
-/* Same into a buffer the caller frees with ffd_free. options->format must not be AUTO. */
+/* Same into a buffer the caller frees with ffd_free. options->format must not
+ * be AUTO. A .gltf's external buffers are embedded as base64 data: URIs. */
 ffd_status ffd_mesh_write_memory(const ffd_mesh *mesh, const ffd_write_options *options,
                                  unsigned char **data, size_t *size, ffd_error *err);
 
