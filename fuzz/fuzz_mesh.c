@@ -1,5 +1,5 @@
 /* fuzz_mesh — libFuzzer target for one mesh reader (FUZZ_FORMAT: OBJ, PLY,
- * OFF or STL, set by the build: one binary per format). A mesh that reads
+ * OFF, STL or GLTF, set by the build: one binary per format). A mesh that reads
  * is written back in its own format and read again: the writer and the
  * lossless round trip are fuzzed too. */
 #include "ffd.h"

@@ -97,7 +97,7 @@ FFD_API void ffd_free(void *ptr);
  * threads, and must not call the library. Pass NULL to remove it. Like
  * ffd_set_allocator, set it before other library calls; it is global. */
 typedef void (*ffd_progress_fn)(void *user, const char *stage, double fraction);
-void ffd_set_progress(ffd_progress_fn fn, void *user);
+FFD_API void ffd_set_progress(ffd_progress_fn fn, void *user);
 
 /* ======================================================================
  * Meshes
@@ -106,11 +106,12 @@ void ffd_set_progress(ffd_progress_fn fn, void *user);
 typedef struct ffd_mesh ffd_mesh;
 
 typedef enum ffd_format {
-    FFD_FORMAT_AUTO = 0, /* from the file extension (.obj .ply .off .stl, case-insensitive) */
+    FFD_FORMAT_AUTO = 0, /* from the file extension (.obj .ply .off .stl .gltf .glb, any case) */
     FFD_FORMAT_OBJ,
     FFD_FORMAT_PLY,
     FFD_FORMAT_OFF,
-    FFD_FORMAT_STL
+    FFD_FORMAT_STL,
+    FFD_FORMAT_GLTF /* glTF 2.0: .gltf (ASCII encoding) and .glb (BINARY_LE); docs/mesh-formats.md */
 } ffd_format;
 
 typedef enum ffd_encoding {
@@ -135,10 +136,15 @@ FFD_API ffd_format ffd_format_from_path(const char *path);
  * file or PLY header is read past and kept). Errors: FFD_ERR_IO (missing
  * file, directory, unreadable), FFD_ERR_PARSE (message "path:line: ..." for text, "path: byte N: ..." for
  * binary), FFD_ERR_NONFINITE (NaN/Inf coordinate), FFD_ERR_RANGE (bad face
- * index), FFD_ERR_NOMEM. */
+ * index), FFD_ERR_NOMEM. glTF (.gltf, .glb): the triangles of the default
+ * scene in world space, external buffers read next to path; FFD_ERR_PARSE /
+ * FFD_ERR_UNSUPPORTED name the JSON path ("$.accessors[3]: ...") or byte
+ * offset of what cannot be written back losslessly (docs/mesh-formats.md). */
 FFD_API ffd_status ffd_mesh_read(const char *path, ffd_mesh **out, ffd_error *err);
 
-/* Same from memory; name is used in messages (may be NULL). format must not be AUTO. */
+/* Same from memory; name is used in messages (may be NULL). format must not
+ * be AUTO. A glTF read from memory may not name external buffer files
+ * (FFD_ERR_UNSUPPORTED). */
 FFD_API ffd_status ffd_mesh_read_memory(const void *data, size_t size, ffd_format format,
                                         const char *name, ffd_mesh **out, ffd_error *err);
 
@@ -150,11 +156,16 @@ FFD_API ffd_status ffd_mesh_read_memory(const void *data, size_t size, ffd_forma
  * library function that writes a file does it this way. Same format as the source:
  * every non-position byte is kept; changed positions (and their normals) are
  * rewritten with 17 significant digits (text) or in the file's own binary
- * type. Another format: written from the mesh's geometry and attributes. */
+ * type. Another format: written from the mesh's geometry and attributes.
+ * glTF: only POSITION/NORMAL data and POSITION min/max change; a .gltf's
+ * external buffers are written next to path (refused, FFD_ERR_UNSUPPORTED,
+ * where that would replace the source's own buffer file); .gltf and .glb
+ * are not converted into each other. */
 FFD_API ffd_status ffd_mesh_write(const ffd_mesh *mesh, const char *path,
                                   const ffd_write_options *options, ffd_error *err);
 
-/* Same into a buffer the caller frees with ffd_free. options->format must not be AUTO. */
+/* Same into a buffer the caller frees with ffd_free. options->format must not
+ * be AUTO. A .gltf's external buffers are embedded as base64 data: URIs. */
 FFD_API ffd_status ffd_mesh_write_memory(const ffd_mesh *mesh, const ffd_write_options *options,
                                          unsigned char **data, size_t *size, ffd_error *err);
 

@@ -14,7 +14,7 @@ seconds=${1:-30}
 shift || true
 targets=("$@")
 if [ ${#targets[@]} -eq 0 ]; then
-  targets=(fuzz_obj fuzz_ply fuzz_off fuzz_stl fuzz_rig_json fuzz_rig_prm fuzz_session fuzz_http)
+  targets=(fuzz_obj fuzz_ply fuzz_off fuzz_stl fuzz_gltf fuzz_rig_json fuzz_rig_prm fuzz_session fuzz_http)
 fi
 build="$root/build-fuzz"
 CC=clang cmake -S "$root" -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DFFD_FUZZ=ON \
@@ -28,7 +28,7 @@ for t in "${targets[@]}"; do
   mkdir -p "$corpus" "$crashes"
   seeds=("$root/fuzz/corpus/$t")
   case $t in
-    fuzz_obj) ext=obj ;; fuzz_ply) ext=ply ;; fuzz_off) ext=off ;; fuzz_stl) ext=stl ;; *) ext= ;;
+    fuzz_obj) ext=obj ;; fuzz_ply) ext=ply ;; fuzz_off) ext=off ;; fuzz_stl) ext=stl ;; fuzz_gltf) ext=glb ;; *) ext= ;;
   esac
   if [ -n "$ext" ]; then
     mkdir -p "$build/seeds/$t"

@@ -1208,9 +1208,9 @@ static void test_codec_table(void)
     ffd_error err = {{0}};
     CHECK(ffd_mesh_create(P, 3, off, idx, 1, &m, &err) == FFD_OK);
     CHECK(ffd_mesh_codec_find(FFD_FORMAT_AUTO) == NULL);
-    CHECK(ffd_mesh_codec_find((ffd_format)(FFD_FORMAT_STL + 1)) == NULL);
-    CHECK(ffd_mesh_codec_for_extension("gltf") == NULL);
-    for (int f = FFD_FORMAT_OBJ; f <= FFD_FORMAT_STL; f++) {
+    CHECK(ffd_mesh_codec_find((ffd_format)(FFD_FORMAT_GLTF + 1)) == NULL);
+    CHECK(ffd_mesh_codec_for_extension("fbx") == NULL);
+    for (int f = FFD_FORMAT_OBJ; f <= FFD_FORMAT_GLTF; f++) {
         const ffd_mesh_codec *c = ffd_mesh_codec_find((ffd_format)f);
         CHECK(c && c->format == (ffd_format)f);
         CHECK(c->name && c->extensions && c->extensions[0]);
@@ -1246,8 +1246,8 @@ static void test_codec_table(void)
         }
     }
     char list[FFD_MESH_CODEC_LIST_SIZE];
-    CHECK(strcmp(ffd_mesh_codec_list(false, list, sizeof list), ".obj, .ply, .off or .stl") == 0);
-    CHECK(strcmp(ffd_mesh_codec_list(true, list, sizeof list), "OBJ, PLY, OFF or STL") == 0);
+    CHECK(strcmp(ffd_mesh_codec_list(false, list, sizeof list), ".obj, .ply, .off, .stl or .gltf") == 0);
+    CHECK(strcmp(ffd_mesh_codec_list(true, list, sizeof list), "OBJ, PLY, OFF, STL or glTF") == 0);
     ffd_mesh_destroy(m);
 }
 

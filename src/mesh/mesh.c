@@ -53,6 +53,8 @@ void ffd_mesh_destroy(ffd_mesh *mesh)
     ffd_free(mesh->normals);
     ffd_free(mesh->normal_spans);
     ffd_free(mesh->normal_anchors);
+    if (mesh->codec_state_free)
+        mesh->codec_state_free(mesh->codec_state);
     ffd_free(mesh);
 }
 
@@ -403,8 +405,11 @@ ffd_format ffd_format_from_path(const char *path)
     return codec ? codec->format : FFD_FORMAT_AUTO;
 }
 
-ffd_status ffd_mesh_read_owned(unsigned char *data, size_t size, ffd_format format,
-                               const char *name, ffd_mesh **out, ffd_error *err)
+/* source_is_path: name is the file's path, so a codec may read the files
+ * its format keeps beside it (glTF's external buffers). */
+static ffd_status read_owned(unsigned char *data, size_t size, ffd_format format,
+                             const char *name, bool source_is_path, ffd_mesh **out,
+                             ffd_error *err)
 {
     *out = NULL;
     name = ffd_name_or(name, "<memory>");
@@ -426,6 +431,7 @@ ffd_status ffd_mesh_read_owned(unsigned char *data, size_t size, ffd_format form
     }
     m->src = data;
     m->src_size = size;
+    m->source_is_path = source_is_path;
     ffd_progress progress;
     ffd_progress_begin(&progress, "reading");
     ffd_status s = codec->read(m, name, err);
@@ -436,6 +442,12 @@ ffd_status ffd_mesh_read_owned(unsigned char *data, size_t size, ffd_format form
     ffd_progress_end(&progress);
     *out = m;
     return FFD_OK;
+}
+
+ffd_status ffd_mesh_read_owned(unsigned char *data, size_t size, ffd_format format,
+                               const char *name, ffd_mesh **out, ffd_error *err)
+{
+    return read_owned(data, size, format, name, false, out, err);
 }
 
 ffd_status ffd_mesh_read_memory(const void *data, size_t size, ffd_format format,
@@ -476,7 +488,7 @@ ffd_status ffd_mesh_read(const char *path, ffd_mesh **out, ffd_error *err)
     ffd_status s = ffd_read_file(path, &data, &size, err);
     if (s != FFD_OK)
         return s;
-    return ffd_mesh_read_owned(data, size, format, path, out, err);
+    return read_owned(data, size, format, path, true, out, err);
 }
 
 /* ======================================================================

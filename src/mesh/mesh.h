@@ -64,6 +64,10 @@ struct ffd_mesh {
     int facet_normals;  /* normal f belongs to face f (STL) */
 
     size_t texcoord_count;
+
+    bool source_is_path; /* read by ffd_mesh_read: the codec may read files beside it */
+    void *codec_state; /* a codec's own record of the source (glTF), freed with the mesh */
+    void (*codec_state_free)(void *state);
 };
 
 /* ---- building (mesh.c) -------------------------------------------------- */

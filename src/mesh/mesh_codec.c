@@ -11,6 +11,7 @@ static const ffd_mesh_codec *const codecs[] = {
     &ffd_mesh_codec_ply,
     &ffd_mesh_codec_off,
     &ffd_mesh_codec_stl,
+    &ffd_mesh_codec_gltf,
 };
 #define CODEC_COUNT (sizeof codecs / sizeof codecs[0])
 

@@ -126,12 +126,17 @@ typedef struct ffd_mesh_codec {
     /* The refined mesh as a file of the source's format and encoding
      * (see ffd_mesh_refine); c->m->src is set. */
     ffd_status (*refine)(ffd_refine_ctx *c, ffd_buf *b, ffd_error *err);
+    /* Optional: ffd_mesh_write to path in the encoding the source (or the
+     * path's extension) implies, for a format whose file comes with others
+     * (glTF's external buffers) or whose extension names the encoding. */
+    ffd_status (*write_file)(const ffd_mesh *m, const char *path, ffd_error *err);
 } ffd_mesh_codec;
 
 extern const ffd_mesh_codec ffd_mesh_codec_obj;
 extern const ffd_mesh_codec ffd_mesh_codec_ply;
 extern const ffd_mesh_codec ffd_mesh_codec_off;
 extern const ffd_mesh_codec ffd_mesh_codec_stl;
+extern const ffd_mesh_codec ffd_mesh_codec_gltf;
 
 /* The codec of a format; NULL for FFD_FORMAT_AUTO or an unknown value. */
 const ffd_mesh_codec *ffd_mesh_codec_find(ffd_format format);

@@ -264,6 +264,9 @@ ffd_status ffd_mesh_write(const ffd_mesh *mesh, const char *path,
                             path, ffd_mesh_codec_list(false, list, sizeof list));
         }
     }
+    const ffd_mesh_codec *codec = ffd_mesh_codec_find(opt.format);
+    if (mesh && codec && codec->write_file && opt.encoding == FFD_ENCODING_SAME)
+        return codec->write_file(mesh, path, err);
     unsigned char *data;
     size_t size;
     ffd_error inner = {{0}};

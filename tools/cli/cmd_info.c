@@ -22,6 +22,7 @@ static const char *format_name(ffd_format format)
     case FFD_FORMAT_PLY: return "ply";
     case FFD_FORMAT_OFF: return "off";
     case FFD_FORMAT_STL: return "stl";
+    case FFD_FORMAT_GLTF: return "gltf";
     case FFD_FORMAT_AUTO: break;
     }
     return "unknown";

@@ -195,7 +195,7 @@ static int cmd_place(int argc, char **argv)
         return bad;
     if (points && ffd_format_from_path(points) == FFD_FORMAT_AUTO)
         return cli_usage_error("pbffd place",
-                               "--points %s: unknown format (expected .obj, .ply, .off or .stl)",
+                               "--points %s: unknown format (expected .obj, .ply, .off, .stl, .gltf or .glb)",
                                points);
 
     ffd_error err = {{0}};

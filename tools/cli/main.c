@@ -214,7 +214,7 @@ int cli_check_format(const char *command, const char *out)
 {
     if (out && !cli_is_stdio(out) && ffd_format_from_path(out) == FFD_FORMAT_AUTO)
         return cli_usage_error(command,
-                               "%s: unknown output format (expected .obj, .ply, .off or .stl)", out);
+                               "%s: unknown output format (expected .obj, .ply, .off, .stl, .gltf or .glb)", out);
     return 0;
 }
 

@@ -631,7 +631,7 @@ static enum MHD_Result get_rig(const serve_server *srv, struct MHD_Connection *c
     return answer_data(srv, c, r, json, size, "application/json", disposition);
 }
 
-static const char *const format_names[] = {"", "obj", "ply", "off", "stl"};
+static const char *const format_names[] = {"", "obj", "ply", "off", "stl", "gltf"};
 
 static enum MHD_Result get_export(const serve_server *srv, struct MHD_Connection *c, request *r)
 {
@@ -640,11 +640,11 @@ static enum MHD_Result get_export(const serve_server *srv, struct MHD_Connection
     ffd_write_options options = {FFD_FORMAT_AUTO, FFD_ENCODING_SAME};
     if (format && *format) {
         int f = FFD_FORMAT_OBJ;
-        while (f <= FFD_FORMAT_STL && strcmp(format, format_names[f]) != 0)
+        while (f <= FFD_FORMAT_GLTF && strcmp(format, format_names[f]) != 0)
             f++;
-        if (f > FFD_FORMAT_STL)
+        if (f > FFD_FORMAT_GLTF)
             return answer_error(srv, c, r, MHD_HTTP_BAD_REQUEST, "invalid",
-                                "format '%.32s': expected obj, ply, off or stl", format);
+                                "format '%.32s': expected obj, ply, off, stl or gltf", format);
         options.format = (ffd_format)f;
     }
     if (parse_encoding(encoding, &options.encoding) != 0)
@@ -653,7 +653,7 @@ static enum MHD_Result get_export(const serve_server *srv, struct MHD_Connection
     ffd_format shown = options.format;
     if (shown == FFD_FORMAT_AUTO)
         shown = ffd_mesh_source_format(ffd_session_mesh(srv->session));
-    if (shown < FFD_FORMAT_OBJ || shown > FFD_FORMAT_STL)
+    if (shown < FFD_FORMAT_OBJ || shown > FFD_FORMAT_GLTF)
         shown = FFD_FORMAT_OBJ;
     ffd_error err = {{0}};
     void *data = NULL;
@@ -664,7 +664,9 @@ static enum MHD_Result get_export(const serve_server *srv, struct MHD_Connection
     if (st != FFD_OK)
         return answer_status(srv, c, r, st, err.message);
     char suffix[32], disposition[160];
-    snprintf(suffix, sizeof suffix, "-deformed.%s", format_names[shown]);
+    /* glTF's binary encoding is a .glb (it starts with the GLB magic) */
+    bool glb = shown == FFD_FORMAT_GLTF && size >= 4 && memcmp(data, "glTF", 4) == 0;
+    snprintf(suffix, sizeof suffix, "-deformed.%s", glb ? "glb" : format_names[shown]);
     attachment(srv->session, suffix, disposition, sizeof disposition);
     return answer_data(srv, c, r, data, size, "application/octet-stream", disposition);
 }
@@ -730,7 +732,7 @@ static enum MHD_Result post_open(serve_server *srv, struct MHD_Connection *c, re
     if (ffd_format_from_path(abs) == FFD_FORMAT_AUTO) {
         enum MHD_Result ret = answer_error(srv, c, r, MHD_HTTP_UNSUPPORTED_MEDIA_TYPE,
                                            "unsupported_format",
-                                           "%s: unknown mesh format (expected .obj, .ply, .off or .stl)",
+                                           "%s: unknown mesh format (expected .obj, .ply, .off, .stl, .gltf or .glb)",
                                            path);
         cJSON_Delete(doc);
         return ret;
@@ -865,7 +867,7 @@ static enum MHD_Result post_export_save(serve_server *srv, struct MHD_Connection
                            "encoding '%.32s': expected ascii, binary or binary-be", values[1]);
     } else if (ffd_format_from_path(path) == FFD_FORMAT_AUTO) {
         ret = answer_error(srv, c, r, MHD_HTTP_BAD_REQUEST, "invalid",
-                           "%s: unknown mesh format (expected .obj, .ply, .off or .stl)", path);
+                           "%s: unknown mesh format (expected .obj, .ply, .off, .stl, .gltf or .glb)", path);
     } else if ((code = resolve(srv, path, 1, abs, &word, msg, sizeof msg)) != 0) {
         ret = answer_error(srv, c, r, code, word, "%s", msg);
     } else if (srv->mesh_path && cli_same_file(abs, srv->mesh_path)) {
@@ -1222,7 +1224,7 @@ static enum MHD_Result begin(serve_server *srv, struct MHD_Connection *c, reques
             return answer_error(srv, c, r, MHD_HTTP_UNSUPPORTED_MEDIA_TYPE, "unsupported_format",
                                 "%.200s: unknown %s", name,
                                 r->route == ROUTE_UPLOAD
-                                    ? "mesh format (expected .obj, .ply, .off or .stl)"
+                                    ? "mesh format (expected .obj, .ply, .off, .stl, .gltf or .glb)"
                                     : "rig format (expected .json or .prm)");
     }
     const char *length = MHD_lookup_connection_value(c, MHD_HEADER_KIND,

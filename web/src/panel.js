@@ -74,7 +74,7 @@ export class Panel {
   meshSection(s) {
     const m = s.mesh || {};
     const fileInput = h('input', {
-      type: 'file', accept: '.obj,.ply,.off,.stl', hidden: true,
+      type: 'file', accept: '.obj,.ply,.off,.stl,.gltf,.glb', hidden: true,
       onchange: async (e) => {
         const f = e.target.files[0];
         if (!f) return;
@@ -188,7 +188,7 @@ export class Panel {
       h('option', { value: '' }, this.files.rigs.length ? 'Rig on the server…' : 'No rigs under the root'),
       this.files.rigs.map((r) => h('option', { value: r }, r)));
     const fmtSel = h('select', { name: 'export-format', onchange: (e) => { f.export.format = e.target.value; } },
-      h('option', { value: '' }, `as read (${ext})`), ['obj', 'ply', 'off', 'stl'].map((x) => h('option', { value: x, selected: f.export.format === x }, x.toUpperCase())));
+      h('option', { value: '' }, `as read (${ext})`), ['obj', 'ply', 'off', 'stl', 'gltf'].map((x) => h('option', { value: x, selected: f.export.format === x }, x.toUpperCase())));
     const encSel = h('select', { name: 'export-encoding', onchange: (e) => { f.export.encoding = e.target.value; } },
       ['binary', 'ascii'].map((x) => h('option', { value: x, selected: f.export.encoding === x }, x)));
     const exportUrl = () => {
