@@ -165,6 +165,19 @@ static ffd_status lat_reset(sess_method *m, ffd_error *err)
     return FFD_OK;
 }
 
+/* Control point (i,j,k)'s displacement from rest into d; 1 when it moved. */
+static int control_moved(const ffd_lattice *lattice, const uint32_t r[3], uint32_t i, uint32_t j,
+                         uint32_t k, double d[3])
+{
+    double rest[3];
+    const double *q =
+        ffd_lattice_control_points(lattice) + 3 * ((size_t)(i * r[1] + j) * r[2] + k);
+    ffd_lattice_rest_point(lattice, i, j, k, rest);
+    for (int a = 0; a < 3; a++)
+        d[a] = q[a] - rest[a];
+    return q[0] != rest[0] || q[1] != rest[1] || q[2] != rest[2];
+}
+
 /* The state as a rig: its box, basis, resolution and outside rule, and a
  * move per displaced control point, written by the rig's own writer
  * (lattice_rig_json.c). */
@@ -172,37 +185,28 @@ static ffd_status lat_rig(const sess_method *m, cJSON *root, ffd_error *err)
 {
     const lattice_method *l = as_lattice(m);
     ffd_rig rig;
-    memset(&rig, 0, sizeof rig);
-    rig.method = &ffd_method_lattice;
+    ffd_rig_view(&rig, &ffd_method_lattice, NULL, 0);
     rig.basis = ffd_lattice_basis(l->lattice);
     rig.outside = l->outside;
     ffd_lattice_resolution(l->lattice, rig.resolution);
     ffd_lattice_box(l->lattice, &rig.box);
     const uint32_t *r = rig.resolution;
-    const double *p = ffd_lattice_control_points(l->lattice);
     size_t moved = 0; /* the displaced control points: one move each */
+    double d[3];
     for (uint32_t i = 0; i < r[0]; i++)
         for (uint32_t j = 0; j < r[1]; j++)
-            for (uint32_t k = 0; k < r[2]; k++) {
-                double rest[3];
-                const double *q = p + 3 * ((size_t)(i * r[1] + j) * r[2] + k);
-                ffd_lattice_rest_point(l->lattice, i, j, k, rest);
-                moved += q[0] != rest[0] || q[1] != rest[1] || q[2] != rest[2];
-            }
+            for (uint32_t k = 0; k < r[2]; k++)
+                moved += (size_t)control_moved(l->lattice, r, i, j, k, d);
     rig.moves = ffd_malloc_array(moved ? moved : 1, sizeof *rig.moves);
     if (!rig.moves)
         return ffd_fail(err, FFD_ERR_NOMEM, "rig: out of memory");
     for (uint32_t i = 0; i < r[0]; i++)
         for (uint32_t j = 0; j < r[1]; j++)
             for (uint32_t k = 0; k < r[2]; k++) {
-                double rest[3];
-                const double *q = p + 3 * ((size_t)(i * r[1] + j) * r[2] + k);
-                ffd_lattice_rest_point(l->lattice, i, j, k, rest);
-                if (q[0] == rest[0] && q[1] == rest[1] && q[2] == rest[2])
+                if (!control_moved(l->lattice, r, i, j, k, d))
                     continue;
                 ffd_rig_move *mv = &rig.moves[rig.move_count++];
-                for (int a = 0; a < 3; a++)
-                    mv->delta[a] = q[a] - rest[a];
+                memcpy(mv->delta, d, sizeof d);
                 mv->index[0] = i;
                 mv->index[1] = j;
                 mv->index[2] = k;
