@@ -1,5 +1,7 @@
 #!/usr/bin/env bash
 # Installs every Debian package ffdkit needs. Idempotent: re-running installs nothing new.
+# With --test also the packages only the tests use: Blender (a real glTF client
+# that imports what ffd writes) and NumPy (which Blender's glTF importer needs).
 set -euo pipefail
 PKGS=(build-essential cmake pkg-config
       liblapacke-dev libopenblas-dev libcjson-dev
@@ -7,6 +9,9 @@ PKGS=(build-essential cmake pkg-config
       libqhull-dev libsuitesparse-dev
       libmicrohttpd-dev chromium curl libomp-dev valgrind
       groff-base dpkg-dev file binutils)
+if [ "${1:-}" = "--test" ]; then
+  PKGS+=(blender python3-numpy)
+fi
 missing=()
 for p in "${PKGS[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

@@ -4,7 +4,7 @@
 # UndefinedBehaviorSanitizer build, and every libFuzzer target for 30 seconds.
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
-bash "$root/scripts/setup.sh"
+bash "$root/scripts/setup.sh" --test
 jobs=$(nproc)
 echo "== release build and tests"
 bash "$root/scripts/build.sh" "$root/build"
