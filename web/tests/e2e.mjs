@@ -624,6 +624,20 @@ async function uiStage() {
   expectHttpErrors = false;
   const after = await state();
   check(after.revision === before.revision && after.method === before.method, '(g) the session is unchanged by the failed upload');
+
+  // a binary glTF through the mesh upload input: the server reads it (world
+  // space, every primitive) and the page draws exactly the server's vertices
+  const glb = await readFile(path.join(REPO, 'tests', 'data', 'mesh', 'cube_nodes.glb'));
+  await page.setInputFiles('#panel input[type=file][accept=".obj,.ply,.off,.stl,.gltf,.glb"]', { name: 'cube_nodes.glb', mimeType: 'model/gltf-binary', buffer: glb });
+  const opened = await page.waitForFunction(() => (document.querySelector('#panel b') || {}).textContent === 'cube_nodes.glb', null, { timeout: 15000 })
+    .then(() => true, () => false);
+  const sg = await state();
+  const fg = await frame();
+  const drawn = await ed(() => Array.from(window.ffdEditor.editor.vp.geometry.attributes.position.array));
+  check(opened && sg.mesh && sg.mesh.vertices === 11 && sg.mesh.faces === 13,
+    `(g) .glb upload opens cube_nodes.glb (${sg.mesh && sg.mesh.vertices} vertices, ${sg.mesh && sg.mesh.faces} faces; ffd reads 11 and 13)`);
+  check(drawn.length === 33 && maxAbsDiff(drawn, fg.positions) === 0, '(g) the page draws the .glb\'s world-space vertices');
+  await shot('16-glb-upload');
 }
 
 // --- run with cleanup --------------------------------------------------------------
