@@ -166,7 +166,8 @@ static const char tangent_json[] =
     " \"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0,\"NORMAL\":1,\"TANGENT\":2},"
     "\"indices\":3}]}],\n"
     " \"accessors\":[\n"
-    "  {\"bufferView\":0,\"componentType\":5126,\"count\":9,\"type\":\"VEC3\",\"min\":[-1,-1,0],\"max\":[1,1,0]},\n"
+    "  {\"bufferView\":0,\"componentType\":5126,\"count\":9,\"type\":\"VEC3\",\"min\":[-1,-1,0],"
+    "\"max\":[1,1,0]},\n"
     "  {\"bufferView\":1,\"componentType\":5126,\"count\":9,\"type\":\"VEC3\"},\n"
     "  {\"bufferView\":2,\"componentType\":5126,\"count\":9,\"type\":\"VEC4\"},\n"
     "  {\"bufferView\":3,\"componentType\":5123,\"count\":24,\"type\":\"SCALAR\"}],\n"
@@ -398,8 +399,8 @@ static void test_identity_round_trips(void)
     const scene *scenes[2] = {&cube_scene, &tangent_scene};
     for (int k = 0; k < 4; k++) {
         size_t n;
-        unsigned char *src = k % 2 ? (unsigned char *)embedded_of(scenes[k / 2])
-                                   : glb_of(scenes[k / 2], NULL, &n);
+        unsigned char *src =
+            k % 2 ? (unsigned char *)embedded_of(scenes[k / 2]) : glb_of(scenes[k / 2], NULL, &n);
         if (k % 2)
             n = strlen((char *)src);
         ffd_mesh *m = read_ok(src, n, k % 2 ? "s.gltf" : "s.glb");
@@ -786,7 +787,8 @@ static void finite_difference_jacobian(const ffd_lattice *lat, const double *p, 
             for (int r = 0; r < 3; r++)
                 J[9 * v + 3 * (size_t)r + (size_t)d] =
                     (f[3 * (6 * v + 2 * (size_t)d) + (size_t)r] -
-                     f[3 * (6 * v + 2 * (size_t)d + 1) + (size_t)r]) / (2 * h);
+                     f[3 * (6 * v + 2 * (size_t)d + 1) + (size_t)r]) /
+                    (2 * h);
     ffd_lattice_binding_destroy(b);
     free(q);
     free(f);
@@ -859,8 +861,8 @@ static void test_tangent_lattice(void)
         CHECK_NEAR(dot3(B, back->normals + 3 * k), 0, 1e-6);
         /* w: the same bytes */
         size_t bin = 20 + rd32(w + 12) + 8;
-        CHECK(memcmp(w + bin + TAN_AT + 16 * k + 12, g + 20 + rd32(g + 12) + 8 + TAN_AT + 16 * k + 12,
-                     4) == 0);
+        CHECK(memcmp(w + bin + TAN_AT + 16 * k + 12,
+                     g + 20 + rd32(g + 12) + 8 + TAN_AT + 16 * k + 12, 4) == 0);
     }
     CHECK(back && back->tangent_count == 9);
     ffd_mesh_destroy(back);
@@ -896,7 +898,8 @@ static void test_tangent_fallback(void)
     CHECK_OK(ffd_mesh_set_positions(m, p, NULL, NULL));
     size_t on;
     unsigned char *w = write_same(m, &on);
-    size_t src_bin = 20 + rd32(g + 12) + 8 + TAN_AT, out_bin = w ? 20 + rd32(w + 12) + 8 + TAN_AT : 0;
+    size_t src_bin = 20 + rd32(g + 12) + 8 + TAN_AT,
+           out_bin = w ? 20 + rd32(w + 12) + 8 + TAN_AT : 0;
     for (int k = 0; k < 9 && w; k++) {
         const double *T = m->tangents + 4 * k, *N = m->normals + 3 * k;
         bool near = k == 0 || k == 1 || k == 3 || k == 4;
@@ -968,12 +971,16 @@ static void test_tangent_refusals(void)
                      "\"byteOffset\":108,\"byteLength\":144", FFD_ERR_PARSE,
                      "$.accessors[2]: element 0: TANGENT w is 0, expected 1 or -1");
     /* a second primitive on the same POSITION with other NORMAL or TANGENT data */
-    check_refused_in(t, "\"indices\":3}]", "\"indices\":3},{\"attributes\":{\"POSITION\":0,"
-                     "\"NORMAL\":1,\"TANGENT\":1},\"indices\":3}]", FFD_ERR_UNSUPPORTED,
+    check_refused_in(t, "\"indices\":3}]",
+                     "\"indices\":3},{\"attributes\":{\"POSITION\":0,"
+                     "\"NORMAL\":1,\"TANGENT\":1},\"indices\":3}]",
+                     FFD_ERR_UNSUPPORTED,
                      "$.accessors[0]: POSITION shared by primitives with different TANGENT "
                      "(accessor 1; first read with accessor 2)");
-    check_refused_in(t, "\"indices\":3}]", "\"indices\":3},{\"attributes\":{\"POSITION\":0,"
-                     "\"NORMAL\":2},\"indices\":3}]", FFD_ERR_UNSUPPORTED,
+    check_refused_in(t, "\"indices\":3}]",
+                     "\"indices\":3},{\"attributes\":{\"POSITION\":0,"
+                     "\"NORMAL\":2},\"indices\":3}]",
+                     FFD_ERR_UNSUPPORTED,
                      "$.accessors[0]: POSITION shared by primitives with different NORMAL "
                      "(accessor 2; first read with accessor 1)");
     /* ... while one that uses fewer of them is fine */

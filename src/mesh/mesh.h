@@ -67,7 +67,7 @@ struct ffd_mesh {
      * tangent i belongs to vertex tangent_anchors[i]. No spans: the codec
      * that reads them keeps their locations (mesh_gltf.c). */
     size_t tangent_count, tangent_cap;
-    double *tangents;          /* 4 per tangent */
+    double *tangents; /* 4 per tangent */
     uint32_t *tangent_anchors;
 
     size_t texcoord_count;

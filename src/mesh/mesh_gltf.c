@@ -110,8 +110,8 @@ typedef struct gltf_state {
     double *orig_pos;  /* world positions as read */
     gltf_elem *nrm;    /* per normal */
     double *orig_nrm;
-    gltf_elem *tan;    /* per tangent */
-    double *orig_tan;  /* 4 per tangent, world space as read */
+    gltf_elem *tan;   /* per tangent */
+    double *orig_tan; /* 4 per tangent, world space as read */
     gltf_pos_accessor *acc;
     size_t acc_count, acc_cap;
     char *source_path; /* the .gltf read (for the external buffers' check) */
@@ -400,7 +400,8 @@ static ffd_status read_buffers(reader *r, const unsigned char *bin, size_t bin_s
         gltf_buffer *gb = &r->s->buffers[i];
         long long len = int_member(b, "byteLength", (long long)1 << 52);
         if (len < 0)
-            return refuse(r, FFD_ERR_PARSE, "$.buffers[%zu].byteLength: expected a non-negative integer", i);
+            return refuse(r, FFD_ERR_PARSE,
+                          "$.buffers[%zu].byteLength: expected a non-negative integer", i);
         const cJSON *uri = cJSON_GetObjectItemCaseSensitive(b, "uri");
         const char *ju = js_member(js_element(jbufs, r->je, i), r->je, "uri");
         if (ju && *ju == '"') {
@@ -411,8 +412,9 @@ static ffd_status read_buffers(reader *r, const unsigned char *bin, size_t bin_s
             if (i != 0 || !bin)
                 return refuse(r, FFD_ERR_PARSE, "$.buffers[%zu]: no uri and no GLB BIN chunk", i);
             if ((size_t)len > bin_size)
-                return refuse(r, FFD_ERR_PARSE, "$.buffers[0].byteLength %lld exceeds the BIN chunk (%zu bytes)", len,
-                           bin_size);
+                return refuse(r, FFD_ERR_PARSE,
+                              "$.buffers[0].byteLength %lld exceeds the BIN chunk (%zu bytes)", len,
+                              bin_size);
             gb->where = BUF_GLB;
             gb->glb_off = bin_off;
             gb->size = bin_size;
@@ -429,15 +431,17 @@ static ffd_status read_buffers(reader *r, const unsigned char *bin, size_t bin_s
         if (strncmp(u, "data:", 5) == 0) {
             const char *comma = strstr(u, ";base64,");
             if (!comma)
-                return refuse(r, FFD_ERR_UNSUPPORTED, "$.buffers[%zu].uri: data URI without ;base64,", i);
+                return refuse(r, FFD_ERR_UNSUPPORTED,
+                              "$.buffers[%zu].uri: data URI without ;base64,", i);
             const char *t = comma + 8;
             size_t tn = strlen(t), dn = 0, at = 0;
             gb->data = ffd_malloc(tn / 4 * 3 + 3);
             if (!gb->data)
                 return nomem(r);
             if (!b64_decode(t, tn, gb->data, &dn, &at))
-                return refuse(r, FFD_ERR_PARSE, "$.buffers[%zu].uri: character %zu of the base64 data is not base64",
-                           i, at);
+                return refuse(r, FFD_ERR_PARSE,
+                              "$.buffers[%zu].uri: character %zu of the base64 data is not base64",
+                              i, at);
             gb->where = BUF_DATA_URI;
             gb->size = dn;
             if (ju) { /* the base64 characters only (the text has no escapes there) */
@@ -447,12 +451,14 @@ static ffd_status read_buffers(reader *r, const unsigned char *bin, size_t bin_s
             }
         } else {
             if (!r->m->source_is_path)
-                return refuse(r, FFD_ERR_UNSUPPORTED, "$.buffers[%zu].uri: external buffer \"%s\" in a glTF read "
-                                      "from memory (read the file by its path, or use .glb or "
-                                      "embedded buffers)", i, u);
+                return refuse(r, FFD_ERR_UNSUPPORTED,
+                              "$.buffers[%zu].uri: external buffer \"%s\" in a glTF read "
+                              "from memory (read the file by its path, or use .glb or "
+                              "embedded buffers)",
+                              i, u);
             if (strstr(u, "://") || u[0] == '/')
-                return refuse(r, FFD_ERR_UNSUPPORTED, "$.buffers[%zu].uri: \"%s\" is not a relative file name", i,
-                                   u);
+                return refuse(r, FFD_ERR_UNSUPPORTED,
+                              "$.buffers[%zu].uri: \"%s\" is not a relative file name", i, u);
             gb->uri = uri_decode(u);
             if (!gb->uri)
                 return nomem(r);
@@ -471,8 +477,9 @@ static ffd_status read_buffers(reader *r, const unsigned char *bin, size_t bin_s
             gb->where = BUF_EXTERNAL;
         }
         if (gb->size < (size_t)len)
-            return refuse(r, FFD_ERR_PARSE, "$.buffers[%zu]: byteLength %lld but the data holds %zu bytes", i, len,
-                       gb->size);
+            return refuse(r, FFD_ERR_PARSE,
+                          "$.buffers[%zu]: byteLength %lld but the data holds %zu bytes", i, len,
+                          gb->size);
         gb->size = (size_t)len; /* bytes past byteLength are kept but not addressed */
     }
     return FFD_OK;
@@ -539,7 +546,8 @@ static ffd_status node_local(reader *r, const cJSON *node, size_t ni, double *L)
         for (int k = 0; k < 16; k++) {
             const cJSON *v = cJSON_GetArrayItem(mx, k);
             if (!cJSON_IsNumber(v) || !isfinite(v->valuedouble))
-                return refuse(r, FFD_ERR_PARSE, "$.nodes[%zu].matrix[%d]: expected a number", ni, k);
+                return refuse(r, FFD_ERR_PARSE, "$.nodes[%zu].matrix[%d]: expected a number", ni,
+                              k);
             L[k] = v->valuedouble;
         }
         return FFD_OK;
@@ -553,11 +561,13 @@ static ffd_status node_local(reader *r, const cJSON *node, size_t ni, double *L)
         if (!a)
             continue;
         if (!cJSON_IsArray(a) || cJSON_GetArraySize(a) != len[k])
-            return refuse(r, FFD_ERR_PARSE, "$.nodes[%zu].%s: expected %d numbers", ni, keys[k], len[k]);
+            return refuse(r, FFD_ERR_PARSE, "$.nodes[%zu].%s: expected %d numbers", ni, keys[k],
+                          len[k]);
         for (int c = 0; c < len[k]; c++) {
             const cJSON *v = cJSON_GetArrayItem(a, c);
             if (!cJSON_IsNumber(v) || !isfinite(v->valuedouble))
-                return refuse(r, FFD_ERR_PARSE, "$.nodes[%zu].%s[%d]: expected a number", ni, keys[k], c);
+                return refuse(r, FFD_ERR_PARSE, "$.nodes[%zu].%s[%d]: expected a number", ni,
+                              keys[k], c);
             dst[k][c] = v->valuedouble;
         }
     }
@@ -586,19 +596,23 @@ static ffd_status accessor_view(reader *r, long long ai, const char *what, acc_v
 {
     cJSON *a = cJSON_GetArrayItem(r->accessors, (int)ai);
     if (cJSON_GetObjectItemCaseSensitive(a, "sparse"))
-        return refuse(r, FFD_ERR_UNSUPPORTED, "$.accessors[%lld]: sparse accessor (%s) is not supported", ai, what);
+        return refuse(r, FFD_ERR_UNSUPPORTED,
+                      "$.accessors[%lld]: sparse accessor (%s) is not supported", ai, what);
     long long bv = int_member(a, "bufferView", cJSON_GetArraySize(r->views));
     if (bv < 0)
-        return bv == -1 ? refuse(r, FFD_ERR_UNSUPPORTED, "$.accessors[%lld]: %s accessor without bufferView", ai,
-                                      what)
-                        : refuse(r, FFD_ERR_PARSE, "$.accessors[%lld].bufferView: not a bufferView index", ai);
+        return bv == -1 ? refuse(r, FFD_ERR_UNSUPPORTED,
+                                 "$.accessors[%lld]: %s accessor without bufferView", ai, what)
+                        : refuse(r, FFD_ERR_PARSE,
+                                 "$.accessors[%lld].bufferView: not a bufferView index", ai);
     long long count = int_member(a, "count", (long long)UINT32_MAX);
     if (count < 1)
-        return refuse(r, FFD_ERR_PARSE, "$.accessors[%lld].count: expected an integer in [1, %u)", ai, UINT32_MAX);
+        return refuse(r, FFD_ERR_PARSE, "$.accessors[%lld].count: expected an integer in [1, %u)",
+                      ai, UINT32_MAX);
     long long ct = int_member(a, "componentType", 100000);
     long long off = int_member(a, "byteOffset", (long long)1 << 52);
     if (off == -2)
-        return refuse(r, FFD_ERR_PARSE, "$.accessors[%lld].byteOffset: expected a non-negative integer", ai);
+        return refuse(r, FFD_ERR_PARSE,
+                      "$.accessors[%lld].byteOffset: expected a non-negative integer", ai);
     cJSON *view = cJSON_GetArrayItem(r->views, (int)bv);
     long long buf = int_member(view, "buffer", (long long)r->s->buffer_count);
     if (buf < 0)
@@ -607,28 +621,36 @@ static ffd_status accessor_view(reader *r, long long ai, const char *what, acc_v
     long long vlen = int_member(view, "byteLength", (long long)1 << 52);
     long long stride = int_member(view, "byteStride", MAX_STRIDE + 1);
     if (voff == -2 || vlen < 0 || stride == -2)
-        return refuse(r, FFD_ERR_PARSE, "$.bufferViews[%lld]: bad byteOffset, byteLength or byteStride", bv);
+        return refuse(r, FFD_ERR_PARSE,
+                      "$.bufferViews[%lld]: bad byteOffset, byteLength or byteStride", bv);
     if (cJSON_GetObjectItemCaseSensitive(view, "extensions"))
-        return refuse(r, FFD_ERR_UNSUPPORTED, "$.bufferViews[%lld].extensions: compressed buffer views are not "
-                              "supported", bv);
+        return refuse(r, FFD_ERR_UNSUPPORTED,
+                      "$.bufferViews[%lld].extensions: compressed buffer views are not "
+                      "supported",
+                      bv);
     voff = voff < 0 ? 0 : voff;
     off = off < 0 ? 0 : off;
     if ((unsigned long long)voff + (unsigned long long)vlen > r->s->buffers[buf].size)
-        return refuse(r, FFD_ERR_PARSE, "$.bufferViews[%lld]: bytes %lld..%lld past the end of buffer %lld (%zu bytes)",
-                   bv, voff, voff + vlen, buf, r->s->buffers[buf].size);
+        return refuse(
+            r, FFD_ERR_PARSE,
+            "$.bufferViews[%lld]: bytes %lld..%lld past the end of buffer %lld (%zu bytes)", bv,
+            voff, voff + vlen, buf, r->s->buffers[buf].size);
     size_t elem = ct == GL_UNSIGNED_BYTE ? 1 : ct == GL_UNSIGNED_SHORT ? 2 : 4;
     if (strcmp(what, "TANGENT") == 0)
         elem = VEC4_SIZE;
     else if (strcmp(what, "indices") != 0)
         elem = VEC3_SIZE;
     if (stride > 0 && (size_t)stride < elem)
-        return refuse(r, FFD_ERR_PARSE, "$.bufferViews[%lld].byteStride %lld is less than the element (%zu bytes)",
-                   bv, stride, elem);
+        return refuse(r, FFD_ERR_PARSE,
+                      "$.bufferViews[%lld].byteStride %lld is less than the element (%zu bytes)",
+                      bv, stride, elem);
     size_t st = stride > 0 ? (size_t)stride : elem;
     unsigned long long need = (unsigned long long)off + (unsigned long long)(count - 1) * st + elem;
     if (need > (unsigned long long)vlen)
-        return refuse(r, FFD_ERR_PARSE, "$.accessors[%lld]: %lld elements from byte %lld need %llu bytes, "
-                      "bufferView %lld has %lld", ai, count, off, need, bv, vlen);
+        return refuse(r, FFD_ERR_PARSE,
+                      "$.accessors[%lld]: %lld elements from byte %lld need %llu bytes, "
+                      "bufferView %lld has %lld",
+                      ai, count, off, need, bv, vlen);
     v->buffer = (uint32_t)buf;
     v->offset = (size_t)(voff + off);
     v->stride = st;
@@ -646,7 +668,8 @@ static ffd_status float_vec(reader *r, long long ai, const char *what, const cha
     if (ct != GL_FLOAT || !cJSON_IsString(type) || strcmp(type->valuestring, vec) != 0)
         return refuse(r, FFD_ERR_UNSUPPORTED,
                       "$.accessors[%lld]: %s must be FLOAT (5126) %s to be written back "
-                      "losslessly", ai, what, vec);
+                      "losslessly",
+                      ai, what, vec);
     if (cJSON_IsTrue(cJSON_GetObjectItemCaseSensitive(a, "normalized")))
         return refuse(r, FFD_ERR_UNSUPPORTED, "$.accessors[%lld]: normalized %s", ai, what);
     return FFD_OK;
@@ -669,8 +692,10 @@ static ffd_status vertex_attribute(reader *r, long long ai, const char *what, co
     if (st == FFD_OK)
         st = accessor_view(r, ai, what, v);
     if (st == FFD_OK && v->count != pos->count)
-        st = refuse(r, FFD_ERR_PARSE, "$.accessors[%lld]: %s count %zu differs from POSITION "
-                    "(accessor %lld) count %zu", ai, what, v->count, pos_ai, pos->count);
+        st = refuse(r, FFD_ERR_PARSE,
+                    "$.accessors[%lld]: %s count %zu differs from POSITION "
+                    "(accessor %lld) count %zu",
+                    ai, what, v->count, pos_ai, pos->count);
     return st;
 }
 
@@ -686,8 +711,10 @@ static ffd_status position_vertices(reader *r, long long ai, long long ni, const
     if (r->acc_vertex[ai]) {
         gltf_pos_accessor *pa = &s->acc[r->acc_vertex[ai] - 1];
         if (!same_matrix(s->xforms + 32 * pa->xform, W))
-            return refuse(r, FFD_ERR_UNSUPPORTED, "$.accessors[%lld]: POSITION shared by instances with different "
-                                  "world transforms (node %lld); it cannot be written back", ai, ni);
+            return refuse(r, FFD_ERR_UNSUPPORTED,
+                          "$.accessors[%lld]: POSITION shared by instances with different "
+                          "world transforms (node %lld); it cannot be written back",
+                          ai, ni);
         /* only the attributes read with the POSITION first are written back */
         bool nrm_differs = nrm_ai >= 0 && nrm_ai != pa->normal;
         if (nrm_differs || (tan_ai >= 0 && tan_ai != pa->tangent)) {
@@ -697,8 +724,8 @@ static ffd_status position_vertices(reader *r, long long ai, long long ni, const
                 snprintf(first_read, sizeof first_read, "accessor %lld", had);
             return refuse(r, FFD_ERR_UNSUPPORTED,
                           "$.accessors[%lld]: POSITION shared by primitives with different %s "
-                          "(accessor %lld; first read with %s): it cannot be written back", ai,
-                          nrm_differs ? "NORMAL" : "TANGENT", nrm_differs ? nrm_ai : tan_ai,
+                          "(accessor %lld; first read with %s): it cannot be written back",
+                          ai, nrm_differs ? "NORMAL" : "TANGENT", nrm_differs ? nrm_ai : tan_ai,
                           first_read);
         }
         *first = pa->first;
@@ -723,8 +750,10 @@ static ffd_status position_vertices(reader *r, long long ai, long long ni, const
     double *X = s->xforms + 32 * s->xform_count;
     memcpy(X, W, 16 * sizeof(double));
     if (!mat_affine_inverse(W, X + 16))
-        return refuse(r, FFD_ERR_UNSUPPORTED, "$.nodes[%lld]: singular world transform; positions cannot be "
-                              "written back", ni);
+        return refuse(r, FFD_ERR_UNSUPPORTED,
+                      "$.nodes[%lld]: singular world transform; positions cannot be "
+                      "written back",
+                      ni);
     uint32_t xi = (uint32_t)s->xform_count++;
     gltf_pos_accessor *pa = &s->acc[s->acc_count];
     memset(pa, 0, sizeof *pa);
@@ -743,16 +772,18 @@ static ffd_status position_vertices(reader *r, long long ai, long long ni, const
     if (mn && mxv) {
         if (!cJSON_IsArray(mn) || !cJSON_IsArray(mxv) || cJSON_GetArraySize(mn) != 3 ||
             cJSON_GetArraySize(mxv) != 3)
-            return refuse(r, FFD_ERR_PARSE, "$.accessors[%lld]: min and max must hold 3 numbers", ai);
+            return refuse(r, FFD_ERR_PARSE, "$.accessors[%lld]: min and max must hold 3 numbers",
+                          ai);
         const char *arr[2] = {js_member(ja, r->je, "min"), js_member(ja, r->je, "max")};
         for (int k = 0; k < 6; k++) {
             const cJSON *num = cJSON_GetArrayItem(k < 3 ? mn : mxv, k % 3);
             if (!cJSON_IsNumber(num))
                 return refuse(r, FFD_ERR_PARSE, "$.accessors[%lld].%s[%d]: expected a number", ai,
-                           k < 3 ? "min" : "max", k % 3);
+                              k < 3 ? "min" : "max", k % 3);
             const char *p = js_element(arr[k / 3], r->je, (size_t)k % 3);
             if (!p)
-                return refuse(r, FFD_ERR_PARSE, "$.accessors[%lld]: min/max not found in the text", ai);
+                return refuse(r, FFD_ERR_PARSE, "$.accessors[%lld]: min/max not found in the text",
+                              ai);
             pa->mm_off[k] = (size_t)(p - r->jt);
             pa->mm_len[k] = (size_t)(js_skip(p, r->je) - p);
             pa->mm_val[k] = num->valuedouble;
@@ -785,7 +816,8 @@ static ffd_status position_vertices(reader *r, long long ai, long long ni, const
                 w[rr] = Nm[rr * 3] * l[0] + Nm[rr * 3 + 1] * l[1] + Nm[rr * 3 + 2] * l[2];
             normalize3(w);
             if (!isfinite(w[0]) || !isfinite(w[1]) || !isfinite(w[2]))
-                return refuse(r, FFD_ERR_PARSE, "$.accessors[%lld]: element %zu is not finite", nrm_ai, k);
+                return refuse(r, FFD_ERR_PARSE, "$.accessors[%lld]: element %zu is not finite",
+                              nrm_ai, k);
             if (!ffd_mesh_push_normal(m, w, zero, (uint32_t)(pa->first + k)))
                 return nomem(r);
         }
@@ -798,8 +830,10 @@ static ffd_status position_vertices(reader *r, long long ai, long long ni, const
             return refuse(r, FFD_ERR_PARSE, "$.accessors[%lld]: element %zu is not finite", tan_ai,
                           k);
         if (l[3] != 1.0 && l[3] != -1.0)
-            return refuse(r, FFD_ERR_PARSE, "$.accessors[%lld]: element %zu: TANGENT w is %g, "
-                          "expected 1 or -1 (the bitangent's handedness)", tan_ai, k, l[3]);
+            return refuse(r, FFD_ERR_PARSE,
+                          "$.accessors[%lld]: element %zu: TANGENT w is %g, "
+                          "expected 1 or -1 (the bitangent's handedness)",
+                          tan_ai, k, l[3]);
         double w[4] = {0, 0, 0, l[3]};
         for (int rr = 0; rr < 3; rr++)
             w[rr] = W[rr] * l[0] + W[4 + rr] * l[1] + W[8 + rr] * l[2];
@@ -815,30 +849,36 @@ static ffd_status read_primitive(reader *r, const cJSON *prim, long long mi, int
 {
     long long mode = int_member(prim, "mode", 7);
     if (mode == -2)
-        return refuse(r, FFD_ERR_PARSE, "$.meshes[%lld].primitives[%d].mode: expected 0..6", mi, pi);
+        return refuse(r, FFD_ERR_PARSE, "$.meshes[%lld].primitives[%d].mode: expected 0..6", mi,
+                      pi);
     if (mode < 0)
         mode = MODE_TRIANGLES;
     if (mode < MODE_TRIANGLES)
-        return refuse(r, FFD_ERR_UNSUPPORTED, "$.meshes[%lld].primitives[%d].mode %lld: only triangle modes "
-                              "(4, 5, 6) are supported", mi, pi, mode);
+        return refuse(r, FFD_ERR_UNSUPPORTED,
+                      "$.meshes[%lld].primitives[%d].mode %lld: only triangle modes "
+                      "(4, 5, 6) are supported",
+                      mi, pi, mode);
     if (cJSON_GetObjectItemCaseSensitive(prim, "extensions"))
-        return refuse(r, FFD_ERR_UNSUPPORTED, "$.meshes[%lld].primitives[%d].extensions: compressed primitives "
-                              "are not supported", mi, pi);
+        return refuse(r, FFD_ERR_UNSUPPORTED,
+                      "$.meshes[%lld].primitives[%d].extensions: compressed primitives "
+                      "are not supported",
+                      mi, pi);
     const cJSON *attr = cJSON_GetObjectItemCaseSensitive(prim, "attributes");
     long long na = cJSON_GetArraySize(r->accessors);
     long long pos = int_member(attr, "POSITION", na);
     if (pos < 0)
-        return refuse(r, FFD_ERR_PARSE, "$.meshes[%lld].primitives[%d].attributes.POSITION: %s", mi, pi,
-                   pos == -1 ? "missing" : "not an accessor index");
+        return refuse(r, FFD_ERR_PARSE, "$.meshes[%lld].primitives[%d].attributes.POSITION: %s", mi,
+                      pi, pos == -1 ? "missing" : "not an accessor index");
     long long nrm = int_member(attr, "NORMAL", na);
     if (nrm == -2)
-        return refuse(r, FFD_ERR_PARSE, "$.meshes[%lld].primitives[%d].attributes.NORMAL: not an accessor index", mi,
-                   pi);
+        return refuse(r, FFD_ERR_PARSE,
+                      "$.meshes[%lld].primitives[%d].attributes.NORMAL: not an accessor index", mi,
+                      pi);
     long long tan = int_member(attr, "TANGENT", na);
     if (tan == -2)
         return refuse(r, FFD_ERR_PARSE,
-                      "$.meshes[%lld].primitives[%d].attributes.TANGENT: not an accessor index",
-                      mi, pi);
+                      "$.meshes[%lld].primitives[%d].attributes.TANGENT: not an accessor index", mi,
+                      pi);
     size_t first = 0;
     ffd_status st = position_vertices(r, pos, ni, W, nrm, tan, &first);
     if (st != FFD_OK)
@@ -846,7 +886,8 @@ static ffd_status read_primitive(reader *r, const cJSON *prim, long long mi, int
     size_t vcount = r->s->acc[r->acc_vertex[pos] - 1].count;
     long long ix = int_member(prim, "indices", na);
     if (ix == -2)
-        return refuse(r, FFD_ERR_PARSE, "$.meshes[%lld].primitives[%d].indices: not an accessor index", mi, pi);
+        return refuse(r, FFD_ERR_PARSE,
+                      "$.meshes[%lld].primitives[%d].indices: not an accessor index", mi, pi);
     acc_view iv = {0};
     if (ix >= 0) {
         cJSON *a = cJSON_GetArrayItem(r->accessors, (int)ix);
@@ -854,7 +895,8 @@ static ffd_status read_primitive(reader *r, const cJSON *prim, long long mi, int
         const cJSON *type = cJSON_GetObjectItemCaseSensitive(a, "type");
         if ((ct != GL_UNSIGNED_BYTE && ct != GL_UNSIGNED_SHORT && ct != GL_UNSIGNED_INT) ||
             !cJSON_IsString(type) || strcmp(type->valuestring, "SCALAR") != 0)
-            return refuse(r, FFD_ERR_PARSE, "$.accessors[%lld]: indices must be UNSIGNED_BYTE/SHORT/INT SCALAR", ix);
+            return refuse(r, FFD_ERR_PARSE,
+                          "$.accessors[%lld]: indices must be UNSIGNED_BYTE/SHORT/INT SCALAR", ix);
         st = accessor_view(r, ix, "indices", &iv);
         if (st != FFD_OK)
             return st;
@@ -880,8 +922,10 @@ static ffd_status read_primitive(reader *r, const cJSON *prim, long long mi, int
                       : iv.component == GL_UNSIGNED_SHORT ? (size_t)(p[0] | p[1] << 8)
                                                           : (size_t)get_u32le(p);
                 if (idx >= vcount)
-                    return refuse(r, FFD_ERR_PARSE, "$.accessors[%lld]: index %zu of element %zu out of range (%zu "
-                                  "vertices)", ix, idx, k[c], vcount);
+                    return refuse(r, FFD_ERR_PARSE,
+                                  "$.accessors[%lld]: index %zu of element %zu out of range (%zu "
+                                  "vertices)",
+                                  ix, idx, k[c], vcount);
             }
             corner[c] = (uint32_t)(first + idx);
         }
@@ -928,7 +972,8 @@ static ffd_status read_node(reader *r, long long ni, const double *parent, size_
     for (int k = 0; k < cJSON_GetArraySize(ch); k++) {
         const cJSON *c = cJSON_GetArrayItem(ch, k);
         if (!cJSON_IsNumber(c) || c->valuedouble != floor(c->valuedouble))
-            return refuse(r, FFD_ERR_PARSE, "$.nodes[%lld].children[%d]: expected a node index", ni, k);
+            return refuse(r, FFD_ERR_PARSE, "$.nodes[%lld].children[%d]: expected a node index", ni,
+                          k);
         st = read_node(r, (long long)c->valuedouble, W, depth + 1);
         if (st != FFD_OK)
             return st;
@@ -948,8 +993,10 @@ static ffd_status read_scene(reader *r)
             const cJSON *e = cJSON_GetArrayItem(ex, k);
             for (size_t q = 0; q < 3; q++)
                 if (cJSON_IsString(e) && strcmp(e->valuestring, refused[q]) == 0)
-                    return refuse(r, FFD_ERR_UNSUPPORTED, "$.%s[%d]: %s is not supported (its data cannot be "
-                                          "rewritten losslessly)", lists[l], k, refused[q]);
+                    return refuse(r, FFD_ERR_UNSUPPORTED,
+                                  "$.%s[%d]: %s is not supported (its data cannot be "
+                                  "rewritten losslessly)",
+                                  lists[l], k, refused[q]);
         }
     }
     r->accessors = cJSON_GetObjectItemCaseSensitive(r->root, "accessors");
@@ -959,7 +1006,8 @@ static ffd_status read_scene(reader *r)
     long long nn = cJSON_GetArraySize(r->nodes), na = cJSON_GetArraySize(r->accessors);
     if ((r->accessors && !cJSON_IsArray(r->accessors)) || (r->views && !cJSON_IsArray(r->views)) ||
         (r->nodes && !cJSON_IsArray(r->nodes)) || (r->meshes && !cJSON_IsArray(r->meshes)))
-        return refuse(r, FFD_ERR_PARSE, "$.accessors, bufferViews, nodes and meshes must be arrays");
+        return refuse(r, FFD_ERR_PARSE,
+                      "$.accessors, bufferViews, nodes and meshes must be arrays");
     r->visiting = ffd_calloc(nn ? (size_t)nn : 1, 1);
     r->acc_vertex = ffd_calloc(na ? (size_t)na : 1, sizeof(uint32_t));
     if (!r->visiting || !r->acc_vertex)
@@ -978,7 +1026,8 @@ static ffd_status read_scene(reader *r)
         for (int k = 0; k < cJSON_GetArraySize(roots) && st == FFD_OK; k++) {
             const cJSON *c = cJSON_GetArrayItem(roots, k);
             if (!cJSON_IsNumber(c) || c->valuedouble != floor(c->valuedouble))
-                return refuse(r, FFD_ERR_PARSE, "$.scenes[%lld].nodes[%d]: expected a node index", sc, k);
+                return refuse(r, FFD_ERR_PARSE, "$.scenes[%lld].nodes[%d]: expected a node index",
+                              sc, k);
             st = read_node(r, (long long)c->valuedouble, I, 0);
         }
     } else {
@@ -1002,7 +1051,8 @@ static ffd_status read_scene(reader *r)
     if (st != FFD_OK)
         return st;
     if (r->m->vertex_count == 0)
-        return refuse(r, FFD_ERR_PARSE, "no triangle primitive in the %s", sc >= 0 ? "default scene" : "nodes");
+        return refuse(r, FFD_ERR_PARSE, "no triangle primitive in the %s",
+                      sc >= 0 ? "default scene" : "nodes");
     return FFD_OK;
 }
 
@@ -1021,8 +1071,7 @@ static ffd_status record_elements(reader *r)
     s->orig_nrm = ffd_malloc_array(3 * nn, sizeof(double));
     s->tan = ffd_calloc(nt, sizeof *s->tan);
     s->orig_tan = ffd_malloc_array(4 * nt, sizeof(double));
-    if (!s->pos || !s->vxform || !s->orig_pos || !s->nrm || !s->orig_nrm || !s->tan ||
-        !s->orig_tan)
+    if (!s->pos || !s->vxform || !s->orig_pos || !s->nrm || !s->orig_nrm || !s->tan || !s->orig_tan)
         return nomem(r);
     memcpy(s->orig_pos, m->positions, 3 * m->vertex_count * sizeof(double));
     if (m->normal_count)
