@@ -1077,7 +1077,7 @@ static void test_write_from_data(void)
 static void test_fixtures(void)
 {
     static const char *const files[] = {FIX "cube_nodes.glb", FIX "cube_nodes.gltf",
-                                        FIX "cube_embedded.gltf"};
+                                        FIX "cube_embedded.gltf", FIX "grid_tangents.glb"};
     for (size_t i = 0; i < sizeof files / sizeof files[0]; i++) {
         ffd_mesh *m = NULL;
         ffd_error err = {{0}};

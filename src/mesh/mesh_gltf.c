@@ -1421,7 +1421,7 @@ static ffd_status patch_to(const ffd_mesh *m, ffd_buf *b, bool embed, unsigned c
             while (jl > 0 && j.data[jl - 1] == ' ')
                 jl--;
             j.size = jl;
-            while (j.size % 4)
+            while (j.size % 4 && !j.oom) /* an OOM buffer never grows */
                 ffd_buf_put(&j, " ", 1);
         }
         size_t rest = m->src_size - s->glb_json_end;
@@ -1644,7 +1644,7 @@ static ffd_status gltf_write(const ffd_mesh *m, ffd_encoding enc, ffd_buf *b, ff
         ffd_buf_put(b, j.data, j.size);
     } else {
         ffd_buf_puts(&j, "}]}");
-        while (j.size % 4)
+        while (j.size % 4 && !j.oom) /* an OOM buffer never grows */
             ffd_buf_put(&j, " ", 1);
         unsigned char h[20];
         put_u32le(h, GLB_MAGIC);
