@@ -794,24 +794,59 @@ static void finite_difference_jacobian(const ffd_lattice *lat, const double *p, 
     free(f);
 }
 
+/* A lattice deformation of a mesh: the lattice, the deformed positions
+ * and their Jacobians. */
+typedef struct deformation {
+    ffd_lattice *lat;
+    double *out, *jac;
+} deformation;
+
 /* A Bernstein lattice (3x3x3, two control points moved) around the mesh's
- * world positions: the deformed positions and their Jacobians into *out
- * and *jac (caller frees), the lattice into *lat. */
-static void lattice_deform(const ffd_mesh *m, ffd_lattice **lat, double **out, double **jac)
+ * world positions; release with deformation_free. */
+static deformation lattice_deform(const ffd_mesh *m)
 {
     size_t nv = ffd_mesh_vertex_count(m);
+    deformation d = {NULL, malloc(3 * nv * sizeof(double)), malloc(9 * nv * sizeof(double))};
     ffd_box box;
     CHECK_OK(ffd_box_fit(ffd_mesh_positions(m), nv, 0.25, &box, NULL));
-    CHECK_OK(ffd_lattice_create(FFD_BASIS_BERNSTEIN, &box, (uint32_t[3]){3, 3, 3}, lat, NULL));
-    CHECK_OK(ffd_lattice_move(*lat, (uint32_t[3]){1, 1, 1}, (double[3]){0.3, -0.2, 0.4}, NULL));
-    CHECK_OK(ffd_lattice_move(*lat, (uint32_t[3]){2, 0, 1}, (double[3]){0.1, 0.2, -0.3}, NULL));
+    CHECK_OK(ffd_lattice_create(FFD_BASIS_BERNSTEIN, &box, (uint32_t[3]){3, 3, 3}, &d.lat, NULL));
+    CHECK_OK(ffd_lattice_move(d.lat, (uint32_t[3]){1, 1, 1}, (double[3]){0.3, -0.2, 0.4}, NULL));
+    CHECK_OK(ffd_lattice_move(d.lat, (uint32_t[3]){2, 0, 1}, (double[3]){0.1, 0.2, -0.3}, NULL));
     ffd_lattice_binding *b = NULL;
-    CHECK_OK(ffd_lattice_bind(*lat, ffd_mesh_positions(m), nv, FFD_OUTSIDE_FIXED, &b, NULL));
-    *out = malloc(3 * nv * sizeof **out);
-    *jac = malloc(9 * nv * sizeof **jac);
-    CHECK_OK(ffd_lattice_eval(*lat, b, *out, NULL));
-    CHECK_OK(ffd_lattice_jacobian(*lat, b, *jac, NULL));
+    CHECK_OK(ffd_lattice_bind(d.lat, ffd_mesh_positions(m), nv, FFD_OUTSIDE_FIXED, &b, NULL));
+    CHECK_OK(ffd_lattice_eval(d.lat, b, d.out, NULL));
+    CHECK_OK(ffd_lattice_jacobian(d.lat, b, d.jac, NULL));
     ffd_lattice_binding_destroy(b);
+    return d;
+}
+
+static void deformation_free(deformation *d)
+{
+    ffd_lattice_destroy(d->lat);
+    free(d->out);
+    free(d->jac);
+}
+
+/* The BIN chunk's data of a .glb. */
+static const unsigned char *glb_bin(const unsigned char *g)
+{
+    return g + 20 + rd32(g + 12) + 8;
+}
+
+/* The tangent scene's .glb (*glb, caller frees) read, with its 9 normals
+ * and 9 tangents; NULL (and a failed CHECK) otherwise. */
+static ffd_mesh *read_tangent_scene(unsigned char **glb)
+{
+    size_t n;
+    *glb = glb_of(&tangent_scene, NULL, &n);
+    ffd_mesh *m = read_ok(*glb, n, "t.glb");
+    CHECK(!m || (m->tangent_count == 9 && m->normal_count == 9));
+    if (!m || m->tangent_count != 9 || m->normal_count != 9) {
+        ffd_mesh_destroy(m);
+        free(*glb);
+        return NULL;
+    }
+    return m;
 }
 
 /* A lattice deformation with Jacobians: each tangent becomes J t made
@@ -820,25 +855,18 @@ static void lattice_deform(const ffd_mesh *m, ffd_lattice **lat, double **out, d
  * same up to float storage, orthogonal to the written normal. */
 static void test_tangent_lattice(void)
 {
-    size_t n;
-    unsigned char *g = glb_of(&tangent_scene, NULL, &n);
-    ffd_mesh *m = read_ok(g, n, "t.glb");
-    CHECK(!m || (m->tangent_count == 9 && m->normal_count == 9));
-    if (!m || m->tangent_count != 9 || m->normal_count != 9) {
-        ffd_mesh_destroy(m);
-        free(g);
+    unsigned char *g;
+    ffd_mesh *m = read_tangent_scene(&g);
+    if (!m)
         return;
-    }
     double t0[36], p0[27], Jfd[81];
     memcpy(t0, m->tangents, sizeof t0);
     memcpy(p0, m->positions, sizeof p0);
-    ffd_lattice *lat = NULL;
-    double *out = NULL, *jac = NULL;
-    lattice_deform(m, &lat, &out, &jac);
-    finite_difference_jacobian(lat, p0, 9, 1e-4, Jfd);
+    deformation def = lattice_deform(m);
+    finite_difference_jacobian(def.lat, p0, 9, 1e-4, Jfd);
     for (int i = 0; i < 81; i++)
-        CHECK_NEAR(jac[i], Jfd[i], 1e-8);
-    CHECK_OK(ffd_mesh_set_positions(m, out, jac, NULL));
+        CHECK_NEAR(def.jac[i], Jfd[i], 1e-8);
+    CHECK_OK(ffd_mesh_set_positions(m, def.out, def.jac, NULL));
     size_t on;
     unsigned char *w = write_same(m, &on);
     ffd_mesh *back = w ? read_ok(w, on, "w.glb") : NULL;
@@ -860,16 +888,13 @@ static void test_tangent_lattice(void)
         CHECK_NEAR(dot3(B, B), 1, 1e-6);
         CHECK_NEAR(dot3(B, back->normals + 3 * k), 0, 1e-6);
         /* w: the same bytes */
-        size_t bin = 20 + rd32(w + 12) + 8;
-        CHECK(memcmp(w + bin + TAN_AT + 16 * k + 12,
-                     g + 20 + rd32(g + 12) + 8 + TAN_AT + 16 * k + 12, 4) == 0);
+        CHECK(memcmp(glb_bin(w) + TAN_AT + 16 * k + 12, glb_bin(g) + TAN_AT + 16 * k + 12, 4) ==
+              0);
     }
     CHECK(back && back->tangent_count == 9);
     ffd_mesh_destroy(back);
     ffd_free(w);
-    free(out);
-    free(jac);
-    ffd_lattice_destroy(lat);
+    deformation_free(&def);
     ffd_mesh_destroy(m);
     free(g);
 }
@@ -880,15 +905,10 @@ static void test_tangent_lattice(void)
  * their bytes in the file. */
 static void test_tangent_fallback(void)
 {
-    size_t n;
-    unsigned char *g = glb_of(&tangent_scene, NULL, &n);
-    ffd_mesh *m = read_ok(g, n, "t.glb");
-    CHECK(!m || (m->tangent_count == 9 && m->normal_count == 9));
-    if (!m || m->tangent_count != 9 || m->normal_count != 9) {
-        ffd_mesh_destroy(m);
-        free(g);
+    unsigned char *g;
+    ffd_mesh *m = read_tangent_scene(&g);
+    if (!m)
         return;
-    }
     double t0[36], p[27];
     memcpy(t0, m->tangents, sizeof t0);
     memcpy(p, m->positions, sizeof p);
@@ -898,8 +918,6 @@ static void test_tangent_fallback(void)
     CHECK_OK(ffd_mesh_set_positions(m, p, NULL, NULL));
     size_t on;
     unsigned char *w = write_same(m, &on);
-    size_t src_bin = 20 + rd32(g + 12) + 8 + TAN_AT,
-           out_bin = w ? 20 + rd32(w + 12) + 8 + TAN_AT : 0;
     for (int k = 0; k < 9 && w; k++) {
         const double *T = m->tangents + 4 * k, *N = m->normals + 3 * k;
         bool near = k == 0 || k == 1 || k == 3 || k == 4;
@@ -913,7 +931,8 @@ static void test_tangent_fallback(void)
             CHECK(memcmp(T, t0 + 4 * k, 4 * sizeof *T) == 0);
         }
         CHECK(T[3] == t0[4 * k + 3]);
-        CHECK((memcmp(w + out_bin + 16 * k, g + src_bin + 16 * k, 16) == 0) == !near);
+        CHECK((memcmp(glb_bin(w) + TAN_AT + 16 * k, glb_bin(g) + TAN_AT + 16 * k, 16) == 0) ==
+              !near);
     }
     ffd_free(w);
     ffd_mesh_destroy(m);
@@ -930,19 +949,15 @@ static void test_tangent_without_normal(void)
     ffd_mesh *m = read_ok(g, n, "t.glb");
     if (m) {
         CHECK(m->tangent_count == 0 && m->normal_count == 0);
-        ffd_lattice *lat = NULL;
-        double *out = NULL, *jac = NULL;
-        lattice_deform(m, &lat, &out, &jac);
-        CHECK_OK(ffd_mesh_set_positions(m, out, jac, NULL));
+        deformation def = lattice_deform(m);
+        CHECK_OK(ffd_mesh_set_positions(m, def.out, def.jac, NULL));
         size_t on;
         unsigned char *w = write_same(m, &on);
-        CHECK(w && memcmp(w + 20 + rd32(w + 12) + 8 + TAN_AT, g + 20 + rd32(g + 12) + 8 + TAN_AT,
-                          144) == 0);
-        CHECK(w && memcmp(w + 20 + rd32(w + 12) + 8, g + 20 + rd32(g + 12) + 8, 108) != 0);
+        /* the positions moved; the tangents' bytes did not */
+        CHECK(w && memcmp(glb_bin(w), glb_bin(g), 108) != 0);
+        CHECK(w && memcmp(glb_bin(w) + TAN_AT, glb_bin(g) + TAN_AT, 144) == 0);
         ffd_free(w);
-        free(out);
-        free(jac);
-        ffd_lattice_destroy(lat);
+        deformation_free(&def);
     }
     ffd_mesh_destroy(m);
     free(g);
