@@ -207,7 +207,13 @@ FFD_API const uint32_t *ffd_mesh_normal_anchors(const ffd_mesh *mesh);
  * +0.0 are equal) keeps the stored value; a normal is left as it is where
  * its Jacobian is exactly the identity or neither its anchor nor any corner
  * of a face around the anchor moved; a facet normal, where no corner of its
- * facet moved. */
+ * facet moved. Tangents (glTF TANGENT: x y z and the handedness w) follow
+ * at each vertex whose normal would: t' = J t (a tangent is carried by the
+ * Jacobian itself, not its inverse transpose), made orthogonal to the
+ * vertex's updated normal (Gram-Schmidt) and rescaled to unit length, w
+ * kept; with jacobians NULL the fallback is the old tangent projected onto
+ * the plane of the recomputed normal and renormalised. A tangent whose
+ * result degenerates (J t ~ 0, or along the normal) is left as it was. */
 FFD_API ffd_status ffd_mesh_set_positions(ffd_mesh *mesh, const double *positions,
                                           const double *jacobians, ffd_error *err);
 

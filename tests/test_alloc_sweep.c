@@ -20,12 +20,15 @@
 #include "check.h"
 #include "ffd.h"
 
+#include <dirent.h>
 #include <dlfcn.h>
 #include <execinfo.h>
 #include <omp.h>
+#include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
 #include <time.h>
+#include <unistd.h>
 
 #define DATA FFD_SOURCE_DIR "/tests/data/mesh/"
 #define EXAMPLES FFD_SOURCE_DIR "/examples/"
@@ -359,6 +362,8 @@ static mesh_fixture fixtures[] = {
     {"cube_ble.ply", FFD_FORMAT_PLY, NULL, 0},  {"cube_bbe.ply", FFD_FORMAT_PLY, NULL, 0},
     {"comments.off", FFD_FORMAT_OFF, NULL, 0},  {"normals.off", FFD_FORMAT_OFF, NULL, 0},
     {"tri_ascii.stl", FFD_FORMAT_STL, NULL, 0}, {"tri_binary.stl", FFD_FORMAT_STL, NULL, 0},
+    {"cube_nodes.glb", FFD_FORMAT_GLTF, NULL, 0}, {"cube_embedded.gltf", FFD_FORMAT_GLTF, NULL, 0},
+    {"grid_tangents.glb", FFD_FORMAT_GLTF, NULL, 0},
 };
 enum { FIXTURE_COUNT = sizeof fixtures / sizeof fixtures[0] };
 
@@ -397,8 +402,28 @@ static const ffd_write_options write_targets[] = {
     {FFD_FORMAT_OBJ, FFD_ENCODING_SAME},      {FFD_FORMAT_PLY, FFD_ENCODING_ASCII},
     {FFD_FORMAT_PLY, FFD_ENCODING_BINARY_LE}, {FFD_FORMAT_PLY, FFD_ENCODING_BINARY_BE},
     {FFD_FORMAT_OFF, FFD_ENCODING_SAME},      {FFD_FORMAT_STL, FFD_ENCODING_ASCII},
-    {FFD_FORMAT_STL, FFD_ENCODING_BINARY_LE},
+    {FFD_FORMAT_STL, FFD_ENCODING_BINARY_LE}, {FFD_FORMAT_GLTF, FFD_ENCODING_ASCII},
+    {FFD_FORMAT_GLTF, FFD_ENCODING_BINARY_LE},
 };
+
+/* The shear x' = S x + 0.125 of pass 2 (row-major; normals and tangents turn). */
+static const double shear[9] = {1.25, 0.25, 0, 0, 1.25, 0, 0.125, 0, 1.25};
+
+/* Moves the mesh: pass 1 scales it (normals recomputed from the faces,
+ * tangents projected), pass 2 shears it with its Jacobians. */
+static ffd_status move_mesh(ffd_mesh *m, int pass, double *moved, double *jac, ffd_error *err)
+{
+    size_t nv = ffd_mesh_vertex_count(m);
+    const double *P = ffd_mesh_positions(m);
+    for (size_t v = 0; v < nv; v++)
+        for (int r = 0; r < 3; r++)
+            moved[3 * v + r] = pass == 1 ? P[3 * v + r] * 1.25 + 0.125
+                                         : shear[3 * r] * P[3 * v] + shear[3 * r + 1] * P[3 * v + 1] +
+                                               shear[3 * r + 2] * P[3 * v + 2] + 0.125;
+    for (size_t v = 0; v < nv; v++)
+        memcpy(jac + 9 * v, shear, sizeof shear);
+    return ffd_mesh_set_positions(m, moved, pass == 1 ? NULL : jac, err);
+}
 
 /* Writes the fixture in every format, unchanged and with moved positions. */
 static ffd_status sc_mesh_write(const void *ctx, ffd_error *err)
@@ -410,15 +435,11 @@ static ffd_status sc_mesh_write(const void *ctx, ffd_error *err)
         return st;
     size_t nv = ffd_mesh_vertex_count(m);
     double *moved = malloc(sizeof *moved * 3 * (nv ? nv : 1));
+    double *jac = malloc(sizeof *jac * 9 * (nv ? nv : 1));
     arm();
-    for (int pass = 0; pass < 2 && !st; pass++) {
-        if (pass == 1) {
-            for (size_t i = 0; i < 3 * nv; i++)
-                moved[i] = ffd_mesh_positions(m)[i] * 1.25 + 0.125;
-            st = ffd_mesh_set_positions(m, moved, NULL, err);
-            if (st)
-                break;
-        }
+    for (int pass = 0; pass < 3 && !st; pass++) {
+        if (pass > 0 && (st = move_mesh(m, pass, moved, jac, err)))
+            break;
         ffd_write_options same = {fx->format, FFD_ENCODING_SAME};
         for (size_t t = 0; t <= sizeof write_targets / sizeof write_targets[0] && !st; t++) {
             const ffd_write_options *o = t ? &write_targets[t - 1] : &same;
@@ -431,6 +452,48 @@ static ffd_status sc_mesh_write(const void *ctx, ffd_error *err)
         }
     }
     free(moved);
+    free(jac);
+    ffd_mesh_destroy(m);
+    return st;
+}
+
+/* A .gltf with an external buffer read by path (ffd_read_file of the .bin
+ * too) and written by path after a move (the .gltf and its .bin as
+ * temporary files, then renamed): a failure leaves no temporary file. */
+static char gltf_out_dir[64];
+
+static bool no_part_files(void)
+{
+    DIR *d = opendir(gltf_out_dir);
+    if (!d)
+        return false;
+    bool clean = true;
+    for (struct dirent *e; (e = readdir(d));)
+        clean &= strstr(e->d_name, ".ffd-part") == NULL;
+    closedir(d);
+    return clean;
+}
+
+static ffd_status sc_gltf_write_file(const void *ctx, ffd_error *err)
+{
+    (void)ctx;
+    arm();
+    ffd_mesh *m = NULL;
+    ffd_status st = ffd_mesh_read(DATA "cube_nodes.gltf", &m, err);
+    if (st) {
+        CHECK(m == NULL);
+        return st;
+    }
+    size_t nv = ffd_mesh_vertex_count(m);
+    double *moved = malloc(sizeof *moved * 3 * nv), *jac = malloc(sizeof *jac * 9 * nv);
+    char path[128];
+    snprintf(path, sizeof path, "%s/moved.gltf", gltf_out_dir);
+    st = move_mesh(m, 2, moved, jac, err);
+    if (!st)
+        st = ffd_mesh_write(m, path, NULL, err);
+    CHECK(no_part_files());
+    free(moved);
+    free(jac);
     ffd_mesh_destroy(m);
     return st;
 }
@@ -895,6 +958,16 @@ static void test_mesh_write(void)
         scenario sc = {name, sc_mesh_write, &fixtures[i], 0, 0};
         sweep(&sc);
     }
+    strcpy(gltf_out_dir, "/tmp/ffd_sweep_XXXXXX");
+    CHECK(mkdtemp(gltf_out_dir) != NULL);
+    scenario sc = {"write file cube_nodes.gltf", sc_gltf_write_file, NULL, 0, 0};
+    sweep(&sc);
+    char path[128];
+    snprintf(path, sizeof path, "%s/moved.gltf", gltf_out_dir);
+    unlink(path);
+    snprintf(path, sizeof path, "%s/cube_nodes.bin", gltf_out_dir);
+    unlink(path);
+    CHECK(rmdir(gltf_out_dir) == 0);
 }
 
 static void test_lattice(void)

@@ -12,6 +12,7 @@
 #include "mesh/mesh.h"
 
 #include <math.h>
+#include <stdbool.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -128,12 +129,10 @@ static char *base64(const unsigned char *p, size_t n)
     return o;
 }
 
-/* The scene as .gltf text with the buffer in a data: URI. */
-static char *make_embedded(const char *json_with_uri)
+/* json with the "URI" placeholder replaced by bin as a data: URI. */
+static char *with_data_uri(const char *json_with_uri, const unsigned char *bin, size_t n)
 {
-    unsigned char bin[BIN_SIZE];
-    scene_bin(bin);
-    char *b64 = base64(bin, BIN_SIZE);
+    char *b64 = base64(bin, n);
     char *uri = malloc(strlen(b64) + 64);
     sprintf(uri, ",\"uri\":\"data:application/octet-stream;base64,%s\"", b64);
     char *j = replace(json_with_uri, "URI", uri);
@@ -142,20 +141,103 @@ static char *make_embedded(const char *json_with_uri)
     return j;
 }
 
-static unsigned char *scene_glb(size_t *size)
+/* A test scene: JSON text with a "URI" placeholder for its one buffer. */
+typedef struct scene {
+    const char *json;
+    size_t bin_size;
+    void (*fill)(unsigned char *bin);
+} scene;
+
+static const scene cube_scene = {scene_json, BIN_SIZE, scene_bin};
+
+/* The tangent scene: a 3 x 3 grid in the plane z = 0 (8 triangles, u16
+ * indices) with NORMAL (0,0,1) and TANGENT (cos a, sin a, 0, +-1), under a
+ * node with T R S (rotation 30 degrees about x, scale (2,1,0.5)) below a
+ * parent turned 90 degrees about z. Buffer: positions at 0, normals at
+ * 108, tangents at 216, indices at 360; 408 bytes. */
+#define TAN_BIN_SIZE 408
+#define TAN_AT 216
+static const char tangent_json[] =
+    "{\"asset\":{\"version\":\"2.0\"},\"scene\":0,\"scenes\":[{\"nodes\":[0]}],\n"
+    " \"nodes\":[{\"name\":\"turn\",\"rotation\":[0,0,0.7071067811865476,0.7071067811865476],"
+    "\"children\":[1]},\n"
+    "  {\"name\":\"grid\",\"mesh\":0,\"translation\":[1,2,3],"
+    "\"rotation\":[0.25881904510252074,0,0,0.9659258262890683],\"scale\":[2,1,0.5]}],\n"
+    " \"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0,\"NORMAL\":1,\"TANGENT\":2},"
+    "\"indices\":3}]}],\n"
+    " \"accessors\":[\n"
+    "  {\"bufferView\":0,\"componentType\":5126,\"count\":9,\"type\":\"VEC3\",\"min\":[-1,-1,0],"
+    "\"max\":[1,1,0]},\n"
+    "  {\"bufferView\":1,\"componentType\":5126,\"count\":9,\"type\":\"VEC3\"},\n"
+    "  {\"bufferView\":2,\"componentType\":5126,\"count\":9,\"type\":\"VEC4\"},\n"
+    "  {\"bufferView\":3,\"componentType\":5123,\"count\":24,\"type\":\"SCALAR\"}],\n"
+    " \"bufferViews\":[{\"buffer\":0,\"byteOffset\":0,\"byteLength\":108},\n"
+    "  {\"buffer\":0,\"byteOffset\":108,\"byteLength\":108},\n"
+    "  {\"buffer\":0,\"byteOffset\":216,\"byteLength\":144},\n"
+    "  {\"buffer\":0,\"byteOffset\":360,\"byteLength\":48}],\n"
+    " \"buffers\":[{\"byteLength\":408URI}]}";
+
+/* Local tangent of grid vertex k (float values, as stored). */
+static void grid_tangent(int k, float t[4])
 {
-    unsigned char bin[BIN_SIZE];
-    scene_bin(bin);
-    return make_glb(scene_json, bin, BIN_SIZE, size);
+    double a = 0.3 + 0.7 * k;
+    t[0] = (float)cos(a);
+    t[1] = (float)sin(a);
+    t[2] = 0;
+    t[3] = k % 2 ? -1.0f : 1.0f;
 }
 
-static ffd_status read_glb_variant(const char *from, const char *to, ffd_error *err)
+static void tangent_bin(unsigned char *b)
 {
-    unsigned char bin[BIN_SIZE];
-    scene_bin(bin);
-    char *j = replace(scene_json, from, to);
+    for (int k = 0; k < 9; k++) {
+        float p[3] = {(float)(k % 3) - 1, (float)(k / 3) - 1, 0}, n[3] = {0, 0, 1}, t[4];
+        grid_tangent(k, t);
+        memcpy(b + 12 * k, p, 12);
+        memcpy(b + 108 + 12 * k, n, 12);
+        memcpy(b + TAN_AT + 16 * k, t, 16);
+    }
+    for (int r = 0, f = 0; r < 2; r++)
+        for (int c = 0; c < 2; c++, f++) {
+            uint16_t a = (uint16_t)(3 * r + c);
+            uint16_t tri[6] = {a, (uint16_t)(a + 1), (uint16_t)(a + 4),
+                               a, (uint16_t)(a + 4), (uint16_t)(a + 3)};
+            memcpy(b + 360 + 12 * f, tri, 12);
+        }
+}
+
+static const scene tangent_scene = {tangent_json, TAN_BIN_SIZE, tangent_bin};
+
+/* The scene as .glb, with json (NULL: the scene's own). */
+static unsigned char *glb_of(const scene *sc, const char *json, size_t *size)
+{
+    unsigned char *bin = calloc(1, sc->bin_size);
+    sc->fill(bin);
+    unsigned char *g = make_glb(json ? json : sc->json, bin, sc->bin_size, size);
+    free(bin);
+    return g;
+}
+
+/* The scene as .gltf text with its buffer in a data: URI. */
+static char *embedded_of(const scene *sc)
+{
+    unsigned char *bin = calloc(1, sc->bin_size);
+    sc->fill(bin);
+    char *j = with_data_uri(sc->json, bin, sc->bin_size);
+    free(bin);
+    return j;
+}
+
+static unsigned char *scene_glb(size_t *size)
+{
+    return glb_of(&cube_scene, NULL, size);
+}
+
+/* Reads the scene's .glb with the first from in its JSON replaced by to. */
+static ffd_status read_variant(const scene *sc, const char *from, const char *to, ffd_error *err)
+{
+    char *j = replace(sc->json, from, to);
     size_t n;
-    unsigned char *g = make_glb(j, bin, BIN_SIZE, &n);
+    unsigned char *g = glb_of(sc, j, &n);
     ffd_mesh *m = NULL;
     ffd_status st = ffd_mesh_read_memory(g, n, FFD_FORMAT_GLTF, "v.glb", &m, err);
     CHECK((st == FFD_OK) == (m != NULL));
@@ -163,6 +245,34 @@ static ffd_status read_glb_variant(const char *from, const char *to, ffd_error *
     free(g);
     free(j);
     return st;
+}
+
+static ffd_status read_glb_variant(const char *from, const char *to, ffd_error *err)
+{
+    return read_variant(&cube_scene, from, to, err);
+}
+
+/* The glTF in data read (a failed CHECK and NULL when it is refused). */
+static ffd_mesh *read_ok(const void *data, size_t n, const char *name)
+{
+    ffd_mesh *m = NULL;
+    ffd_error err = {{0}};
+    ffd_status st = ffd_mesh_read_memory(data, n, FFD_FORMAT_GLTF, name, &m, &err);
+    if (st != FFD_OK)
+        fprintf(stderr, "  %s\n", err.message);
+    CHECK(st == FFD_OK && m);
+    return m;
+}
+
+/* m written back as glTF of its own kind (a failed CHECK and NULL on error). */
+static unsigned char *write_same(const ffd_mesh *m, size_t *n)
+{
+    unsigned char *out = NULL;
+    ffd_error err = {{0}};
+    ffd_write_options o = {FFD_FORMAT_GLTF, FFD_ENCODING_SAME};
+    *n = 0;
+    CHECK_OK(ffd_mesh_write_memory(m, &o, &out, n, &err));
+    return out;
 }
 
 /* World positions expected for the scene: cube vertices then the triangle's. */
@@ -186,14 +296,10 @@ static void test_world_positions(void)
 {
     size_t n;
     unsigned char *g = scene_glb(&n);
-    char *text = make_embedded(scene_json);
+    char *text = embedded_of(&cube_scene);
     for (int kind = 0; kind < 2; kind++) {
-        ffd_mesh *m = NULL;
         ffd_error err = {{0}};
-        if (kind == 0)
-            CHECK_OK(ffd_mesh_read_memory(g, n, FFD_FORMAT_GLTF, "s.glb", &m, &err));
-        else
-            CHECK_OK(ffd_mesh_read_memory(text, strlen(text), FFD_FORMAT_GLTF, "s.gltf", &m, &err));
+        ffd_mesh *m = kind == 0 ? read_ok(g, n, "s.glb") : read_ok(text, strlen(text), "s.gltf");
         if (!m)
             continue;
         CHECK(ffd_mesh_vertex_count(m) == 11);
@@ -226,104 +332,12 @@ static void translate(ffd_mesh *m, const double t[3])
     free(p);
 }
 
-static void test_glb_translation(void)
+/* What the scene written after translate(t) holds: the JSON (returned,
+ * still with its "URI" placeholder) with the POSITION min/max patched, and
+ * bin with the cube and triangle positions moved in local space; normals
+ * and indices kept. */
+static char *translated_scene(const double t[3], unsigned char bin[BIN_SIZE])
 {
-    size_t n;
-    unsigned char *g = scene_glb(&n);
-    ffd_mesh *m = NULL;
-    ffd_error err = {{0}};
-    CHECK_OK(ffd_mesh_read_memory(g, n, FFD_FORMAT_GLTF, "s.glb", &m, &err));
-    if (!m)
-        return;
-    static const double t[3] = {1, 2, 3};
-    translate(m, t);
-    unsigned char *out = NULL;
-    size_t on = 0;
-    ffd_write_options o = {FFD_FORMAT_GLTF, FFD_ENCODING_SAME};
-    CHECK_OK(ffd_mesh_write_memory(m, &o, &out, &on, &err));
-    /* Expected: the same JSON with the cube's min/max patched; the BIN chunk
-     * with the cube and triangle positions moved; normals and indices kept. */
-    char *j1 = replace(scene_json, "\"min\":[-1,-1,-1],\"max\":[1,1,1]",
-                       "\"min\":[-0.5,0,0.5],\"max\":[1.5,2,2.5]");
-    char *j2 = replace(j1, "\"min\":[0,0,0],\"max\":[1,1,0]", "\"min\":[1,2,3],\"max\":[2,3,3]");
-    unsigned char bin[BIN_SIZE];
-    scene_bin(bin);
-    float cp[24], tp[9];
-    for (int i = 0; i < 24; i++)
-        cp[i] = cube_p[i] + (float)(t[i % 3] / 2);
-    for (int i = 0; i < 9; i++)
-        tp[i] = tri_p[i] + (float)t[i % 3];
-    memcpy(bin, cp, 96);
-    memcpy(bin + 168, tp, 36);
-    size_t en;
-    unsigned char *expect = make_glb(j2, bin, BIN_SIZE, &en);
-    CHECK(on == en && out && memcmp(out, expect, en) == 0);
-    if (out && on == en)
-        for (size_t i = 0; i < en; i++)
-            if (out[i] != expect[i]) {
-                fprintf(stderr, "first difference at byte %zu\n", i);
-                break;
-            }
-    /* and it reads back at the translated world positions */
-    ffd_mesh *back = NULL;
-    CHECK_OK(ffd_mesh_read_memory(out, on, FFD_FORMAT_GLTF, "o.glb", &back, &err));
-    if (back) {
-        double w[33];
-        expected_world(w);
-        for (int i = 0; i < 33; i++)
-            CHECK_NEAR(ffd_mesh_positions(back)[i], w[i] + t[i % 3], 0);
-    }
-    ffd_mesh_destroy(back);
-    free(expect);
-    free(j1);
-    free(j2);
-    ffd_free(out);
-    ffd_mesh_destroy(m);
-    free(g);
-}
-
-static void test_identity_round_trips(void)
-{
-    size_t n;
-    unsigned char *g = scene_glb(&n);
-    char *text = make_embedded(scene_json);
-    const void *src[2] = {g, text};
-    size_t len[2] = {n, strlen(text)};
-    for (int k = 0; k < 2; k++) {
-        ffd_mesh *m = NULL;
-        ffd_error err = {{0}};
-        CHECK_OK(ffd_mesh_read_memory(src[k], len[k], FFD_FORMAT_GLTF, "s", &m, &err));
-        if (!m)
-            continue;
-        static const double zero[3] = {0, 0, 0};
-        translate(m, zero);
-        unsigned char *out = NULL;
-        size_t on = 0;
-        ffd_write_options o = {FFD_FORMAT_GLTF, FFD_ENCODING_SAME};
-        CHECK_OK(ffd_mesh_write_memory(m, &o, &out, &on, &err));
-        CHECK(on == len[k] && out && memcmp(out, src[k], on) == 0);
-        ffd_free(out);
-        ffd_mesh_destroy(m);
-    }
-    free(g);
-    free(text);
-}
-
-static void test_embedded_translation(void)
-{
-    char *text = make_embedded(scene_json);
-    ffd_mesh *m = NULL;
-    ffd_error err = {{0}};
-    CHECK_OK(ffd_mesh_read_memory(text, strlen(text), FFD_FORMAT_GLTF, "s.gltf", &m, &err));
-    if (!m)
-        return;
-    static const double t[3] = {1, 2, 3};
-    translate(m, t);
-    unsigned char *out = NULL;
-    size_t on = 0;
-    ffd_write_options o = {FFD_FORMAT_GLTF, FFD_ENCODING_SAME};
-    CHECK_OK(ffd_mesh_write_memory(m, &o, &out, &on, &err));
-    unsigned char bin[BIN_SIZE];
     scene_bin(bin);
     for (int i = 0; i < 24; i++) {
         float f = cube_p[i] + (float)(t[i % 3] / 2);
@@ -333,22 +347,101 @@ static void test_embedded_translation(void)
         float f = tri_p[i] + (float)t[i % 3];
         memcpy(bin + 168 + 4 * i, &f, 4);
     }
-    char *b64 = base64(bin, BIN_SIZE);
-    char *uri = malloc(strlen(b64) + 64);
-    sprintf(uri, ",\"uri\":\"data:application/octet-stream;base64,%s\"", b64);
-    char *j0 = replace(scene_json, "URI", uri);
-    char *j1 = replace(j0, "\"min\":[-1,-1,-1],\"max\":[1,1,1]",
+    char *j1 = replace(scene_json, "\"min\":[-1,-1,-1],\"max\":[1,1,1]",
                        "\"min\":[-0.5,0,0.5],\"max\":[1.5,2,2.5]");
     char *j2 = replace(j1, "\"min\":[0,0,0],\"max\":[1,1,0]", "\"min\":[1,2,3],\"max\":[2,3,3]");
-    CHECK(out && on == strlen(j2) && memcmp(out, j2, on) == 0);
-    free(b64);
-    free(uri);
-    free(j0);
     free(j1);
-    free(j2);
+    return j2;
+}
+
+static void test_glb_translation(void)
+{
+    size_t n;
+    unsigned char *g = scene_glb(&n);
+    ffd_mesh *m = read_ok(g, n, "s.glb");
+    free(g);
+    if (!m)
+        return;
+    static const double t[3] = {1, 2, 3};
+    translate(m, t);
+    size_t on;
+    unsigned char *out = write_same(m, &on);
+    unsigned char bin[BIN_SIZE];
+    char *j = translated_scene(t, bin);
+    size_t en;
+    unsigned char *expect = make_glb(j, bin, BIN_SIZE, &en);
+    CHECK(on == en && out && memcmp(out, expect, en) == 0);
+    if (out && on == en)
+        for (size_t i = 0; i < en; i++)
+            if (out[i] != expect[i]) {
+                fprintf(stderr, "first difference at byte %zu\n", i);
+                break;
+            }
+    /* and it reads back at the translated world positions */
+    ffd_mesh *back = read_ok(out, on, "o.glb");
+    if (back) {
+        double w[33];
+        expected_world(w);
+        for (int i = 0; i < 33; i++)
+            CHECK_NEAR(ffd_mesh_positions(back)[i], w[i] + t[i % 3], 0);
+    }
+    ffd_mesh_destroy(back);
+    free(expect);
+    free(j);
     ffd_free(out);
     ffd_mesh_destroy(m);
+}
+
+/* Untouched (same positions, without and with identity Jacobians): the
+ * .glb and the embedded .gltf of both scenes come back byte for byte. */
+static void test_identity_round_trips(void)
+{
+    const scene *scenes[2] = {&cube_scene, &tangent_scene};
+    for (int k = 0; k < 4; k++) {
+        size_t n;
+        unsigned char *src =
+            k % 2 ? (unsigned char *)embedded_of(scenes[k / 2]) : glb_of(scenes[k / 2], NULL, &n);
+        if (k % 2)
+            n = strlen((char *)src);
+        ffd_mesh *m = read_ok(src, n, k % 2 ? "s.gltf" : "s.glb");
+        if (m) {
+            static const double zero[3] = {0, 0, 0};
+            translate(m, zero);
+            size_t nv = ffd_mesh_vertex_count(m);
+            double *J = calloc(9 * nv, sizeof *J);
+            for (size_t v = 0; v < nv; v++)
+                J[9 * v] = J[9 * v + 4] = J[9 * v + 8] = 1;
+            CHECK_OK(ffd_mesh_set_positions(m, ffd_mesh_positions(m), J, NULL));
+            free(J);
+            size_t on;
+            unsigned char *out = write_same(m, &on);
+            CHECK(on == n && out && memcmp(out, src, on) == 0);
+            ffd_free(out);
+        }
+        ffd_mesh_destroy(m);
+        free(src);
+    }
+}
+
+static void test_embedded_translation(void)
+{
+    char *text = embedded_of(&cube_scene);
+    ffd_mesh *m = read_ok(text, strlen(text), "s.gltf");
     free(text);
+    if (!m)
+        return;
+    static const double t[3] = {1, 2, 3};
+    translate(m, t);
+    size_t on;
+    unsigned char *out = write_same(m, &on);
+    unsigned char bin[BIN_SIZE];
+    char *j = translated_scene(t, bin);
+    char *expect = with_data_uri(j, bin, BIN_SIZE);
+    CHECK(out && on == strlen(expect) && memcmp(out, expect, on) == 0);
+    free(j);
+    free(expect);
+    ffd_free(out);
+    ffd_mesh_destroy(m);
 }
 
 static void write_file(const char *path, const void *p, size_t n)
@@ -438,12 +531,9 @@ static void test_external_buffer(void)
         snprintf(glb, sizeof glb, "%s/out/x.glb", dir);
         CHECK(ffd_mesh_write(m, glb, NULL, &err) == FFD_ERR_UNSUPPORTED);
         /* in memory the external buffer becomes a data: URI that reads alone */
-        unsigned char *mem = NULL;
-        size_t mn = 0;
-        ffd_write_options o = {FFD_FORMAT_GLTF, FFD_ENCODING_SAME};
-        CHECK_OK(ffd_mesh_write_memory(m, &o, &mem, &mn, &err));
-        ffd_mesh *back = NULL;
-        CHECK_OK(ffd_mesh_read_memory(mem, mn, FFD_FORMAT_GLTF, "/nonexistent/x.gltf", &back, &err));
+        size_t mn;
+        unsigned char *mem = write_same(m, &mn);
+        ffd_mesh *back = read_ok(mem, mn, "/nonexistent/x.gltf");
         if (back)
             for (size_t i = 0; i < 33; i++)
                 CHECK_NEAR(ffd_mesh_positions(back)[i], ffd_mesh_positions(m)[i], 0);
@@ -474,20 +564,22 @@ static void test_normals(void)
 {
     size_t n;
     unsigned char *g = scene_glb(&n);
-    ffd_mesh *m = NULL;
-    ffd_error err = {{0}};
-    CHECK_OK(ffd_mesh_read_memory(g, n, FFD_FORMAT_GLTF, "s.glb", &m, &err));
+    ffd_mesh *m = read_ok(g, n, "s.glb");
+    free(g);
     if (!m)
         return;
+    ffd_error err = {{0}};
     double p[33];
     memcpy(p, ffd_mesh_positions(m), sizeof p);
     for (int v = 8; v < 11; v++)
         p[3 * v + 2] += p[3 * v] - 10;
     CHECK_OK(ffd_mesh_set_positions(m, p, NULL, &err));
-    unsigned char *out = NULL;
-    size_t on = 0;
-    ffd_write_options o = {FFD_FORMAT_GLTF, FFD_ENCODING_SAME};
-    CHECK_OK(ffd_mesh_write_memory(m, &o, &out, &on, &err));
+    size_t on;
+    unsigned char *out = write_same(m, &on);
+    if (!out) {
+        ffd_mesh_destroy(m);
+        return;
+    }
     /* the JSON chunk is unchanged in length here (triangle max z 0 -> 1) */
     size_t jl = rd32(out + 12), bin = 20 + jl + 8;
     float nl[9], pl[9];
@@ -503,7 +595,6 @@ static void test_normals(void)
     CHECK(strstr((char *)out + 20, "\"min\":[0,0,0],\"max\":[1,1,1]") != NULL);
     ffd_free(out);
     ffd_mesh_destroy(m);
-    free(g);
 }
 
 /* Strip and fan modes, a primitive without indices, u8 and u32 indices,
@@ -516,15 +607,12 @@ static void test_modes_and_instances(void)
     CHECK_OK(read_glb_variant("\"NORMAL\":3}}", "\"NORMAL\":3},\"mode\":5}", &err));
     CHECK_OK(read_glb_variant("\"NORMAL\":3}}", "\"NORMAL\":3},\"mode\":6}", &err));
     /* a second instance with the same world transform adds nothing */
-    unsigned char bin[BIN_SIZE];
-    scene_bin(bin);
     char *j = replace(scene_json, "\"children\":[1,2]", "\"children\":[1,2,3]");
     char *j2 = replace(j, "{\"name\":\"tri\"", "{\"mesh\":0,\"translation\":[0,1,0]},{\"name\":\"tri\"");
     /* nodes: parent, cube, the new instance, tri */
     size_t n;
-    unsigned char *g = make_glb(j2, bin, BIN_SIZE, &n);
-    ffd_mesh *m = NULL;
-    CHECK_OK(ffd_mesh_read_memory(g, n, FFD_FORMAT_GLTF, "i.glb", &m, &err));
+    unsigned char *g = glb_of(&cube_scene, j2, &n);
+    ffd_mesh *m = read_ok(g, n, "i.glb");
     CHECK(m && ffd_mesh_vertex_count(m) == 11 && ffd_mesh_face_count(m) == 25);
     ffd_mesh_destroy(m);
     free(g);
@@ -532,23 +620,29 @@ static void test_modes_and_instances(void)
     free(j2);
     /* no scene: every root node */
     char *ns = replace(scene_json, "\"scene\":0,\"scenes\":[{\"nodes\":[0]}],", "");
-    g = make_glb(ns, bin, BIN_SIZE, &n);
-    CHECK_OK(ffd_mesh_read_memory(g, n, FFD_FORMAT_GLTF, "n.glb", &m, &err));
+    g = glb_of(&cube_scene, ns, &n);
+    m = read_ok(g, n, "n.glb");
     CHECK(m && ffd_mesh_vertex_count(m) == 11);
     ffd_mesh_destroy(m);
     free(g);
     free(ns);
 }
 
-static void check_refused(const char *from, const char *to, ffd_status want, const char *msg)
+static void check_refused_in(const scene *sc, const char *from, const char *to, ffd_status want,
+                             const char *msg)
 {
     ffd_error err = {{0}};
-    ffd_status st = read_glb_variant(from, to, &err);
+    ffd_status st = read_variant(sc, from, to, &err);
     CHECK(st == want);
     if (!strstr(err.message, msg) || !strstr(err.message, "v.glb: ")) {
         fprintf(stderr, "  replacing %s: got \"%s\", expected \"%s\"\n", from, err.message, msg);
         check_failures++;
     }
+}
+
+static void check_refused(const char *from, const char *to, ffd_status want, const char *msg)
+{
+    check_refused_in(&cube_scene, from, to, want, msg);
 }
 
 static void test_refusals(void)
@@ -588,11 +682,9 @@ static void test_refusals(void)
                   "$.nodes[1]: singular world transform");
     /* a mesh instanced under two different transforms shares one POSITION accessor */
     check_refused("\"children\":[1,2]", "\"children\":[1,2,0]", FFD_ERR_PARSE, "cycle");
-    unsigned char bin[BIN_SIZE];
-    scene_bin(bin);
     char *j = replace(scene_json, "\"nodes\":[0]}]", "\"nodes\":[0,1]}]");
     size_t n;
-    unsigned char *g = make_glb(j, bin, BIN_SIZE, &n);
+    unsigned char *g = glb_of(&cube_scene, j, &n);
     ffd_mesh *m = NULL;
     ffd_error err = {{0}};
     CHECK(ffd_mesh_read_memory(g, n, FFD_FORMAT_GLTF, "v.glb", &m, &err) == FFD_ERR_UNSUPPORTED);
@@ -601,6 +693,7 @@ static void test_refusals(void)
     free(g);
     free(j);
     /* an index out of range */
+    unsigned char bin[BIN_SIZE];
     scene_bin(bin);
     bin[96] = 8;
     g = make_glb(scene_json, bin, BIN_SIZE, &n);
@@ -608,7 +701,7 @@ static void test_refusals(void)
     CHECK(!m && strstr(err.message, "$.accessors[1]: index 8 of element 0 out of range (8 vertices)"));
     free(g);
     /* bad base64 */
-    char *t = make_embedded(scene_json);
+    char *t = embedded_of(&cube_scene);
     char *b = strstr(t, "base64,");
     b[20] = '*';
     CHECK(ffd_mesh_read_memory(t, strlen(t), FFD_FORMAT_GLTF, "e.gltf", &m, &err) == FFD_ERR_PARSE);
@@ -619,6 +712,307 @@ static void test_refusals(void)
     CHECK(ffd_mesh_read_memory(broken, sizeof broken - 1, FFD_FORMAT_GLTF, "b.gltf", &m, &err) ==
           FFD_ERR_PARSE);
     CHECK(!m && strstr(err.message, "b.gltf: byte "));
+}
+
+/* ---------------------------------------------------------------------- */
+/* Tangents */
+
+static double dot3(const double *a, const double *b)
+{
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+
+/* t with its component along n removed, unit length (Gram-Schmidt). */
+static void orthonormal_to(const double *t, const double *n, double out[3])
+{
+    double c = dot3(t, n) / dot3(n, n);
+    for (int k = 0; k < 3; k++)
+        out[k] = t[k] - c * n[k];
+    double l = sqrt(dot3(out, out));
+    for (int k = 0; k < 3; k++)
+        out[k] /= l;
+}
+
+/* Read: tangents in world space by the nodes' linear part (computed here
+ * from the angles: parent Rz(90), node Rx(30) S(2,1,0.5)), renormalised,
+ * w kept; the normal by the inverse transpose, so the two stay orthogonal. */
+static void test_tangent_world_frame(void)
+{
+    size_t n;
+    unsigned char *g = glb_of(&tangent_scene, NULL, &n);
+    ffd_mesh *m = read_ok(g, n, "t.glb");
+    free(g);
+    if (!m)
+        return;
+    CHECK(m->tangent_count == 9 && m->normal_count == 9);
+    double c30 = sqrt(3) / 2, s30 = 0.5;
+    for (size_t k = 0; k < m->tangent_count && k < 9; k++) {
+        float t[4];
+        grid_tangent((int)k, t);
+        /* S: (2x, y, 0); Rx(30): (x, y c, y s); Rz(90): (-y, x, z) */
+        double w[3] = {-(double)t[1] * c30, 2.0 * t[0], (double)t[1] * s30};
+        double l = sqrt(dot3(w, w));
+        const double *T = m->tangents + 4 * k, *N = m->normals + 3 * k;
+        CHECK(m->tangent_anchors[k] == k);
+        for (int d = 0; d < 3; d++)
+            CHECK_NEAR(T[d], w[d] / l, 1e-12);
+        CHECK(T[3] == t[3]);
+        CHECK_NEAR(N[0], s30, 1e-12);
+        CHECK_NEAR(N[1], 0, 1e-12);
+        CHECK_NEAR(N[2], c30, 1e-12);
+        CHECK_NEAR(dot3(T, N), 0, 1e-12);
+    }
+    ffd_mesh_destroy(m);
+}
+
+/* The Jacobian of the lattice map at p by central differences of the
+ * deformed positions of p +- h e_d (bound and evaluated as points, not with
+ * ffd_lattice_jacobian): row-major, d(x'_r)/d(x_d) at [3r + d]. */
+static void finite_difference_jacobian(const ffd_lattice *lat, const double *p, size_t nv, double h,
+                                       double *J)
+{
+    double *q = malloc(6 * 3 * nv * sizeof *q), *f = malloc(6 * 3 * nv * sizeof *f);
+    for (size_t v = 0; v < nv; v++)
+        for (int d = 0; d < 3; d++)
+            for (int sgn = 0; sgn < 2; sgn++) {
+                double *x = q + 3 * (6 * v + 2 * (size_t)d + (size_t)sgn);
+                memcpy(x, p + 3 * v, 3 * sizeof *x);
+                x[d] += sgn ? -h : h;
+            }
+    ffd_lattice_binding *b = NULL;
+    CHECK_OK(ffd_lattice_bind(lat, q, 6 * nv, FFD_OUTSIDE_FIXED, &b, NULL));
+    CHECK_OK(ffd_lattice_eval(lat, b, f, NULL));
+    for (size_t v = 0; v < nv; v++)
+        for (int d = 0; d < 3; d++)
+            for (int r = 0; r < 3; r++)
+                J[9 * v + 3 * (size_t)r + (size_t)d] =
+                    (f[3 * (6 * v + 2 * (size_t)d) + (size_t)r] -
+                     f[3 * (6 * v + 2 * (size_t)d + 1) + (size_t)r]) /
+                    (2 * h);
+    ffd_lattice_binding_destroy(b);
+    free(q);
+    free(f);
+}
+
+/* A lattice deformation of a mesh: the lattice, the deformed positions
+ * and their Jacobians. */
+typedef struct deformation {
+    ffd_lattice *lat;
+    double *out, *jac;
+} deformation;
+
+/* A Bernstein lattice (3x3x3, two control points moved) around the mesh's
+ * world positions; release with deformation_free. */
+static deformation lattice_deform(const ffd_mesh *m)
+{
+    size_t nv = ffd_mesh_vertex_count(m);
+    deformation d = {NULL, malloc(3 * nv * sizeof(double)), malloc(9 * nv * sizeof(double))};
+    ffd_box box;
+    CHECK_OK(ffd_box_fit(ffd_mesh_positions(m), nv, 0.25, &box, NULL));
+    CHECK_OK(ffd_lattice_create(FFD_BASIS_BERNSTEIN, &box, (uint32_t[3]){3, 3, 3}, &d.lat, NULL));
+    CHECK_OK(ffd_lattice_move(d.lat, (uint32_t[3]){1, 1, 1}, (double[3]){0.3, -0.2, 0.4}, NULL));
+    CHECK_OK(ffd_lattice_move(d.lat, (uint32_t[3]){2, 0, 1}, (double[3]){0.1, 0.2, -0.3}, NULL));
+    ffd_lattice_binding *b = NULL;
+    CHECK_OK(ffd_lattice_bind(d.lat, ffd_mesh_positions(m), nv, FFD_OUTSIDE_FIXED, &b, NULL));
+    CHECK_OK(ffd_lattice_eval(d.lat, b, d.out, NULL));
+    CHECK_OK(ffd_lattice_jacobian(d.lat, b, d.jac, NULL));
+    ffd_lattice_binding_destroy(b);
+    return d;
+}
+
+static void deformation_free(deformation *d)
+{
+    ffd_lattice_destroy(d->lat);
+    free(d->out);
+    free(d->jac);
+}
+
+/* The BIN chunk's data of a .glb. */
+static const unsigned char *glb_bin(const unsigned char *g)
+{
+    return g + 20 + rd32(g + 12) + 8;
+}
+
+/* The tangent scene's .glb (*glb, caller frees) read, with its 9 normals
+ * and 9 tangents; NULL (and a failed CHECK) otherwise. */
+static ffd_mesh *read_tangent_scene(unsigned char **glb)
+{
+    size_t n;
+    *glb = glb_of(&tangent_scene, NULL, &n);
+    ffd_mesh *m = read_ok(*glb, n, "t.glb");
+    CHECK(!m || (m->tangent_count == 9 && m->normal_count == 9));
+    if (!m || m->tangent_count != 9 || m->normal_count != 9) {
+        ffd_mesh_destroy(m);
+        free(*glb);
+        return NULL;
+    }
+    return m;
+}
+
+/* A lattice deformation with Jacobians: each tangent becomes J t made
+ * orthogonal to the vertex's new normal and unit length, w unchanged (J by
+ * finite differences here); written back (local space) and read again, the
+ * same up to float storage, orthogonal to the written normal. */
+static void test_tangent_lattice(void)
+{
+    unsigned char *g;
+    ffd_mesh *m = read_tangent_scene(&g);
+    if (!m)
+        return;
+    double t0[36], p0[27], Jfd[81];
+    memcpy(t0, m->tangents, sizeof t0);
+    memcpy(p0, m->positions, sizeof p0);
+    deformation def = lattice_deform(m);
+    finite_difference_jacobian(def.lat, p0, 9, 1e-4, Jfd);
+    for (int i = 0; i < 81; i++)
+        CHECK_NEAR(def.jac[i], Jfd[i], 1e-8);
+    CHECK_OK(ffd_mesh_set_positions(m, def.out, def.jac, NULL));
+    size_t on;
+    unsigned char *w = write_same(m, &on);
+    ffd_mesh *back = w ? read_ok(w, on, "w.glb") : NULL;
+    for (int k = 0; k < 9 && back && back->tangent_count == 9 && back->normal_count == 9; k++) {
+        double jt[3], expect[3], expect_back[3];
+        for (int r = 0; r < 3; r++)
+            jt[r] = dot3(Jfd + 9 * k + 3 * r, t0 + 4 * k);
+        orthonormal_to(jt, m->normals + 3 * k, expect);
+        const double *T = m->tangents + 4 * k, *B = back->tangents + 4 * k;
+        for (int d = 0; d < 3; d++)
+            CHECK_NEAR(T[d], expect[d], 1e-9);
+        CHECK_NEAR(dot3(T, T), 1, 1e-12);
+        CHECK_NEAR(dot3(T, m->normals + 3 * k), 0, 1e-12);
+        CHECK(T[3] == t0[4 * k + 3]);
+        /* back from the file: against the written normal */
+        orthonormal_to(jt, back->normals + 3 * k, expect_back);
+        for (int d = 0; d < 3; d++)
+            CHECK_NEAR(B[d], expect_back[d], 2e-6);
+        CHECK_NEAR(dot3(B, B), 1, 1e-6);
+        CHECK_NEAR(dot3(B, back->normals + 3 * k), 0, 1e-6);
+        /* w: the same bytes */
+        CHECK(memcmp(glb_bin(w) + TAN_AT + 16 * k + 12, glb_bin(g) + TAN_AT + 16 * k + 12, 4) ==
+              0);
+    }
+    CHECK(back && back->tangent_count == 9);
+    ffd_mesh_destroy(back);
+    ffd_free(w);
+    deformation_free(&def);
+    ffd_mesh_destroy(m);
+    free(g);
+}
+
+/* Without Jacobians (GFFD), the fallback: the old tangent projected onto
+ * the plane of the recomputed normal, unit length. Moving vertex 0 alone
+ * changes the surface at vertices 0, 1, 3, 4 only: the other tangents keep
+ * their bytes in the file. */
+static void test_tangent_fallback(void)
+{
+    unsigned char *g;
+    ffd_mesh *m = read_tangent_scene(&g);
+    if (!m)
+        return;
+    double t0[36], p[27];
+    memcpy(t0, m->tangents, sizeof t0);
+    memcpy(p, m->positions, sizeof p);
+    p[0] += 0.3;
+    p[1] -= 0.2;
+    p[2] += 0.5;
+    CHECK_OK(ffd_mesh_set_positions(m, p, NULL, NULL));
+    size_t on;
+    unsigned char *w = write_same(m, &on);
+    for (int k = 0; k < 9 && w; k++) {
+        const double *T = m->tangents + 4 * k, *N = m->normals + 3 * k;
+        bool near = k == 0 || k == 1 || k == 3 || k == 4;
+        if (near) {
+            double expect[3];
+            orthonormal_to(t0 + 4 * k, N, expect);
+            for (int d = 0; d < 3; d++)
+                CHECK_NEAR(T[d], expect[d], 1e-12);
+            CHECK_NEAR(dot3(T, N), 0, 1e-12);
+        } else {
+            CHECK(memcmp(T, t0 + 4 * k, 4 * sizeof *T) == 0);
+        }
+        CHECK(T[3] == t0[4 * k + 3]);
+        CHECK((memcmp(glb_bin(w) + TAN_AT + 16 * k, glb_bin(g) + TAN_AT + 16 * k, 16) == 0) ==
+              !near);
+    }
+    ffd_free(w);
+    ffd_mesh_destroy(m);
+    free(g);
+}
+
+/* TANGENT without NORMAL is not read (spec: tangents are ignored without
+ * normals) and its bytes stay as they are through a deformation. */
+static void test_tangent_without_normal(void)
+{
+    char *j = replace(tangent_json, "\"NORMAL\":1,", "");
+    size_t n;
+    unsigned char *g = glb_of(&tangent_scene, j, &n);
+    ffd_mesh *m = read_ok(g, n, "t.glb");
+    if (m) {
+        CHECK(m->tangent_count == 0 && m->normal_count == 0);
+        deformation def = lattice_deform(m);
+        CHECK_OK(ffd_mesh_set_positions(m, def.out, def.jac, NULL));
+        size_t on;
+        unsigned char *w = write_same(m, &on);
+        /* the positions moved; the tangents' bytes did not */
+        CHECK(w && memcmp(glb_bin(w), glb_bin(g), 108) != 0);
+        CHECK(w && memcmp(glb_bin(w) + TAN_AT, glb_bin(g) + TAN_AT, 144) == 0);
+        ffd_free(w);
+        deformation_free(&def);
+    }
+    ffd_mesh_destroy(m);
+    free(g);
+    free(j);
+}
+
+static void test_tangent_refusals(void)
+{
+    const scene *t = &tangent_scene;
+    check_refused_in(t, "\"count\":9,\"type\":\"VEC4\"", "\"count\":9,\"type\":\"VEC3\"",
+                     FFD_ERR_UNSUPPORTED, "$.accessors[2]: TANGENT must be FLOAT (5126) VEC4");
+    check_refused_in(t, "\"count\":9,\"type\":\"VEC4\"",
+                     "\"count\":9,\"type\":\"VEC4\",\"normalized\":true", FFD_ERR_UNSUPPORTED,
+                     "$.accessors[2]: normalized TANGENT");
+    check_refused_in(t, "\"count\":9,\"type\":\"VEC4\"", "\"count\":8,\"type\":\"VEC4\"",
+                     FFD_ERR_PARSE,
+                     "$.accessors[2]: TANGENT count 8 differs from POSITION (accessor 0) count 9");
+    /* a VEC4 element is 16 bytes: 9 of them do not fit 140 */
+    check_refused_in(t, "\"byteOffset\":216,\"byteLength\":144",
+                     "\"byteOffset\":216,\"byteLength\":140", FFD_ERR_PARSE,
+                     "$.accessors[2]: 9 elements from byte 0 need 144 bytes, bufferView 2 has 140");
+    check_refused_in(t, "\"TANGENT\":2", "\"TANGENT\":9", FFD_ERR_PARSE,
+                     "$.meshes[0].primitives[0].attributes.TANGENT: not an accessor index");
+    /* the normals' bytes read as VEC4: (0,0,1,0), w = 0 */
+    check_refused_in(t, "\"byteOffset\":216,\"byteLength\":144",
+                     "\"byteOffset\":108,\"byteLength\":144", FFD_ERR_PARSE,
+                     "$.accessors[2]: element 0: TANGENT w is 0, expected 1 or -1");
+    /* a second primitive on the same POSITION with other NORMAL or TANGENT data */
+    check_refused_in(t, "\"indices\":3}]",
+                     "\"indices\":3},{\"attributes\":{\"POSITION\":0,"
+                     "\"NORMAL\":1,\"TANGENT\":1},\"indices\":3}]",
+                     FFD_ERR_UNSUPPORTED,
+                     "$.accessors[0]: POSITION shared by primitives with different TANGENT "
+                     "(accessor 1; first read with accessor 2)");
+    check_refused_in(t, "\"indices\":3}]",
+                     "\"indices\":3},{\"attributes\":{\"POSITION\":0,"
+                     "\"NORMAL\":2},\"indices\":3}]",
+                     FFD_ERR_UNSUPPORTED,
+                     "$.accessors[0]: POSITION shared by primitives with different NORMAL "
+                     "(accessor 2; first read with accessor 1)");
+    /* ... while one that uses fewer of them is fine */
+    ffd_error err = {{0}};
+    CHECK_OK(read_variant(t, "\"indices\":3}]",
+                          "\"indices\":3},{\"attributes\":{\"POSITION\":0},\"indices\":3}]", &err));
+    /* a non-finite element */
+    unsigned char bin[TAN_BIN_SIZE];
+    tangent_bin(bin);
+    float nan = NAN;
+    memcpy(bin + TAN_AT + 16 * 4 + 4, &nan, 4);
+    size_t n;
+    unsigned char *g = make_glb(tangent_json, bin, TAN_BIN_SIZE, &n);
+    ffd_mesh *m = NULL;
+    CHECK(ffd_mesh_read_memory(g, n, FFD_FORMAT_GLTF, "v.glb", &m, &err) == FFD_ERR_PARSE);
+    CHECK(!m && strstr(err.message, "v.glb: $.accessors[2]: element 4 is not finite"));
+    free(g);
 }
 
 static void test_glb_container(void)
@@ -655,9 +1049,8 @@ static void test_refine_refused(void)
 {
     size_t n;
     unsigned char *g = scene_glb(&n);
-    ffd_mesh *m = NULL, *out = NULL;
+    ffd_mesh *m = read_ok(g, n, "s.glb"), *out = NULL;
     ffd_error err = {{0}};
-    CHECK_OK(ffd_mesh_read_memory(g, n, FFD_FORMAT_GLTF, "s.glb", &m, &err));
     if (m) {
         uint32_t par[13];
         for (int f = 0; f < 13; f++)
@@ -699,17 +1092,15 @@ static void test_write_from_data(void)
 static void test_fixtures(void)
 {
     static const char *const files[] = {FIX "cube_nodes.glb", FIX "cube_nodes.gltf",
-                                        FIX "cube_embedded.gltf"};
+                                        FIX "cube_embedded.gltf", FIX "grid_tangents.glb"};
     for (size_t i = 0; i < sizeof files / sizeof files[0]; i++) {
         ffd_mesh *m = NULL;
         ffd_error err = {{0}};
         CHECK_OK(ffd_mesh_read(files[i], &m, &err));
         if (!m)
             continue;
-        unsigned char *out = NULL;
-        size_t on = 0, sn = 0;
-        ffd_write_options o = {FFD_FORMAT_GLTF, FFD_ENCODING_SAME};
-        CHECK_OK(ffd_mesh_write_memory(m, &o, &out, &on, &err));
+        size_t on, sn = 0;
+        unsigned char *out = write_same(m, &on);
         unsigned char *src = slurp(files[i], &sn);
         if (strstr(files[i], "cube_nodes.gltf") == NULL)
             CHECK(out && src && on == sn && memcmp(out, src, sn) == 0);
@@ -728,6 +1119,11 @@ int main(int argc, char **argv)
         {"embedded_translation", test_embedded_translation},
         {"external_buffer", test_external_buffer},
         {"normals", test_normals},
+        {"tangent_world_frame", test_tangent_world_frame},
+        {"tangent_lattice", test_tangent_lattice},
+        {"tangent_fallback", test_tangent_fallback},
+        {"tangent_without_normal", test_tangent_without_normal},
+        {"tangent_refusals", test_tangent_refusals},
         {"modes_and_instances", test_modes_and_instances},
         {"refusals", test_refusals},
         {"glb_container", test_glb_container},

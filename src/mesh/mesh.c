@@ -53,6 +53,8 @@ void ffd_mesh_destroy(ffd_mesh *mesh)
     ffd_free(mesh->normals);
     ffd_free(mesh->normal_spans);
     ffd_free(mesh->normal_anchors);
+    ffd_free(mesh->tangents);
+    ffd_free(mesh->tangent_anchors);
     if (mesh->codec_state_free)
         mesh->codec_state_free(mesh->codec_state);
     ffd_free(mesh);
@@ -132,6 +134,23 @@ bool ffd_mesh_push_normal(ffd_mesh *m, const double n[3], const ffd_span spans[3
         memcpy(m->normal_spans + 3 * m->normal_count, spans, 3 * sizeof(ffd_span));
     m->normal_anchors[m->normal_count] = anchor;
     m->normal_count++;
+    return true;
+}
+
+bool ffd_mesh_push_tangent(ffd_mesh *m, const double t[4], uint32_t anchor)
+{
+    size_t need = m->tangent_count + 1;
+    if (m->tangent_count >= UINT32_MAX)
+        return false;
+    if (need > m->tangent_cap) {
+        size_t cap = m->tangent_cap, cap2 = m->tangent_cap;
+        if (!ffd_grow((void **)&m->tangents, &cap, need, 4 * sizeof(double)) ||
+            !ffd_grow((void **)&m->tangent_anchors, &cap2, cap, sizeof(uint32_t)))
+            return false;
+        m->tangent_cap = cap;
+    }
+    memcpy(m->tangents + 4 * m->tangent_count, t, 4 * sizeof(double));
+    m->tangent_anchors[m->tangent_count++] = anchor;
     return true;
 }
 
@@ -539,6 +558,56 @@ static bool is_identity(const double *J)
            J[3] == 0.0 && J[5] == 0.0 && J[6] == 0.0 && J[7] == 0.0;
 }
 
+/* Tangents (glTF TANGENT) after the normals: at a vertex whose surface
+ * changed, t' = J t (a tangent vector is carried by J itself, unlike the
+ * normal's cofactor), made orthogonal to the vertex's updated normal n
+ * (Gram-Schmidt: t' - (t'.n / n.n) n) and rescaled to unit length; w (the
+ * handedness) is kept. Without Jacobians (GFFD) the fallback is the old
+ * tangent projected onto the plane of the new normal. A tangent is left as
+ * it is where its Jacobian is exactly the identity, where its anchor and the
+ * faces around it did not move, and where the result degenerates (t' ~ 0 or
+ * along n). normal_of[v]: the normal anchored at v, or FFD_NO_ANCHOR. */
+static void update_tangents(ffd_mesh *mesh, const double *jacobians, const unsigned char *moved,
+                            const uint32_t *normal_of)
+{
+    size_t nv = mesh->vertex_count;
+    for (size_t i = 0; i < mesh->tangent_count; i++) {
+        uint32_t v = mesh->tangent_anchors[i];
+        if (v == FFD_NO_ANCHOR || v >= nv || !moved[v])
+            continue;
+        double *T = mesh->tangents + 4 * i, t[3] = {T[0], T[1], T[2]};
+        double scale = norm3(t);
+        if (jacobians) {
+            const double *J = jacobians + 9 * (size_t)v;
+            if (is_identity(J))
+                continue;
+            double jn = 0;
+            for (int k = 0; k < 9; k++)
+                jn += J[k] * J[k];
+            for (int r = 0; r < 3; r++)
+                t[r] = J[3 * r] * T[0] + J[3 * r + 1] * T[1] + J[3 * r + 2] * T[2];
+            scale *= sqrt(jn);
+        }
+        uint32_t ni = normal_of ? normal_of[v] : FFD_NO_ANCHOR;
+        if (ni == FFD_NO_ANCHOR && !jacobians)
+            continue; /* no normal to project onto: nothing changes it */
+        if (ni != FFD_NO_ANCHOR) {
+            const double *n = mesh->normals + 3 * (size_t)ni;
+            double nn = n[0] * n[0] + n[1] * n[1] + n[2] * n[2];
+            if (nn > 0 && isfinite(nn)) {
+                double c = (t[0] * n[0] + t[1] * n[1] + t[2] * n[2]) / nn;
+                for (int k = 0; k < 3; k++)
+                    t[k] -= c * n[k];
+            }
+        }
+        double l = norm3(t);
+        if (!(l > 1e-12 * scale) || !isfinite(l))
+            continue;
+        for (int k = 0; k < 3; k++)
+            T[k] = t[k] / l;
+    }
+}
+
 /* Identity is kept at the level of the stored values: a coordinate whose new
  * value equals the stored one numerically (==, so -0.0 and +0.0 are equal)
  * keeps the stored value, and with it the bytes the writer copies from the
@@ -562,7 +631,7 @@ ffd_status ffd_mesh_set_positions(ffd_mesh *mesh, const double *positions,
             return ffd_fail(err, FFD_ERR_NONFINITE,
                             "ffd_mesh_set_positions: position %zu coordinate %zu is not finite",
                             i / 3, i % 3);
-    if (jacobians && !mesh->facet_normals && mesh->normal_count)
+    if (jacobians && !mesh->facet_normals && (mesh->normal_count || mesh->tangent_count))
         for (size_t i = 0; i < 9 * nv; i++)
             if (!isfinite(jacobians[i]))
                 return ffd_fail(err, FFD_ERR_NONFINITE,
@@ -571,16 +640,19 @@ ffd_status ffd_mesh_set_positions(ffd_mesh *mesh, const double *positions,
     /* moved[v]: bit 0 the vertex moved, bit 1 a corner of a face around it moved */
     unsigned char *moved = NULL;
     double *acc = NULL;
-    if (mesh->normal_count) {
+    uint32_t *normal_of = NULL; /* per vertex: the normal anchored there (tangents) */
+    if (mesh->normal_count || mesh->tangent_count) {
         moved = ffd_calloc(nv, 1);
-        if (!moved)
-            return ffd_fail(err, FFD_ERR_NOMEM, "ffd_mesh_set_positions: out of memory");
-        if (!mesh->facet_normals && !jacobians) {
+        if (mesh->normal_count && !mesh->facet_normals && !jacobians)
             acc = ffd_calloc(nv, 3 * sizeof(double));
-            if (!acc) {
-                ffd_free(moved);
-                return ffd_fail(err, FFD_ERR_NOMEM, "ffd_mesh_set_positions: out of memory");
-            }
+        if (mesh->tangent_count && mesh->normal_count)
+            normal_of = ffd_malloc_array(nv, sizeof *normal_of);
+        if (!moved || (mesh->normal_count && !mesh->facet_normals && !jacobians && !acc) ||
+            (mesh->tangent_count && mesh->normal_count && !normal_of)) {
+            ffd_free(moved);
+            ffd_free(acc);
+            ffd_free(normal_of);
+            return ffd_fail(err, FFD_ERR_NOMEM, "ffd_mesh_set_positions: out of memory");
         }
     }
     for (size_t v = 0; v < nv; v++) {
@@ -606,8 +678,7 @@ ffd_status ffd_mesh_set_positions(ffd_mesh *mesh, const double *positions,
                 ffd_triangle_normal(P + 3 * ix[0], P + 3 * ix[1], P + 3 * ix[2],
                                     mesh->normals + 3 * f);
         }
-        ffd_free(moved);
-        return FFD_OK;
+        goto done;
     }
     for (size_t f = 0; f < mesh->face_count; f++) {
         uint32_t b = mesh->face_offsets[f], e = mesh->face_offsets[f + 1];
@@ -642,9 +713,7 @@ ffd_status ffd_mesh_set_positions(ffd_mesh *mesh, const double *positions,
                 continue;
             set_scaled(mesh->normals + 3 * i, acc + 3 * v, 1e-300);
         }
-        ffd_free(acc);
-        ffd_free(moved);
-        return FFD_OK;
+        goto done;
     }
     for (size_t i = 0; i < mesh->normal_count; i++) {
         uint32_t v = mesh->normal_anchors[i];
@@ -667,6 +736,19 @@ ffd_status ffd_mesh_set_positions(ffd_mesh *mesh, const double *positions,
             jn += J[k] * J[k];
         set_scaled(n, t, jn * norm3(n));
     }
+done:
+    if (mesh->tangent_count) {
+        if (normal_of) {
+            for (size_t v = 0; v < nv; v++)
+                normal_of[v] = FFD_NO_ANCHOR;
+            for (size_t i = mesh->normal_count; i-- > 0;)
+                if (mesh->normal_anchors[i] < nv)
+                    normal_of[mesh->normal_anchors[i]] = (uint32_t)i;
+        }
+        update_tangents(mesh, mesh->facet_normals ? NULL : jacobians, moved, normal_of);
+    }
+    ffd_free(normal_of);
+    ffd_free(acc);
     ffd_free(moved);
     return FFD_OK;
 }

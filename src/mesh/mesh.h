@@ -63,6 +63,13 @@ struct ffd_mesh {
     int vertex_normals; /* normal i belongs to vertex i (PLY nx/ny/nz, NOFF) */
     int facet_normals;  /* normal f belongs to face f (STL) */
 
+    /* Tangents (glTF TANGENT): x y z w, w the bitangent's handedness (+-1);
+     * tangent i belongs to vertex tangent_anchors[i]. No spans: the codec
+     * that reads them keeps their locations (mesh_gltf.c). */
+    size_t tangent_count, tangent_cap;
+    double *tangents; /* 4 per tangent */
+    uint32_t *tangent_anchors;
+
     size_t texcoord_count;
 
     bool source_is_path; /* read by ffd_mesh_read: the codec may read files beside it */
@@ -78,6 +85,8 @@ ffd_mesh *ffd_mesh_alloc(ffd_format format);
 bool ffd_mesh_reserve(ffd_mesh *m, size_t vertices, size_t faces, size_t indices, size_t normals);
 bool ffd_mesh_push_vertex(ffd_mesh *m, const double xyz[3], const ffd_span spans[3]);
 bool ffd_mesh_push_normal(ffd_mesh *m, const double n[3], const ffd_span spans[3], uint32_t anchor);
+/* A tangent (x y z w) of vertex anchor; false on overflow or OOM. */
+bool ffd_mesh_push_tangent(ffd_mesh *m, const double t[4], uint32_t anchor);
 bool ffd_mesh_push_index(ffd_mesh *m, uint32_t index);
 bool ffd_mesh_end_face(ffd_mesh *m); /* closes the face made of the indices pushed since the last */
 

@@ -8,14 +8,21 @@
  * matrix or TRS composed down the hierarchy (spec 5.25 "Nodes"). Modes
  * TRIANGLES, TRIANGLE_STRIP and TRIANGLE_FAN; indices UNSIGNED_BYTE/SHORT/
  * INT or none. POSITION must be FLOAT VEC3 with a bufferView; NORMAL, when
- * present, FLOAT VEC3 too (read as per-vertex normals in world space). A
- * POSITION accessor used by several instances is one set of vertices when
- * their world matrices are equal and refused otherwise.
+ * present, FLOAT VEC3 too (read as per-vertex normals in world space);
+ * TANGENT, when present with NORMAL (spec 3.7.2 "Meshes": tangents are used
+ * only with normals; without NORMAL they are kept as they are), FLOAT VEC4
+ * with w = +-1 (read as per-vertex tangents, xyz in world space by the
+ * node's linear part, renormalised). A POSITION accessor used by several
+ * instances is one set of vertices when their world matrices are equal and
+ * refused otherwise; primitives sharing it must share its NORMAL and
+ * TANGENT accessors too.
  *
  * Write (same format and kind): the source bytes with only the moved
  * POSITION elements rewritten (the inverse world matrix back to the node's
- * local space, as float), their NORMAL elements (M^T n renormalised) and
- * the POSITION accessors' min/max numbers patched in place in the JSON text
+ * local space, as float), their NORMAL elements (M^T n renormalised), their
+ * TANGENT elements (M^-1 t renormalised, w kept; see ffd_mesh_set_positions
+ * for how tangents follow the deformation) and the POSITION accessors'
+ * min/max numbers patched in place in the JSON text
  * (spec: min/max are required for POSITION). Nothing else is re-serialised:
  * every node, material, skin, animation, extension, image and other buffer
  * byte is kept; an untouched mesh is written byte for byte. A .glb whose
@@ -23,9 +30,10 @@
  * with spaces). Embedded buffers are re-encoded in place; external buffers
  * are written next to the output file (gltf_write_file), and in memory they
  * become data: URIs. Refused: sparse, Draco, meshopt, quantized data, point
- * and line primitives, and anything out of bounds. TANGENT is kept as is. */
+ * and line primitives, and anything out of bounds. */
 #include "mesh_codec.h"
 
+#include <assert.h>
 #include <cjson/cJSON.h>
 #include <errno.h>
 #include <math.h>
@@ -58,6 +66,7 @@
 #define MODE_TRIANGLE_FAN 6
 
 #define VEC3_SIZE 12u     /* FLOAT VEC3 element */
+#define VEC4_SIZE 16u     /* FLOAT VEC4 element (TANGENT) */
 #define MAX_STRIDE 252u   /* bufferView.byteStride maximum */
 #define DATA_URI_BASE64 "data:application/octet-stream;base64,"
 
@@ -81,6 +90,7 @@ typedef struct gltf_elem {
 /* A POSITION accessor: its vertices and its min/max numbers in the JSON text. */
 typedef struct gltf_pos_accessor {
     size_t index, first, count;
+    long long normal, tangent; /* the NORMAL and TANGENT accessors read with it; -1: none */
     uint32_t xform;
     bool has_minmax;
     size_t mm_off[6], mm_len[6]; /* min x y z, max x y z: offsets in the JSON text */
@@ -100,6 +110,8 @@ typedef struct gltf_state {
     double *orig_pos;  /* world positions as read */
     gltf_elem *nrm;    /* per normal */
     double *orig_nrm;
+    gltf_elem *tan;   /* per tangent */
+    double *orig_tan; /* 4 per tangent, world space as read */
     gltf_pos_accessor *acc;
     size_t acc_count, acc_cap;
     char *source_path; /* the .gltf read (for the external buffers' check) */
@@ -122,6 +134,8 @@ static void state_free(void *p)
     ffd_free(s->orig_pos);
     ffd_free(s->nrm);
     ffd_free(s->orig_nrm);
+    ffd_free(s->tan);
+    ffd_free(s->orig_tan);
     ffd_free(s->acc);
     ffd_free(s->source_path);
     ffd_free(s);
@@ -265,26 +279,18 @@ static long long int_member(const cJSON *o, const char *key, long long limit)
     return (long long)v->valuedouble;
 }
 
-static ffd_status bad(reader *r, const char *fmt, ...) FFD_PRINTF(2, 3);
-static ffd_status bad(reader *r, const char *fmt, ...)
+/* Refuses the file: status st (FFD_ERR_PARSE for malformed input,
+ * FFD_ERR_UNSUPPORTED for valid glTF this codec cannot write back) with
+ * the message prefixed by the file's name. */
+static ffd_status refuse(reader *r, ffd_status st, const char *fmt, ...) FFD_PRINTF(3, 4);
+static ffd_status refuse(reader *r, ffd_status st, const char *fmt, ...)
 {
     char msg[256];
     va_list ap;
     va_start(ap, fmt);
     vsnprintf(msg, sizeof msg, fmt, ap);
     va_end(ap);
-    return ffd_fail(r->err, FFD_ERR_PARSE, "%s: %s", r->name, msg);
-}
-
-static ffd_status unsupported(reader *r, const char *fmt, ...) FFD_PRINTF(2, 3);
-static ffd_status unsupported(reader *r, const char *fmt, ...)
-{
-    char msg[256];
-    va_list ap;
-    va_start(ap, fmt);
-    vsnprintf(msg, sizeof msg, fmt, ap);
-    va_end(ap);
-    return ffd_fail(r->err, FFD_ERR_UNSUPPORTED, "%s: %s", r->name, msg);
+    return ffd_fail(r->err, st, "%s: %s", r->name, msg);
 }
 
 static int b64_value(int c)
@@ -382,7 +388,7 @@ static ffd_status read_buffers(reader *r, const unsigned char *bin, size_t bin_s
 {
     cJSON *bufs = cJSON_GetObjectItemCaseSensitive(r->root, "buffers");
     if (bufs && !cJSON_IsArray(bufs))
-        return bad(r, "$.buffers: expected an array");
+        return refuse(r, FFD_ERR_PARSE, "$.buffers: expected an array");
     size_t n = (size_t)cJSON_GetArraySize(bufs);
     r->s->buffers = ffd_calloc(n ? n : 1, sizeof(gltf_buffer));
     if (!r->s->buffers)
@@ -394,7 +400,8 @@ static ffd_status read_buffers(reader *r, const unsigned char *bin, size_t bin_s
         gltf_buffer *gb = &r->s->buffers[i];
         long long len = int_member(b, "byteLength", (long long)1 << 52);
         if (len < 0)
-            return bad(r, "$.buffers[%zu].byteLength: expected a non-negative integer", i);
+            return refuse(r, FFD_ERR_PARSE,
+                          "$.buffers[%zu].byteLength: expected a non-negative integer", i);
         const cJSON *uri = cJSON_GetObjectItemCaseSensitive(b, "uri");
         const char *ju = js_member(js_element(jbufs, r->je, i), r->je, "uri");
         if (ju && *ju == '"') {
@@ -403,10 +410,11 @@ static ffd_status read_buffers(reader *r, const unsigned char *bin, size_t bin_s
         }
         if (!uri) {
             if (i != 0 || !bin)
-                return bad(r, "$.buffers[%zu]: no uri and no GLB BIN chunk", i);
+                return refuse(r, FFD_ERR_PARSE, "$.buffers[%zu]: no uri and no GLB BIN chunk", i);
             if ((size_t)len > bin_size)
-                return bad(r, "$.buffers[0].byteLength %lld exceeds the BIN chunk (%zu bytes)", len,
-                           bin_size);
+                return refuse(r, FFD_ERR_PARSE,
+                              "$.buffers[0].byteLength %lld exceeds the BIN chunk (%zu bytes)", len,
+                              bin_size);
             gb->where = BUF_GLB;
             gb->glb_off = bin_off;
             gb->size = bin_size;
@@ -418,20 +426,22 @@ static ffd_status read_buffers(reader *r, const unsigned char *bin, size_t bin_s
             continue;
         }
         if (!cJSON_IsString(uri))
-            return bad(r, "$.buffers[%zu].uri: expected a string", i);
+            return refuse(r, FFD_ERR_PARSE, "$.buffers[%zu].uri: expected a string", i);
         const char *u = uri->valuestring;
         if (strncmp(u, "data:", 5) == 0) {
             const char *comma = strstr(u, ";base64,");
             if (!comma)
-                return unsupported(r, "$.buffers[%zu].uri: data URI without ;base64,", i);
+                return refuse(r, FFD_ERR_UNSUPPORTED,
+                              "$.buffers[%zu].uri: data URI without ;base64,", i);
             const char *t = comma + 8;
             size_t tn = strlen(t), dn = 0, at = 0;
             gb->data = ffd_malloc(tn / 4 * 3 + 3);
             if (!gb->data)
                 return nomem(r);
             if (!b64_decode(t, tn, gb->data, &dn, &at))
-                return bad(r, "$.buffers[%zu].uri: character %zu of the base64 data is not base64",
-                           i, at);
+                return refuse(r, FFD_ERR_PARSE,
+                              "$.buffers[%zu].uri: character %zu of the base64 data is not base64",
+                              i, at);
             gb->where = BUF_DATA_URI;
             gb->size = dn;
             if (ju) { /* the base64 characters only (the text has no escapes there) */
@@ -441,12 +451,14 @@ static ffd_status read_buffers(reader *r, const unsigned char *bin, size_t bin_s
             }
         } else {
             if (!r->m->source_is_path)
-                return unsupported(r, "$.buffers[%zu].uri: external buffer \"%s\" in a glTF read "
-                                      "from memory (read the file by its path, or use .glb or "
-                                      "embedded buffers)", i, u);
+                return refuse(r, FFD_ERR_UNSUPPORTED,
+                              "$.buffers[%zu].uri: external buffer \"%s\" in a glTF read "
+                              "from memory (read the file by its path, or use .glb or "
+                              "embedded buffers)",
+                              i, u);
             if (strstr(u, "://") || u[0] == '/')
-                return unsupported(r, "$.buffers[%zu].uri: \"%s\" is not a relative file name", i,
-                                   u);
+                return refuse(r, FFD_ERR_UNSUPPORTED,
+                              "$.buffers[%zu].uri: \"%s\" is not a relative file name", i, u);
             gb->uri = uri_decode(u);
             if (!gb->uri)
                 return nomem(r);
@@ -465,8 +477,9 @@ static ffd_status read_buffers(reader *r, const unsigned char *bin, size_t bin_s
             gb->where = BUF_EXTERNAL;
         }
         if (gb->size < (size_t)len)
-            return bad(r, "$.buffers[%zu]: byteLength %lld but the data holds %zu bytes", i, len,
-                       gb->size);
+            return refuse(r, FFD_ERR_PARSE,
+                          "$.buffers[%zu]: byteLength %lld but the data holds %zu bytes", i, len,
+                          gb->size);
         gb->size = (size_t)len; /* bytes past byteLength are kept but not addressed */
     }
     return FFD_OK;
@@ -529,11 +542,12 @@ static ffd_status node_local(reader *r, const cJSON *node, size_t ni, double *L)
     const cJSON *mx = cJSON_GetObjectItemCaseSensitive(node, "matrix");
     if (mx) {
         if (!cJSON_IsArray(mx) || cJSON_GetArraySize(mx) != 16)
-            return bad(r, "$.nodes[%zu].matrix: expected 16 numbers", ni);
+            return refuse(r, FFD_ERR_PARSE, "$.nodes[%zu].matrix: expected 16 numbers", ni);
         for (int k = 0; k < 16; k++) {
             const cJSON *v = cJSON_GetArrayItem(mx, k);
             if (!cJSON_IsNumber(v) || !isfinite(v->valuedouble))
-                return bad(r, "$.nodes[%zu].matrix[%d]: expected a number", ni, k);
+                return refuse(r, FFD_ERR_PARSE, "$.nodes[%zu].matrix[%d]: expected a number", ni,
+                              k);
             L[k] = v->valuedouble;
         }
         return FFD_OK;
@@ -547,11 +561,13 @@ static ffd_status node_local(reader *r, const cJSON *node, size_t ni, double *L)
         if (!a)
             continue;
         if (!cJSON_IsArray(a) || cJSON_GetArraySize(a) != len[k])
-            return bad(r, "$.nodes[%zu].%s: expected %d numbers", ni, keys[k], len[k]);
+            return refuse(r, FFD_ERR_PARSE, "$.nodes[%zu].%s: expected %d numbers", ni, keys[k],
+                          len[k]);
         for (int c = 0; c < len[k]; c++) {
             const cJSON *v = cJSON_GetArrayItem(a, c);
             if (!cJSON_IsNumber(v) || !isfinite(v->valuedouble))
-                return bad(r, "$.nodes[%zu].%s[%d]: expected a number", ni, keys[k], c);
+                return refuse(r, FFD_ERR_PARSE, "$.nodes[%zu].%s[%d]: expected a number", ni,
+                              keys[k], c);
             dst[k][c] = v->valuedouble;
         }
     }
@@ -580,47 +596,61 @@ static ffd_status accessor_view(reader *r, long long ai, const char *what, acc_v
 {
     cJSON *a = cJSON_GetArrayItem(r->accessors, (int)ai);
     if (cJSON_GetObjectItemCaseSensitive(a, "sparse"))
-        return unsupported(r, "$.accessors[%lld]: sparse accessor (%s) is not supported", ai, what);
+        return refuse(r, FFD_ERR_UNSUPPORTED,
+                      "$.accessors[%lld]: sparse accessor (%s) is not supported", ai, what);
     long long bv = int_member(a, "bufferView", cJSON_GetArraySize(r->views));
     if (bv < 0)
-        return bv == -1 ? unsupported(r, "$.accessors[%lld]: %s accessor without bufferView", ai,
-                                      what)
-                        : bad(r, "$.accessors[%lld].bufferView: not a bufferView index", ai);
+        return bv == -1 ? refuse(r, FFD_ERR_UNSUPPORTED,
+                                 "$.accessors[%lld]: %s accessor without bufferView", ai, what)
+                        : refuse(r, FFD_ERR_PARSE,
+                                 "$.accessors[%lld].bufferView: not a bufferView index", ai);
     long long count = int_member(a, "count", (long long)UINT32_MAX);
     if (count < 1)
-        return bad(r, "$.accessors[%lld].count: expected an integer in [1, %u)", ai, UINT32_MAX);
+        return refuse(r, FFD_ERR_PARSE, "$.accessors[%lld].count: expected an integer in [1, %u)",
+                      ai, UINT32_MAX);
     long long ct = int_member(a, "componentType", 100000);
     long long off = int_member(a, "byteOffset", (long long)1 << 52);
     if (off == -2)
-        return bad(r, "$.accessors[%lld].byteOffset: expected a non-negative integer", ai);
+        return refuse(r, FFD_ERR_PARSE,
+                      "$.accessors[%lld].byteOffset: expected a non-negative integer", ai);
     cJSON *view = cJSON_GetArrayItem(r->views, (int)bv);
     long long buf = int_member(view, "buffer", (long long)r->s->buffer_count);
     if (buf < 0)
-        return bad(r, "$.bufferViews[%lld].buffer: not a buffer index", bv);
+        return refuse(r, FFD_ERR_PARSE, "$.bufferViews[%lld].buffer: not a buffer index", bv);
     long long voff = int_member(view, "byteOffset", (long long)1 << 52);
     long long vlen = int_member(view, "byteLength", (long long)1 << 52);
     long long stride = int_member(view, "byteStride", MAX_STRIDE + 1);
     if (voff == -2 || vlen < 0 || stride == -2)
-        return bad(r, "$.bufferViews[%lld]: bad byteOffset, byteLength or byteStride", bv);
+        return refuse(r, FFD_ERR_PARSE,
+                      "$.bufferViews[%lld]: bad byteOffset, byteLength or byteStride", bv);
     if (cJSON_GetObjectItemCaseSensitive(view, "extensions"))
-        return unsupported(r, "$.bufferViews[%lld].extensions: compressed buffer views are not "
-                              "supported", bv);
+        return refuse(r, FFD_ERR_UNSUPPORTED,
+                      "$.bufferViews[%lld].extensions: compressed buffer views are not "
+                      "supported",
+                      bv);
     voff = voff < 0 ? 0 : voff;
     off = off < 0 ? 0 : off;
     if ((unsigned long long)voff + (unsigned long long)vlen > r->s->buffers[buf].size)
-        return bad(r, "$.bufferViews[%lld]: bytes %lld..%lld past the end of buffer %lld (%zu bytes)",
-                   bv, voff, voff + vlen, buf, r->s->buffers[buf].size);
+        return refuse(
+            r, FFD_ERR_PARSE,
+            "$.bufferViews[%lld]: bytes %lld..%lld past the end of buffer %lld (%zu bytes)", bv,
+            voff, voff + vlen, buf, r->s->buffers[buf].size);
     size_t elem = ct == GL_UNSIGNED_BYTE ? 1 : ct == GL_UNSIGNED_SHORT ? 2 : 4;
-    if (strcmp(what, "indices") != 0)
+    if (strcmp(what, "TANGENT") == 0)
+        elem = VEC4_SIZE;
+    else if (strcmp(what, "indices") != 0)
         elem = VEC3_SIZE;
     if (stride > 0 && (size_t)stride < elem)
-        return bad(r, "$.bufferViews[%lld].byteStride %lld is less than the element (%zu bytes)",
-                   bv, stride, elem);
+        return refuse(r, FFD_ERR_PARSE,
+                      "$.bufferViews[%lld].byteStride %lld is less than the element (%zu bytes)",
+                      bv, stride, elem);
     size_t st = stride > 0 ? (size_t)stride : elem;
     unsigned long long need = (unsigned long long)off + (unsigned long long)(count - 1) * st + elem;
     if (need > (unsigned long long)vlen)
-        return bad(r, "$.accessors[%lld]: %lld elements from byte %lld need %llu bytes, "
-                      "bufferView %lld has %lld", ai, count, off, need, bv, vlen);
+        return refuse(r, FFD_ERR_PARSE,
+                      "$.accessors[%lld]: %lld elements from byte %lld need %llu bytes, "
+                      "bufferView %lld has %lld",
+                      ai, count, off, need, bv, vlen);
     v->buffer = (uint32_t)buf;
     v->offset = (size_t)(voff + off);
     v->stride = st;
@@ -629,16 +659,19 @@ static ffd_status accessor_view(reader *r, long long ai, const char *what, acc_v
     return FFD_OK;
 }
 
-static ffd_status float_vec3(reader *r, long long ai, const char *what)
+/* The accessor holds FLOAT vectors of the type ("VEC3", "VEC4"), not normalized. */
+static ffd_status float_vec(reader *r, long long ai, const char *what, const char *vec)
 {
     cJSON *a = cJSON_GetArrayItem(r->accessors, (int)ai);
     long long ct = int_member(a, "componentType", 100000);
     const cJSON *type = cJSON_GetObjectItemCaseSensitive(a, "type");
-    if (ct != GL_FLOAT || !cJSON_IsString(type) || strcmp(type->valuestring, "VEC3") != 0)
-        return unsupported(r, "$.accessors[%lld]: %s must be FLOAT (5126) VEC3 to be written back "
-                              "losslessly", ai, what);
+    if (ct != GL_FLOAT || !cJSON_IsString(type) || strcmp(type->valuestring, vec) != 0)
+        return refuse(r, FFD_ERR_UNSUPPORTED,
+                      "$.accessors[%lld]: %s must be FLOAT (5126) %s to be written back "
+                      "losslessly",
+                      ai, what, vec);
     if (cJSON_IsTrue(cJSON_GetObjectItemCaseSensitive(a, "normalized")))
-        return unsupported(r, "$.accessors[%lld]: normalized %s", ai, what);
+        return refuse(r, FFD_ERR_UNSUPPORTED, "$.accessors[%lld]: normalized %s", ai, what);
     return FFD_OK;
 }
 
@@ -650,48 +683,83 @@ static bool same_matrix(const double *a, const double *b)
     return true;
 }
 
-/* Adds the vertices of POSITION accessor ai under world matrix W (or finds them). */
+/* A per-vertex attribute accessor read with POSITION: its type (FLOAT vec),
+ * its elements in bounds, one per POSITION element. */
+static ffd_status vertex_attribute(reader *r, long long ai, const char *what, const char *vec,
+                                   const acc_view *pos, long long pos_ai, acc_view *v)
+{
+    ffd_status st = float_vec(r, ai, what, vec);
+    if (st == FFD_OK)
+        st = accessor_view(r, ai, what, v);
+    if (st == FFD_OK && v->count != pos->count)
+        st = refuse(r, FFD_ERR_PARSE,
+                    "$.accessors[%lld]: %s count %zu differs from POSITION "
+                    "(accessor %lld) count %zu",
+                    ai, what, v->count, pos_ai, pos->count);
+    return st;
+}
+
+/* Adds the vertices of POSITION accessor ai under world matrix W (or finds
+ * them), with their normals (NORMAL accessor nrm_ai) and tangents (TANGENT
+ * accessor tan_ai, read only with normals); -1: none. */
 static ffd_status position_vertices(reader *r, long long ai, long long ni, const double *W,
-                                    long long nrm_ai, size_t *first)
+                                    long long nrm_ai, long long tan_ai, size_t *first)
 {
     gltf_state *s = r->s;
+    if (nrm_ai < 0)
+        tan_ai = -1;
     if (r->acc_vertex[ai]) {
         gltf_pos_accessor *pa = &s->acc[r->acc_vertex[ai] - 1];
         if (!same_matrix(s->xforms + 32 * pa->xform, W))
-            return unsupported(r, "$.accessors[%lld]: POSITION shared by instances with different "
-                                  "world transforms (node %lld); it cannot be written back", ai, ni);
+            return refuse(r, FFD_ERR_UNSUPPORTED,
+                          "$.accessors[%lld]: POSITION shared by instances with different "
+                          "world transforms (node %lld); it cannot be written back",
+                          ai, ni);
+        /* only the attributes read with the POSITION first are written back */
+        bool nrm_differs = nrm_ai >= 0 && nrm_ai != pa->normal;
+        if (nrm_differs || (tan_ai >= 0 && tan_ai != pa->tangent)) {
+            long long had = nrm_differs ? pa->normal : pa->tangent;
+            char first_read[32] = "none";
+            if (had >= 0)
+                snprintf(first_read, sizeof first_read, "accessor %lld", had);
+            return refuse(r, FFD_ERR_UNSUPPORTED,
+                          "$.accessors[%lld]: POSITION shared by primitives with different %s "
+                          "(accessor %lld; first read with %s): it cannot be written back",
+                          ai, nrm_differs ? "NORMAL" : "TANGENT", nrm_differs ? nrm_ai : tan_ai,
+                          first_read);
+        }
         *first = pa->first;
         return FFD_OK;
     }
-    ffd_status st = float_vec3(r, ai, "POSITION");
-    acc_view v, nv = {0};
+    ffd_status st = float_vec(r, ai, "POSITION", "VEC3");
+    acc_view v, nv = {0}, tv = {0};
     if (st == FFD_OK)
         st = accessor_view(r, ai, "POSITION", &v);
-    if (st == FFD_OK && nrm_ai >= 0) {
-        st = float_vec3(r, nrm_ai, "NORMAL");
-        if (st == FFD_OK)
-            st = accessor_view(r, nrm_ai, "NORMAL", &nv);
-        if (st == FFD_OK && nv.count != v.count)
-            st = bad(r, "$.accessors[%lld]: NORMAL count %zu differs from POSITION count %zu",
-                     nrm_ai, nv.count, v.count);
-    }
+    if (st == FFD_OK && nrm_ai >= 0)
+        st = vertex_attribute(r, nrm_ai, "NORMAL", "VEC3", &v, ai, &nv);
+    if (st == FFD_OK && tan_ai >= 0)
+        st = vertex_attribute(r, tan_ai, "TANGENT", "VEC4", &v, ai, &tv);
     if (st != FFD_OK)
         return st;
     ffd_mesh *m = r->m;
     if (m->vertex_count + v.count >= UINT32_MAX)
-        return unsupported(r, "more than %u vertices", UINT32_MAX - 1);
+        return refuse(r, FFD_ERR_UNSUPPORTED, "more than %u vertices", UINT32_MAX - 1);
     if (!ffd_grow((void **)&s->xforms, &s->xform_cap, s->xform_count + 1, 32 * sizeof(double)) ||
         !ffd_grow((void **)&s->acc, &s->acc_cap, s->acc_count + 1, sizeof *s->acc))
         return nomem(r);
     double *X = s->xforms + 32 * s->xform_count;
     memcpy(X, W, 16 * sizeof(double));
     if (!mat_affine_inverse(W, X + 16))
-        return unsupported(r, "$.nodes[%lld]: singular world transform; positions cannot be "
-                              "written back", ni);
+        return refuse(r, FFD_ERR_UNSUPPORTED,
+                      "$.nodes[%lld]: singular world transform; positions cannot be "
+                      "written back",
+                      ni);
     uint32_t xi = (uint32_t)s->xform_count++;
     gltf_pos_accessor *pa = &s->acc[s->acc_count];
     memset(pa, 0, sizeof *pa);
     pa->index = (size_t)ai;
+    pa->normal = nrm_ai;
+    pa->tangent = tan_ai;
     pa->first = m->vertex_count;
     pa->count = v.count;
     pa->xform = xi;
@@ -704,16 +772,18 @@ static ffd_status position_vertices(reader *r, long long ai, long long ni, const
     if (mn && mxv) {
         if (!cJSON_IsArray(mn) || !cJSON_IsArray(mxv) || cJSON_GetArraySize(mn) != 3 ||
             cJSON_GetArraySize(mxv) != 3)
-            return bad(r, "$.accessors[%lld]: min and max must hold 3 numbers", ai);
+            return refuse(r, FFD_ERR_PARSE, "$.accessors[%lld]: min and max must hold 3 numbers",
+                          ai);
         const char *arr[2] = {js_member(ja, r->je, "min"), js_member(ja, r->je, "max")};
         for (int k = 0; k < 6; k++) {
             const cJSON *num = cJSON_GetArrayItem(k < 3 ? mn : mxv, k % 3);
             if (!cJSON_IsNumber(num))
-                return bad(r, "$.accessors[%lld].%s[%d]: expected a number", ai,
-                           k < 3 ? "min" : "max", k % 3);
+                return refuse(r, FFD_ERR_PARSE, "$.accessors[%lld].%s[%d]: expected a number", ai,
+                              k < 3 ? "min" : "max", k % 3);
             const char *p = js_element(arr[k / 3], r->je, (size_t)k % 3);
             if (!p)
-                return bad(r, "$.accessors[%lld]: min/max not found in the text", ai);
+                return refuse(r, FFD_ERR_PARSE, "$.accessors[%lld]: min/max not found in the text",
+                              ai);
             pa->mm_off[k] = (size_t)(p - r->jt);
             pa->mm_len[k] = (size_t)(js_skip(p, r->je) - p);
             pa->mm_val[k] = num->valuedouble;
@@ -732,7 +802,7 @@ static ffd_status position_vertices(reader *r, long long ai, long long ni, const
         const unsigned char *p = s->buffers[v.buffer].data + v.offset + k * v.stride;
         double l[3] = {get_f32le(p), get_f32le(p + 4), get_f32le(p + 8)}, w[3];
         if (!isfinite(l[0]) || !isfinite(l[1]) || !isfinite(l[2]))
-            return bad(r, "$.accessors[%lld]: element %zu is not finite", ai, k);
+            return refuse(r, FFD_ERR_PARSE, "$.accessors[%lld]: element %zu is not finite", ai, k);
         mat_point(W, l, w);
         if (!ffd_mesh_push_vertex(m, w, zero))
             return nomem(r);
@@ -746,10 +816,30 @@ static ffd_status position_vertices(reader *r, long long ai, long long ni, const
                 w[rr] = Nm[rr * 3] * l[0] + Nm[rr * 3 + 1] * l[1] + Nm[rr * 3 + 2] * l[2];
             normalize3(w);
             if (!isfinite(w[0]) || !isfinite(w[1]) || !isfinite(w[2]))
-                return bad(r, "$.accessors[%lld]: element %zu is not finite", nrm_ai, k);
+                return refuse(r, FFD_ERR_PARSE, "$.accessors[%lld]: element %zu is not finite",
+                              nrm_ai, k);
             if (!ffd_mesh_push_normal(m, w, zero, (uint32_t)(pa->first + k)))
                 return nomem(r);
         }
+    }
+    /* tangents to world: the direction by W's linear part, renormalised; w kept */
+    for (size_t k = 0; k < tv.count && tan_ai >= 0; k++) {
+        const unsigned char *p = s->buffers[tv.buffer].data + tv.offset + k * tv.stride;
+        double l[4] = {get_f32le(p), get_f32le(p + 4), get_f32le(p + 8), get_f32le(p + 12)};
+        if (!isfinite(l[0]) || !isfinite(l[1]) || !isfinite(l[2]))
+            return refuse(r, FFD_ERR_PARSE, "$.accessors[%lld]: element %zu is not finite", tan_ai,
+                          k);
+        if (l[3] != 1.0 && l[3] != -1.0)
+            return refuse(r, FFD_ERR_PARSE,
+                          "$.accessors[%lld]: element %zu: TANGENT w is %g, "
+                          "expected 1 or -1 (the bitangent's handedness)",
+                          tan_ai, k, l[3]);
+        double w[4] = {0, 0, 0, l[3]};
+        for (int rr = 0; rr < 3; rr++)
+            w[rr] = W[rr] * l[0] + W[4 + rr] * l[1] + W[8 + rr] * l[2];
+        normalize3(w);
+        if (!ffd_mesh_push_tangent(m, w, (uint32_t)(pa->first + k)))
+            return nomem(r);
     }
     return FFD_OK;
 }
@@ -759,33 +849,45 @@ static ffd_status read_primitive(reader *r, const cJSON *prim, long long mi, int
 {
     long long mode = int_member(prim, "mode", 7);
     if (mode == -2)
-        return bad(r, "$.meshes[%lld].primitives[%d].mode: expected 0..6", mi, pi);
+        return refuse(r, FFD_ERR_PARSE, "$.meshes[%lld].primitives[%d].mode: expected 0..6", mi,
+                      pi);
     if (mode < 0)
         mode = MODE_TRIANGLES;
     if (mode < MODE_TRIANGLES)
-        return unsupported(r, "$.meshes[%lld].primitives[%d].mode %lld: only triangle modes "
-                              "(4, 5, 6) are supported", mi, pi, mode);
+        return refuse(r, FFD_ERR_UNSUPPORTED,
+                      "$.meshes[%lld].primitives[%d].mode %lld: only triangle modes "
+                      "(4, 5, 6) are supported",
+                      mi, pi, mode);
     if (cJSON_GetObjectItemCaseSensitive(prim, "extensions"))
-        return unsupported(r, "$.meshes[%lld].primitives[%d].extensions: compressed primitives "
-                              "are not supported", mi, pi);
+        return refuse(r, FFD_ERR_UNSUPPORTED,
+                      "$.meshes[%lld].primitives[%d].extensions: compressed primitives "
+                      "are not supported",
+                      mi, pi);
     const cJSON *attr = cJSON_GetObjectItemCaseSensitive(prim, "attributes");
     long long na = cJSON_GetArraySize(r->accessors);
     long long pos = int_member(attr, "POSITION", na);
     if (pos < 0)
-        return bad(r, "$.meshes[%lld].primitives[%d].attributes.POSITION: %s", mi, pi,
-                   pos == -1 ? "missing" : "not an accessor index");
+        return refuse(r, FFD_ERR_PARSE, "$.meshes[%lld].primitives[%d].attributes.POSITION: %s", mi,
+                      pi, pos == -1 ? "missing" : "not an accessor index");
     long long nrm = int_member(attr, "NORMAL", na);
     if (nrm == -2)
-        return bad(r, "$.meshes[%lld].primitives[%d].attributes.NORMAL: not an accessor index", mi,
-                   pi);
+        return refuse(r, FFD_ERR_PARSE,
+                      "$.meshes[%lld].primitives[%d].attributes.NORMAL: not an accessor index", mi,
+                      pi);
+    long long tan = int_member(attr, "TANGENT", na);
+    if (tan == -2)
+        return refuse(r, FFD_ERR_PARSE,
+                      "$.meshes[%lld].primitives[%d].attributes.TANGENT: not an accessor index", mi,
+                      pi);
     size_t first = 0;
-    ffd_status st = position_vertices(r, pos, ni, W, nrm, &first);
+    ffd_status st = position_vertices(r, pos, ni, W, nrm, tan, &first);
     if (st != FFD_OK)
         return st;
     size_t vcount = r->s->acc[r->acc_vertex[pos] - 1].count;
     long long ix = int_member(prim, "indices", na);
     if (ix == -2)
-        return bad(r, "$.meshes[%lld].primitives[%d].indices: not an accessor index", mi, pi);
+        return refuse(r, FFD_ERR_PARSE,
+                      "$.meshes[%lld].primitives[%d].indices: not an accessor index", mi, pi);
     acc_view iv = {0};
     if (ix >= 0) {
         cJSON *a = cJSON_GetArrayItem(r->accessors, (int)ix);
@@ -793,7 +895,8 @@ static ffd_status read_primitive(reader *r, const cJSON *prim, long long mi, int
         const cJSON *type = cJSON_GetObjectItemCaseSensitive(a, "type");
         if ((ct != GL_UNSIGNED_BYTE && ct != GL_UNSIGNED_SHORT && ct != GL_UNSIGNED_INT) ||
             !cJSON_IsString(type) || strcmp(type->valuestring, "SCALAR") != 0)
-            return bad(r, "$.accessors[%lld]: indices must be UNSIGNED_BYTE/SHORT/INT SCALAR", ix);
+            return refuse(r, FFD_ERR_PARSE,
+                          "$.accessors[%lld]: indices must be UNSIGNED_BYTE/SHORT/INT SCALAR", ix);
         st = accessor_view(r, ix, "indices", &iv);
         if (st != FFD_OK)
             return st;
@@ -819,8 +922,10 @@ static ffd_status read_primitive(reader *r, const cJSON *prim, long long mi, int
                       : iv.component == GL_UNSIGNED_SHORT ? (size_t)(p[0] | p[1] << 8)
                                                           : (size_t)get_u32le(p);
                 if (idx >= vcount)
-                    return bad(r, "$.accessors[%lld]: index %zu of element %zu out of range (%zu "
-                                  "vertices)", ix, idx, k[c], vcount);
+                    return refuse(r, FFD_ERR_PARSE,
+                                  "$.accessors[%lld]: index %zu of element %zu out of range (%zu "
+                                  "vertices)",
+                                  ix, idx, k[c], vcount);
             }
             corner[c] = (uint32_t)(first + idx);
         }
@@ -837,9 +942,9 @@ static ffd_status read_node(reader *r, long long ni, const double *parent, size_
 {
     long long nn = cJSON_GetArraySize(r->nodes);
     if (ni < 0 || ni >= nn)
-        return bad(r, "node index %lld out of range (%lld nodes)", ni, nn);
+        return refuse(r, FFD_ERR_PARSE, "node index %lld out of range (%lld nodes)", ni, nn);
     if (r->visiting[ni])
-        return bad(r, "$.nodes[%lld]: the node hierarchy has a cycle", ni);
+        return refuse(r, FFD_ERR_PARSE, "$.nodes[%lld]: the node hierarchy has a cycle", ni);
     cJSON *node = cJSON_GetArrayItem(r->nodes, (int)ni);
     double L[16], W[16];
     ffd_status st = node_local(r, node, (size_t)ni, L);
@@ -848,12 +953,12 @@ static ffd_status read_node(reader *r, long long ni, const double *parent, size_
     mat_mul(parent, L, W);
     long long mi = int_member(node, "mesh", cJSON_GetArraySize(r->meshes));
     if (mi == -2)
-        return bad(r, "$.nodes[%lld].mesh: not a mesh index", ni);
+        return refuse(r, FFD_ERR_PARSE, "$.nodes[%lld].mesh: not a mesh index", ni);
     if (mi >= 0) {
         cJSON *prims = cJSON_GetObjectItemCaseSensitive(cJSON_GetArrayItem(r->meshes, (int)mi),
                                                         "primitives");
         if (!cJSON_IsArray(prims))
-            return bad(r, "$.meshes[%lld].primitives: expected an array", mi);
+            return refuse(r, FFD_ERR_PARSE, "$.meshes[%lld].primitives: expected an array", mi);
         for (int pi = 0; pi < cJSON_GetArraySize(prims); pi++) {
             st = read_primitive(r, cJSON_GetArrayItem(prims, pi), mi, pi, ni, W);
             if (st != FFD_OK)
@@ -862,12 +967,13 @@ static ffd_status read_node(reader *r, long long ni, const double *parent, size_
     }
     const cJSON *ch = cJSON_GetObjectItemCaseSensitive(node, "children");
     if (ch && !cJSON_IsArray(ch))
-        return bad(r, "$.nodes[%lld].children: expected an array", ni);
+        return refuse(r, FFD_ERR_PARSE, "$.nodes[%lld].children: expected an array", ni);
     r->visiting[ni] = 1;
     for (int k = 0; k < cJSON_GetArraySize(ch); k++) {
         const cJSON *c = cJSON_GetArrayItem(ch, k);
         if (!cJSON_IsNumber(c) || c->valuedouble != floor(c->valuedouble))
-            return bad(r, "$.nodes[%lld].children[%d]: expected a node index", ni, k);
+            return refuse(r, FFD_ERR_PARSE, "$.nodes[%lld].children[%d]: expected a node index", ni,
+                          k);
         st = read_node(r, (long long)c->valuedouble, W, depth + 1);
         if (st != FFD_OK)
             return st;
@@ -887,8 +993,10 @@ static ffd_status read_scene(reader *r)
             const cJSON *e = cJSON_GetArrayItem(ex, k);
             for (size_t q = 0; q < 3; q++)
                 if (cJSON_IsString(e) && strcmp(e->valuestring, refused[q]) == 0)
-                    return unsupported(r, "$.%s[%d]: %s is not supported (its data cannot be "
-                                          "rewritten losslessly)", lists[l], k, refused[q]);
+                    return refuse(r, FFD_ERR_UNSUPPORTED,
+                                  "$.%s[%d]: %s is not supported (its data cannot be "
+                                  "rewritten losslessly)",
+                                  lists[l], k, refused[q]);
         }
     }
     r->accessors = cJSON_GetObjectItemCaseSensitive(r->root, "accessors");
@@ -898,7 +1006,8 @@ static ffd_status read_scene(reader *r)
     long long nn = cJSON_GetArraySize(r->nodes), na = cJSON_GetArraySize(r->accessors);
     if ((r->accessors && !cJSON_IsArray(r->accessors)) || (r->views && !cJSON_IsArray(r->views)) ||
         (r->nodes && !cJSON_IsArray(r->nodes)) || (r->meshes && !cJSON_IsArray(r->meshes)))
-        return bad(r, "$.accessors, bufferViews, nodes and meshes must be arrays");
+        return refuse(r, FFD_ERR_PARSE,
+                      "$.accessors, bufferViews, nodes and meshes must be arrays");
     r->visiting = ffd_calloc(nn ? (size_t)nn : 1, 1);
     r->acc_vertex = ffd_calloc(na ? (size_t)na : 1, sizeof(uint32_t));
     if (!r->visiting || !r->acc_vertex)
@@ -907,7 +1016,7 @@ static ffd_status read_scene(reader *r)
     const cJSON *scenes = cJSON_GetObjectItemCaseSensitive(r->root, "scenes");
     long long sc = int_member(r->root, "scene", cJSON_GetArraySize(scenes));
     if (sc == -2)
-        return bad(r, "$.scene: not a scene index");
+        return refuse(r, FFD_ERR_PARSE, "$.scene: not a scene index");
     if (sc < 0 && cJSON_GetArraySize(scenes) > 0)
         sc = 0;
     ffd_status st = FFD_OK;
@@ -917,7 +1026,8 @@ static ffd_status read_scene(reader *r)
         for (int k = 0; k < cJSON_GetArraySize(roots) && st == FFD_OK; k++) {
             const cJSON *c = cJSON_GetArrayItem(roots, k);
             if (!cJSON_IsNumber(c) || c->valuedouble != floor(c->valuedouble))
-                return bad(r, "$.scenes[%lld].nodes[%d]: expected a node index", sc, k);
+                return refuse(r, FFD_ERR_PARSE, "$.scenes[%lld].nodes[%d]: expected a node index",
+                              sc, k);
             st = read_node(r, (long long)c->valuedouble, I, 0);
         }
     } else {
@@ -941,62 +1051,56 @@ static ffd_status read_scene(reader *r)
     if (st != FFD_OK)
         return st;
     if (r->m->vertex_count == 0)
-        return bad(r, "no triangle primitive in the %s", sc >= 0 ? "default scene" : "nodes");
+        return refuse(r, FFD_ERR_PARSE, "no triangle primitive in the %s",
+                      sc >= 0 ? "default scene" : "nodes");
     return FFD_OK;
 }
 
-/* Per-vertex and per-normal element locations (the accessors' views again). */
+/* Element locations of every vertex, normal and tangent (the accessors'
+ * views again): normals and tangents were pushed right after their
+ * positions, in the order of s->acc. */
 static ffd_status record_elements(reader *r)
 {
     gltf_state *s = r->s;
     ffd_mesh *m = r->m;
+    size_t nn = m->normal_count ? m->normal_count : 1, nt = m->tangent_count ? m->tangent_count : 1;
     s->pos = ffd_calloc(m->vertex_count, sizeof *s->pos);
     s->vxform = ffd_calloc(m->vertex_count, sizeof *s->vxform);
     s->orig_pos = ffd_malloc_array(3 * m->vertex_count, sizeof(double));
-    s->nrm = ffd_calloc(m->normal_count ? m->normal_count : 1, sizeof *s->nrm);
-    s->orig_nrm = ffd_malloc_array(3 * (m->normal_count ? m->normal_count : 1), sizeof(double));
-    if (!s->pos || !s->vxform || !s->orig_pos || !s->nrm || !s->orig_nrm)
+    s->nrm = ffd_calloc(nn, sizeof *s->nrm);
+    s->orig_nrm = ffd_malloc_array(3 * nn, sizeof(double));
+    s->tan = ffd_calloc(nt, sizeof *s->tan);
+    s->orig_tan = ffd_malloc_array(4 * nt, sizeof(double));
+    if (!s->pos || !s->vxform || !s->orig_pos || !s->nrm || !s->orig_nrm || !s->tan || !s->orig_tan)
         return nomem(r);
     memcpy(s->orig_pos, m->positions, 3 * m->vertex_count * sizeof(double));
     if (m->normal_count)
         memcpy(s->orig_nrm, m->normals, 3 * m->normal_count * sizeof(double));
-    size_t ni = 0;
+    if (m->tangent_count)
+        memcpy(s->orig_tan, m->tangents, 4 * m->tangent_count * sizeof(double));
+    size_t ni = 0, ti = 0;
     for (size_t k = 0; k < s->acc_count; k++) {
         gltf_pos_accessor *pa = &s->acc[k];
-        acc_view v;
+        acc_view v, nv = {0}, tv = {0};
         ffd_status st = accessor_view(r, (long long)pa->index, "POSITION", &v);
+        if (st == FFD_OK && pa->normal >= 0)
+            st = accessor_view(r, pa->normal, "NORMAL", &nv);
+        if (st == FFD_OK && pa->tangent >= 0)
+            st = accessor_view(r, pa->tangent, "TANGENT", &tv);
         if (st != FFD_OK)
             return st;
         for (size_t e = 0; e < v.count; e++) {
             s->pos[pa->first + e] = (gltf_elem){v.buffer, v.offset + e * v.stride};
             s->vxform[pa->first + e] = pa->xform;
         }
-        /* normals were pushed right after their positions, anchored to them */
-        if (ni < m->normal_count && m->normal_anchors[ni] == pa->first) {
-            /* find the NORMAL accessor: any primitive using this POSITION */
-            long long nrm = -1;
-            for (int mi = 0; mi < cJSON_GetArraySize(r->meshes) && nrm < 0; mi++) {
-                const cJSON *prims = cJSON_GetObjectItemCaseSensitive(
-                    cJSON_GetArrayItem(r->meshes, mi), "primitives");
-                for (int pi = 0; pi < cJSON_GetArraySize(prims) && nrm < 0; pi++) {
-                    const cJSON *at =
-                        cJSON_GetObjectItemCaseSensitive(cJSON_GetArrayItem(prims, pi), "attributes");
-                    long long na = cJSON_GetArraySize(r->accessors);
-                    if (int_member(at, "POSITION", na) == (long long)pa->index)
-                        nrm = int_member(at, "NORMAL", na);
-                }
-            }
-            acc_view nv;
-            if (nrm < 0 || accessor_view(r, nrm, "NORMAL", &nv) != FFD_OK)
-                return bad(r, "$.accessors[%zu]: its NORMAL accessor differs between primitives",
-                           pa->index);
-            for (size_t e = 0; e < nv.count; e++)
-                s->nrm[ni + e] = (gltf_elem){nv.buffer, nv.offset + e * nv.stride};
-            ni += nv.count;
-        }
+        for (size_t e = 0; e < nv.count; e++)
+            s->nrm[ni + e] = (gltf_elem){nv.buffer, nv.offset + e * nv.stride};
+        for (size_t e = 0; e < tv.count; e++)
+            s->tan[ti + e] = (gltf_elem){tv.buffer, tv.offset + e * tv.stride};
+        ni += nv.count;
+        ti += tv.count;
     }
-    if (ni != m->normal_count)
-        return bad(r, "POSITION accessors share NORMAL data inconsistently");
+    assert(ni == m->normal_count && ti == m->tangent_count);
     m->vertex_normals = m->normal_count == m->vertex_count;
     return FFD_OK;
 }
@@ -1068,13 +1172,13 @@ static ffd_status gltf_read(ffd_mesh *m, const char *name, ffd_error *err)
         return ffd_fail(err, FFD_ERR_PARSE, "%s: byte %zu: invalid JSON", name, s->json_off + off);
     }
     if (!cJSON_IsObject(r.root)) {
-        st = bad(&r, "byte %zu: the JSON text is not an object", s->json_off);
+        st = refuse(&r, FFD_ERR_PARSE, "byte %zu: the JSON text is not an object", s->json_off);
         goto done;
     }
     const cJSON *asset = cJSON_GetObjectItemCaseSensitive(r.root, "asset");
     const cJSON *ver = cJSON_GetObjectItemCaseSensitive(asset, "version");
     if (!cJSON_IsString(ver) || strncmp(ver->valuestring, "2.", 2) != 0) {
-        st = unsupported(&r, "$.asset.version: expected \"2.x\"");
+        st = refuse(&r, FFD_ERR_UNSUPPORTED, "$.asset.version: expected \"2.x\"");
         goto done;
     }
     s->source_path = ffd_strdup(name);
@@ -1109,8 +1213,20 @@ static int cmp_edit(const void *a, const void *b)
     return (x->off > y->off) - (x->off < y->off);
 }
 
-/* The buffers with moved positions and normals written back (local space),
- * and the min/max edits; *changed tells whether any buffer byte moved. */
+/* The writable copy of buffer i (made on first use); NULL on OOM. */
+static unsigned char *writable(const gltf_state *s, unsigned char **bufs, uint32_t i)
+{
+    if (!bufs[i]) {
+        bufs[i] = ffd_malloc(s->buffers[i].size + 1);
+        if (bufs[i])
+            memcpy(bufs[i], s->buffers[i].data, s->buffers[i].size);
+    }
+    return bufs[i];
+}
+
+/* The buffers with moved positions, normals and tangents written back
+ * (local space), and the min/max edits; bufs[i] stays NULL for a buffer
+ * none of whose bytes changed. */
 static ffd_status patched_buffers(const ffd_mesh *m, unsigned char ***out, text_edit **edits,
                                   size_t *edit_count, ffd_error *err)
 {
@@ -1135,13 +1251,9 @@ static ffd_status patched_buffers(const ffd_mesh *m, unsigned char ***out, text_
             if (P[0] == O[0] && P[1] == O[1] && P[2] == O[2])
                 continue;
             const gltf_elem *e = &s->pos[v];
-            if (!bufs[e->buffer]) {
-                bufs[e->buffer] = ffd_malloc(s->buffers[e->buffer].size + 1);
-                if (!bufs[e->buffer]) {
-                    st = ffd_fail(err, FFD_ERR_NOMEM, "out of memory writing glTF");
-                    break;
-                }
-                memcpy(bufs[e->buffer], s->buffers[e->buffer].data, s->buffers[e->buffer].size);
+            if (!writable(s, bufs, e->buffer)) {
+                st = ffd_fail(err, FFD_ERR_NOMEM, "out of memory writing glTF");
+                break;
             }
             double l[3];
             mat_point(Wi, P, l);
@@ -1170,16 +1282,32 @@ static ffd_status patched_buffers(const ffd_mesh *m, unsigned char ***out, text_
             l[c] = W[c * 4] * N[0] + W[c * 4 + 1] * N[1] + W[c * 4 + 2] * N[2];
         normalize3(l);
         const gltf_elem *e = &s->nrm[i];
-        if (!bufs[e->buffer]) {
-            bufs[e->buffer] = ffd_malloc(s->buffers[e->buffer].size + 1);
-            if (!bufs[e->buffer]) {
-                st = ffd_fail(err, FFD_ERR_NOMEM, "out of memory writing glTF");
-                break;
-            }
-            memcpy(bufs[e->buffer], s->buffers[e->buffer].data, s->buffers[e->buffer].size);
+        if (!writable(s, bufs, e->buffer)) {
+            st = ffd_fail(err, FFD_ERR_NOMEM, "out of memory writing glTF");
+            break;
         }
         for (int d = 0; d < 3; d++)
             put_f32le(bufs[e->buffer] + e->offset + 4 * (size_t)d, (float)l[d]);
+    }
+    /* tangents: t_local = W^-1 t_world (a direction), renormalised; w kept */
+    for (size_t i = 0; i < m->tangent_count && st == FFD_OK; i++) {
+        const double *T = m->tangents + 4 * i, *O = s->orig_tan + 4 * i;
+        if (T[0] == O[0] && T[1] == O[1] && T[2] == O[2] && T[3] == O[3])
+            continue;
+        const double *Wi = s->xforms + 32 * s->vxform[m->tangent_anchors[i]] + 16;
+        double l[3];
+        for (int rr = 0; rr < 3; rr++)
+            l[rr] = Wi[rr] * T[0] + Wi[4 + rr] * T[1] + Wi[8 + rr] * T[2];
+        normalize3(l);
+        const gltf_elem *e = &s->tan[i];
+        if (!writable(s, bufs, e->buffer)) {
+            st = ffd_fail(err, FFD_ERR_NOMEM, "out of memory writing glTF");
+            break;
+        }
+        for (int d = 0; d < 3; d++)
+            put_f32le(bufs[e->buffer] + e->offset + 4 * (size_t)d, (float)l[d]);
+        if (T[3] != O[3])
+            put_f32le(bufs[e->buffer] + e->offset + 12, (float)T[3]);
     }
     /* min/max of the accessors whose elements moved (spec: required for POSITION) */
     for (size_t k = 0; k < s->acc_count && st == FFD_OK; k++) {
@@ -1293,7 +1421,7 @@ static ffd_status patch_to(const ffd_mesh *m, ffd_buf *b, bool embed, unsigned c
             while (jl > 0 && j.data[jl - 1] == ' ')
                 jl--;
             j.size = jl;
-            while (j.size % 4)
+            while (j.size % 4 && !j.oom) /* an OOM buffer never grows */
                 ffd_buf_put(&j, " ", 1);
         }
         size_t rest = m->src_size - s->glb_json_end;
@@ -1516,7 +1644,7 @@ static ffd_status gltf_write(const ffd_mesh *m, ffd_encoding enc, ffd_buf *b, ff
         ffd_buf_put(b, j.data, j.size);
     } else {
         ffd_buf_puts(&j, "}]}");
-        while (j.size % 4)
+        while (j.size % 4 && !j.oom) /* an OOM buffer never grows */
             ffd_buf_put(&j, " ", 1);
         unsigned char h[20];
         put_u32le(h, GLB_MAGIC);

@@ -181,3 +181,48 @@ for name, nu, nv, smooth in (("identity_flat.obj", 24, 12, False), ("identity_sm
         s += "s off\n" + "".join("f " + " ".join("%d/%d/%d" % (i + 1, i + 1, k + 1) for i in f) + "\n"
                                  for k, f in enumerate(fs))
     open(name, "w", newline="").write(s)
+
+# grid_tangents.glb: a 3 x 3 grid (8 triangles) with NORMAL and TANGENT
+# (w alternating +1/-1) under a node with TRS below a turned parent: the
+# glTF fixture whose tangents follow a deformation (alloc sweep, tests/bad).
+import json, math
+pos, nrm, tan = b"", b"", b""
+for k in range(9):
+    a = 0.3 + 0.7 * k
+    pos += struct.pack("<3f", k % 3 - 1, k // 3 - 1, 0)
+    nrm += struct.pack("<3f", 0, 0, 1)
+    tan += struct.pack("<4f", math.cos(a), math.sin(a), 0, -1 if k % 2 else 1)
+idx = b""
+for r in range(2):
+    for c in range(2):
+        a = 3 * r + c
+        idx += struct.pack("<6H", a, a + 1, a + 4, a, a + 4, a + 3)
+bin_ = pos + nrm + tan + idx
+gltf = {
+    "asset": {"version": "2.0", "generator": "ffdkit tests (make_fixtures.py)"},
+    "scene": 0, "scenes": [{"nodes": [0]}],
+    "nodes": [{"name": "turn", "rotation": [0, 0, 0.7071067811865476, 0.7071067811865476], "children": [1]},
+              {"name": "grid", "mesh": 0, "translation": [1, 2, 3],
+               "rotation": [0.25881904510252074, 0, 0, 0.9659258262890683], "scale": [2, 1, 0.5]}],
+    "materials": [{"name": "normal-mapped", "normalTexture": {"index": 0}}],
+    "textures": [{"source": 0}], "images": [{"uri": "normal.png"}],
+    "meshes": [{"name": "grid", "primitives": [{"attributes": {"POSITION": 0, "NORMAL": 1, "TANGENT": 2},
+                                                "indices": 3, "material": 0}]}],
+    "accessors": [
+        {"bufferView": 0, "componentType": 5126, "count": 9, "type": "VEC3", "min": [-1, -1, 0], "max": [1, 1, 0]},
+        {"bufferView": 1, "componentType": 5126, "count": 9, "type": "VEC3"},
+        {"bufferView": 2, "componentType": 5126, "count": 9, "type": "VEC4"},
+        {"bufferView": 3, "componentType": 5123, "count": 24, "type": "SCALAR"}],
+    "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 108},
+                    {"buffer": 0, "byteOffset": 108, "byteLength": 108},
+                    {"buffer": 0, "byteOffset": 216, "byteLength": 144},
+                    {"buffer": 0, "byteOffset": 360, "byteLength": 48}],
+    "buffers": [{"byteLength": len(bin_)}],
+}
+def glb(doc, data):
+    j = json.dumps(doc, indent=1).encode()
+    j += b" " * (-len(j) % 4)
+    data += b"\0" * (-len(data) % 4)
+    body = struct.pack("<II", len(j), 0x4E4F534A) + j + struct.pack("<II", len(data), 0x004E4942) + data
+    return struct.pack("<III", 0x46546C67, 2, 12 + len(body)) + body
+open("grid_tangents.glb", "wb").write(glb(gltf, bin_))
