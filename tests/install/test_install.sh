@@ -7,8 +7,7 @@
 # and one built with find_package(ffd) (ffd::ffd, and ffd::ffd_static) run
 # and deform a cube; the installed `ffd serve` with no mesh opens its
 # installed bunny and serves its page and /api/state (or, when the page was
-# never built, warns naming the paths it tried); `cpack -G DEB` builds a .deb
-# whose file list (dpkg-deb -c) holds all of it, when cpack and dpkg-deb exist.
+# never built, warns naming the paths it tried). The .deb: test_deb.sh.
 # Nothing is installed outside the temporary directory.
 # usage: bash test_install.sh BUILD_DIR SOURCE_DIR [SANITIZER_FLAGS]
 set -u
@@ -119,30 +118,5 @@ else
     grep -q -e 'Sanitizer' -e 'runtime error' "$T/serve.err" && fail "serve: $(cat "$T/serve.err")"
 fi
 
-# ---- the Debian package ----
-if command -v cpack >/dev/null && command -v dpkg-deb >/dev/null && [ -z "$SAN" ]; then
-    (cd "$T" && cpack -G DEB --config "$BUILD/CPackConfig.cmake" -B "$T/deb") >"$T/cpack.log" 2>&1 ||
-        fail "cpack -G DEB: $(tail -30 "$T/cpack.log")"
-    DEB=$(ls "$T"/deb/*.deb 2>/dev/null | head -1)
-    if [ -z "$DEB" ]; then
-        fail "cpack made no .deb: $(tail -30 "$T/cpack.log")"
-    else
-        dpkg-deb -c "$DEB" | awk '{print $NF}' >"$T/deb.list"
-        dpkg-deb -f "$DEB" Depends >"$T/deb.depends"
-        for f in ./usr/bin/ffd ./usr/include/ffd.h ./usr/share/ffd/examples/lattice/bunny.obj; do
-            grep -qxF "$f" "$T/deb.list" || fail "the .deb lacks $f"
-        done
-        for pat in '/libffd\.so\.0\.' '/libffd\.a$' '/pkgconfig/ffd\.pc$' '/cmake/ffd/ffdConfig\.cmake$'; do
-            grep -qE "$pat" "$T/deb.list" || fail "the .deb lacks $pat"
-        done
-        [ "$PAGE" = 0 ] || grep -qxF ./usr/share/ffd/web/index.html "$T/deb.list" || fail "the .deb lacks the page"
-        for dep in libcjson libmicrohttpd libqhull libcholmod; do
-            grep -q "$dep" "$T/deb.depends" || fail "the .deb does not depend on $dep: $(cat "$T/deb.depends")"
-        done
-    fi
-else
-    echo "skip: the .deb (cpack/dpkg-deb missing, or a sanitizer build)"
-fi
-
-[ "$failures" -eq 0 ] && echo "ok: install, link (pkg-config, find_package), serve${DEB:+, .deb}"
+[ "$failures" -eq 0 ] && echo "ok: install, link (pkg-config, find_package), serve"
 [ "$failures" -eq 0 ]
