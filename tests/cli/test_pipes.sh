@@ -118,6 +118,10 @@ if command -v script >/dev/null 2>&1; then
     script -qec "'$FFD' convert '$DATA/mesh/cube_nodes.glb' -" /dev/null >"$T/tty" 2>&1
     grep -qF "refusing to write binary glTF to a terminal" "$T/tty" ||
         fail "binary glTF to a terminal not refused by name: $(head -c 300 "$T/tty")"
+    # a stage shorter than a second draws no progress bar on a terminal
+    script -qec "'$FFD' convert '$OBJ' '$T/tty.obj'" /dev/null >"$T/tty" 2>&1
+    grep -q "%" "$T/tty" && fail "a progress bar for an 8-vertex mesh: $(tr '\r' '\n' <"$T/tty" | head -5)"
+    grep -q "wrote $T/tty.obj" "$T/tty" || fail "convert on a terminal: $(head -c 300 "$T/tty")"
     # text is fine on a terminal
     script -qec "'$FFD' deform '$OBJ' -o - --rig '$RIG' --quiet" /dev/null >"$T/tty" 2>&1
     grep -q "^v " "$T/tty" || fail "OBJ to a terminal: no vertex lines"

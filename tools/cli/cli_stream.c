@@ -13,6 +13,10 @@ int cli_quiet;
 int cli_progress_lines;
 static int bar_open; /* a progress bar is on stderr's last line */
 
+/* A stage shorter than this draws no bar on a terminal (a small mesh's
+ * reading would flash one); the --progress lines report every stage. */
+#define CLI_BAR_DELAY_SECONDS 1.0
+
 /* The largest rig read from standard input: the rig reader's own limit
  * (docs/rig.md); one byte more is read so that the reader refuses it with
  * the limit named. */
@@ -242,13 +246,24 @@ void cli_note(const char *fmt, ...)
     va_end(ap);
 }
 
-/* ffd_set_progress's hook: a bar on a terminal, else "ffd: STAGE: N%" lines
- * (--progress). */
+/* What draw_progress keeps between calls. */
+typedef struct progress_state {
+    int last;       /* the last percentage printed, as lines */
+    double started; /* when the stage began (cli_now) */
+} progress_state;
+
+/* ffd_set_progress's hook: a bar on a terminal once a stage has run for
+ * CLI_BAR_DELAY_SECONDS, else "ffd: STAGE: N%" lines (--progress). */
 static void draw_progress(void *user, const char *stage, double fraction)
 {
-    int *last = user; /* the last percentage printed, as lines */
+    progress_state *state = user;
+    int *last = &state->last;
     int percent = (int)(fraction * 100 + 0.5);
+    if (fraction == 0 && !bar_open)
+        state->started = cli_now();
     if (!cli_progress_lines) {
+        if (!bar_open && cli_now() - state->started < CLI_BAR_DELAY_SECONDS)
+            return;
         char bar[31];
         int filled = (int)(fraction * 30);
         for (int i = 0; i < 30; i++)
@@ -270,12 +285,12 @@ static void draw_progress(void *user, const char *stage, double fraction)
 
 void cli_progress_setup(int want_lines)
 {
-    static int last = -1;
+    static progress_state state = {-1, 0};
     if (isatty(STDERR_FILENO) && !cli_quiet) {
         cli_progress_lines = 0;
-        ffd_set_progress(draw_progress, &last);
+        ffd_set_progress(draw_progress, &state);
     } else if (want_lines) {
         cli_progress_lines = 1;
-        ffd_set_progress(draw_progress, &last);
+        ffd_set_progress(draw_progress, &state);
     }
 }
