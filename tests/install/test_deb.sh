@@ -17,18 +17,7 @@ for tool in cpack dpkg-deb; do
     command -v $tool >/dev/null || { echo "skip: $tool is not installed: the .deb is not checked"; exit 77; }
 done
 command -v curl >/dev/null || { echo "FAIL: curl is not installed (scripts/setup.sh)"; exit 1; }
-T=$(mktemp -d)
-PID=
-cleanup() {
-    [ -n "$PID" ] && kill "$PID" 2>/dev/null
-    rm -rf "$T"
-}
-trap cleanup EXIT
-failures=0
-fail() {
-    echo "FAIL: $*"
-    failures=$((failures + 1))
-}
+source "$SRC/tests/install/lib.sh"
 
 if [ -n "${FFD_DEB:-}" ]; then
     DEB=$FFD_DEB
@@ -99,45 +88,7 @@ X=$T/root
 dpkg-deb -x "$DEB" "$X" || fail "dpkg-deb -x"
 LIBDIR=$(dirname "$(find "$X/usr/lib" -name 'libffd.so.0' | head -1)")
 zcat "$X/usr/share/man/man1/ffd.1.gz" | grep -q '^\.TH FFD 1' || fail "ffd.1.gz is not a man page"
-# the extracted page and mesh are marked, so that serving the source tree's
-# (compiled in as a fallback) would show
-printf 'v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\nf 1 2 3 4\nf 5 8 7 6\n' \
-    >"$X/usr/share/ffd/examples/lattice/bunny.obj"
-[ -f "$X/usr/share/ffd/web/index.html" ] && echo '<!-- the extracted .deb -->' >>"$X/usr/share/ffd/web/index.html"
-LD_LIBRARY_PATH=$LIBDIR "$X/usr/bin/ffd" serve --port 0 >"$T/serve.out" 2>"$T/serve.err" &
-PID=$!
-URL=
-for _ in $(seq 1 200); do
-    URL=$(sed -n 's/^ffd serve: \(http:.*\)$/\1/p' "$T/serve.out")
-    [ -n "$URL" ] && break
-    kill -0 "$PID" 2>/dev/null || break
-    sleep 0.05
-done
-if [ -z "$URL" ]; then
-    fail "the extracted ffd serve printed no URL: $(cat "$T/serve.out" "$T/serve.err")"
-else
-    URL=${URL%/}
-    code=$(curl -s --max-time 30 -o "$T/state" -w '%{http_code}' "$URL/api/state")
-    [ "$code" = 200 ] && grep -q '"vertices":8,' "$T/state" ||
-        fail "GET /api/state: $code, not the extracted bunny.obj: $(head -c 300 "$T/state")"
-    code=$(curl -s --max-time 30 -o "$T/mesh" -w '%{http_code}' "$URL/api/export")
-    [ "$code" = 200 ] && [ "$(grep -c '^v ' "$T/mesh")" = 8 ] ||
-        fail "GET /api/export: $code, not the extracted bunny.obj: $(head -c 300 "$T/mesh")"
-    code=$(curl -s --max-time 30 -o "$T/page" -w '%{http_code}' "$URL/")
-    if [ "$PAGE" = 1 ]; then
-        [ "$code" = 200 ] && grep -qF '<!-- the extracted .deb -->' "$T/page" ||
-            fail "GET /: $code, not the extracted page: $(head -c 200 "$T/page")"
-        code=$(curl -s --max-time 30 -o /dev/null -w '%{http_code}' "$URL/app.js")
-        [ "$code" = 200 ] || fail "GET /app.js: $code"
-        grep -q 'warning' "$T/serve.err" && fail "a warning with the page installed: $(cat "$T/serve.err")"
-    else
-        grep -qF "no index.html at $X/usr/bin/../share/ffd/web/index.html" "$T/serve.err" ||
-            fail "no warning naming the missing page: $(cat "$T/serve.err")"
-    fi
-    kill -TERM "$PID"
-    wait "$PID" || fail "ffd serve exited $? after SIGTERM: $(cat "$T/serve.err")"
-    PID=
-fi
+check_serve_bundled "the extracted .deb" "$X/usr/share/ffd" env LD_LIBRARY_PATH="$LIBDIR" "$X/usr/bin/ffd"
 
 [ "$failures" -eq 0 ] && echo "ok: the .deb (Depends, file list, extracted ffd serve$with)"
 [ "$failures" -eq 0 ]

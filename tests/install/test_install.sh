@@ -14,18 +14,7 @@ set -u
 BUILD=$(cd "$1" && pwd)
 SRC=$(cd "$2" && pwd)
 SAN=${3:-}
-T=$(mktemp -d)
-PID=
-cleanup() {
-    [ -n "$PID" ] && kill "$PID" 2>/dev/null
-    rm -rf "$T"
-}
-trap cleanup EXIT
-failures=0
-fail() {
-    echo "FAIL: $*"
-    failures=$((failures + 1))
-}
+source "$SRC/tests/install/lib.sh"
 for tool in cc pkg-config curl cmake; do
     command -v $tool >/dev/null || { echo "FAIL: $tool is not installed (scripts/setup.sh)"; exit 1; }
 done
@@ -83,40 +72,7 @@ readelf -d "$T/cmake-ffd/cube" 2>/dev/null | grep -q 'NEEDED.*libffd\.so\.0' ||
     fail "find_package(ffd)'s ffd::ffd is not the shared library"
 
 # ---- the installed ffd serve, no mesh argument ----
-# the installed bunny is replaced by a cube: the server must open the installed
-# file (from its own location), not the source tree's bunny compiled in
-printf 'v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\nf 1 2 3 4\nf 5 8 7 6\n' \
-    >"$P/share/ffd/examples/lattice/bunny.obj"
-"$P/bin/ffd" serve --port 0 >"$T/serve.out" 2>"$T/serve.err" &
-PID=$!
-URL=
-for _ in $(seq 1 200); do
-    URL=$(sed -n 's/^ffd serve: \(http:.*\)$/\1/p' "$T/serve.out")
-    [ -n "$URL" ] && break
-    kill -0 "$PID" 2>/dev/null || break
-    sleep 0.05
-done
-if [ -z "$URL" ]; then
-    fail "the installed ffd serve printed no URL: $(cat "$T/serve.out" "$T/serve.err")"
-else
-    URL=${URL%/}
-    code=$(curl -s --max-time 30 -o "$T/state" -w '%{http_code}' "$URL/api/state")
-    [ "$code" = 200 ] || fail "GET /api/state: $code"
-    grep -q '"vertices":8,' "$T/state" || fail "the installed ffd serve did not open the installed bunny.obj: $(head -c 300 "$T/state")"
-    code=$(curl -s --max-time 30 -o "$T/page" -w '%{http_code}' "$URL/")
-    if [ "$PAGE" = 1 ]; then
-        [ "$code" = 200 ] && grep -qi '<html' "$T/page" || fail "GET /: $code $(head -c 200 "$T/page")"
-        grep -q 'warning' "$T/serve.err" && fail "warning with the page installed: $(cat "$T/serve.err")"
-    else
-        # no page built: a warning at start naming where it looked
-        grep -qF "no index.html at $P/bin/../share/ffd/web/index.html, $SRC/web/dist/index.html" "$T/serve.err" ||
-            fail "no warning naming the paths tried for the missing page: $(cat "$T/serve.err")"
-    fi
-    kill -TERM "$PID"
-    wait "$PID" || fail "ffd serve exited $? after SIGTERM: $(cat "$T/serve.err")"
-    PID=
-    grep -q -e 'Sanitizer' -e 'runtime error' "$T/serve.err" && fail "serve: $(cat "$T/serve.err")"
-fi
+check_serve_bundled "the installed ffd" "$P/share/ffd" "$P/bin/ffd"
 
 [ "$failures" -eq 0 ] && echo "ok: install, link (pkg-config, find_package), serve"
 [ "$failures" -eq 0 ]
