@@ -35,6 +35,9 @@ install(FILES ${CMAKE_BINARY_DIR}/ffdConfig.cmake ${CMAKE_BINARY_DIR}/ffdConfigV
 # at install time; without it `ffd serve` warns at start
 install(DIRECTORY ${CMAKE_SOURCE_DIR}/web/dist/ DESTINATION ${CMAKE_INSTALL_DATADIR}/ffd/web OPTIONAL
         PATTERN "*.map" EXCLUDE)
+install(CODE "if(NOT EXISTS \"${CMAKE_SOURCE_DIR}/web/dist/index.html\")
+  message(WARNING \"web/dist is not built: the editor's page is not installed (cd web && npm ci && npm run build)\")
+endif()")
 install(DIRECTORY ${CMAKE_SOURCE_DIR}/examples/ DESTINATION ${CMAKE_INSTALL_DATADIR}/ffd/examples)
 
 # Debian package: `cpack -G DEB` in the build directory (README "Install")
@@ -45,6 +48,13 @@ set(CPACK_PACKAGE_DESCRIPTION_SUMMARY "free-form deformation of 3D meshes: libff
 set(CPACK_PACKAGING_INSTALL_PREFIX /usr)
 set(CPACK_DEBIAN_FILE_NAME DEB-DEFAULT)
 set(CPACK_DEBIAN_PACKAGE_SECTION graphics)
+set(CPACK_DEBIAN_PACKAGE_DESCRIPTION "${CPACK_PACKAGE_DESCRIPTION_SUMMARY}
+ Lattice FFD with direct manipulation, point-based FFD (PB-FFD), generalized
+ FFD (GFFD) and T-spline proxy FFD of OBJ, PLY, OFF, STL and glTF meshes,
+ written back losslessly. The package holds the library (shared and static),
+ its header ffd.h, ffd.pc and the CMake package ffd, the ffd command with its
+ man pages, the editor's page for `ffd serve` and the example meshes.")
+set(CPACK_STRIP_FILES ON) # the executable and the shared library, as Debian ships them
 find_program(FFD_DPKG_SHLIBDEPS dpkg-shlibdeps)
 if(FFD_DPKG_SHLIBDEPS)
   set(CPACK_DEBIAN_PACKAGE_SHLIBDEPS ON)
@@ -52,4 +62,7 @@ else()
   # Debian 12's runtime packages of the libraries libffd and ffd link
   set(CPACK_DEBIAN_PACKAGE_DEPENDS "libc6, libgomp1, liblapacke, libopenblas0, libcjson1, libqhull-r8.0, libcholmod3, libsuitesparseconfig5, libmicrohttpd12")
 endif()
+# gzip the man pages; copyright and changelog.gz in /usr/share/doc/ffdkit
+set(CPACK_PRE_BUILD_SCRIPTS ${CMAKE_SOURCE_DIR}/cmake/deb_fixups.cmake)
+set(CPACK_FFD_SOURCE_DIR ${CMAKE_SOURCE_DIR})
 include(CPack)

@@ -2,7 +2,10 @@
 # Runs the bad-input corpus, tests/bad/*/case (format: tests/bad/README.md).
 # For every case: the command exits with the expected status (never 0 unless
 # the case says so, never a signal, never a timeout), stderr starts with
-# "ffd: " and holds the expected fragment, the case's input files are
+# "ffd: " and holds the expected fragment, the command stays within its
+# case's CPU time (user + system of all its threads, `ulimit -t`: the bound
+# on its work, which other processes' load cannot trip; a wall-clock limit
+# ten times longer catches a command that blocks), the case's input files are
 # byte-identical afterwards, the pre-existing output files in $OUT are
 # byte-identical and nothing else appeared there (no temporary files), and
 # under a sanitizer build stderr holds no sanitizer report. Outside sanitizer
@@ -30,6 +33,11 @@ OUTPUTS="out.obj out.ply out.off out.stl out.json lattice.obj proxy.obj points.o
 
 key() { # key NAME CASEFILE: the value of "NAME: value" (first occurrence)
     sed -n "s/^$1:[[:space:]]*//p" "$2" | head -n 1
+}
+cpu_children() { # cpu_children VAR: VAR = user + system seconds of this shell's finished
+    # children (bash's `times`, which must run in this shell, not in a $(...))
+    times >"$T/times"
+    printf -v "$1" '%s' "$(awk 'NR == 2 { for (i = 1; i <= NF; i++) { split($i, t, "m"); s += t[1] * 60 + t[2] } printf "%.2f", s }' "$T/times")"
 }
 snapshot() { # snapshot DIR: name, size and checksum of every file below DIR
     (cd "$1" && find . -type f -print0 | sort -z | xargs -0 -r cksum)
@@ -74,17 +82,29 @@ for dir in "$BAD"/$ONLY/; do
     out_before=$(snapshot "$OUT")
 
     eval "set -- $cmd"
+    # the bound is CPU time (SIGXCPU at the limit, no core file); the wall
+    # clock is only a safety net for a command that blocks without working
+    cpu_limit=$((limit * SLOW))
+    wall_limit=$((cpu_limit * 10))
     t0=$EPOCHREALTIME
+    cpu_children c0
     (
         [ "$ULIMIT_KB" != 0 ] && ulimit -v "$ULIMIT_KB"
-        exec timeout -k 5 $((limit * SLOW)) "$FFD" "$@"
+        ulimit -c 0
+        # the soft limit stops it with SIGXCPU; 5 s later the hard one kills (SIGKILL)
+        ulimit -S -t "$cpu_limit" && ulimit -H -t $((cpu_limit + 5)) || exit 125
+        exec timeout -k 5 "$wall_limit" "$FFD" "$@"
     ) >"$T/stdout" 2>"$T/stderr"
     rc=$?
     secs=$(awk -v a="$t0" -v b="$EPOCHREALTIME" 'BEGIN { printf "%.2f", b - a }')
+    cpu_children c1
+    cpu=$(awk -v a="$c0" -v b="$c1" 'BEGIN { printf "%.2f", b - a }')
     err=$(head -c 2000 "$T/stderr")
     problems=""
-    if [ "$rc" -eq 124 ] || [ "$rc" -eq 137 ]; then
-        problems+=" timed out after $((limit * SLOW)) s;"
+    if [ "$rc" -eq 152 ] || { [ "$rc" -eq 137 ] && awk -v c="$cpu" -v l="$cpu_limit" 'BEGIN { exit !(c >= l) }'; }; then
+        problems+=" used more than its $cpu_limit s of CPU time ($cpu s user + system);"
+    elif [ "$rc" -eq 124 ] || [ "$rc" -eq 137 ]; then
+        problems+=" timed out after $wall_limit s of wall-clock time ($cpu s of CPU time: blocked?);"
     elif [ "$rc" -ne "$status" ]; then
         problems+=" exited $rc, expected $status;"
     fi
@@ -102,7 +122,7 @@ for dir in "$BAD"/$ONLY/; do
     if [ -n "$problems" ]; then
         fail "$name:$problems stderr: $err"
     else
-        printf 'ok    %-34s %5.2f s  %s\n' "$name" "$secs" "$(head -n 1 "$T/stderr" | cut -c1-110)"
+        printf 'ok    %-34s %5.2f s (cpu %5.2f s)  %s\n' "$name" "$secs" "$cpu" "$(head -n 1 "$T/stderr" | cut -c1-100)"
     fi
     rm -rf "${T:?}/$name"
 done

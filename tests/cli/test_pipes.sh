@@ -79,6 +79,22 @@ refused "--in-place: standard input" deform - --in-place --rig "$RIG" --format p
 refused "this command writes files only" pbffd place "$EL" -o -
 refused "this command writes files only" tspline proxy "$OBJ" -o "$T/x.obj" --lattice -
 refused "both read standard input" tspline proxy - -o "$T/x.obj" --rig - --format obj
+# the formats the messages list are the mesh codec table's, and every
+# command's --help lists the same
+refused "needs --format FMT" info -
+formats=$(sed -n "s/.*needs --format FMT (\(.*\))$/\1/p" "$T/stderr")
+[ -n "$formats" ] && case "$formats" in *gltf*glb*) ;; *) false ;; esac ||
+    fail "the formats of the --format message lack glTF: $(cat "$T/stderr")"
+for cmd in info convert deform "pbffd place" "tspline proxy"; do
+    # shellcheck disable=SC2086
+    "$FFD" $cmd --help | tr -s ' \n' ' ' | grep -qF "$formats" ||
+        fail "ffd $cmd --help does not list the formats ($formats)"
+    args=(-o "$T/x.obj")
+    case $cmd in info) args=() ;; deform) args+=(--rig "$RIG") ;; esac
+    # shellcheck disable=SC2086
+    "$FFD" $cmd - "${args[@]}" --format xyz >/dev/null 2>"$T/stderr"
+    has stderr "--format 'xyz': unknown format (expected $formats)"
+done
 [ -e "$T/x.obj" ] && fail "a refused tspline proxy wrote its proxy"
 [ -e "$T/x.ply" ] || [ -e "$T/y.ply" ] && fail "a refused command wrote a file"
 
@@ -99,6 +115,13 @@ if command -v script >/dev/null 2>&1; then
     script -qec "'$FFD' deform '$PLY' -o - --rig '$RIG'" /dev/null >"$T/tty" 2>&1
     grep -qF "refusing to write binary PLY to a terminal" "$T/tty" ||
         fail "binary PLY to a terminal not refused: $(head -c 300 "$T/tty")"
+    script -qec "'$FFD' convert '$DATA/mesh/cube_nodes.glb' -" /dev/null >"$T/tty" 2>&1
+    grep -qF "refusing to write binary glTF to a terminal" "$T/tty" ||
+        fail "binary glTF to a terminal not refused by name: $(head -c 300 "$T/tty")"
+    # a stage shorter than a second draws no progress bar on a terminal
+    script -qec "'$FFD' convert '$OBJ' '$T/tty.obj'" /dev/null >"$T/tty" 2>&1
+    grep -q "%" "$T/tty" && fail "a progress bar for an 8-vertex mesh: $(tr '\r' '\n' <"$T/tty" | head -5)"
+    grep -q "wrote $T/tty.obj" "$T/tty" || fail "convert on a terminal: $(head -c 300 "$T/tty")"
     # text is fine on a terminal
     script -qec "'$FFD' deform '$OBJ' -o - --rig '$RIG' --quiet" /dev/null >"$T/tty" 2>&1
     grep -q "^v " "$T/tty" || fail "OBJ to a terminal: no vertex lines"

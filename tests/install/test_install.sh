@@ -7,26 +7,14 @@
 # and one built with find_package(ffd) (ffd::ffd, and ffd::ffd_static) run
 # and deform a cube; the installed `ffd serve` with no mesh opens its
 # installed bunny and serves its page and /api/state (or, when the page was
-# never built, warns naming the paths it tried); `cpack -G DEB` builds a .deb
-# whose file list (dpkg-deb -c) holds all of it, when cpack and dpkg-deb exist.
+# never built, warns naming the paths it tried). The .deb: test_deb.sh.
 # Nothing is installed outside the temporary directory.
 # usage: bash test_install.sh BUILD_DIR SOURCE_DIR [SANITIZER_FLAGS]
 set -u
 BUILD=$(cd "$1" && pwd)
 SRC=$(cd "$2" && pwd)
 SAN=${3:-}
-T=$(mktemp -d)
-PID=
-cleanup() {
-    [ -n "$PID" ] && kill "$PID" 2>/dev/null
-    rm -rf "$T"
-}
-trap cleanup EXIT
-failures=0
-fail() {
-    echo "FAIL: $*"
-    failures=$((failures + 1))
-}
+source "$SRC/tests/install/lib.sh"
 for tool in cc pkg-config curl cmake; do
     command -v $tool >/dev/null || { echo "FAIL: $tool is not installed (scripts/setup.sh)"; exit 1; }
 done
@@ -84,65 +72,7 @@ readelf -d "$T/cmake-ffd/cube" 2>/dev/null | grep -q 'NEEDED.*libffd\.so\.0' ||
     fail "find_package(ffd)'s ffd::ffd is not the shared library"
 
 # ---- the installed ffd serve, no mesh argument ----
-# the installed bunny is replaced by a cube: the server must open the installed
-# file (from its own location), not the source tree's bunny compiled in
-printf 'v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\nf 1 2 3 4\nf 5 8 7 6\n' \
-    >"$P/share/ffd/examples/lattice/bunny.obj"
-"$P/bin/ffd" serve --port 0 >"$T/serve.out" 2>"$T/serve.err" &
-PID=$!
-URL=
-for _ in $(seq 1 200); do
-    URL=$(sed -n 's/^ffd serve: \(http:.*\)$/\1/p' "$T/serve.out")
-    [ -n "$URL" ] && break
-    kill -0 "$PID" 2>/dev/null || break
-    sleep 0.05
-done
-if [ -z "$URL" ]; then
-    fail "the installed ffd serve printed no URL: $(cat "$T/serve.out" "$T/serve.err")"
-else
-    URL=${URL%/}
-    code=$(curl -s --max-time 30 -o "$T/state" -w '%{http_code}' "$URL/api/state")
-    [ "$code" = 200 ] || fail "GET /api/state: $code"
-    grep -q '"vertices":8,' "$T/state" || fail "the installed ffd serve did not open the installed bunny.obj: $(head -c 300 "$T/state")"
-    code=$(curl -s --max-time 30 -o "$T/page" -w '%{http_code}' "$URL/")
-    if [ "$PAGE" = 1 ]; then
-        [ "$code" = 200 ] && grep -qi '<html' "$T/page" || fail "GET /: $code $(head -c 200 "$T/page")"
-        grep -q 'warning' "$T/serve.err" && fail "warning with the page installed: $(cat "$T/serve.err")"
-    else
-        # no page built: a warning at start naming where it looked
-        grep -qF "no index.html at $P/bin/../share/ffd/web/index.html, $SRC/web/dist/index.html" "$T/serve.err" ||
-            fail "no warning naming the paths tried for the missing page: $(cat "$T/serve.err")"
-    fi
-    kill -TERM "$PID"
-    wait "$PID" || fail "ffd serve exited $? after SIGTERM: $(cat "$T/serve.err")"
-    PID=
-    grep -q -e 'Sanitizer' -e 'runtime error' "$T/serve.err" && fail "serve: $(cat "$T/serve.err")"
-fi
+check_serve_bundled "the installed ffd" "$P/share/ffd" "$P/bin/ffd"
 
-# ---- the Debian package ----
-if command -v cpack >/dev/null && command -v dpkg-deb >/dev/null && [ -z "$SAN" ]; then
-    (cd "$T" && cpack -G DEB --config "$BUILD/CPackConfig.cmake" -B "$T/deb") >"$T/cpack.log" 2>&1 ||
-        fail "cpack -G DEB: $(tail -30 "$T/cpack.log")"
-    DEB=$(ls "$T"/deb/*.deb 2>/dev/null | head -1)
-    if [ -z "$DEB" ]; then
-        fail "cpack made no .deb: $(tail -30 "$T/cpack.log")"
-    else
-        dpkg-deb -c "$DEB" | awk '{print $NF}' >"$T/deb.list"
-        dpkg-deb -f "$DEB" Depends >"$T/deb.depends"
-        for f in ./usr/bin/ffd ./usr/include/ffd.h ./usr/share/ffd/examples/lattice/bunny.obj; do
-            grep -qxF "$f" "$T/deb.list" || fail "the .deb lacks $f"
-        done
-        for pat in '/libffd\.so\.0\.' '/libffd\.a$' '/pkgconfig/ffd\.pc$' '/cmake/ffd/ffdConfig\.cmake$'; do
-            grep -qE "$pat" "$T/deb.list" || fail "the .deb lacks $pat"
-        done
-        [ "$PAGE" = 0 ] || grep -qxF ./usr/share/ffd/web/index.html "$T/deb.list" || fail "the .deb lacks the page"
-        for dep in libcjson libmicrohttpd libqhull libcholmod; do
-            grep -q "$dep" "$T/deb.depends" || fail "the .deb does not depend on $dep: $(cat "$T/deb.depends")"
-        done
-    fi
-else
-    echo "skip: the .deb (cpack/dpkg-deb missing, or a sanitizer build)"
-fi
-
-[ "$failures" -eq 0 ] && echo "ok: install, link (pkg-config, find_package), serve${DEB:+, .deb}"
+[ "$failures" -eq 0 ] && echo "ok: install, link (pkg-config, find_package), serve"
 [ "$failures" -eq 0 ]

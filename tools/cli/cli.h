@@ -82,13 +82,29 @@ int cli_is_stdio(const char *path);
 /* The format named by --format ("obj", "ply", ...: the codec table's
  * extensions), or FFD_FORMAT_AUTO when unknown. */
 ffd_format cli_format_from_name(const char *name);
-/* "OBJ", "PLY", ...: for messages. */
+/* "OBJ", "PLY", "glTF", ...: the codec's name, for messages. */
 const char *cli_format_label(ffd_format format);
-/* Parses --format (format_text may be NULL: *format AUTO) and refuses two
- * inputs that are both "-". inputs: count/2 pairs (how the user named it,
- * path). Returns 0 or the usage error's exit code. */
-int cli_check_stdio(const char *command, const char *const *inputs, size_t count,
-                    const char *format_text, ffd_format *format);
+/* "obj", "ply", "gltf", ...: the codec's first extension, for info. */
+const char *cli_format_name(ffd_format format);
+/* "obj, ply, off, stl, gltf or glb": every extension of the mesh codec table,
+ * each after dot ("" for --format's names, "." for file names), in buf. */
+const char *cli_format_names(const char *dot, char *buf, size_t size);
+#define CLI_FORMAT_NAMES_SIZE 160
+/* A command's standard input, checked before any work: parses --format
+ * (format_text may be NULL: *format AUTO), refuses two inputs that are both
+ * "-", and a mesh from "-" without --format. inputs: count/2 pairs (how the
+ * user named it, path), the input mesh first; mesh_name is how the usage
+ * names the mesh ("IN", "MESH"). Returns 0 or the usage error's exit code. */
+int cli_check_stdin(const char *command, const char *mesh_name, const char *const *inputs,
+                    size_t count, const char *format_text, ffd_format *format);
+/* A command's standard output, checked before any work. outputs: count/2
+ * pairs (how the user named it, path). mesh_first: the first output is a
+ * mesh that may be "-" (its format: format from --format, else in's
+ * extension, set in *out_format; refused when neither) and the others are
+ * files only; 0: every output is a file only. Returns 0 or the usage
+ * error's exit code. */
+int cli_check_stdout(const char *command, const char *const *outputs, size_t count,
+                     int mesh_first, const char *in, ffd_format format, ffd_format *out_format);
 /* Reads all of standard input (free *data with free); limit 0: none, else reading stops after a
  * little more than limit bytes (the parser then refuses it naming its limit). */
 ffd_status cli_read_stdin(size_t limit, unsigned char **data, size_t *size, ffd_error *err);

@@ -2,6 +2,7 @@
  * --format option that names their format, and progress and notes on
  * standard error (--progress, --quiet). docs/cli.md "Pipes". */
 #include "cli.h"
+#include "mesh/mesh_codec.h"
 
 #include <stdarg.h>
 #include <stdlib.h>
@@ -11,6 +12,10 @@
 int cli_quiet;
 int cli_progress_lines;
 static int bar_open; /* a progress bar is on stderr's last line */
+
+/* A stage shorter than this draws no bar on a terminal (a small mesh's
+ * reading would flash one); the --progress lines report every stage. */
+#define CLI_BAR_DELAY_SECONDS 1.0
 
 /* The largest rig read from standard input: the rig reader's own limit
  * (docs/rig.md); one byte more is read so that the reader refuses it with
@@ -34,25 +39,52 @@ ffd_format cli_format_from_name(const char *name)
 
 const char *cli_format_label(ffd_format format)
 {
-    switch (format) {
-    case FFD_FORMAT_OBJ: return "OBJ";
-    case FFD_FORMAT_PLY: return "PLY";
-    case FFD_FORMAT_OFF: return "OFF";
-    case FFD_FORMAT_STL: return "STL";
-    default: return "mesh";
-    }
+    const ffd_mesh_codec *codec = ffd_mesh_codec_find(format);
+    return codec ? codec->name : "mesh";
 }
 
-int cli_check_stdio(const char *command, const char *const *inputs, size_t count,
-                    const char *format_text, ffd_format *format)
+const char *cli_format_name(ffd_format format)
 {
+    const ffd_mesh_codec *codec = ffd_mesh_codec_find(format);
+    return codec ? codec->extensions[0] : "unknown";
+}
+
+/* The codecs in the table's order: ffd_format's values from the first. */
+static const ffd_mesh_codec *codec_at(size_t i)
+{
+    return ffd_mesh_codec_find((ffd_format)(FFD_FORMAT_AUTO + 1 + i));
+}
+
+const char *cli_format_names(const char *dot, char *buf, size_t size)
+{
+    size_t count = 0, at = 0;
+    for (size_t i = 0; codec_at(i); i++)
+        for (const char *const *e = codec_at(i)->extensions; *e; e++)
+            count++;
+    buf[0] = 0;
+    size_t k = 0;
+    for (size_t i = 0; codec_at(i); i++) {
+        for (const char *const *e = codec_at(i)->extensions; *e && at < size; e++, k++) {
+            const char *sep = k == 0 ? "" : k + 1 == count ? " or " : ", ";
+            int n = snprintf(buf + at, size - at, "%s%s%s", sep, dot, *e);
+            if (n < 0)
+                return buf;
+            at += (size_t)n;
+        }
+    }
+    return buf;
+}
+
+int cli_check_stdin(const char *command, const char *mesh_name, const char *const *inputs,
+                    size_t count, const char *format_text, ffd_format *format)
+{
+    char names[CLI_FORMAT_NAMES_SIZE];
     *format = FFD_FORMAT_AUTO;
     if (format_text) {
         *format = cli_format_from_name(format_text);
         if (*format == FFD_FORMAT_AUTO)
-            return cli_usage_error(command,
-                                   "--format '%s': unknown format (expected obj, ply, off or stl)",
-                                   format_text);
+            return cli_usage_error(command, "--format '%s': unknown format (expected %s)",
+                                   format_text, cli_format_names("", names, sizeof names));
     }
     const char *first = NULL;
     for (size_t i = 0; i < count; i += 2) {
@@ -63,6 +95,30 @@ int cli_check_stdio(const char *command, const char *const *inputs, size_t count
                                    "%s and %s both read standard input ('-'): only one input can",
                                    first, inputs[i]);
         first = inputs[i];
+    }
+    if (count && cli_is_stdio(inputs[1]) && !*format)
+        return cli_usage_error(command, "%s '-' (standard input) needs --format FMT (%s)",
+                               mesh_name, cli_format_names("", names, sizeof names));
+    return 0;
+}
+
+int cli_check_stdout(const char *command, const char *const *outputs, size_t count,
+                     int mesh_first, const char *in, ffd_format format, ffd_format *out_format)
+{
+    for (size_t i = mesh_first ? 2 : 0; i < count; i += 2)
+        if (cli_is_stdio(outputs[i + 1]))
+            return mesh_first ? cli_usage_error(command,
+                                                "%s -: only the mesh (%s) can go to standard output",
+                                                outputs[i], outputs[0])
+                              : cli_usage_error(command, "%s -: this command writes files only",
+                                                outputs[i]);
+    if (!mesh_first || count < 2 || !cli_is_stdio(outputs[1]))
+        return 0;
+    *out_format = format ? format : ffd_format_from_path(in);
+    if (!*out_format) {
+        char names[CLI_FORMAT_NAMES_SIZE];
+        return cli_usage_error(command, "%s '-' (standard output) needs --format FMT (%s)",
+                               outputs[0], cli_format_names("", names, sizeof names));
     }
     return 0;
 }
@@ -190,13 +246,24 @@ void cli_note(const char *fmt, ...)
     va_end(ap);
 }
 
-/* ffd_set_progress's hook: a bar on a terminal, else "ffd: STAGE: N%" lines
- * (--progress). */
+/* What draw_progress keeps between calls. */
+typedef struct progress_state {
+    int last;       /* the last percentage printed, as lines */
+    double started; /* when the stage began (cli_now) */
+} progress_state;
+
+/* ffd_set_progress's hook: a bar on a terminal once a stage has run for
+ * CLI_BAR_DELAY_SECONDS, else "ffd: STAGE: N%" lines (--progress). */
 static void draw_progress(void *user, const char *stage, double fraction)
 {
-    int *last = user; /* the last percentage printed, as lines */
+    progress_state *state = user;
+    int *last = &state->last;
     int percent = (int)(fraction * 100 + 0.5);
+    if (fraction == 0 && !bar_open)
+        state->started = cli_now();
     if (!cli_progress_lines) {
+        if (!bar_open && cli_now() - state->started < CLI_BAR_DELAY_SECONDS)
+            return;
         char bar[31];
         int filled = (int)(fraction * 30);
         for (int i = 0; i < 30; i++)
@@ -218,12 +285,12 @@ static void draw_progress(void *user, const char *stage, double fraction)
 
 void cli_progress_setup(int want_lines)
 {
-    static int last = -1;
+    static progress_state state = {-1, 0};
     if (isatty(STDERR_FILENO) && !cli_quiet) {
         cli_progress_lines = 0;
-        ffd_set_progress(draw_progress, &last);
+        ffd_set_progress(draw_progress, &state);
     } else if (want_lines) {
         cli_progress_lines = 1;
-        ffd_set_progress(draw_progress, &last);
+        ffd_set_progress(draw_progress, &state);
     }
 }

@@ -21,7 +21,7 @@ static const char usage[] =
     "  --in-place    allow OUT to be IN itself\n"
     "  -o, --output OUT\n"
     "                the output, instead of the second argument\n"
-    "  --format FMT  the format of '-' (obj, ply, off, stl)\n"
+    "  --format FMT  the format of '-' (obj, ply, off, stl, gltf or glb)\n"
     "  -h, --help    this help\n";
 
 int cmd_convert(int argc, char **argv)
@@ -60,18 +60,12 @@ int cmd_convert(int argc, char **argv)
     if (!in || !out)
         return cli_usage_error("convert", "expected IN and OUT");
     ffd_format stdio_format;
-    const char *inputs[] = {"the input mesh", in};
-    int bad = cli_check_stdio("convert", inputs, 2, format_text, &stdio_format);
+    const char *inputs[] = {"the input mesh", in}, *outputs[] = {"OUT", out};
+    int bad = cli_check_stdin("convert", "IN", inputs, 2, format_text, &stdio_format);
+    if (!bad)
+        bad = cli_check_stdout("convert", outputs, 2, 1, in, stdio_format, &options.format);
     if (bad)
         return bad;
-    if (cli_is_stdio(in) && !stdio_format)
-        return cli_usage_error("convert", "IN '-' (standard input) needs --format FMT "
-                                          "(obj, ply, off or stl)");
-    if (cli_is_stdio(out))
-        options.format = stdio_format ? stdio_format : ffd_format_from_path(in);
-    if (cli_is_stdio(out) && !options.format)
-        return cli_usage_error("convert", "OUT '-' (standard output) needs --format FMT "
-                                          "(obj, ply, off or stl)");
     if ((bad = cli_check_output("convert", in, out, in_place)))
         return bad;
     const cli_file files[] = {{"the input mesh", in, CLI_FILE_INPUT}, {"OUT", out, CLI_FILE_OUTPUT}};

@@ -22,8 +22,8 @@ static const char usage[] =
     "options:\n"
     "  -o, --output OUT  the deformed mesh\n"
     "  -r, --rig RIG     the rig file\n"
-    "  --format FMT      the format of IN or OUT '-' (obj, ply, off, stl; OUT '-'\n"
-    "                    without it: the format of IN's extension)\n"
+    "  --format FMT      the format of IN or OUT '-' (obj, ply, off, stl, gltf or\n"
+    "                    glb; OUT '-' without it: the format of IN's extension)\n"
     "  --in-place        allow OUT to be IN (OUT defaults to IN)\n"
     "  --report          print the report as JSON on stdout: residuals, then the\n"
     "                    method's details (docs/rig.md \"The report\")\n"
@@ -202,24 +202,15 @@ int cmd_deform(int argc, char **argv)
     }
     ffd_format stdio_format;
     const char *inputs[] = {"the input mesh", in, "--rig", rig_path};
-    int bad = cli_check_stdio("deform", inputs, 4, format_text, &stdio_format);
+    const char *outputs[] = {"-o", out, "--lattice-out", lattice_out, "--proxy-out", proxy_out};
+    int bad = cli_check_stdin("deform", "IN", inputs, 4, format_text, &stdio_format);
+    if (!bad)
+        bad = cli_check_stdout("deform", outputs, 6, 1, in, stdio_format, &options.format);
     if (bad)
         return bad;
-    if (cli_is_stdio(in) && !stdio_format)
-        return cli_usage_error("deform", "IN '-' (standard input) needs --format FMT "
-                                         "(obj, ply, off or stl)");
-    if (cli_is_stdio(out)) {
-        options.format = stdio_format ? stdio_format : ffd_format_from_path(in);
-        if (!options.format)
-            return cli_usage_error("deform", "-o - (standard output) needs --format FMT "
-                                             "(obj, ply, off or stl)");
-        if (want_report)
-            return cli_usage_error("deform", "--report prints on standard output, which -o - "
-                                             "writes the mesh to: use -o FILE");
-    }
-    if (cli_is_stdio(lattice_out) || cli_is_stdio(proxy_out))
-        return cli_usage_error("deform", "%s -: only the mesh (-o) can go to standard output",
-                               cli_is_stdio(lattice_out) ? "--lattice-out" : "--proxy-out");
+    if (cli_is_stdio(out) && want_report)
+        return cli_usage_error("deform", "--report prints on standard output, which -o - "
+                                         "writes the mesh to: use -o FILE");
     if ((bad = cli_check_output("deform", in, out, in_place)))
         return bad;
     const cli_file files[] = {

@@ -12,21 +12,9 @@ static const char usage[] =
     "\n"
     "options:\n"
     "  --json        one JSON object on stdout instead of text\n"
-    "  --format FMT  MESH '-' is standard input in this format (obj, ply, off, stl)\n"
+    "  --format FMT  MESH '-' is standard input in this format (obj, ply, off, stl,\n"
+    "                gltf or glb)\n"
     "  -h, --help    this help\n";
-
-static const char *format_name(ffd_format format)
-{
-    switch (format) {
-    case FFD_FORMAT_OBJ: return "obj";
-    case FFD_FORMAT_PLY: return "ply";
-    case FFD_FORMAT_OFF: return "off";
-    case FFD_FORMAT_STL: return "stl";
-    case FFD_FORMAT_GLTF: return "gltf";
-    case FFD_FORMAT_AUTO: break;
-    }
-    return "unknown";
-}
 
 static void print_json(const char *path, ffd_format format, const ffd_mesh_info *info)
 {
@@ -35,7 +23,7 @@ static void print_json(const char *path, ffd_format format, const ffd_mesh_info 
     printf(", \"format\": \"%s\", \"vertices\": %zu, \"faces\": %zu, \"corners\": %zu,"
            " \"welded_vertices\": %zu, \"edges\": %zu, \"boundary_edges\": %zu,"
            " \"nonmanifold_edges\": %zu, \"closed\": %s, \"normals\": %zu, \"texcoords\": %zu",
-           format_name(format), info->vertex_count, info->face_count, info->corner_count,
+           cli_format_name(format), info->vertex_count, info->face_count, info->corner_count,
            info->welded_vertex_count, info->edge_count, info->boundary_edge_count,
            info->nonmanifold_edge_count, info->closed ? "true" : "false", info->normal_count,
            info->texcoord_count);
@@ -58,7 +46,7 @@ static void print_json(const char *path, ffd_format format, const ffd_mesh_info 
 
 static void print_text(const char *path, ffd_format format, const ffd_mesh_info *info)
 {
-    printf("%s (%s)\n", path, format_name(format));
+    printf("%s (%s)\n", path, cli_format_name(format));
     printf("  vertices            %zu (%zu distinct positions)\n", info->vertex_count,
            info->welded_vertex_count);
     printf("  faces               %zu (%zu corners)\n", info->face_count, info->corner_count);
@@ -103,12 +91,9 @@ int cmd_info(int argc, char **argv)
         return cli_usage_error("info", "missing MESH");
     ffd_format stdio_format;
     const char *inputs[] = {"MESH", path};
-    int bad = cli_check_stdio("info", inputs, 2, format_text, &stdio_format);
+    int bad = cli_check_stdin("info", "MESH", inputs, 2, format_text, &stdio_format);
     if (bad)
         return bad;
-    if (cli_is_stdio(path) && !stdio_format)
-        return cli_usage_error("info", "MESH '-' (standard input) needs --format FMT "
-                                       "(obj, ply, off or stl)");
 
     ffd_error err = {{0}};
     ffd_mesh *mesh = NULL;

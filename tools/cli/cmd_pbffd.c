@@ -28,7 +28,8 @@ static const char usage[] =
     "  --levels N            hierarchy levels recorded in the rig (default 1)\n"
     "  --points F            also write the control points as an OBJ point cloud\n"
     "  --report              print the placement report as JSON on stdout\n"
-    "  --format FMT          MESH '-' is standard input in this format (obj, ply, off, stl)\n"
+    "  --format FMT          MESH '-' is standard input in this format (obj, ply, off,\n"
+    "                        stl, gltf or glb)\n"
     "  -h, --help            this help\n";
 
 /* A positive integer, or -1. */
@@ -175,16 +176,12 @@ static int cmd_place(int argc, char **argv)
                                    surface);
     }
     ffd_format stdio_format;
-    const char *inputs[] = {"MESH", in};
-    int bad = cli_check_stdio("pbffd place", inputs, 2, format_text, &stdio_format);
+    const char *inputs[] = {"MESH", in}, *outputs[] = {"-o", out, "--points", points};
+    int bad = cli_check_stdin("pbffd place", "MESH", inputs, 2, format_text, &stdio_format);
+    if (!bad)
+        bad = cli_check_stdout("pbffd place", outputs, 4, 0, in, stdio_format, NULL);
     if (bad)
         return bad;
-    if (cli_is_stdio(in) && !stdio_format)
-        return cli_usage_error("pbffd place", "MESH '-' (standard input) needs --format FMT "
-                                              "(obj, ply, off or stl)");
-    if (cli_is_stdio(out) || cli_is_stdio(points))
-        return cli_usage_error("pbffd place", "%s -: this command writes files only",
-                               cli_is_stdio(out) ? "-o" : "--points");
     const cli_file files[] = {
         {"the input mesh", in, CLI_FILE_INPUT},
         {"-o", out, CLI_FILE_OUTPUT},

@@ -28,7 +28,8 @@ static const char usage[] =
     "  -r, --rig RIG         a \"tspline\" rig whose lattice and steps to use\n"
     "  --lattice F           also write the full T-lattice (OBJ: points and edges)\n"
     "  --report              print the counts as JSON on stdout\n"
-    "  --format FMT          MESH '-' is standard input in this format (obj, ply, off, stl);\n"
+    "  --format FMT          MESH '-' is standard input in this format (obj, ply, off,\n"
+    "                        stl, gltf or glb);\n"
     "                        RIG '-' reads a JSON rig from standard input\n"
     "  -h, --help            this help\n";
 
@@ -123,16 +124,12 @@ static int cmd_tspline(int argc, char **argv)
         return cli_usage_error("tspline proxy",
                                "--resolution '%s': expected N or L,M,N (positive integers)", res_text);
     ffd_format stdio_format;
-    const char *inputs[] = {"MESH", in, "--rig", rig_path};
-    int bad = cli_check_stdio("tspline proxy", inputs, 4, format_text, &stdio_format);
+    const char *inputs[] = {"MESH", in, "--rig", rig_path}, *outputs[] = {"-o", out, "--lattice", lattice};
+    int bad = cli_check_stdin("tspline proxy", "MESH", inputs, 4, format_text, &stdio_format);
+    if (!bad)
+        bad = cli_check_stdout("tspline proxy", outputs, 4, 0, in, stdio_format, NULL);
     if (bad)
         return bad;
-    if (cli_is_stdio(in) && !stdio_format)
-        return cli_usage_error("tspline proxy", "MESH '-' (standard input) needs --format FMT "
-                                                "(obj, ply, off or stl)");
-    if (cli_is_stdio(out) || cli_is_stdio(lattice))
-        return cli_usage_error("tspline proxy", "%s -: this command writes files only",
-                               cli_is_stdio(out) ? "-o" : "--lattice");
     bad = cli_check_format("tspline proxy", out);
     if (!bad)
         bad = cli_check_format("tspline proxy", lattice);

@@ -38,7 +38,8 @@ static const char usage_tail[] =
     "                                         (errors are still printed)\n"
     "\n"
     "'-' as a mesh or rig file reads standard input or writes standard output;\n"
-    "--format FMT (obj, ply, off, stl) names its format (docs/cli.md \"Pipes\").\n"
+    "--format FMT (obj, ply, off, stl, gltf or glb) names its format (docs/cli.md\n"
+    "\"Pipes\").\n"
     "Run 'ffd COMMAND --help' for a command's options.\n"
     "Exit status: 0 success, 1 bad or unreadable input (or a failed write), 2 usage error.\n";
 
@@ -212,9 +213,10 @@ int cli_check_files(const char *command, const cli_file *files, size_t count)
 
 int cli_check_format(const char *command, const char *out)
 {
+    char names[CLI_FORMAT_NAMES_SIZE];
     if (out && !cli_is_stdio(out) && ffd_format_from_path(out) == FFD_FORMAT_AUTO)
-        return cli_usage_error(command,
-                               "%s: unknown output format (expected .obj, .ply, .off, .stl, .gltf or .glb)", out);
+        return cli_usage_error(command, "%s: unknown output format (expected %s)", out,
+                               cli_format_names(".", names, sizeof names));
     return 0;
 }
 
