@@ -9,7 +9,9 @@
  * Bytes per point: the binding's own arrays (counted from its layout, see
  * src/lattice/lattice.h) and the growth of the resident set across bind (the
  * binding's pages plus transient buffers). Medians of K rounds; bind rounds
- * destroy and rebuild the binding, so they include its page faults. */
+ * destroy and rebuild the binding, so they include its page faults. The last
+ * column hashes the evaluated bits (FNV-1a): two builds that agree bitwise
+ * print the same hash. */
 #include "ffd.h"
 #include "lattice/lattice.h"
 
@@ -103,7 +105,7 @@ int main(int argc, char **argv)
            omp_get_max_threads(), path, basis == FFD_BASIS_BSPLINE ? "bspline" : "bernstein", r,
            grid ? "grid" : "random", reps);
     printf("| points | bind ms | bind ns/point | evaluate ms | evaluate ns/point | binding B/point "
-           "| RSS growth at bind B/point |\n|---:|---:|---:|---:|---:|---:|---:|\n");
+           "| RSS growth at bind B/point | output hash |\n|---:|---:|---:|---:|---:|---:|---:|---|\n");
     ffd_box box = {{0, 0, 0}, {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}}};
     uint32_t res[3] = {r, r, r};
     for (size_t si = 0; si < nsizes; si++) {
@@ -148,11 +150,15 @@ int main(int argc, char **argv)
         qsort(tb, (size_t)reps, sizeof(double), cmp_double);
         qsort(te, (size_t)reps, sizeof(double), cmp_double);
         size_t nin = ffd_lattice_binding_inside_count(b);
+        unsigned long long hash = 0xcbf29ce484222325ull;
+        const unsigned char *bytes_out = (const unsigned char *)q;
+        for (size_t i = 0; i < 3 * n * sizeof *q; i++)
+            hash = (hash ^ bytes_out[i]) * 0x100000001b3ull;
         /* params 24 + inside 1 per point; order 4 + local 24 + rest 24 per inside point */
         double bytes = 25.0 * (double)n + 52.0 * (double)nin;
-        printf("| %zu | %.2f | %.2f | %.2f | %.2f | %.0f | %.0f |\n", n, tb[reps / 2] * 1e3,
+        printf("| %zu | %.2f | %.2f | %.2f | %.2f | %.0f | %.0f | %016llx |\n", n, tb[reps / 2] * 1e3,
                tb[reps / 2] * 1e9 / (double)n, te[reps / 2] * 1e3, te[reps / 2] * 1e9 / (double)n,
-               bytes / (double)n, grow / (double)n);
+               bytes / (double)n, grow / (double)n, hash);
         fflush(stdout);
         ffd_lattice_binding_destroy(b);
         ffd_lattice_destroy(lat);

@@ -200,7 +200,7 @@ ffd_status ffd_lattice_eval(const ffd_lattice *lat, const ffd_lattice_binding *b
     bspline_kernel bspline_block;
     bernstein_kernel bernstein_block;
     pick_kernels(&bspline_block, &bernstein_block);
-    size_t scratch_n = bspline ? 0 : ((size_t)lat->res[0] + lat->res[1] + lat->res[2] + 1) * BLK;
+    size_t scratch_n = bspline ? 0 : ((size_t)lat->res[0] + lat->res[1] + lat->res[2] + 6) * BLK;
     int failed = 0;
     const long long nb = (long long)bind->block_count;
 #pragma omp parallel reduction(| : failed)
