@@ -7,6 +7,7 @@
  * are one jittered point per cell of a k^3 grid in scan order, as a structured mesh or
  * volume would give them. */
 #include "ffd.h"
+#include "lattice/lattice.h" /* the evaluation's SIMD path */
 
 #include <math.h>
 #include <omp.h>
@@ -70,7 +71,8 @@ int main(int argc, char **argv)
     const size_t sizes[] = {10000, 100000, 1000000};
     const uint32_t lres[] = {3, 5, 8};
     const int reps = quick ? 3 : 11;
-    printf("threads: %d\n", omp_get_max_threads());
+    printf("threads: %d, evaluation kernels: %s\n", omp_get_max_threads(),
+           ffd_simd_path_name(ffd_lattice_simd_path()));
     printf("| basis | points | order | lattice | bind ms | evaluate ms | Mpoints/s (eval) |\n");
     printf("|---|---:|---|---:|---:|---:|---:|\n");
     ffd_box box = {{0, 0, 0}, {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}}};

@@ -13,6 +13,10 @@
  *     ffd_set_progress).
  *   - One thread per handle at a time; evaluation is parallel inside (OpenMP)
  *     and bitwise identical for any thread count.
+ *   - BLAS/LAPACK run on one thread: the library's first call into them sets
+ *     OpenBLAS to one thread for the process (openblas_set_num_threads(1)),
+ *     so its pool does not spin against the OpenMP threads; results are then
+ *     also independent of the core count.
  *   - Each method's own API (handle, options, operations, and what it puts in
  *     the generic structures) is in its header include/ffd_<method>.h; ffd.h
  *     includes them all at its end (ffd_methods.h, the list of them).

@@ -4,6 +4,9 @@
 #include "lattice/lattice.h"
 
 #include <omp.h>
+#if defined(__x86_64__)
+#include <cpuid.h>
+#endif
 
 static const ffd_box rotated_box = {
     {-1.0, 0.5, 2.0},
@@ -457,6 +460,81 @@ static void test_thread_invariance(void)
     }
 }
 
+/* ---- the block kernels agree with the scalar evaluation, for any thread count ---- */
+/* Resolutions that exercise every remainder of the Bernstein kernel's four
+ * terms per pass (n mod 4 = 0..3) and the smallest and larger nets. */
+static void test_block_eval_matches_scalar(void)
+{
+    static const uint32_t R[][3] = {{2, 3, 9}, {8, 5, 4}, {4, 7, 6}, {3, 8, 8}};
+    for (int basis = 0; basis < 2; basis++)
+        for (size_t r = 0; r < sizeof R / sizeof R[0]; r++) {
+            ffd_lattice *lat = make((ffd_basis)basis, &rotated_box, R[r][0], R[r][1], R[r][2]);
+            perturb(lat, 0.6);
+            size_t n = 3000; /* several blocks of 256 per cell for the coarse lattices */
+            double *p = random_inside(&rotated_box, n);
+            double *q1 = malloc(3 * n * sizeof *q1), *q2 = malloc(3 * n * sizeof *q2);
+            ffd_lattice_binding *b = NULL;
+            CHECK_OK(ffd_lattice_bind(lat, p, n, FFD_OUTSIDE_FIXED, &b, NULL));
+            omp_set_num_threads(1);
+            CHECK_OK(ffd_lattice_eval(lat, b, q1, NULL));
+            omp_set_num_threads(2);
+            CHECK_OK(ffd_lattice_eval(lat, b, q2, NULL));
+            CHECK(memcmp(q1, q2, 3 * n * sizeof *q1) == 0);
+            for (size_t i = 0; i < n; i++) {
+                double stu[3], ref[3];
+                if (!ffd_lattice_binding_params(b, i, stu))
+                    continue;
+                ffd_lattice_eval_params(lat, stu, ref);
+                for (int c = 0; c < 3; c++)
+                    CHECK_NEAR(q1[3 * i + c], ref[c], 1e-12 * fmax(1.0, fabs(ref[c])));
+            }
+            free(p);
+            free(q1);
+            free(q2);
+            ffd_lattice_binding_destroy(b);
+            ffd_lattice_destroy(lat);
+        }
+}
+
+/* ---- the evaluation runs the fastest kernel the CPU has ---- */
+
+/* What cpuid and XCR0 say, read here independently of the library (which
+ * goes through libgcc's __builtin_cpu_supports): the path a CPU should get. */
+static ffd_simd_path expected_simd_path(void)
+{
+#if FFD_SIMD_DISPATCH
+    unsigned a, b, c, d;
+    if (!__get_cpuid(1, &a, &b, &c, &d))
+        return FFD_SIMD_DEFAULT;
+    int fma = (c >> 12) & 1, osxsave = (c >> 27) & 1, avx = (c >> 28) & 1;
+    if (!osxsave || !avx || __get_cpuid_max(0, NULL) < 7)
+        return FFD_SIMD_DEFAULT;
+    unsigned xcr0_lo, xcr0_hi;
+    __asm__ volatile("xgetbv" : "=a"(xcr0_lo), "=d"(xcr0_hi) : "c"(0));
+    (void)xcr0_hi;
+    __cpuid_count(7, 0, a, b, c, d);
+    int avx2 = (b >> 5) & 1, avx512f = (b >> 16) & 1;
+    int os_ymm = (xcr0_lo & 0x6) == 0x6, os_zmm = (xcr0_lo & 0xe6) == 0xe6;
+    if (avx512f && avx2 && fma && os_zmm)
+        return FFD_SIMD_AVX512;
+    if (avx2 && fma && os_ymm)
+        return FFD_SIMD_AVX2;
+#endif
+    return FFD_SIMD_DEFAULT;
+}
+
+static void test_simd_dispatch(void)
+{
+    ffd_simd_path want = expected_simd_path(), got = ffd_lattice_simd_path();
+    if (got != want)
+        fprintf(stderr, "simd_dispatch: cpuid asks for %s, the library dispatches %s\n",
+                ffd_simd_path_name(want), ffd_simd_path_name(got));
+    CHECK(got == want);
+    CHECK(strcmp(ffd_simd_path_name(FFD_SIMD_AVX512), "avx512") == 0);
+    CHECK(strcmp(ffd_simd_path_name(FFD_SIMD_AVX2), "avx2") == 0);
+    CHECK(strcmp(ffd_simd_path_name(FFD_SIMD_DEFAULT), "default") == 0);
+}
+
 /* ---- bad input ---- */
 static void test_bad_input(void)
 {
@@ -755,6 +833,8 @@ int main(int argc, char **argv)
         {"outside_policies", test_outside_policies},
         {"jacobian", test_jacobian},
         {"thread_invariance", test_thread_invariance},
+        {"simd_dispatch", test_simd_dispatch},
+        {"block_eval_matches_scalar", test_block_eval_matches_scalar},
         {"bad_input", test_bad_input},
         {"manip_targets_reached", test_manip_targets_reached},
         {"manip_single_point_formula", test_manip_single_point_formula},

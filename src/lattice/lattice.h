@@ -112,6 +112,21 @@ void ffd_lattice_displacement_at(const ffd_lattice *lat, const double stu[3], do
 /* Rest position at global parameters (the box map of the rest normalised coordinates). */
 void ffd_lattice_rest_at(const ffd_lattice *lat, const double stu[3], double x[3]);
 
+/* The instruction set of the evaluation kernels (lattice_kernels.h), chosen
+ * per call from the CPU's features: AVX-512 when cpuid reports AVX-512F (with
+ * AVX2 and FMA, and the OS saves the zmm state), else AVX2 when it reports
+ * AVX2 and FMA, else the baseline (SSE2 on x86-64). Builds other than GCC or
+ * Clang on x86-64, or with FFD_NO_CLONES defined, always use the baseline. */
+#if (defined(__GNUC__) || defined(__clang__)) && defined(__x86_64__) && !defined(FFD_NO_CLONES)
+#define FFD_SIMD_DISPATCH 1
+#else
+#define FFD_SIMD_DISPATCH 0
+#endif
+typedef enum ffd_simd_path { FFD_SIMD_DEFAULT, FFD_SIMD_AVX2, FFD_SIMD_AVX512 } ffd_simd_path;
+ffd_simd_path ffd_lattice_simd_path(void);
+/* "default", "avx2" or "avx512". */
+const char *ffd_simd_path_name(ffd_simd_path path);
+
 /* Rebuilds P_ext from P (B-spline). */
 void ffd_lattice_sync(ffd_lattice *lat);
 

@@ -12,12 +12,6 @@
 
 #define BLK 256
 
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && !defined(FFD_NO_CLONES)
-#define FFD_HOT __attribute__((target_clones("arch=skylake-avx512", "arch=haswell", "default")))
-#else
-#define FFD_HOT
-#endif
-
 /* ---- scalar evaluation at global parameters ---- */
 
 void ffd_axis_basis(ffd_basis basis, uint32_t res, double S, uint32_t *first, double *b, double *d)
@@ -93,86 +87,85 @@ void ffd_lattice_rest_at(const ffd_lattice *lat, const double stu[3], double x[3
                loc[2] * lat->box.axes[2][r];
 }
 
-/* ---- block kernels ---- */
+/* ---- block kernels, one copy per instruction set ---- */
 
-FFD_HOT static void bspline_block(const double *restrict s, const double *restrict t,
-                                  const double *restrict u, size_t np, const double *restrict cp,
-                                  double *restrict x, double *restrict y, double *restrict z)
+/* The copies are chosen from the CPU's features (cpuid), not its model:
+ * GCC's target_clones("arch=...") resolver tests Intel model numbers, so an
+ * AMD CPU with AVX-512 ran the SSE2 copy. -ffp-contract=fast (CMakeLists.txt)
+ * lets the AVX2 and AVX-512 copies fuse multiply-adds: their last bits differ
+ * from the SSE2 copy's, but every thread of a process runs the same copy, so
+ * results stay independent of the thread count. */
+#define KERNEL(name) name##_default
+#define KERNEL_TARGET
+#include "lattice/lattice_kernels.h"
+#undef KERNEL
+#undef KERNEL_TARGET
+
+#if FFD_SIMD_DISPATCH
+#define KERNEL(name) name##_avx2
+#define KERNEL_TARGET __attribute__((target("avx2,fma")))
+#include "lattice/lattice_kernels.h"
+#undef KERNEL
+#undef KERNEL_TARGET
+
+#define KERNEL(name) name##_avx512
+#define KERNEL_TARGET __attribute__((target("avx512f,avx2,fma")))
+#include "lattice/lattice_kernels.h"
+#undef KERNEL
+#undef KERNEL_TARGET
+#endif
+
+ffd_simd_path ffd_lattice_simd_path(void)
 {
-    double bs[4][BLK], bt[4][BLK], bu[4][BLK], wab[BLK];
-    for (size_t p = 0; p < np; p++) {
-        double a = s[p], a2 = a * a, a3 = a2 * a, r = 1.0 - a;
-        bs[0][p] = r * r * r * (1.0 / 6.0);
-        bs[1][p] = (3.0 * a3 - 6.0 * a2 + 4.0) * (1.0 / 6.0);
-        bs[2][p] = (-3.0 * a3 + 3.0 * a2 + 3.0 * a + 1.0) * (1.0 / 6.0);
-        bs[3][p] = a3 * (1.0 / 6.0);
-        a = t[p], a2 = a * a, a3 = a2 * a, r = 1.0 - a;
-        bt[0][p] = r * r * r * (1.0 / 6.0);
-        bt[1][p] = (3.0 * a3 - 6.0 * a2 + 4.0) * (1.0 / 6.0);
-        bt[2][p] = (-3.0 * a3 + 3.0 * a2 + 3.0 * a + 1.0) * (1.0 / 6.0);
-        bt[3][p] = a3 * (1.0 / 6.0);
-        a = u[p], a2 = a * a, a3 = a2 * a, r = 1.0 - a;
-        bu[0][p] = r * r * r * (1.0 / 6.0);
-        bu[1][p] = (3.0 * a3 - 6.0 * a2 + 4.0) * (1.0 / 6.0);
-        bu[2][p] = (-3.0 * a3 + 3.0 * a2 + 3.0 * a + 1.0) * (1.0 / 6.0);
-        bu[3][p] = a3 * (1.0 / 6.0);
-        x[p] = y[p] = z[p] = 0.0;
-    }
-    for (int a = 0; a < 4; a++)
-        for (int b = 0; b < 4; b++) {
-            for (size_t p = 0; p < np; p++)
-                wab[p] = bs[a][p] * bt[b][p];
-            for (int c = 0; c < 4; c++) {
-                const double *q = cp + 3 * ((a * 4 + b) * 4 + c);
-                const double qx = q[0], qy = q[1], qz = q[2];
-                for (size_t p = 0; p < np; p++) {
-                    double w = wab[p] * bu[c][p];
-                    x[p] += w * qx;
-                    y[p] += w * qy;
-                    z[p] += w * qz;
-                }
-            }
-        }
+#if FFD_SIMD_DISPATCH
+    __builtin_cpu_init(); /* idempotent; libgcc's cpuid and XGETBV (OS state) checks */
+    if (__builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx2") &&
+        __builtin_cpu_supports("fma"))
+        return FFD_SIMD_AVX512;
+    if (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma"))
+        return FFD_SIMD_AVX2;
+#endif
+    return FFD_SIMD_DEFAULT;
 }
 
-FFD_HOT static void bernstein_block(const ffd_lattice *lat, const double *restrict s,
-                                    const double *restrict t, const double *restrict u, size_t np,
-                                    double *restrict x, double *restrict y, double *restrict z,
-                                    double *restrict scratch)
+const char *ffd_simd_path_name(ffd_simd_path path)
 {
-    const uint32_t l = lat->res[0], m = lat->res[1], n = lat->res[2];
-    double *bs = scratch, *bt = bs + (size_t)l * BLK, *bu = bt + (size_t)m * BLK;
-    double *wab = bu + (size_t)n * BLK;
-    double tmp[FFD_BERNSTEIN_MAX_RES];
-    for (size_t p = 0; p < np; p++) {
-        ffd_bernstein_basis(l - 1, s[p], tmp, NULL);
-        for (uint32_t i = 0; i < l; i++)
-            bs[(size_t)i * BLK + p] = tmp[i];
-        ffd_bernstein_basis(m - 1, t[p], tmp, NULL);
-        for (uint32_t i = 0; i < m; i++)
-            bt[(size_t)i * BLK + p] = tmp[i];
-        ffd_bernstein_basis(n - 1, u[p], tmp, NULL);
-        for (uint32_t i = 0; i < n; i++)
-            bu[(size_t)i * BLK + p] = tmp[i];
-        x[p] = y[p] = z[p] = 0.0;
+    switch (path) {
+    case FFD_SIMD_AVX512:
+        return "avx512";
+    case FFD_SIMD_AVX2:
+        return "avx2";
+    default:
+        return "default";
     }
-    for (uint32_t a = 0; a < l; a++)
-        for (uint32_t b = 0; b < m; b++) {
-            const double *ba = bs + (size_t)a * BLK, *bb = bt + (size_t)b * BLK;
-            for (size_t p = 0; p < np; p++)
-                wab[p] = ba[p] * bb[p];
-            for (uint32_t c = 0; c < n; c++) {
-                const double *q = lat->D_ext + 3 * (((size_t)a * m + b) * n + c);
-                const double qx = q[0], qy = q[1], qz = q[2];
-                const double *bc = bu + (size_t)c * BLK;
-                for (size_t p = 0; p < np; p++) {
-                    double w = wab[p] * bc[p];
-                    x[p] += w * qx;
-                    y[p] += w * qy;
-                    z[p] += w * qz;
-                }
-            }
-        }
+}
+
+typedef void (*bspline_kernel)(const double *restrict, const double *restrict,
+                               const double *restrict, size_t, const double *restrict,
+                               double *restrict, double *restrict, double *restrict);
+typedef void (*bernstein_kernel)(const ffd_lattice *, const double *restrict,
+                                 const double *restrict, const double *restrict, size_t,
+                                 double *restrict, double *restrict, double *restrict,
+                                 double *restrict);
+
+static void pick_kernels(bspline_kernel *bk, bernstein_kernel *ek)
+{
+    *bk = bspline_block_default;
+    *ek = bernstein_block_default;
+#if FFD_SIMD_DISPATCH
+    switch (ffd_lattice_simd_path()) {
+    case FFD_SIMD_AVX512:
+        *bk = bspline_block_avx512;
+        *ek = bernstein_block_avx512;
+        break;
+    case FFD_SIMD_AVX2:
+        *bk = bspline_block_avx2;
+        *ek = bernstein_block_avx2;
+        break;
+    default:
+        break;
+    }
+#endif
 }
 
 static void gather_cell(const ffd_lattice *lat, const uint32_t cell[3], double *cp)
@@ -204,7 +197,10 @@ ffd_status ffd_lattice_eval(const ffd_lattice *lat, const ffd_lattice_binding *b
     const size_t nin = bind->inside_count;
     const double *S = bind->local, *T = bind->local + nin, *U = bind->local + 2 * nin;
     const int bspline = lat->basis == FFD_BASIS_BSPLINE;
-    size_t scratch_n = bspline ? 0 : ((size_t)lat->res[0] + lat->res[1] + lat->res[2] + 1) * BLK;
+    bspline_kernel bspline_block;
+    bernstein_kernel bernstein_block;
+    pick_kernels(&bspline_block, &bernstein_block);
+    size_t scratch_n = bspline ? 0 : ((size_t)lat->res[0] + lat->res[1] + lat->res[2] + 6) * BLK;
     int failed = 0;
     const long long nb = (long long)bind->block_count;
 #pragma omp parallel reduction(| : failed)

@@ -6,11 +6,33 @@
 #include <lapacke.h>
 #include <limits.h>
 #include <math.h>
+#include <pthread.h>
 #include <string.h>
+
+/* OpenBLAS's own thread count (declared in OpenBLAS's cblas.h, which other
+ * BLAS packages' cblas.h lacks; libopenblas is linked directly, CMakeLists.txt
+ * OPENBLAS_LIB). */
+void openblas_set_num_threads(int num_threads);
+
+static void set_blas_single_thread(void) { openblas_set_num_threads(1); }
+
+/* The library's matrices are small (a drag's constraints by the control
+ * points) and its parallelism is OpenMP over points. OpenBLAS's pthread pool,
+ * once woken by a call, spins on the same cores as the OpenMP team for a
+ * while: a 100K-point evaluation right after a solve took 15 ms instead of
+ * 3 ms. One thread gives the same results (OpenBLAS splits the work, not the
+ * sums, across threads) with none of the contention. Set once, at the
+ * library's first BLAS/LAPACK call. */
+void ffd_blas_single_thread(void)
+{
+    static pthread_once_t once = PTHREAD_ONCE_INIT;
+    pthread_once(&once, set_blas_single_thread);
+}
 
 ffd_status ffd_dense_lstsq(size_t m, size_t n, size_t nrhs, double *A, double *B, double rcond,
                            size_t *rank, ffd_error *err)
 {
+    ffd_blas_single_thread();
     *rank = 0;
     if (m == 0 || n == 0 || nrhs == 0)
         return FFD_OK;
@@ -66,6 +88,7 @@ _Static_assert(sizeof(lapack_int) == sizeof(int), "ipiv is int: LAPACK must use 
 
 ffd_status ffd_dense_sym_factor(size_t n, double *A, int *ipiv, int *singular, ffd_error *err)
 {
+    ffd_blas_single_thread();
     *singular = 0;
     if (n == 0)
         return FFD_OK;
@@ -97,6 +120,7 @@ ffd_status ffd_dense_sym_factor(size_t n, double *A, int *ipiv, int *singular, f
 ffd_status ffd_dense_sym_solve(size_t n, size_t nrhs, const double *factor, const int *ipiv,
                                double *B, ffd_error *err)
 {
+    ffd_blas_single_thread();
     if (n == 0 || nrhs == 0)
         return FFD_OK;
     if (n > INT_MAX || nrhs > INT_MAX)
@@ -113,6 +137,7 @@ ffd_status ffd_dense_sym_solve(size_t n, size_t nrhs, const double *factor, cons
 ffd_status ffd_dense_sym_rcond(size_t n, const double *factor, const int *ipiv, double anorm,
                                double *rcond, ffd_error *err)
 {
+    ffd_blas_single_thread();
     *rcond = 0;
     if (n == 0)
         return FFD_OK;
@@ -153,6 +178,7 @@ double ffd_dense_sym_norm1(size_t n, const double *A)
 
 ffd_status ffd_dense_svd3(const double *A, double *U, double *S, double *Vt)
 {
+    ffd_blas_single_thread();
     double a[9], work[64];
     memcpy(a, A, sizeof a);
     lapack_int info = LAPACKE_dgesvd_work(LAPACK_COL_MAJOR, 'A', 'A', 3, 3, a, 3, S, U, 3, Vt, 3,

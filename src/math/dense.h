@@ -4,6 +4,11 @@
 
 #include "core/core.h"
 
+/* Sets OpenBLAS to one thread, once per process (every function below calls
+ * it first): the library's own parallelism is OpenMP over points, and
+ * OpenBLAS's pool would spin on the same cores. Results do not change. */
+void ffd_blas_single_thread(void);
+
 /* Minimum-norm least squares A X = B by SVD (LAPACK dgelsd).
  * A: m by n column-major (overwritten); B: max(m,n) by nrhs column-major,
  * holds the right-hand sides in its first m rows on entry and the solution in
