@@ -1200,6 +1200,88 @@ static void test_utf8_bom(void)
  * case), a write succeeds exactly in the encodings it lists and is
  * FFD_ERR_UNSUPPORTED in the others, and the lists in messages name every
  * codec in table order. */
+
+/* The printf loop that defines the text of a rewritten value: the first of
+ * %.15g, %.16g, %.17g (floats: %.6g .. %.9g) that reads back exactly. */
+static int format_by_printf(char *buf, double v, bool is_float)
+{
+    int n = 0;
+    for (int prec = is_float ? 6 : 15; prec <= (is_float ? 9 : 17); prec++) {
+        n = snprintf(buf, 32, "%.*g", prec, v);
+        if (is_float ? strtof(buf, NULL) == (float)v : strtod(buf, NULL) == v)
+            break;
+    }
+    return n;
+}
+
+static uint64_t format_rng = 88172645463325252ull;
+static uint64_t next_bits(void)
+{
+    format_rng ^= format_rng << 13;
+    format_rng ^= format_rng >> 7;
+    format_rng ^= format_rng << 17;
+    return format_rng;
+}
+
+static int format_mismatches;
+static void check_format(double v)
+{
+    char a[40], b[40];
+    int na = ffd_format_double(a, v), nb = format_by_printf(b, v, false);
+    if ((na != nb || strcmp(a, b) != 0) && format_mismatches++ < 10)
+        fprintf(stderr, "format_double(%a): '%s', printf loop '%s'\n", v, a, b);
+    float f = (float)v;
+    if (isfinite(v) && !isfinite(f))
+        return;
+    na = ffd_format_float(a, f);
+    nb = format_by_printf(b, (double)f, true);
+    if ((na != nb || strcmp(a, b) != 0) && format_mismatches++ < 10)
+        fprintf(stderr, "format_float(%a): '%s', printf loop '%s'\n", (double)f, a, b);
+}
+
+/* The fast shortest printing gives exactly the printf loop's text: random
+ * bit patterns, short decimals, powers of ten and their neighbours, values
+ * that round up to a power of ten, ties, zeros, subnormals, huge values. */
+static void test_format_matches_printf(void)
+{
+    format_mismatches = 0;
+    for (int i = 0; i < 300000; i++) {
+        uint64_t bits = next_bits();
+        double v;
+        memcpy(&v, &bits, 8);
+        if (isfinite(v))
+            check_format(v);
+        /* the magnitudes meshes have */
+        double u = (double)(next_bits() >> 11) / 9007199254740992.0;
+        int e = (int)(next_bits() % 40) - 15;
+        check_format((i & 1 ? -u : u) * pow(10.0, e));
+        check_format((double)(int64_t)(next_bits() % 2000001 - 1000000) / 1000.0);
+        check_format((double)(float)u * 3.0);
+    }
+    for (int e = -330; e <= 310; e++) {
+        double p = pow(10.0, e);
+        check_format(p);
+        check_format(nextafter(p, 0.0));
+        check_format(nextafter(p, INFINITY));
+        check_format(-p);
+        check_format(9.5 * p);
+        check_format(0.5 * p);
+        check_format(0.99999999999999999 * p);
+        check_format(1.25 * p);
+    }
+    for (int k = 1; k <= 17; k++) /* k nines: rounds up to a power of ten at some precision */
+        check_format(1.0 - pow(10.0, -k));
+    const double special[] = {0.0, -0.0, 5e-324, 2.2250738585072014e-308, 1.7976931348623157e308,
+                              0.1, 0.2, 0.3, 1.0 / 3.0, 2.0 / 3.0, 100.0, 1e15, 1e16, 1e17,
+                              123456789012345678.0, 0.000123, 1e-5, 9.999999999999999e22,
+                              4503599627370496.5, 9007199254740993.0};
+    for (size_t i = 0; i < sizeof special / sizeof *special; i++) {
+        check_format(special[i]);
+        check_format(-special[i]);
+    }
+    CHECK(format_mismatches == 0);
+}
+
 static void test_codec_table(void)
 {
     static const double P[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
@@ -1275,6 +1357,7 @@ int main(int argc, char **argv)
         {"failing_allocations", test_failing_allocations},
         {"utf8_bom", test_utf8_bom},
         {"codec_table", test_codec_table},
+        {"format_matches_printf", test_format_matches_printf},
     };
     return check_run(tests, sizeof tests / sizeof *tests, argc, argv);
 }

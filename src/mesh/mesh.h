@@ -97,7 +97,8 @@ static inline bool ffd_is_space(int c)
  * Returns 1 and advances *p; 0 when no number starts at *p; -1 when garbage
  * follows the digits (*p then points at the garbage). */
 int ffd_parse_number(const char **p, const char *end, bool hash_ends, double *out);
-/* Shortest "%.Ng" (N = 15..17) that reads back as v; returns the length. buf >= 32. */
+/* Shortest "%.Ng" (N = 15..17) that reads back as v, byte for byte what the
+ * printf loop gives but without printf for most values; returns the length. buf >= 32. */
 int ffd_format_double(char *buf, double v);
 /* Same for a value of float precision (6..9 digits). */
 int ffd_format_float(char *buf, float v);
