@@ -229,8 +229,8 @@ static int same_outside_spans(const ffd_mesh *a, const ffd_mesh *b)
         if (ea - pa != eb - pb || memcmp(a->src + pa, b->src + pb, ea - pa) != 0)
             ok = 0;
         if (i < na) {
-            pa = sa[i].offset + sa[i].length;
-            pb = sb[i].offset + sb[i].length;
+            pa = sa[i].offset + ffd_span_length(a, &sa[i]);
+            pb = sb[i].offset + ffd_span_length(b, &sb[i]);
         }
     }
     free(sa);

@@ -457,6 +457,16 @@ double ffd_span_value(const ffd_mesh *m, const ffd_span *s)
     return ffd_read_scalar(m->src + s->offset, s->kind, m->encoding == FFD_ENCODING_BINARY_BE);
 }
 
+size_t ffd_span_length(const ffd_mesh *m, const ffd_span *s)
+{
+    if (s->kind != FFD_SPAN_TEXT)
+        return ffd_span_kind_size(s->kind);
+    const char *p = (const char *)m->src + s->offset;
+    char *e;
+    strtod(p, &e);
+    return (size_t)(e - p);
+}
+
 /* ======================================================================
  * Creation, accessors, reading
  * ====================================================================== */

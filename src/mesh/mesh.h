@@ -35,10 +35,13 @@ enum {
 /* Anchor of a normal no face uses (OBJ vn never referenced): set_positions leaves it alone. */
 #define FFD_NO_ANCHOR UINT32_MAX
 
+/* 8 bytes, 3 per vertex (issue 17: 24 bytes of bookkeeping per vertex, was
+ * 48). The length is not stored: a binary value is its kind's size, a text
+ * value is the number strtod reads at offset (every reader made the span from
+ * exactly that extent, ffd_parse_number), see ffd_span_length. */
 typedef struct ffd_span {
-    size_t offset;   /* byte offset in src */
-    uint32_t length; /* text: characters; binary: scalar size */
-    uint8_t kind;    /* FFD_SPAN_* */
+    uint64_t offset : 56; /* byte offset in src (sources < 64 PiB) */
+    uint64_t kind : 8;    /* FFD_SPAN_* */
 } ffd_span;
 
 struct ffd_mesh {
@@ -112,6 +115,8 @@ bool ffd_scalar_fits(int kind, double v);
 void ffd_write_scalar(unsigned char *p, int kind, bool big_endian, double v);
 /* The value a span held in the source. */
 double ffd_span_value(const ffd_mesh *m, const ffd_span *s);
+/* The number of source bytes the span covers. */
+size_t ffd_span_length(const ffd_mesh *m, const ffd_span *s);
 
 /* ---- growable output buffer (mesh_write.c) ------------------------------ */
 

@@ -67,7 +67,6 @@ static int read_numbers(obj_ctx *c, const char *p, const char *e, int keep, doub
             }
             out[n] = v;
             spans[n].offset = (size_t)(start - c->s);
-            spans[n].length = (uint32_t)(p - start);
             spans[n].kind = FFD_SPAN_TEXT;
         }
         n++;

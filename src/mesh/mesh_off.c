@@ -78,7 +78,6 @@ static int number(off_ctx *c, const char **p, const char *e, const char *what, d
     }
     if (span) {
         span->offset = (size_t)(start - c->s);
-        span->length = (uint32_t)(q - start);
         span->kind = FFD_SPAN_TEXT;
     }
     *p = q;

@@ -265,7 +265,6 @@ static ffd_status read_value(walker *w, int type, const char *what, uint64_t ind
                             w->name, w->pos, type_name(type), what, (unsigned long long)index);
         *v = ffd_read_scalar(w->src + w->pos, type, w->enc == FFD_ENCODING_BINARY_BE);
         span->offset = w->pos;
-        span->length = (uint32_t)n;
         span->kind = (uint8_t)type;
         w->pos += n;
         return FFD_OK;
@@ -290,7 +289,6 @@ static ffd_status read_value(walker *w, int type, const char *what, uint64_t ind
                         w->name, w->line, what, len, t);
     }
     span->offset = (size_t)(start - s);
-    span->length = (uint32_t)(p - start);
     span->kind = FFD_SPAN_TEXT;
     w->pos = (size_t)(p - s);
     return FFD_OK;

@@ -178,7 +178,7 @@ ffd_status ffd_mesh_patch_spans(const ffd_mesh *m, ffd_buf *b, ffd_error *err)
         }
         ffd_buf_put(b, m->src + pos, s->offset - pos);
         ffd_buf_double(b, v);
-        pos = s->offset + s->length;
+        pos = s->offset + ffd_span_length(m, s);
     }
     ffd_buf_put(b, m->src + pos, m->src_size - pos);
     if (b->oom)
