@@ -1282,6 +1282,50 @@ static void test_format_matches_printf(void)
     CHECK(format_mismatches == 0);
 }
 
+
+static int parse_mismatches;
+static void check_parse(const char *text)
+{
+    char *e1, *e2;
+    double a = ffd_strtod(text, &e1), b = strtod(text, &e2);
+    if ((memcmp(&a, &b, sizeof a) != 0 || e1 != e2) && parse_mismatches++ < 10)
+        fprintf(stderr, "ffd_strtod('%s') = %a (end %td), strtod %a (end %td)\n", text, a,
+                e1 - text, b, e2 - text);
+}
+
+/* ffd_strtod gives strtod's value (bit for bit) and end on plain decimals
+ * (the fast path), their boundaries (19 digits, 2^53, 10^+-22) and what the
+ * fast path leaves to strtod. */
+static void test_strtod_matches(void)
+{
+    parse_mismatches = 0;
+    static const char *const texts[] = {
+        "0", "-0", "+0", "0.0", "-0.000000", "1", "1.", ".5", "-.5", "+.5", ".", "-", "+", "",
+        "1e5", "1E5", "1e+5", "1e-5", "1e", "1e+", "1.e5", ".e5", "1.5#", "2.5 ", "3.25\n",
+        "9007199254740992", "9007199254740993", "9007199254740994", "18014398509481985",
+        "1234567890123456789", "12345678901234567890", "0.1234567890123456789",
+        "1e22", "1e23", "1e-22", "1e-23", "123456789e-30", "4.9e-324", "1.7976931348623157e308",
+        "1e400", "0x1p3", "inf", "-inf", "nan", "infinity", "1x", "1.5.5", "00000000000000000000001",
+        "0.00000000000000000000000000001", "123.456e7", "-7.25e-3", "1e999999999999", "1_0"};
+    for (size_t i = 0; i < sizeof texts / sizeof *texts; i++)
+        check_parse(texts[i]);
+    char buf[64];
+    for (int i = 0; i < 200000; i++) {
+        uint64_t bits = next_bits();
+        double v;
+        memcpy(&v, &bits, 8);
+        if (!isfinite(v))
+            continue;
+        snprintf(buf, sizeof buf, "%.*g", (int)(bits % 17) + 1, v);
+        check_parse(buf);
+        snprintf(buf, sizeof buf, "%.*f", (int)(bits % 12), (double)(int64_t)(next_bits() % 2000000001 - 1000000000) / 1e6);
+        check_parse(buf);
+        snprintf(buf, sizeof buf, "%.*e", (int)(bits % 20), (double)(next_bits() >> 11) * 1e-10);
+        check_parse(buf);
+    }
+    CHECK(parse_mismatches == 0);
+}
+
 static void test_codec_table(void)
 {
     static const double P[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
@@ -1358,6 +1402,7 @@ int main(int argc, char **argv)
         {"utf8_bom", test_utf8_bom},
         {"codec_table", test_codec_table},
         {"format_matches_printf", test_format_matches_printf},
+        {"strtod_matches", test_strtod_matches},
     };
     return check_run(tests, sizeof tests / sizeof *tests, argc, argv);
 }

@@ -156,6 +156,72 @@ bool ffd_mesh_end_face(ffd_mesh *m)
  * Numbers
  * ====================================================================== */
 
+/* strtod, with Clinger's fast path first: a plain decimal
+ * [sign] digits [. digits] [e [sign] digits] whose significand has at most 19
+ * digits, is at most 2^53, and whose exponent is within +-22 is one exact
+ * integer times or over one exact power of ten, a single correctly rounded
+ * operation, so it equals strtod's result. The token must end where a number
+ * ends for every reader (whitespace, '#', NUL); anything else (hex, inf, nan,
+ * "1e" with no digits, long significands) goes to strtod itself. */
+double ffd_strtod(const char *s, char **end)
+{
+    static const double ten[23] = {1e0,  1e1,  1e2,  1e3,  1e4,  1e5,  1e6,  1e7,
+                                   1e8,  1e9,  1e10, 1e11, 1e12, 1e13, 1e14, 1e15,
+                                   1e16, 1e17, 1e18, 1e19, 1e20, 1e21, 1e22};
+    const char *p = s;
+    bool negative = *p == '-';
+    if (*p == '-' || *p == '+')
+        p++;
+    uint64_t m = 0;
+    int digits = 0, exp10 = 0, seen = 0;
+    for (; *p >= '0' && *p <= '9'; p++, seen++) {
+        if (m == 0 && *p == '0')
+            continue; /* leading zeros carry no digit */
+        if (++digits > 19)
+            goto slow;
+        m = 10 * m + (uint64_t)(*p - '0');
+    }
+    if (*p == '.') {
+        for (p++; *p >= '0' && *p <= '9'; p++, seen++) {
+            exp10--;
+            if (m == 0 && *p == '0')
+                continue;
+            if (++digits > 19)
+                goto slow;
+            m = 10 * m + (uint64_t)(*p - '0');
+        }
+    }
+    if (!seen)
+        goto slow;
+    if (*p == 'e' || *p == 'E') {
+        const char *q = p + 1;
+        bool eneg = *q == '-';
+        if (*q == '-' || *q == '+')
+            q++;
+        if (!(*q >= '0' && *q <= '9'))
+            goto slow;
+        int e = 0;
+        for (; *q >= '0' && *q <= '9'; q++) {
+            if (e > 1000)
+                goto slow;
+            e = 10 * e + (*q - '0');
+        }
+        exp10 += eneg ? -e : e;
+        p = q;
+    }
+    if (!(*p == '\0' || ffd_is_space(*p) || *p == '#'))
+        goto slow;
+    if (m > (UINT64_C(1) << 53) || exp10 < -22 || exp10 > 22)
+        goto slow;
+    double v = (double)m;
+    v = exp10 >= 0 ? v * ten[exp10] : v / ten[-exp10];
+    if (end)
+        *end = (char *)p;
+    return negative ? -v : v;
+slow:
+    return strtod(s, end);
+}
+
 int ffd_parse_number(const char **p, const char *end, bool hash_ends, double *out)
 {
     const char *s = *p;
@@ -167,7 +233,7 @@ int ffd_parse_number(const char **p, const char *end, bool hash_ends, double *ou
           c == 'N' || c == 'i' || c == 'I'))
         return 0;
     char *e;
-    double v = strtod(s, &e);
+    double v = ffd_strtod(s, &e);
     if (e == s)
         return 0;
     if (e > end) /* cannot happen with a NUL at end, kept as a guard */
@@ -453,7 +519,7 @@ void ffd_write_scalar(unsigned char *p, int kind, bool big_endian, double v)
 double ffd_span_value(const ffd_mesh *m, const ffd_span *s)
 {
     if (s->kind == FFD_SPAN_TEXT)
-        return strtod((const char *)m->src + s->offset, NULL);
+        return ffd_strtod((const char *)m->src + s->offset, NULL);
     return ffd_read_scalar(m->src + s->offset, s->kind, m->encoding == FFD_ENCODING_BINARY_BE);
 }
 
@@ -463,7 +529,7 @@ size_t ffd_span_length(const ffd_mesh *m, const ffd_span *s)
         return ffd_span_kind_size(s->kind);
     const char *p = (const char *)m->src + s->offset;
     char *e;
-    strtod(p, &e);
+    ffd_strtod(p, &e);
     return (size_t)(e - p);
 }
 

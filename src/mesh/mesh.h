@@ -100,6 +100,8 @@ static inline bool ffd_is_space(int c)
  * Returns 1 and advances *p; 0 when no number starts at *p; -1 when garbage
  * follows the digits (*p then points at the garbage). */
 int ffd_parse_number(const char **p, const char *end, bool hash_ends, double *out);
+/* strtod (same value, same end) without its cost for plain decimals. */
+double ffd_strtod(const char *s, char **end);
 /* Shortest "%.Ng" (N = 15..17) that reads back as v, byte for byte what the
  * printf loop gives but without printf for most values; returns the length. buf >= 32. */
 int ffd_format_double(char *buf, double v);
