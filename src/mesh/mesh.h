@@ -134,6 +134,8 @@ void ffd_buf_double(ffd_buf *b, double v); /* shortest round-trip text */
 /* "<prefix>x y z\n" with shortest round-trip numbers (prefix may be ""). */
 void ffd_buf_vec3_line(ffd_buf *b, const char *prefix, const double p[3]);
 void ffd_buf_uint(ffd_buf *b, uint64_t v); /* decimal */
+/* Decimal text of v ("%lld" without printf); returns the length. buf >= 24. */
+int ffd_format_int(char *buf, int64_t v);
 void ffd_buf_xyz(ffd_buf *b, const double *v); /* " x y z", shortest round-trip numbers */
 void ffd_buf_free(ffd_buf *b);
 

@@ -311,7 +311,7 @@ static void emit(walker *w, int type, double v)
         else {
             unsigned char b[8];
             ffd_write_scalar(b, type, false, v);
-            n = snprintf(tmp, sizeof tmp, "%.0f", ffd_read_scalar(b, type, false));
+            n = ffd_format_int(tmp, (int64_t)ffd_read_scalar(b, type, false));
         }
         if (!w->first_on_line)
             ffd_buf_put(w->out, " ", 1);
@@ -934,7 +934,7 @@ static void put_typed(ffd_buf *b, bool ascii, bool be, int type, double v, bool 
     else {
         unsigned char t[8];
         ffd_write_scalar(t, type, false, v);
-        n = snprintf(tmp, sizeof tmp, "%.0f", ffd_read_scalar(t, type, false));
+        n = ffd_format_int(tmp, (int64_t)ffd_read_scalar(t, type, false));
     }
     ffd_buf_put(b, tmp, (size_t)n);
 }
