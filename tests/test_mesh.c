@@ -1326,6 +1326,63 @@ static void test_strtod_matches(void)
     CHECK(parse_mismatches == 0);
 }
 
+
+/* Binary PLY records are read directly until one is not well formed; the
+ * general loop then reports it, at the byte of the bad value, as before. */
+static void test_ply_binary_direct_path(void)
+{
+    const char header[] = "ply\nformat binary_little_endian 1.0\nelement vertex 4\n"
+                          "property float x\nproperty float y\nproperty float z\n"
+                          "element face 2\nproperty list uchar int vertex_indices\nend_header\n";
+    size_t hl = sizeof header - 1, size = hl + 4 * 12 + 2 * 13;
+    unsigned char *buf = calloc(1, size);
+    memcpy(buf, header, hl);
+    for (int i = 0; i < 12; i++) {
+        float f = (float)(i % 3 == 0 ? i : -0.5 * i);
+        memcpy(buf + hl + 4 * (size_t)i, &f, 4);
+    }
+    const int32_t faces[2][3] = {{0, 1, 2}, {1, 3, 2}};
+    for (int f = 0; f < 2; f++) {
+        buf[hl + 48 + 13 * (size_t)f] = 3;
+        memcpy(buf + hl + 48 + 13 * (size_t)f + 1, faces[f], 12);
+    }
+    ffd_mesh *m = NULL;
+    ffd_error err = {{0}};
+    CHECK(ffd_mesh_read_memory(buf, size, FFD_FORMAT_PLY, "p.ply", &m, &err) == FFD_OK);
+    if (m) {
+        CHECK(ffd_mesh_vertex_count(m) == 4 && ffd_mesh_face_count(m) == 2);
+        CHECK(ffd_mesh_positions(m)[3 * 3 + 1] == -5.0);
+        CHECK(ffd_mesh_face_indices(m)[4] == 3);
+        CHECK(m->position_spans[3 * 2 + 1].offset == hl + 28);
+        ffd_mesh_destroy(m);
+    }
+    /* vertex 2's y is NaN: the error names its byte */
+    float nan_f = NAN;
+    unsigned char *bad = malloc(size);
+    memcpy(bad, buf, size);
+    memcpy(bad + hl + 28, &nan_f, 4);
+    char want[64];
+    snprintf(want, sizeof want, "p.ply: byte %zu: non-finite 'y' of vertex 2", hl + 28);
+    CHECK(ffd_mesh_read_memory(bad, size, FFD_FORMAT_PLY, "p.ply", &m, &err) == FFD_ERR_NONFINITE);
+    CHECK(strstr(err.message, want) != NULL);
+    /* face 1's second index is out of range */
+    memcpy(bad, buf, size);
+    int32_t big = 4;
+    memcpy(bad + hl + 48 + 13 + 1 + 4, &big, 4);
+    snprintf(want, sizeof want, "p.ply: byte %zu: face index 4 out of range", hl + 48 + 13 + 5);
+    CHECK(ffd_mesh_read_memory(bad, size, FFD_FORMAT_PLY, "p.ply", &m, &err) == FFD_ERR_RANGE);
+    CHECK(strstr(err.message, want) != NULL);
+    /* face 1 has 2 corners */
+    memcpy(bad, buf, size);
+    bad[hl + 48 + 13] = 2;
+    CHECK(ffd_mesh_read_memory(bad, size - 4, FFD_FORMAT_PLY, "p.ply", &m, &err) == FFD_ERR_PARSE);
+    CHECK(strstr(err.message, "face 1 has 2 vertices") != NULL);
+    if (check_failures)
+        fprintf(stderr, "last message: %s\n", err.message);
+    free(bad);
+    free(buf);
+}
+
 static void test_codec_table(void)
 {
     static const double P[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
@@ -1403,6 +1460,7 @@ int main(int argc, char **argv)
         {"codec_table", test_codec_table},
         {"format_matches_printf", test_format_matches_printf},
         {"strtod_matches", test_strtod_matches},
+        {"ply_binary_direct_path", test_ply_binary_direct_path},
     };
     return check_run(tests, sizeof tests / sizeof *tests, argc, argv);
 }
