@@ -446,26 +446,8 @@ static void store_bits(unsigned char *p, size_t n, bool big_endian, uint64_t v)
     }
 }
 
-/* Whether the machine stores scalars little-endian (then float and double
- * in that order are copied, not assembled byte by byte). */
-#if defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__
-#define HOST_LITTLE_ENDIAN 1
-#else
-#define HOST_LITTLE_ENDIAN 0
-#endif
-
 double ffd_read_scalar(const unsigned char *p, int kind, bool big_endian)
 {
-    if (HOST_LITTLE_ENDIAN && !big_endian && kind == FFD_SPAN_F32) {
-        float f;
-        memcpy(&f, p, 4);
-        return (double)f;
-    }
-    if (HOST_LITTLE_ENDIAN && !big_endian && kind == FFD_SPAN_F64) {
-        double d;
-        memcpy(&d, p, 8);
-        return d;
-    }
     uint64_t b = load_bits(p, ffd_span_kind_size(kind), big_endian);
     switch (kind) {
     case FFD_SPAN_I8: return (double)(int8_t)(uint8_t)b;
@@ -513,15 +495,6 @@ bool ffd_scalar_fits(int kind, double v)
 
 void ffd_write_scalar(unsigned char *p, int kind, bool big_endian, double v)
 {
-    if (HOST_LITTLE_ENDIAN && !big_endian && kind == FFD_SPAN_F32) {
-        float f = (float)v;
-        memcpy(p, &f, 4);
-        return;
-    }
-    if (HOST_LITTLE_ENDIAN && !big_endian && kind == FFD_SPAN_F64) {
-        memcpy(p, &v, 8);
-        return;
-    }
     uint64_t b = 0;
     switch (kind) {
     case FFD_SPAN_I8: b = (uint8_t)(int8_t)clamp_round(v, INT8_MIN, INT8_MAX); break;
