@@ -229,8 +229,8 @@ static int same_outside_spans(const ffd_mesh *a, const ffd_mesh *b)
         if (ea - pa != eb - pb || memcmp(a->src + pa, b->src + pb, ea - pa) != 0)
             ok = 0;
         if (i < na) {
-            pa = sa[i].offset + sa[i].length;
-            pb = sb[i].offset + sb[i].length;
+            pa = sa[i].offset + ffd_span_length(a, &sa[i]);
+            pb = sb[i].offset + ffd_span_length(b, &sb[i]);
         }
     }
     free(sa);
@@ -1200,6 +1200,189 @@ static void test_utf8_bom(void)
  * case), a write succeeds exactly in the encodings it lists and is
  * FFD_ERR_UNSUPPORTED in the others, and the lists in messages name every
  * codec in table order. */
+
+/* The printf loop that defines the text of a rewritten value: the first of
+ * %.15g, %.16g, %.17g (floats: %.6g .. %.9g) that reads back exactly. */
+static int format_by_printf(char *buf, double v, bool is_float)
+{
+    int n = 0;
+    for (int prec = is_float ? 6 : 15; prec <= (is_float ? 9 : 17); prec++) {
+        n = snprintf(buf, 32, "%.*g", prec, v);
+        if (is_float ? strtof(buf, NULL) == (float)v : strtod(buf, NULL) == v)
+            break;
+    }
+    return n;
+}
+
+static uint64_t format_rng = 88172645463325252ull;
+static uint64_t next_bits(void)
+{
+    format_rng ^= format_rng << 13;
+    format_rng ^= format_rng >> 7;
+    format_rng ^= format_rng << 17;
+    return format_rng;
+}
+
+static int format_mismatches;
+static void check_format(double v)
+{
+    char a[40], b[40];
+    int na = ffd_format_double(a, v), nb = format_by_printf(b, v, false);
+    if ((na != nb || strcmp(a, b) != 0) && format_mismatches++ < 10)
+        fprintf(stderr, "format_double(%a): '%s', printf loop '%s'\n", v, a, b);
+    float f = (float)v;
+    if (isfinite(v) && !isfinite(f))
+        return;
+    na = ffd_format_float(a, f);
+    nb = format_by_printf(b, (double)f, true);
+    if ((na != nb || strcmp(a, b) != 0) && format_mismatches++ < 10)
+        fprintf(stderr, "format_float(%a): '%s', printf loop '%s'\n", (double)f, a, b);
+}
+
+/* The fast shortest printing gives exactly the printf loop's text: random
+ * bit patterns, short decimals, powers of ten and their neighbours, values
+ * that round up to a power of ten, ties, zeros, subnormals, huge values. */
+static void test_format_matches_printf(void)
+{
+    format_mismatches = 0;
+    for (int i = 0; i < 300000; i++) {
+        uint64_t bits = next_bits();
+        double v;
+        memcpy(&v, &bits, 8);
+        if (isfinite(v))
+            check_format(v);
+        /* the magnitudes meshes have */
+        double u = (double)(next_bits() >> 11) / 9007199254740992.0;
+        int e = (int)(next_bits() % 40) - 15;
+        check_format((i & 1 ? -u : u) * pow(10.0, e));
+        check_format((double)(int64_t)(next_bits() % 2000001 - 1000000) / 1000.0);
+        check_format((double)(float)u * 3.0);
+    }
+    for (int e = -330; e <= 310; e++) {
+        double p = pow(10.0, e);
+        check_format(p);
+        check_format(nextafter(p, 0.0));
+        check_format(nextafter(p, INFINITY));
+        check_format(-p);
+        check_format(9.5 * p);
+        check_format(0.5 * p);
+        check_format(0.99999999999999999 * p);
+        check_format(1.25 * p);
+    }
+    for (int k = 1; k <= 17; k++) /* k nines: rounds up to a power of ten at some precision */
+        check_format(1.0 - pow(10.0, -k));
+    const double special[] = {0.0, -0.0, 5e-324, 2.2250738585072014e-308, 1.7976931348623157e308,
+                              0.1, 0.2, 0.3, 1.0 / 3.0, 2.0 / 3.0, 100.0, 1e15, 1e16, 1e17,
+                              123456789012345678.0, 0.000123, 1e-5, 9.999999999999999e22,
+                              4503599627370496.5, 9007199254740993.0};
+    for (size_t i = 0; i < sizeof special / sizeof *special; i++) {
+        check_format(special[i]);
+        check_format(-special[i]);
+    }
+    CHECK(format_mismatches == 0);
+}
+
+
+static int parse_mismatches;
+static void check_parse(const char *text)
+{
+    char *e1, *e2;
+    double a = ffd_strtod(text, &e1), b = strtod(text, &e2);
+    if ((memcmp(&a, &b, sizeof a) != 0 || e1 != e2) && parse_mismatches++ < 10)
+        fprintf(stderr, "ffd_strtod('%s') = %a (end %td), strtod %a (end %td)\n", text, a,
+                e1 - text, b, e2 - text);
+}
+
+/* ffd_strtod gives strtod's value (bit for bit) and end on plain decimals
+ * (the fast path), their boundaries (19 digits, 2^53, 10^+-22) and what the
+ * fast path leaves to strtod. */
+static void test_strtod_matches(void)
+{
+    parse_mismatches = 0;
+    static const char *const texts[] = {
+        "0", "-0", "+0", "0.0", "-0.000000", "1", "1.", ".5", "-.5", "+.5", ".", "-", "+", "",
+        "1e5", "1E5", "1e+5", "1e-5", "1e", "1e+", "1.e5", ".e5", "1.5#", "2.5 ", "3.25\n",
+        "9007199254740992", "9007199254740993", "9007199254740994", "18014398509481985",
+        "1234567890123456789", "12345678901234567890", "0.1234567890123456789",
+        "1e22", "1e23", "1e-22", "1e-23", "123456789e-30", "4.9e-324", "1.7976931348623157e308",
+        "1e400", "0x1p3", "inf", "-inf", "nan", "infinity", "1x", "1.5.5", "00000000000000000000001",
+        "0.00000000000000000000000000001", "123.456e7", "-7.25e-3", "1e999999999999", "1_0"};
+    for (size_t i = 0; i < sizeof texts / sizeof *texts; i++)
+        check_parse(texts[i]);
+    char buf[64];
+    for (int i = 0; i < 200000; i++) {
+        uint64_t bits = next_bits();
+        double v;
+        memcpy(&v, &bits, 8);
+        if (!isfinite(v))
+            continue;
+        snprintf(buf, sizeof buf, "%.*g", (int)(bits % 17) + 1, v);
+        check_parse(buf);
+        snprintf(buf, sizeof buf, "%.*f", (int)(bits % 12), (double)(int64_t)(next_bits() % 2000000001 - 1000000000) / 1e6);
+        check_parse(buf);
+        snprintf(buf, sizeof buf, "%.*e", (int)(bits % 20), (double)(next_bits() >> 11) * 1e-10);
+        check_parse(buf);
+    }
+    CHECK(parse_mismatches == 0);
+}
+
+
+/* Binary PLY records are read directly until one is not well formed; the
+ * general loop then reports it, at the byte of the bad value, as before. */
+static void test_ply_binary_direct_path(void)
+{
+    const char header[] = "ply\nformat binary_little_endian 1.0\nelement vertex 4\n"
+                          "property float x\nproperty float y\nproperty float z\n"
+                          "element face 2\nproperty list uchar int vertex_indices\nend_header\n";
+    size_t hl = sizeof header - 1, size = hl + 4 * 12 + 2 * 13;
+    unsigned char *buf = calloc(1, size);
+    memcpy(buf, header, hl);
+    for (int i = 0; i < 12; i++) {
+        float f = (float)(i % 3 == 0 ? i : -0.5 * i);
+        memcpy(buf + hl + 4 * (size_t)i, &f, 4);
+    }
+    const int32_t faces[2][3] = {{0, 1, 2}, {1, 3, 2}};
+    for (int f = 0; f < 2; f++) {
+        buf[hl + 48 + 13 * (size_t)f] = 3;
+        memcpy(buf + hl + 48 + 13 * (size_t)f + 1, faces[f], 12);
+    }
+    ffd_mesh *m = NULL;
+    ffd_error err = {{0}};
+    CHECK(ffd_mesh_read_memory(buf, size, FFD_FORMAT_PLY, "p.ply", &m, &err) == FFD_OK);
+    if (m) {
+        CHECK(ffd_mesh_vertex_count(m) == 4 && ffd_mesh_face_count(m) == 2);
+        CHECK(ffd_mesh_positions(m)[3 * 3 + 1] == -5.0);
+        CHECK(ffd_mesh_face_indices(m)[4] == 3);
+        CHECK(m->position_spans[3 * 2 + 1].offset == hl + 28);
+        ffd_mesh_destroy(m);
+    }
+    /* vertex 2's y is NaN: the error names its byte */
+    float nan_f = NAN;
+    unsigned char *bad = malloc(size);
+    memcpy(bad, buf, size);
+    memcpy(bad + hl + 28, &nan_f, 4);
+    char want[64];
+    snprintf(want, sizeof want, "p.ply: byte %zu: non-finite 'y' of vertex 2", hl + 28);
+    CHECK(ffd_mesh_read_memory(bad, size, FFD_FORMAT_PLY, "p.ply", &m, &err) == FFD_ERR_NONFINITE);
+    CHECK(strstr(err.message, want) != NULL);
+    /* face 1's second index is out of range */
+    memcpy(bad, buf, size);
+    int32_t big = 4;
+    memcpy(bad + hl + 48 + 13 + 1 + 4, &big, 4);
+    snprintf(want, sizeof want, "p.ply: byte %zu: face index 4 out of range", hl + 48 + 13 + 5);
+    CHECK(ffd_mesh_read_memory(bad, size, FFD_FORMAT_PLY, "p.ply", &m, &err) == FFD_ERR_RANGE);
+    CHECK(strstr(err.message, want) != NULL);
+    /* face 1 has 2 corners */
+    memcpy(bad, buf, size);
+    bad[hl + 48 + 13] = 2;
+    CHECK(ffd_mesh_read_memory(bad, size - 4, FFD_FORMAT_PLY, "p.ply", &m, &err) == FFD_ERR_PARSE);
+    CHECK(strstr(err.message, "face 1 has 2 vertices") != NULL);
+    if (check_failures)
+        fprintf(stderr, "last message: %s\n", err.message);
+    free(bad);
+    free(buf);
+}
+
 static void test_codec_table(void)
 {
     static const double P[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
@@ -1275,6 +1458,9 @@ int main(int argc, char **argv)
         {"failing_allocations", test_failing_allocations},
         {"utf8_bom", test_utf8_bom},
         {"codec_table", test_codec_table},
+        {"format_matches_printf", test_format_matches_printf},
+        {"strtod_matches", test_strtod_matches},
+        {"ply_binary_direct_path", test_ply_binary_direct_path},
     };
     return check_run(tests, sizeof tests / sizeof *tests, argc, argv);
 }

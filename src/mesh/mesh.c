@@ -175,6 +175,72 @@ bool ffd_mesh_end_face(ffd_mesh *m)
  * Numbers
  * ====================================================================== */
 
+/* strtod, with Clinger's fast path first: a plain decimal
+ * [sign] digits [. digits] [e [sign] digits] whose significand has at most 19
+ * digits, is at most 2^53, and whose exponent is within +-22 is one exact
+ * integer times or over one exact power of ten, a single correctly rounded
+ * operation, so it equals strtod's result. The token must end where a number
+ * ends for every reader (whitespace, '#', NUL); anything else (hex, inf, nan,
+ * "1e" with no digits, long significands) goes to strtod itself. */
+double ffd_strtod(const char *s, char **end)
+{
+    static const double ten[23] = {1e0,  1e1,  1e2,  1e3,  1e4,  1e5,  1e6,  1e7,
+                                   1e8,  1e9,  1e10, 1e11, 1e12, 1e13, 1e14, 1e15,
+                                   1e16, 1e17, 1e18, 1e19, 1e20, 1e21, 1e22};
+    const char *p = s;
+    bool negative = *p == '-';
+    if (*p == '-' || *p == '+')
+        p++;
+    uint64_t m = 0;
+    int digits = 0, exp10 = 0, seen = 0;
+    for (; *p >= '0' && *p <= '9'; p++, seen++) {
+        if (m == 0 && *p == '0')
+            continue; /* leading zeros carry no digit */
+        if (++digits > 19)
+            goto slow;
+        m = 10 * m + (uint64_t)(*p - '0');
+    }
+    if (*p == '.') {
+        for (p++; *p >= '0' && *p <= '9'; p++, seen++) {
+            exp10--;
+            if (m == 0 && *p == '0')
+                continue;
+            if (++digits > 19)
+                goto slow;
+            m = 10 * m + (uint64_t)(*p - '0');
+        }
+    }
+    if (!seen)
+        goto slow;
+    if (*p == 'e' || *p == 'E') {
+        const char *q = p + 1;
+        bool eneg = *q == '-';
+        if (*q == '-' || *q == '+')
+            q++;
+        if (!(*q >= '0' && *q <= '9'))
+            goto slow;
+        int e = 0;
+        for (; *q >= '0' && *q <= '9'; q++) {
+            if (e > 1000)
+                goto slow;
+            e = 10 * e + (*q - '0');
+        }
+        exp10 += eneg ? -e : e;
+        p = q;
+    }
+    if (!(*p == '\0' || ffd_is_space(*p) || *p == '#'))
+        goto slow;
+    if (m > (UINT64_C(1) << 53) || exp10 < -22 || exp10 > 22)
+        goto slow;
+    double v = (double)m;
+    v = exp10 >= 0 ? v * ten[exp10] : v / ten[-exp10];
+    if (end)
+        *end = (char *)p;
+    return negative ? -v : v;
+slow:
+    return strtod(s, end);
+}
+
 int ffd_parse_number(const char **p, const char *end, bool hash_ends, double *out)
 {
     const char *s = *p;
@@ -186,7 +252,7 @@ int ffd_parse_number(const char **p, const char *end, bool hash_ends, double *ou
           c == 'N' || c == 'i' || c == 'I'))
         return 0;
     char *e;
-    double v = strtod(s, &e);
+    double v = ffd_strtod(s, &e);
     if (e == s)
         return 0;
     if (e > end) /* cannot happen with a NUL at end, kept as a guard */
@@ -200,26 +266,169 @@ int ffd_parse_number(const char **p, const char *end, bool hash_ends, double *ou
     return 1;
 }
 
-int ffd_format_double(char *buf, double v)
+/* Shortest round-trip printing without printf per value.
+ *
+ * The output is exactly that of the loop "the first of %.<pmin>g ..
+ * %.<pmax>g that reads back as v" (glibc's printf is exact, strtod correctly
+ * rounded), computed from integers: the P significant digits of |v| are the
+ * nearest integer N to T = |v| 10^(P-1-X), X = floor(log10 |v|). T is one
+ * long double product or quotient (10^k is exact in a 64-bit significand for
+ * k <= 27), so |T - exact| <= 10^P 2^-64 < 0.006: N is the correctly rounded
+ * digit string unless T is within 0.01 of a half, where the exact tie rules
+ * matter and the printf loop decides (rare). Whether N 10^e reads back as v
+ * is decided exactly by Clinger's fast path (N < 2^53 and |e| <= 22: one
+ * correctly rounded double operation); otherwise strtod decides. Values
+ * outside the exact range of the scaling (|X| large), NaN and Inf take the
+ * printf loop too. */
+
+static int format_printf(char *buf, double v, int pmin, int pmax, bool is_float)
 {
     int n = 0;
-    for (int prec = 15; prec <= 17; prec++) {
+    for (int prec = pmin; prec <= pmax; prec++) {
         n = snprintf(buf, 32, "%.*g", prec, v);
-        if (strtod(buf, NULL) == v)
+        if (is_float ? strtof(buf, NULL) == (float)v : strtod(buf, NULL) == v)
             break;
     }
     return n;
 }
 
+#if LDBL_MANT_DIG >= 64
+static const long double ten_ld[28] = {
+    1e0L,  1e1L,  1e2L,  1e3L,  1e4L,  1e5L,  1e6L,  1e7L,  1e8L,  1e9L,
+    1e10L, 1e11L, 1e12L, 1e13L, 1e14L, 1e15L, 1e16L, 1e17L, 1e18L, 1e19L,
+    1e20L, 1e21L, 1e22L, 1e23L, 1e24L, 1e25L, 1e26L, 1e27L};
+static const double ten_d[23] = {1e0,  1e1,  1e2,  1e3,  1e4,  1e5,  1e6,  1e7,
+                                 1e8,  1e9,  1e10, 1e11, 1e12, 1e13, 1e14, 1e15,
+                                 1e16, 1e17, 1e18, 1e19, 1e20, 1e21, 1e22};
+
+/* |v| 10^k in long double (one rounding); |k| <= 27. */
+static long double scale_ld(double a, int k)
+{
+    return k >= 0 ? (long double)a * ten_ld[k] : (long double)a / ten_ld[-k];
+}
+
+/* "%.Pg" of sign * N 10^(X-P+1), N holding exactly P digits. */
+static int put_g(char *buf, bool negative, uint64_t N, int P, int X)
+{
+    char d[20];
+    for (int i = P - 1; i >= 0; i--) {
+        d[i] = (char)('0' + N % 10);
+        N /= 10;
+    }
+    int L = P;
+    while (L > 1 && d[L - 1] == '0')
+        L--;
+    char *o = buf;
+    if (negative)
+        *o++ = '-';
+    if (X < -4 || X >= P) {
+        *o++ = d[0];
+        if (L > 1) {
+            *o++ = '.';
+            memcpy(o, d + 1, (size_t)(L - 1));
+            o += L - 1;
+        }
+        *o++ = 'e';
+        *o++ = X < 0 ? '-' : '+';
+        int e = X < 0 ? -X : X;
+        if (e >= 100)
+            *o++ = (char)('0' + e / 100);
+        *o++ = (char)('0' + e / 10 % 10);
+        *o++ = (char)('0' + e % 10);
+    } else if (X >= 0) {
+        for (int i = 0; i <= X; i++)
+            *o++ = i < L ? d[i] : '0';
+        if (L > X + 1) {
+            *o++ = '.';
+            memcpy(o, d + X + 1, (size_t)(L - X - 1));
+            o += L - X - 1;
+        }
+    } else {
+        *o++ = '0';
+        *o++ = '.';
+        for (int i = 0; i < -X - 1; i++)
+            *o++ = '0';
+        memcpy(o, d, (size_t)L);
+        o += L;
+    }
+    *o = '\0';
+    return (int)(o - buf);
+}
+#endif
+
+static int format_shortest(char *buf, double v, int pmin, int pmax, bool is_float)
+{
+#if LDBL_MANT_DIG >= 64
+    double a = fabs(v);
+    if (a == 0.0) {
+        memcpy(buf, signbit(v) ? "-0" : "0", signbit(v) ? 3 : 2);
+        return signbit(v) ? 2 : 1;
+    }
+    /* the scaling by 10^(P-1-X) stays within 10^27 for every P */
+    if (!(a >= 1e-10 && a < 1e26))
+        return format_printf(buf, v, pmin, pmax, is_float);
+    int X = (int)floor(log10(a));
+    for (int tries = 0;; tries++) { /* log10 may be one off near a power of ten */
+        long double S = scale_ld(a, pmax - 1 - X);
+        if (S < ten_ld[pmax - 1])
+            X--;
+        else if (S >= ten_ld[pmax])
+            X++;
+        else
+            break;
+        if (tries == 2)
+            return format_printf(buf, v, pmin, pmax, is_float);
+    }
+    for (int P = pmin; P <= pmax; P++) {
+        long double T = scale_ld(a, P - 1 - X);
+        long double fl = floorl(T), fr = T - fl;
+        if (fabsl(fr - 0.5L) < 0.01L)
+            return format_printf(buf, v, pmin, pmax, is_float);
+        uint64_t N = (uint64_t)fl + (fr > 0.5L);
+        int Xp = X;
+        if (N >= (uint64_t)ten_d[P]) { /* rounded up to 10^P */
+            N /= 10;
+            Xp++;
+        }
+        int n = put_g(buf, signbit(v), N, P, Xp);
+        if (P == pmax)
+            return n; /* the loop's last precision is taken as it is */
+        int e = Xp - P + 1;
+        bool back;
+        if (N < (UINT64_C(1) << 53) && e >= -22 && e <= 22) {
+            double d = e >= 0 ? (double)N * ten_d[e] : (double)N / ten_d[-e];
+            if (!is_float) {
+                back = d == a;
+            } else {
+                /* decimal -> double -> float rounds twice; it differs from
+                 * decimal -> float only when d lands on a float midpoint */
+                uint64_t bits;
+                memcpy(&bits, &d, 8);
+                if ((bits & ((UINT64_C(1) << 29) - 1)) == (UINT64_C(1) << 28))
+                    back = strtof(buf, NULL) == (float)v;
+                else
+                    back = (float)d == (float)a;
+            }
+        } else {
+            back = is_float ? strtof(buf, NULL) == (float)v : strtod(buf, NULL) == v;
+        }
+        if (back)
+            return n;
+    }
+    return 0; /* not reached: P == pmax returns */
+#else
+    return format_printf(buf, v, pmin, pmax, is_float);
+#endif
+}
+
+int ffd_format_double(char *buf, double v)
+{
+    return format_shortest(buf, v, 15, 17, false);
+}
+
 int ffd_format_float(char *buf, float v)
 {
-    int n = 0;
-    for (int prec = 6; prec <= 9; prec++) {
-        n = snprintf(buf, 32, "%.*g", prec, (double)v);
-        if (strtof(buf, NULL) == v)
-            break;
-    }
-    return n;
+    return format_shortest(buf, (double)v, 6, 9, true);
 }
 
 size_t ffd_span_kind_size(int kind)
@@ -329,8 +538,18 @@ void ffd_write_scalar(unsigned char *p, int kind, bool big_endian, double v)
 double ffd_span_value(const ffd_mesh *m, const ffd_span *s)
 {
     if (s->kind == FFD_SPAN_TEXT)
-        return strtod((const char *)m->src + s->offset, NULL);
+        return ffd_strtod((const char *)m->src + s->offset, NULL);
     return ffd_read_scalar(m->src + s->offset, s->kind, m->encoding == FFD_ENCODING_BINARY_BE);
+}
+
+size_t ffd_span_length(const ffd_mesh *m, const ffd_span *s)
+{
+    if (s->kind != FFD_SPAN_TEXT)
+        return ffd_span_kind_size(s->kind);
+    const char *p = (const char *)m->src + s->offset;
+    char *e;
+    ffd_strtod(p, &e);
+    return (size_t)(e - p);
 }
 
 /* ======================================================================

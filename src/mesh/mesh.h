@@ -35,10 +35,13 @@ enum {
 /* Anchor of a normal no face uses (OBJ vn never referenced): set_positions leaves it alone. */
 #define FFD_NO_ANCHOR UINT32_MAX
 
+/* 8 bytes, 3 per vertex (issue 17: 24 bytes of bookkeeping per vertex, was
+ * 48). The length is not stored: a binary value is its kind's size, a text
+ * value is the number strtod reads at offset (every reader made the span from
+ * exactly that extent, ffd_parse_number), see ffd_span_length. */
 typedef struct ffd_span {
-    size_t offset;   /* byte offset in src */
-    uint32_t length; /* text: characters; binary: scalar size */
-    uint8_t kind;    /* FFD_SPAN_* */
+    uint64_t offset : 56; /* byte offset in src (sources < 64 PiB) */
+    uint64_t kind : 8;    /* FFD_SPAN_* */
 } ffd_span;
 
 struct ffd_mesh {
@@ -106,7 +109,10 @@ static inline bool ffd_is_space(int c)
  * Returns 1 and advances *p; 0 when no number starts at *p; -1 when garbage
  * follows the digits (*p then points at the garbage). */
 int ffd_parse_number(const char **p, const char *end, bool hash_ends, double *out);
-/* Shortest "%.Ng" (N = 15..17) that reads back as v; returns the length. buf >= 32. */
+/* strtod (same value, same end) without its cost for plain decimals. */
+double ffd_strtod(const char *s, char **end);
+/* Shortest "%.Ng" (N = 15..17) that reads back as v, byte for byte what the
+ * printf loop gives but without printf for most values; returns the length. buf >= 32. */
 int ffd_format_double(char *buf, double v);
 /* Same for a value of float precision (6..9 digits). */
 int ffd_format_float(char *buf, float v);
@@ -120,6 +126,8 @@ bool ffd_scalar_fits(int kind, double v);
 void ffd_write_scalar(unsigned char *p, int kind, bool big_endian, double v);
 /* The value a span held in the source. */
 double ffd_span_value(const ffd_mesh *m, const ffd_span *s);
+/* The number of source bytes the span covers. */
+size_t ffd_span_length(const ffd_mesh *m, const ffd_span *s);
 
 /* ---- growable output buffer (mesh_write.c) ------------------------------ */
 
@@ -135,6 +143,8 @@ void ffd_buf_double(ffd_buf *b, double v); /* shortest round-trip text */
 /* "<prefix>x y z\n" with shortest round-trip numbers (prefix may be ""). */
 void ffd_buf_vec3_line(ffd_buf *b, const char *prefix, const double p[3]);
 void ffd_buf_uint(ffd_buf *b, uint64_t v); /* decimal */
+/* Decimal text of v ("%lld" without printf); returns the length. buf >= 24. */
+int ffd_format_int(char *buf, int64_t v);
 void ffd_buf_xyz(ffd_buf *b, const double *v); /* " x y z", shortest round-trip numbers */
 void ffd_buf_free(ffd_buf *b);
 

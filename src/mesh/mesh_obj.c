@@ -67,7 +67,6 @@ static int read_numbers(obj_ctx *c, const char *p, const char *e, int keep, doub
             }
             out[n] = v;
             spans[n].offset = (size_t)(start - c->s);
-            spans[n].length = (uint32_t)(p - start);
             spans[n].kind = FFD_SPAN_TEXT;
         }
         n++;
@@ -276,10 +275,12 @@ static ffd_status obj_write(const ffd_mesh *m, ffd_encoding enc, ffd_buf *b, ffd
         ffd_buf_puts(b, "f");
         for (uint32_t k = m->face_offsets[f]; k < m->face_offsets[f + 1]; k++) {
             uint32_t v = m->face_indices[k] + 1;
-            if (vn)
-                ffd_buf_printf(b, " %u//%u", v, v);
-            else
-                ffd_buf_printf(b, " %u", v);
+            ffd_buf_put(b, " ", 1);
+            ffd_buf_uint(b, v);
+            if (vn) {
+                ffd_buf_put(b, "//", 2);
+                ffd_buf_uint(b, v);
+            }
         }
         ffd_buf_puts(b, "\n");
     }

@@ -78,7 +78,6 @@ static int number(off_ctx *c, const char **p, const char *e, const char *what, d
     }
     if (span) {
         span->offset = (size_t)(start - c->s);
-        span->length = (uint32_t)(q - start);
         span->kind = FFD_SPAN_TEXT;
     }
     *p = q;
@@ -262,9 +261,11 @@ static ffd_status off_write(const ffd_mesh *m, ffd_encoding enc, ffd_buf *b, ffd
         ffd_buf_vec3_line(b, "", m->positions + 3 * i);
     }
     for (size_t f = 0; f < m->face_count && !b->oom; f++) {
-        ffd_buf_printf(b, "%u", m->face_offsets[f + 1] - m->face_offsets[f]);
-        for (uint32_t k = m->face_offsets[f]; k < m->face_offsets[f + 1]; k++)
-            ffd_buf_printf(b, " %u", m->face_indices[k]);
+        ffd_buf_uint(b, m->face_offsets[f + 1] - m->face_offsets[f]);
+        for (uint32_t k = m->face_offsets[f]; k < m->face_offsets[f + 1]; k++) {
+            ffd_buf_put(b, " ", 1);
+            ffd_buf_uint(b, m->face_indices[k]);
+        }
         ffd_buf_puts(b, "\n");
     }
     (void)err;

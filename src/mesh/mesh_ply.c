@@ -254,18 +254,20 @@ typedef struct {
     bool first_on_line;
 } walker;
 
-static ffd_status read_value(walker *w, int type, const char *what, uint64_t index, double *v,
+/* A property's name in messages (at most 60 characters): "%.*s" arguments. */
+#define PROP_NAME(pr) (int)((pr)->name_len > 60 ? 60 : (pr)->name_len), (pr)->name
+
+static ffd_status read_value(walker *w, int type, const ply_prop *pr, uint64_t index, double *v,
                              ffd_span *span, ffd_error *err)
 {
     if (w->enc != FFD_ENCODING_ASCII) {
         size_t n = ffd_span_kind_size(type);
         if (w->size - w->pos < n)
             return ffd_fail(err, FFD_ERR_PARSE,
-                            "%s: byte %zu: expected %s '%s' of element %llu, found end of file (truncated)",
-                            w->name, w->pos, type_name(type), what, (unsigned long long)index);
+                            "%s: byte %zu: expected %s '%.*s' of element %llu, found end of file (truncated)",
+                            w->name, w->pos, type_name(type), PROP_NAME(pr), (unsigned long long)index);
         *v = ffd_read_scalar(w->src + w->pos, type, w->enc == FFD_ENCODING_BINARY_BE);
         span->offset = w->pos;
-        span->length = (uint32_t)n;
         span->kind = (uint8_t)type;
         w->pos += n;
         return FFD_OK;
@@ -277,8 +279,8 @@ static ffd_status read_value(walker *w, int type, const char *what, uint64_t ind
         p++;
     }
     if (p >= end)
-        return ffd_fail(err, FFD_ERR_PARSE, "%s:%zu: expected %s '%s' of element %llu, found end of file",
-                        w->name, w->line, type_name(type), what, (unsigned long long)index);
+        return ffd_fail(err, FFD_ERR_PARSE, "%s:%zu: expected %s '%.*s' of element %llu, found end of file",
+                        w->name, w->line, type_name(type), PROP_NAME(pr), (unsigned long long)index);
     const char *start = p;
     int r = ffd_parse_number(&p, end, false, v);
     if (r <= 0) {
@@ -286,11 +288,10 @@ static ffd_status read_value(walker *w, int type, const char *what, uint64_t ind
         int len = 0;
         while (t + len < end && !ffd_is_space(t[len]) && len < 20)
             len++;
-        return ffd_fail(err, FFD_ERR_PARSE, "%s:%zu: expected a number for '%s', found '%.*s'",
-                        w->name, w->line, what, len, t);
+        return ffd_fail(err, FFD_ERR_PARSE, "%s:%zu: expected a number for '%.*s', found '%.*s'",
+                        w->name, w->line, PROP_NAME(pr), len, t);
     }
     span->offset = (size_t)(start - s);
-    span->length = (uint32_t)(p - start);
     span->kind = FFD_SPAN_TEXT;
     w->pos = (size_t)(p - s);
     return FFD_OK;
@@ -310,7 +311,7 @@ static void emit(walker *w, int type, double v)
         else {
             unsigned char b[8];
             ffd_write_scalar(b, type, false, v);
-            n = snprintf(tmp, sizeof tmp, "%.0f", ffd_read_scalar(b, type, false));
+            n = ffd_format_int(tmp, (int64_t)ffd_read_scalar(b, type, false));
         }
         if (!w->first_on_line)
             ffd_buf_put(w->out, " ", 1);
@@ -330,6 +331,129 @@ static const char *loc_fmt(const walker *w, char *buf, size_t n)
     else
         snprintf(buf, n, "%s: byte %zu", w->name, w->pos);
     return buf;
+}
+
+/* The machine's byte order when the compiler says it (0 little, 1 big), else -1. */
+#if defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__
+#define HOST_BIG_ENDIAN 0
+#elif defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_BIG_ENDIAN__
+#define HOST_BIG_ENDIAN 1
+#else
+#define HOST_BIG_ENDIAN (-1)
+#endif
+
+/* A binary scalar; float and double in the machine's byte order directly. */
+static inline double scalar_at(const unsigned char *p, int kind, bool big_endian)
+{
+    bool native = (int)big_endian == HOST_BIG_ENDIAN;
+    if (native && kind == FFD_SPAN_F32) {
+        float f;
+        memcpy(&f, p, 4);
+        return (double)f;
+    }
+    if (native && kind == FFD_SPAN_F64) {
+        double d;
+        memcpy(&d, p, 8);
+        return d;
+    }
+    return ffd_read_scalar(p, kind, big_endian);
+}
+
+/* The vertex element of a binary file whose properties are all scalars:
+ * fixed-size records (the caller checked that count of them fit the data),
+ * x y z (and nx ny nz) straight into the mesh's arrays, reserved for count.
+ * Returns how many records it took; it stops before a non-finite value. */
+static uint64_t read_binary_vertices(walker *w, const ply_elem *el, const int *role,
+                                     bool has_normal, ffd_mesh *m)
+{
+    size_t at[6] = {0}, rec = 0;
+    int type[6] = {0};
+    for (size_t k = 0; k < el->nprops; k++) {
+        if (el->props[k].count_type)
+            return 0;
+        if (role[k] >= ROLE_X && role[k] <= ROLE_NZ) {
+            at[role[k] - ROLE_X] = rec;
+            type[role[k] - ROLE_X] = el->props[k].type;
+        }
+        rec += ffd_span_kind_size(el->props[k].type);
+    }
+    bool be = w->enc == FFD_ENCODING_BINARY_BE;
+    int nval = has_normal ? 6 : 3;
+    size_t base = m->vertex_count;
+    uint64_t i = 0;
+    for (; i < el->count; i++) {
+        size_t r = w->pos + (size_t)i * rec;
+        double v[6] = {0, 0, 0, 0, 0, 0};
+        bool finite = true;
+        for (int d = 0; d < nval; d++) {
+            if (d >= 3 && !type[d])
+                continue; /* a normal with only some of nx ny nz: 0 */
+            v[d] = scalar_at(w->src + r + at[d], type[d], be);
+            finite &= isfinite(v[d]) != 0;
+        }
+        if (!finite)
+            break;
+        size_t vi = base + (size_t)i;
+        for (int d = 0; d < 3; d++) {
+            m->positions[3 * vi + (size_t)d] = v[d];
+            m->position_spans[3 * vi + (size_t)d] = (ffd_span){r + at[d], (uint64_t)type[d]};
+        }
+        if (has_normal) {
+            size_t ni = m->normal_count + (size_t)i;
+            for (int d = 0; d < 3; d++) {
+                m->normals[3 * ni + (size_t)d] = v[3 + d];
+                m->normal_spans[3 * ni + (size_t)d] =
+                    type[3 + d] ? (ffd_span){r + at[3 + d], (uint64_t)type[3 + d]} : (ffd_span){0, 0};
+            }
+            m->normal_anchors[ni] = (uint32_t)i;
+        }
+    }
+    m->vertex_count += (size_t)i;
+    if (has_normal)
+        m->normal_count += (size_t)i;
+    w->pos += (size_t)i * rec;
+    return i;
+}
+
+/* The face element of a binary file made of the index list alone (integer
+ * indices): faces straight into the mesh. *taken is how many it read; it
+ * stops before a face that is truncated, short or out of range. */
+static ffd_status read_binary_faces(walker *w, const ply_elem *el, uint64_t vertex_count,
+                                    ffd_mesh *m, uint64_t *taken, ffd_error *err)
+{
+    const ply_prop *pr = &el->props[0];
+    size_t csz = ffd_span_kind_size(pr->count_type), isz = ffd_span_kind_size(pr->type);
+    bool be = w->enc == FFD_ENCODING_BINARY_BE;
+    uint64_t i = 0;
+    for (; i < el->count; i++) {
+        size_t left = w->size - w->pos;
+        if (left < csz)
+            break;
+        double cnt = ffd_read_scalar(w->src + w->pos, pr->count_type, be);
+        if (!(cnt >= 3) || cnt > (double)((left - csz) / isz))
+            break;
+        size_t n = (size_t)cnt;
+        const unsigned char *q = w->src + w->pos + csz;
+        bool ok = true;
+        for (size_t j = 0; j < n && ok; j++) {
+            double v = ffd_read_scalar(q + j * isz, pr->type, be);
+            ok = v >= 0 && v < (double)vertex_count;
+        }
+        if (!ok)
+            break;
+        if (m->index_count + n > UINT32_MAX ||
+            !ffd_grow((void **)&m->face_indices, &m->index_cap, m->index_count + n,
+                      sizeof(uint32_t)))
+            return ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory", w->name);
+        for (size_t j = 0; j < n; j++)
+            m->face_indices[m->index_count++] =
+                (uint32_t)ffd_read_scalar(q + j * isz, pr->type, be);
+        if (!ffd_mesh_end_face(m))
+            return ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory", w->name);
+        w->pos += csz + n * isz;
+    }
+    *taken = i;
+    return FFD_OK;
 }
 
 static ffd_status walk(walker *w, const ply_header *h, ffd_mesh *m, ffd_error *err)
@@ -410,33 +534,42 @@ static ffd_status walk(walker *w, const ply_header *h, ffd_mesh *m, ffd_error *e
             return ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory", w->name);
         if (is_vert)
             m->vertex_normals = has_normal;
-        for (uint64_t i = 0; i < el->count; i++) {
+        /* Binary records take a direct path while they are well formed; the
+         * general loop below takes over at the first record that is not (and
+         * reports it), so messages and results are the same either way. */
+        uint64_t first = 0;
+        if (w->enc != FFD_ENCODING_ASCII && !w->out && is_vert)
+            first = read_binary_vertices(w, el, role, has_normal, m);
+        else if (w->enc != FFD_ENCODING_ASCII && !w->out && is_face && el->nprops == 1 &&
+                 role[0] == ROLE_FACE_LIST && is_int_type(el->props[0].type)) {
+            if ((st = read_binary_faces(w, el, vert->count, m, &first, err)) != FFD_OK)
+                return st;
+        }
+        for (uint64_t i = first; i < el->count; i++) {
             double xyz[6] = {0, 0, 0, 0, 0, 0};
             ffd_span sp[6];
             memset(sp, 0, sizeof sp);
             for (size_t k = 0; k < el->nprops; k++) {
                 const ply_prop *pr = &el->props[k];
                 int r = k < ROLE_PROPERTY_MAX ? role[k] : ROLE_OTHER;
-                char what[80];
-                snprintf(what, sizeof what, "%.*s", (int)(pr->name_len > 60 ? 60 : pr->name_len), pr->name);
                 double v;
                 ffd_span span;
                 if (!pr->count_type) {
                     size_t at = w->pos;
-                    if ((st = read_value(w, pr->type, what, i, &v, &span, err)) != FFD_OK)
+                    if ((st = read_value(w, pr->type, pr, i, &v, &span, err)) != FFD_OK)
                         return st;
                     if (r >= ROLE_X && r <= ROLE_NZ) {
                         if (!isfinite(v)) {
                             w->pos = at;
-                            return ffd_fail(err, FFD_ERR_NONFINITE, "%s: non-finite '%s' of vertex %llu",
-                                            loc_fmt(w, loc, sizeof loc), what, (unsigned long long)i);
+                            return ffd_fail(err, FFD_ERR_NONFINITE, "%s: non-finite '%.*s' of vertex %llu",
+                                            loc_fmt(w, loc, sizeof loc), PROP_NAME(pr), (unsigned long long)i);
                         }
                         if (!ffd_scalar_fits(pr->type, v)) {
                             w->pos = at;
                             return ffd_fail(err, FFD_ERR_RANGE,
-                                            "%s: '%s' of vertex %llu is %g, outside the range of "
+                                            "%s: '%.*s' of vertex %llu is %g, outside the range of "
                                             "its type %s",
-                                            loc_fmt(w, loc, sizeof loc), what, (unsigned long long)i,
+                                            loc_fmt(w, loc, sizeof loc), PROP_NAME(pr), (unsigned long long)i,
                                             v, type_name(pr->type));
                         }
                         xyz[r - ROLE_X] = v;
@@ -446,9 +579,9 @@ static ffd_status walk(walker *w, const ply_header *h, ffd_mesh *m, ffd_error *e
                                        : w->subst->normals[3 * i + (size_t)(r - ROLE_NX)];
                             if (!ffd_scalar_fits(pr->type, v))
                                 return ffd_fail(err, FFD_ERR_RANGE,
-                                                "vertex %llu: '%s' = %g does not fit the file's %s "
+                                                "vertex %llu: '%.*s' = %g does not fit the file's %s "
                                                 "property",
-                                                (unsigned long long)i, what, v,
+                                                (unsigned long long)i, PROP_NAME(pr), v,
                                                 type_name(pr->type));
                         }
                     }
@@ -457,15 +590,15 @@ static ffd_status walk(walker *w, const ply_header *h, ffd_mesh *m, ffd_error *e
                 }
                 double cnt;
                 size_t at = w->pos;
-                if ((st = read_value(w, pr->count_type, what, i, &cnt, &span, err)) != FFD_OK)
+                if ((st = read_value(w, pr->count_type, pr, i, &cnt, &span, err)) != FFD_OK)
                     return st;
                 size_t isz = w->enc == FFD_ENCODING_ASCII ? 2 : ffd_span_kind_size(pr->type);
                 if (cnt < 0 || cnt != floor(cnt) ||
                     cnt > (double)((w->size - w->pos + 1) / isz)) {
                     w->pos = at;
                     return ffd_fail(err, FFD_ERR_PARSE,
-                                    "%s: list '%s' of element %llu has count %g, expected a count the remaining data can hold",
-                                    loc_fmt(w, loc, sizeof loc), what, (unsigned long long)i, cnt);
+                                    "%s: list '%.*s' of element %llu has count %g, expected a count the remaining data can hold",
+                                    loc_fmt(w, loc, sizeof loc), PROP_NAME(pr), (unsigned long long)i, cnt);
                 }
                 if (r == ROLE_FACE_LIST && cnt < 3)
                     return ffd_fail(err, FFD_ERR_PARSE, "%s: face %llu has %g vertices, expected at least 3",
@@ -473,7 +606,7 @@ static ffd_status walk(walker *w, const ply_header *h, ffd_mesh *m, ffd_error *e
                 emit(w, pr->count_type, cnt);
                 for (size_t j = 0; j < (size_t)cnt; j++) {
                     at = w->pos;
-                    if ((st = read_value(w, pr->type, what, i, &v, &span, err)) != FFD_OK)
+                    if ((st = read_value(w, pr->type, pr, i, &v, &span, err)) != FFD_OK)
                         return st;
                     if (r == ROLE_FACE_LIST) {
                         if (v != floor(v) || v < 0 || v >= (double)vert->count) {
@@ -801,7 +934,7 @@ static void put_typed(ffd_buf *b, bool ascii, bool be, int type, double v, bool 
     else {
         unsigned char t[8];
         ffd_write_scalar(t, type, false, v);
-        n = snprintf(tmp, sizeof tmp, "%.0f", ffd_read_scalar(t, type, false));
+        n = ffd_format_int(tmp, (int64_t)ffd_read_scalar(t, type, false));
     }
     ffd_buf_put(b, tmp, (size_t)n);
 }

@@ -371,7 +371,7 @@ void ffd_refine_put_source(ffd_buf *b, const ffd_mesh *m, size_t from, size_t to
             continue;
         ffd_buf_put(b, m->src + at, s->offset - at);
         ffd_buf_double(b, v);
-        at = s->offset + s->length;
+        at = s->offset + ffd_span_length(m, s);
     }
     ffd_buf_put(b, m->src + at, to - at);
 }

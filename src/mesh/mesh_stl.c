@@ -57,12 +57,11 @@ static ffd_status read_binary(ffd_mesh *m, const char *name, ffd_error *err)
         ffd_span sp[STL_FACET_VALUES];
         for (int j = 0; j < STL_FACET_VALUES; j++) {
             sp[j].offset = off + STL_FLOAT_SIZE * (size_t)j;
-            sp[j].length = STL_FLOAT_SIZE;
             sp[j].kind = FFD_SPAN_F32;
             v[j] = ffd_read_scalar(s + sp[j].offset, FFD_SPAN_F32, false);
             if (!isfinite(v[j]))
                 return ffd_fail(err, FFD_ERR_NONFINITE, "%s: byte %zu: non-finite %s in triangle %zu",
-                                name, sp[j].offset, j < 3 ? "normal" : "coordinate", f);
+                                name, (size_t)sp[j].offset, j < 3 ? "normal" : "coordinate", f);
         }
         uint32_t base = (uint32_t)(3 * f);
         ffd_mesh_push_normal(m, v, sp, base);
@@ -132,7 +131,6 @@ static ffd_status numbers3(stl_ctx *c, double v[3], ffd_span sp[3], ffd_error *e
                             c->line, (int)(e - t > 20 ? 20 : e - t), t);
         v[j] = x;
         sp[j].offset = (size_t)(t - c->s);
-        sp[j].length = (uint32_t)(e - t);
         sp[j].kind = FFD_SPAN_TEXT;
     }
     return FFD_OK;
@@ -344,7 +342,7 @@ static void stl_facet_range(const ffd_mesh *m, size_t F, size_t *fs, size_t *fe)
     *fs = q;
     size_t v2 = m->face_indices[m->face_offsets[F] + 2];
     const ffd_span *last = &m->position_spans[3 * v2 + 2];
-    q = skip_word(s, m->src_size, skip_word(s, m->src_size, last->offset + last->length));
+    q = skip_word(s, m->src_size, skip_word(s, m->src_size, last->offset + ffd_span_length(m, last)));
     while (q < m->src_size && ffd_is_blank(s[q]) && s[q] != '\r')
         q++;
     if (q + 1 < m->src_size && s[q] == '\r' && s[q + 1] == '\n')
@@ -428,12 +426,13 @@ static ffd_status stl_refine(ffd_refine_ctx *c, ffd_buf *b, ffd_error *err)
                 }
             size_t at = fs;
             for (int i = 0; i < STL_FACET_VALUES; i++) {
-                if (sp[i]->offset < at || sp[i]->offset + sp[i]->length > fe)
+                size_t len = ffd_span_length(m, sp[i]);
+                if (sp[i]->offset < at || sp[i]->offset + len > fe)
                     return ffd_fail(err, FFD_ERR_INVALID,
                                     "ffd_mesh_refine: the mesh does not match its STL source");
                 ffd_buf_put(b, m->src + at, sp[i]->offset - at);
                 ffd_buf_double(b, v[i]);
-                at = sp[i]->offset + sp[i]->length;
+                at = sp[i]->offset + len;
             }
             ffd_buf_put(b, m->src + at, fe - at);
         }

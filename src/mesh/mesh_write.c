@@ -101,11 +101,36 @@ void ffd_buf_vec3_line(ffd_buf *b, const char *prefix, const double p[3])
     ffd_buf_puts(b, "\n");
 }
 
+int ffd_format_int(char *buf, int64_t v)
+{
+    char t[24];
+    int n = 0;
+    uint64_t u = v < 0 ? 0 - (uint64_t)v : (uint64_t)v;
+    do {
+        t[n++] = (char)('0' + u % 10);
+        u /= 10;
+    } while (u);
+    int k = 0;
+    if (v < 0)
+        buf[k++] = '-';
+    while (n)
+        buf[k++] = t[--n];
+    buf[k] = '\0';
+    return k;
+}
+
 void ffd_buf_uint(ffd_buf *b, uint64_t v)
 {
     char t[24];
-    int n = snprintf(t, sizeof t, "%llu", (unsigned long long)v);
-    ffd_buf_put(b, t, (size_t)n);
+    int n = 0;
+    do {
+        t[n++] = (char)('0' + v % 10);
+        v /= 10;
+    } while (v);
+    char d[24];
+    for (int i = 0; i < n; i++)
+        d[i] = t[n - 1 - i];
+    ffd_buf_put(b, d, (size_t)n);
 }
 
 void ffd_buf_xyz(ffd_buf *b, const double *v)
@@ -178,7 +203,7 @@ ffd_status ffd_mesh_patch_spans(const ffd_mesh *m, ffd_buf *b, ffd_error *err)
         }
         ffd_buf_put(b, m->src + pos, s->offset - pos);
         ffd_buf_double(b, v);
-        pos = s->offset + s->length;
+        pos = s->offset + ffd_span_length(m, s);
     }
     ffd_buf_put(b, m->src + pos, m->src_size - pos);
     if (b->oom)

@@ -1,5 +1,6 @@
 /* ffd deform — apply a rig (JSON or PyGeM .prm) to a mesh and write the result. */
 #include "cli.h"
+#include "core/core.h" /* ffd_write_file_atomic: the checked bytes are the ones written */
 
 #include <cjson/cJSON.h>
 
@@ -227,6 +228,8 @@ int cmd_deform(int argc, char **argv)
     ffd_error err = {{0}};
     ffd_mesh *mesh = NULL;
     ffd_rig *rig = NULL;
+    unsigned char *bytes = NULL; /* the output mesh, made before any file is written */
+    size_t nbytes = 0;
     ffd_rig_report report = {0};
     int code = CLI_EXIT_INPUT;
     double t0 = cli_now();
@@ -256,13 +259,18 @@ int cmd_deform(int argc, char **argv)
     ffd_write_options check = options;
     if (check.format == FFD_FORMAT_AUTO)
         check.format = ffd_format_from_path(out);
-    unsigned char *bytes = NULL;
-    size_t nbytes = 0;
     if (!to_stdout && ffd_mesh_write_memory(mesh, &check, &bytes, &nbytes, &err) != FFD_OK) {
         cli_error(code, "%s: %s", out, err.message);
         goto done;
     }
-    ffd_free(bytes); /* standard output: made once, by cli_mesh_write, before it writes */
+    /* The bytes just made are the file ffd_mesh_write would make again
+     * (its memory write, then an atomic write); glTF writes through its
+     * codec (external buffers) and standard output is made once, by
+     * cli_mesh_write, before it writes. */
+    if (bytes && check.format == FFD_FORMAT_GLTF) {
+        ffd_free(bytes);
+        bytes = NULL;
+    }
     if (lattice_out && ffd_rig_report_write_lattice(&report, lattice_out, &err) != FFD_OK) {
         cli_error(code, "%s", err.message);
         goto done;
@@ -273,7 +281,16 @@ int cmd_deform(int argc, char **argv)
             unlink(lattice_out);
         goto done;
     }
-    if ((bad = cli_mesh_write(mesh, out, &options, &err)) != CLI_EXIT_OK) {
+    if (bytes) {
+        bad = ffd_write_file_atomic(out, bytes, nbytes, &err) == FFD_OK
+                  ? CLI_EXIT_OK
+                  : cli_error(CLI_EXIT_INPUT, "%s", err.message);
+        ffd_free(bytes);
+        bytes = NULL;
+    } else {
+        bad = cli_mesh_write(mesh, out, &options, &err);
+    }
+    if (bad != CLI_EXIT_OK) {
         code = bad;
         if (lattice_out && !lattice_existed)
             unlink(lattice_out);
@@ -297,6 +314,7 @@ int cmd_deform(int argc, char **argv)
              ffd_mesh_vertex_count(mesh), ffd_mesh_face_count(mesh));
     code = CLI_EXIT_OK;
 done:
+    ffd_free(bytes);
     ffd_rig_report_free(&report);
     ffd_rig_destroy(rig);
     ffd_mesh_destroy(mesh);
