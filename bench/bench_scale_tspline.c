@@ -5,6 +5,11 @@
  * cell), on refined_elephant.off subdivided 1 -> 4 until it has N vertices
  * and cut to its first N (with the faces among them).
  *
+ * Then the same through the rig (ffd_rig_apply of a "tspline" rig of one
+ * "move" step, the top layer up; its report's bind and evaluate timings:
+ * evaluate = the deformed points and Jacobians from one pass over the
+ * blending functions, plus the fold check).
+ *
  * Prints time per vertex at each N (10^4 -> 10^6), which is flat when every
  * step is linear. Issue 17's "437K-vertex scan" is N = 437000 here. The
  * last column hashes the deformed points, Jacobians and fold report: two
@@ -75,7 +80,21 @@ static int run(const char *dir, size_t n, uint32_t r, int rounds)
     if (mesh_of(dir, n, &P, &nv, &off, &idx, &nf))
         return 1;
     double *x = malloc(3 * nv * sizeof *x), *J = malloc(9 * nv * sizeof *J);
-    double bind[16], eval[16], jac[16], fold[16], total[16];
+    double bind[16], eval[16], jac[16], fold[16], total[16], rbind[16], reval[16];
+    ffd_mesh *mesh = NULL;
+    ffd_rig *rig = NULL;
+    ffd_error rerr = {{0}};
+    char json[512];
+    snprintf(json, sizeof json,
+             "{\"version\": 1, \"deformer\": \"tspline\", \"resolution\": [%u, %u, %u], "
+             "\"steps\": [{\"move\": [{\"box\": {\"min\": [-1e9, 0.4, -1e9], \"max\": [1e9, 1e9, 1e9]}, "
+             "\"delta\": [0, 0.05, 0]}]}]}",
+             r, r, r);
+    if (ffd_mesh_create(P, nv, off, idx, nf, &mesh, &rerr) != FFD_OK ||
+        ffd_rig_parse_json(json, strlen(json), "scale.json", &rig, &rerr) != FFD_OK) {
+        fprintf(stderr, "%zu: %s\n", n, rerr.message);
+        return 1;
+    }
     size_t cells = 0;
     uint64_t sum = 0;
     for (int k = 0; k < rounds; k++) {
@@ -121,14 +140,31 @@ static int run(const char *dir, size_t n, uint32_t r, int rounds)
         jac[k] = t4 - t3;
         fold[k] = t5 - t4;
         total[k] = (t1 - t0) + (t5 - t2);
+        ffd_mesh *copy = NULL;
+        ffd_rig_report rep;
+        ffd_limits lim = {0};
+        lim.unlimited = 1;
+        if (ffd_mesh_create(P, nv, off, idx, nf, &copy, &rerr) != FFD_OK ||
+            ffd_rig_apply_limited(rig, copy, &lim, &rep, &rerr) != FFD_OK) {
+            fprintf(stderr, "%zu: rig: %s\n", n, rerr.message);
+            return 1;
+        }
+        rbind[k] = rep.timings.bind;
+        reval[k] = rep.timings.evaluate;
+        ffd_rig_report_free(&rep);
+        ffd_mesh_destroy(copy);
     }
-    double *all[] = {bind, eval, jac, fold, total};
-    for (int i = 0; i < 5; i++)
+    ffd_rig_destroy(rig);
+    ffd_mesh_destroy(mesh);
+    double *all[] = {bind, eval, jac, fold, total, rbind, reval};
+    for (int i = 0; i < 7; i++)
         qsort(all[i], (size_t)rounds, sizeof(double), cmp_double);
     int m = rounds / 2;
-    printf("| %zu | %zu | %zu | %.1f | %.1f | %.1f | %.1f | **%.1f** | %.2f | %016llx |\n", nv,
-           nf, cells, 1e3 * bind[m], 1e3 * eval[m], 1e3 * jac[m], 1e3 * fold[m], 1e3 * total[m],
-           1e9 * total[m] / (double)nv / 1e3, (unsigned long long)sum);
+    printf("| %zu | %zu | %zu | %.1f | %.1f | %.1f | %.1f | **%.1f** | %.2f | %016llx | %.1f | "
+           "%.1f | **%.1f** | %.2f |\n",
+           nv, nf, cells, 1e3 * bind[m], 1e3 * eval[m], 1e3 * jac[m], 1e3 * fold[m],
+           1e3 * total[m], 1e6 * total[m] / (double)nv, (unsigned long long)sum, 1e3 * rbind[m],
+           1e3 * reval[m], 1e3 * (rbind[m] + reval[m]), 1e6 * (rbind[m] + reval[m]) / (double)nv);
     fflush(stdout);
     free(x);
     free(J);
@@ -164,7 +200,9 @@ int main(int argc, char **argv)
     }
     printf("| T-spline %ux%ux%u, threads %d: vertices | faces | cells checked | bind ms | "
            "eval ms | Jacobian ms | fold check ms | bind + evaluate ms | us per vertex | "
-           "checksum of x, J, folds |\n|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|\n",
+           "checksum of x, J, folds | "
+           "rig bind ms | rig evaluate ms | rig bind + evaluate ms | rig us per vertex |\n"
+           "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|---:|---:|---:|---:|\n",
            res, res, res, omp_get_max_threads());
     int bad = 0;
     for (size_t i = 0; i < ns; i++)
