@@ -159,7 +159,9 @@ FFD_API ffd_status ffd_tsv_refine(ffd_tsv *t, const ffd_tsv_insertion *insertion
 /* Deformed positions of the bound points, n by 3 (eq. 1, evaluated as the
  * point plus the displacement Phi (P - P_rest): the rest lattice gives every
  * point back bitwise, and points no moved control point reaches keep their
- * bits). */
+ * bits). The first call after ffd_tsv_create or a refinement builds Phi
+ * (about 64 entries per point), later ones reuse it; FFD_ERR_NOMEM when it
+ * cannot be built (out unchanged). */
 FFD_API ffd_status ffd_tsv_eval(const ffd_tsv *t, double *out, ffd_error *err);
 /* Jacobians d(x')/d(x) at the bound points, n by 9 row-major (I plus the
  * displacement's derivative: exactly I where nothing moved). */

@@ -735,6 +735,157 @@ static void test_phi_threads(void)
 #endif
 }
 
+/* The support's per-bin tables (each distinct univariate basis of a bin
+ * evaluated once per point) give, bit for bit, what each vertex's own
+ * W_v N(s) N(t) N(u) gives (ffd_tsv_basis on its ray-cast knots, the
+ * products in the same order): entries, order, values and gradients, at
+ * random points and on knots, after refinements of every kind. */
+static void test_support_tables_bitwise(void)
+{
+    tsv_lattice *L = make_lattice(7, 6, 5);
+    if (!L)
+        return;
+    add_noise(L);
+    for (int round = 0; round < 3; round++) {
+        ffd_tsv_insertion ins[3];
+        for (int i = 0; i < 3; i++)
+            do
+                ins[i] = random_insertion(L);
+            while ((int)ins[i].kind != i);
+        CHECK_OK(ffd_tsv_lattice_refine(L, ins, 3, NULL, NULL));
+    }
+    tsv_support *S = NULL;
+    CHECK_OK(ffd_tsv_support_build(L, &S, NULL));
+    if (!S) {
+        ffd_tsv_lattice_destroy(L);
+        return;
+    }
+    sample_set X = make_samples(L, 3000);
+    size_t mx = ffd_tsv_support_max(S);
+    uint32_t *ids = malloc(mx * sizeof *ids);
+    double *w = malloc(mx * sizeof *w), *g = malloc(3 * mx * sizeof *g);
+    double(*knots)[3][5] = malloc(L->nv * sizeof *knots);
+    for (size_t v = 0; v < L->nv; v++)
+        ffd_tsv_infer_knots(L, (uint32_t)v, knots[v]);
+    size_t mismatches = 0, entries = 0;
+    for (size_t i = 0; i < X.n; i++) {
+        const double *x = X.p + 3 * i;
+        size_t m = ffd_tsv_support_eval(S, x, ids, w, g), k = 0;
+        for (size_t v = 0; v < L->nv; v++) {
+            double N[3], dN[3], kap[3][2];
+            int inside = 1;
+            for (int d = 0; d < 3; d++) {
+                kap[d][0] = tsv_kappa(knots[v][d][0]);
+                kap[d][1] = tsv_kappa(knots[v][d][4]);
+                inside &= !(x[d] < kap[d][0] || x[d] > kap[d][1]);
+            }
+            if (!inside)
+                continue;
+            for (int d = 0; d < 3; d++)
+                N[d] = ffd_tsv_basis(knots[v][d], x[d], &dN[d]);
+            double W = L->verts[v].W, val = W * N[0] * N[1] * N[2];
+            double gv[3] = {W * dN[0] * N[1] * N[2], W * N[0] * dN[1] * N[2],
+                            W * N[0] * N[1] * dN[2]};
+            if (val == 0.0 && gv[0] == 0.0 && gv[1] == 0.0 && gv[2] == 0.0)
+                continue;
+            entries++;
+            if (k >= m || ids[k] != v || memcmp(&w[k], &val, sizeof val) != 0 ||
+                memcmp(g + 3 * k, gv, sizeof gv) != 0)
+                mismatches++;
+            k++;
+        }
+        mismatches += k != m;
+    }
+    CHECK(entries > 64 * X.n / 2);
+    CHECK(mismatches == 0);
+    free(knots);
+    free(ids);
+    free(w);
+    free(g);
+    free(X.p);
+    ffd_tsv_support_destroy(S);
+    ffd_tsv_lattice_destroy(L);
+}
+
+/* The rig's one-pass evaluation (ffd_tsv_eval_jacobian, no Phi) gives the
+ * bits of ffd_tsv_eval (through Phi) and ffd_tsv_jacobian; the fold check
+ * gives the same report whether Phi was built or not; a refinement drops
+ * Phi and the next evaluation rebuilds it for the new lattice. */
+static void test_one_pass_evaluation(void)
+{
+    const size_t n = 4000, nf = n / 3;
+    double *P = malloc(3 * n * sizeof *P);
+    uint32_t *off = malloc((nf + 1) * sizeof *off), *idx = malloc(3 * nf * sizeof *idx);
+    for (size_t i = 0; i < n; i++)
+        for (int a = 0; a < 3; a++)
+            P[3 * i + a] = i < 8 ? BOX_MIN[a] + (double)((i >> a) & 1) * (BOX_MAX[a] - BOX_MIN[a])
+                                 : rnd(BOX_MIN[a], BOX_MAX[a]);
+    for (size_t f = 0; f <= nf; f++)
+        off[f] = (uint32_t)(3 * f);
+    for (size_t k = 0; k < 3 * nf; k++)
+        idx[k] = (uint32_t)k;
+    uint32_t res[3] = {6, 5, 7};
+    ffd_tsv *t = NULL;
+    CHECK_OK(ffd_tsv_create(P, n, off, idx, nf, res, NULL, &t, NULL));
+    if (!t)
+        goto done;
+    for (int round = 0; round < 2; round++) {
+        /* a cell of volume (an end layer's cells of zero knot interval cannot split) */
+        ffd_tsv_insertion ins = {FFD_TSV_CELL, 0, 0};
+        double lo[3], hi[3];
+        do {
+            ins.id = rndi(ffd_tsv_element_count(t, FFD_TSV_CELL));
+            ffd_tsv_element_box(t, FFD_TSV_CELL, ins.id, lo, hi, NULL);
+        } while (!(hi[0] > lo[0] && hi[1] > lo[1] && hi[2] > lo[2]));
+        CHECK_OK(ffd_tsv_refine(t, &ins, 1, NULL, NULL));
+        for (size_t v = 0; v < ffd_tsv_control_count(t); v += 3) {
+            double d[3] = {rnd(-0.2, 0.2), rnd(-0.1, 0.1), rnd(-0.2, 0.2)};
+            CHECK_OK(ffd_tsv_move(t, (uint32_t)v, d, NULL));
+        }
+        double *x1 = malloc(3 * n * sizeof *x1), *x2 = malloc(3 * n * sizeof *x2);
+        double *J1 = malloc(9 * n * sizeof *J1), *J2 = malloc(9 * n * sizeof *J2);
+        ffd_tsv_fold_report f1, f2;
+        CHECK(!t->has_phi);
+        CHECK_OK(ffd_tsv_check_folds(t, 2, &f1, NULL));
+        CHECK(!t->has_phi);
+        CHECK_OK(ffd_tsv_eval_jacobian(t, x1, J1, NULL));
+        CHECK(!t->has_phi);
+        CHECK_OK(ffd_tsv_eval(t, x2, NULL));
+        CHECK(t->has_phi);
+        CHECK_OK(ffd_tsv_jacobian(t, J2, NULL));
+        CHECK_OK(ffd_tsv_check_folds(t, 2, &f2, NULL));
+        CHECK(memcmp(x1, x2, 3 * n * sizeof *x1) == 0);
+        CHECK(memcmp(J1, J2, 9 * n * sizeof *J1) == 0);
+        CHECK(memcmp(&f1.min_det, &f2.min_det, sizeof f1.min_det) == 0);
+        CHECK(f1.folded_cell_count == f2.folded_cell_count);
+        CHECK(f1.inverted_face_count == f2.inverted_face_count);
+        CHECK(f1.inverted_face_count == 0 ||
+              memcmp(f1.inverted_faces, f2.inverted_faces,
+                     f1.inverted_face_count * sizeof *f1.inverted_faces) == 0);
+        /* Phi against the points' own evaluation (ffd_tsv_eval_params, eq. 1 directly) */
+        double worst = 0.0;
+        for (size_t i = 0; i < n; i += 7) {
+            double stu[3], y[3];
+            ffd_tsv_point_params(t, i, stu);
+            ffd_tsv_eval_params(t, stu, y, NULL);
+            for (int a = 0; a < 3; a++)
+                worst = fmax(worst, fabs(y[a] - x2[3 * i + a]));
+        }
+        CHECK_NEAR(worst, 0.0, 1e-12 * box_diag());
+        ffd_tsv_fold_report_free(&f1);
+        ffd_tsv_fold_report_free(&f2);
+        free(x1);
+        free(x2);
+        free(J1);
+        free(J2);
+    }
+done:
+    ffd_tsv_destroy(t);
+    free(P);
+    free(off);
+    free(idx);
+}
+
 static void test_lattice_queries(void)
 {
     tsv_lattice *L = make_lattice(5, 5, 5);
@@ -839,6 +990,8 @@ int main(int argc, char **argv)
         {"bad_input", test_bad_input},
         {"nomem_rollback", test_nomem_rollback},
         {"phi_threads", test_phi_threads},
+        {"support_tables_bitwise", test_support_tables_bitwise},
+        {"one_pass_evaluation", test_one_pass_evaluation},
         {"octree_batch_cost", test_octree_batch_cost},
     };
     return check_run(tests, sizeof tests / sizeof tests[0], argc, argv);

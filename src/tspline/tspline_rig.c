@@ -580,8 +580,8 @@ ffd_status ffd_rig_apply_tspline(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_rep
         if (!x || !jac)
             s = ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory for %zu vertices", name, n);
     }
-    if (!s && (s = ffd_tsv_eval(t, x, &inner)) == FFD_OK)
-        s = ffd_tsv_jacobian(t, jac, &inner);
+    if (!s)
+        s = ffd_tsv_eval_jacobian(t, x, jac, &inner);
     if (!s) {
         tsv_estimate e;
         ffd_tsv_estimate_folds(t->L, rt->fold_samples, &e);

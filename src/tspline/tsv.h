@@ -319,7 +319,9 @@ ffd_status ffd_tsv_arap_solver_solve(tsv_arap *a, const double *targets, double 
 struct ffd_tsv {
     tsv_lattice *L;
     tsv_support *S;
-    tsv_phi phi;
+    tsv_phi phi;                  /* built on first use (need_phi in tsv_deformer.c): set-up,
+                                     refinements and the proxy do not pay for it */
+    int has_phi;
     double *params;               /* n by 3 */
     double *points;               /* n by 3: the bound points (evaluation adds displacements) */
     size_t n;
@@ -330,6 +332,12 @@ struct ffd_tsv {
     uint32_t *tie;                /* linear map tie vector */
     uint64_t frozen_version;      /* bumped when the frozen set changes */
 };
+
+/* ffd_tsv_eval and ffd_tsv_jacobian of the bound points together (x n by
+ * 3, jac n by 9), the same bits, from one evaluation of the blending
+ * functions and their derivatives per point and without Phi: the rig's one
+ * final evaluation does not build Phi. Cannot fail today (FFD_OK). */
+ffd_status ffd_tsv_eval_jacobian(const ffd_tsv *t, double *x, double *jac, ffd_error *err);
 
 /* ---------------------------------------------------------------------
  * tsv_deformer.c — any point set (ffd_deformer_bind)

@@ -27,20 +27,20 @@ static ffd_status sync_current(ffd_tsv *t, ffd_error *err)
     return FFD_OK;
 }
 
-/* Rebuilds everything derived from the topology: support bins, Phi, proxy. */
+/* Rebuilds everything derived from the topology: support bins and proxy;
+ * Phi is dropped, to be built by the first evaluation that needs it
+ * (need_phi): a rig's refinements and ARAP steps, and `ffd tspline proxy`,
+ * never read it, and it is the largest structure (64 entries per point of a
+ * regular region). */
 static ffd_status rebuild_derived(ffd_tsv *t, ffd_error *err)
 {
     tsv_support *S = NULL;
-    tsv_phi phi = {0};
     tsv_proxy proxy = {0};
     /* progress (ffd_set_progress): the shares are the stages' usual times */
     ffd_progress progress;
     ffd_progress_begin(&progress, "T-spline set-up");
     ffd_status st = ffd_tsv_support_build(t->L, &S, err);
-    ffd_progress_update(&progress, 0.1);
-    if (st == FFD_OK)
-        st = ffd_tsv_phi_build(t->L, S, t->params, t->n, &phi, err);
-    ffd_progress_update(&progress, 0.6);
+    ffd_progress_update(&progress, 0.2);
     if (st == FFD_OK) {
         tsv_object obj = {t->params, t->n, t->face_offsets, t->face_indices, t->face_count};
         st = ffd_tsv_proxy_build(t->L, &obj, &proxy, err);
@@ -52,15 +52,14 @@ static ffd_status rebuild_derived(ffd_tsv *t, ffd_error *err)
         ffd_progress_end(&progress);
     if (st != FFD_OK) {
         ffd_tsv_support_destroy(S);
-        ffd_tsv_phi_free(&phi);
         ffd_tsv_proxy_free(&proxy);
         return st;
     }
     ffd_tsv_support_destroy(t->S);
     ffd_tsv_phi_free(&t->phi);
+    t->has_phi = 0;
     ffd_tsv_proxy_free(&t->proxy);
     t->S = S;
-    t->phi = phi;
     t->proxy = proxy;
     ffd_free(t->tie);
     t->tie = NULL;
@@ -542,9 +541,28 @@ ffd_status ffd_tsv_refine(ffd_tsv *t, const ffd_tsv_insertion *insertions, size_
 
 /* --- evaluation --- */
 
+/* Builds Phi for the current topology if it is not there (rebuild_derived).
+ * A cache inside the handle, which one thread uses at a time (docs/api.md),
+ * so the const functions that evaluate may fill it. FFD_ERR_NOMEM. */
+static ffd_status need_phi(const ffd_tsv *t, ffd_error *err)
+{
+    if (t->has_phi)
+        return FFD_OK;
+    ffd_tsv *cache = (ffd_tsv *)t;
+    tsv_phi phi;
+    ffd_status st = ffd_tsv_phi_build(t->L, t->S, t->params, t->n, &phi, err);
+    if (st != FFD_OK)
+        return st;
+    cache->phi = phi;
+    cache->has_phi = 1;
+    return FFD_OK;
+}
+
 ffd_status ffd_tsv_eval(const ffd_tsv *t, double *out, ffd_error *err)
 {
-    (void)err;
+    ffd_status st = need_phi(t, err);
+    if (st != FFD_OK)
+        return st;
     ffd_tsv_phi_apply_displacement(&t->phi, t->L, t->points, out);
     return FFD_OK;
 }
@@ -555,6 +573,28 @@ static void world_jacobian(const tsv_lattice *L, double jac[9])
     for (int r = 0; r < 3; r++)
         for (int a = 0; a < 3; a++)
             jac[3 * r + a] /= extent_of(L, a);
+}
+
+ffd_status ffd_tsv_eval_jacobian(const ffd_tsv *t, double *x, double *jac, ffd_error *err)
+{
+    (void)err;
+    const size_t n = t->n;
+#pragma omp parallel for schedule(static)
+    for (size_t i = 0; i < n; i++) {
+        /* ffd_tsv_jacobian's sums, whose displacement d is Phi's row times
+           P - P_rest bit for bit (Phi leaves out only terms that add zero) */
+        double d[3], *J = jac + 9 * i;
+        const double *p = t->points + 3 * i;
+        ffd_tsv_eval_displacement(t->L, t->S, t->params + 3 * i, d, J);
+        world_jacobian(t->L, J);
+        J[0] += 1.0;
+        J[4] += 1.0;
+        J[8] += 1.0;
+        /* ffd_tsv_phi_apply_displacement's rule: a zero displacement keeps the bits */
+        for (int r = 0; r < 3; r++)
+            x[3 * i + r] = d[r] != 0.0 ? p[r] + d[r] : p[r];
+    }
+    return FFD_OK;
 }
 
 ffd_status ffd_tsv_jacobian(const ffd_tsv *t, double *out, ffd_error *err)
@@ -610,6 +650,9 @@ static size_t phi_row(const void *self, size_t i, uint32_t *columns, double *wei
 ffd_status ffd_tsv_linear_map(ffd_tsv *t, ffd_linear_map *map, ffd_error *err)
 {
     const tsv_lattice *L = t->L;
+    ffd_status st = need_phi(t, err);
+    if (st != FFD_OK)
+        return st;
     uint32_t *tie = ffd_malloc_array(L->nv ? L->nv : 1, sizeof(uint32_t));
     if (!tie)
         return ffd_fail(err, FFD_ERR_NOMEM, "out of memory");
@@ -960,7 +1003,16 @@ ffd_status ffd_tsv_check_folds(const ffd_tsv *t, uint32_t samples, ffd_tsv_fold_
         ffd_tsv_fold_report_free(report);
         return ffd_fail(err, FFD_ERR_NOMEM, "out of memory");
     }
-    ffd_tsv_phi_apply(&t->phi, L, TSV_CURRENT, x);
+    if (t->has_phi) {
+        ffd_tsv_phi_apply(&t->phi, L, TSV_CURRENT, x);
+    } else {
+        /* the same sums point by point (a term of Phi's zero entries adds
+           nothing), without building Phi for one use */
+        const size_t n = t->n;
+#pragma omp parallel for schedule(static)
+        for (size_t i = 0; i < n; i++)
+            ffd_tsv_eval_point(L, t->S, TSV_CURRENT, t->params + 3 * i, x + 3 * i, NULL);
+    }
     const size_t nfaces = t->face_count;
 #pragma omp parallel for schedule(dynamic, 64)
     for (size_t f = 0; f < nfaces; f++) {

@@ -22,12 +22,27 @@
 struct tsv_support {
     size_t nv;
     double (*kv)[3][5]; /* kappa values of the local knot vectors */
+    uint32_t (*kid)[3]; /* per axis, the id of kv[v][axis] among the distinct knot vectors:
+                           vertices with bitwise equal knot vectors share the basis values */
     double *W;
     uint32_t G;
     size_t *binptr;     /* G^3 + 1 */
     uint32_t *binv;
     size_t max;         /* most candidates in a bin */
+    /* Per bin and axis, the distinct knot vectors of its candidates (a
+     * representative vertex each, binaxv[binaxptr[3 b + d] ..]) and per
+     * candidate their local numbers binloc[binptr[b] + i][d]: a point
+     * evaluates each distinct univariate basis once (about 4 per axis in a
+     * regular region) and a candidate's blending function is a product of
+     * three of them. bintensor[b] = 0 when an axis has more than
+     * TSV_BIN_AXIS_MAX (each candidate is then evaluated on its own). */
+    uint32_t *binaxptr; /* 3 G^3 + 1 */
+    uint32_t *binaxv;
+    uint8_t (*binloc)[3];
+    uint8_t *bintensor;
 };
+
+#define TSV_BIN_AXIS_MAX 64
 
 /* Cox-de Boor on knot values t[0..4] (zero denominators give 0). */
 static double basis_kappa(const double t[5], double x, double *dx)
@@ -63,12 +78,103 @@ double ffd_tsv_basis(const double knots[5], double x, double *dx)
     return basis_kappa(t, x, dx);
 }
 
+/* Numbers the distinct knot vectors of each axis (bitwise equality, so that
+ * a shared value is exactly the one basis_kappa gives each vertex): an open
+ * hash of the 40 bytes per vertex and axis. false on OOM. */
+static bool number_knot_vectors(tsv_support *S)
+{
+    size_t cap = 16;
+    while (cap < 2 * S->nv)
+        cap *= 2;
+    uint32_t *slot = ffd_malloc_array(cap, sizeof *slot);
+    if (!slot)
+        return false;
+    for (int d = 0; d < 3; d++) {
+        uint32_t next = 0;
+        for (size_t i = 0; i < cap; i++)
+            slot[i] = UINT32_MAX;
+        for (size_t v = 0; v < S->nv; v++) {
+            uint64_t h = 1469598103934665603ull, bits;
+            for (int i = 0; i < 5; i++) {
+                memcpy(&bits, &S->kv[v][d][i], sizeof bits);
+                h = (h ^ bits) * 1099511628211ull;
+                h ^= h >> 29;
+            }
+            size_t j = (size_t)h & (cap - 1);
+            while (slot[j] != UINT32_MAX &&
+                   memcmp(S->kv[slot[j]][d], S->kv[v][d], sizeof S->kv[v][d]) != 0)
+                j = (j + 1) & (cap - 1);
+            if (slot[j] == UINT32_MAX) {
+                slot[j] = (uint32_t)v;
+                S->kid[v][d] = next++;
+            } else {
+                S->kid[v][d] = S->kid[slot[j]][d];
+            }
+        }
+    }
+    ffd_free(slot);
+    return true;
+}
+
 static uint32_t bin1(uint32_t G, double x)
 {
     if (!(x > 0.0))
         return 0;
     uint32_t b = (uint32_t)(x * G);
     return b >= G ? G - 1 : b;
+}
+
+/* The per-bin tables of distinct knot vectors (struct tsv_support). false on OOM. */
+static bool bin_tables(tsv_support *S, size_t nb)
+{
+    size_t total = S->binptr[nb];
+    uint32_t nk[3] = {0, 0, 0};
+    for (size_t v = 0; v < S->nv; v++)
+        for (int d = 0; d < 3; d++)
+            if (S->kid[v][d] + 1 > nk[d])
+                nk[d] = S->kid[v][d] + 1;
+    S->binaxptr = ffd_malloc_array(3 * nb + 1, sizeof *S->binaxptr);
+    S->binaxv = ffd_malloc_array(total ? 3 * total : 1, sizeof *S->binaxv);
+    S->binloc = ffd_malloc_array(total ? total : 1, sizeof *S->binloc);
+    S->bintensor = ffd_malloc_array(nb, 1);
+    /* stamp[d][kid]: the last bin (+1) that numbered kid, local[d][kid] its number there */
+    uint32_t *stamp = ffd_calloc((size_t)nk[0] + nk[1] + nk[2] + 1, sizeof *stamp);
+    uint8_t *local = ffd_malloc_array((size_t)nk[0] + nk[1] + nk[2] + 1, 1);
+    bool ok = S->binaxptr && S->binaxv && S->binloc && S->bintensor && stamp && local;
+    if (ok) {
+        size_t m = 0;
+        S->binaxptr[0] = 0;
+        for (size_t b = 0; b < nb; b++) {
+            bool tensor = true;
+            for (int d = 0; d < 3; d++) {
+                uint32_t *st = stamp + (d == 0 ? 0 : d == 1 ? nk[0] : nk[0] + nk[1]);
+                uint8_t *lc = local + (d == 0 ? 0 : d == 1 ? nk[0] : nk[0] + nk[1]);
+                uint32_t count = 0;
+                for (size_t i = S->binptr[b]; i < S->binptr[b + 1]; i++) {
+                    uint32_t v = S->binv[i], k = S->kid[v][d];
+                    if (st[k] != (uint32_t)b + 1) {
+                        st[k] = (uint32_t)b + 1;
+                        if (count < TSV_BIN_AXIS_MAX) {
+                            lc[k] = (uint8_t)count;
+                            S->binaxv[m + count] = v;
+                        }
+                        count++;
+                    }
+                    S->binloc[i][d] = lc[k];
+                }
+                if (count > TSV_BIN_AXIS_MAX) {
+                    tensor = false;
+                    count = TSV_BIN_AXIS_MAX;
+                }
+                m += count;
+                S->binaxptr[3 * b + d + 1] = (uint32_t)m;
+            }
+            S->bintensor[b] = tensor;
+        }
+    }
+    ffd_free(stamp);
+    ffd_free(local);
+    return ok;
 }
 
 ffd_status ffd_tsv_support_build(const tsv_lattice *L, tsv_support **out, ffd_error *err)
@@ -83,9 +189,10 @@ ffd_status ffd_tsv_support_build(const tsv_lattice *L, tsv_support **out, ffd_er
     uint32_t G = S->G;
     size_t nb = (size_t)G * G * G;
     S->kv = ffd_malloc_array(L->nv ? L->nv : 1, sizeof *S->kv);
+    S->kid = ffd_malloc_array(L->nv ? L->nv : 1, sizeof *S->kid);
     S->W = ffd_malloc_array(L->nv ? L->nv : 1, sizeof *S->W);
     S->binptr = ffd_calloc(nb + 1, sizeof *S->binptr);
-    if (!S->kv || !S->W || !S->binptr)
+    if (!S->kv || !S->kid || !S->W || !S->binptr)
         goto nomem;
     for (size_t v = 0; v < L->nv; v++) {
         double k[3][5];
@@ -95,6 +202,8 @@ ffd_status ffd_tsv_support_build(const tsv_lattice *L, tsv_support **out, ffd_er
                 S->kv[v][d][i] = tsv_kappa(k[d][i]);
         S->W[v] = L->verts[v].W;
     }
+    if (!number_knot_vectors(S))
+        goto nomem;
     /* two passes: counts, then the CSR lists (ascending vertex ids) */
     for (int pass = 0; pass < 2; pass++) {
         for (size_t v = 0; v < L->nv; v++) {
@@ -129,6 +238,8 @@ ffd_status ffd_tsv_support_build(const tsv_lattice *L, tsv_support **out, ffd_er
             S->binptr[0] = 0;
         }
     }
+    if (!bin_tables(S, nb))
+        goto nomem;
     *out = S;
     return FFD_OK;
 nomem:
@@ -141,9 +252,14 @@ void ffd_tsv_support_destroy(tsv_support *S)
     if (!S)
         return;
     ffd_free(S->kv);
+    ffd_free(S->kid);
     ffd_free(S->W);
     ffd_free(S->binptr);
     ffd_free(S->binv);
+    ffd_free(S->binaxptr);
+    ffd_free(S->binaxv);
+    ffd_free(S->binloc);
+    ffd_free(S->bintensor);
     ffd_free(S);
 }
 
@@ -152,7 +268,8 @@ size_t ffd_tsv_support_max(const tsv_support *S)
     return S->max;
 }
 
-/* W_v B_v at x (and its gradient) for one candidate; false when outside the closed support. */
+/* W_v B_v at x (and its gradient) for one candidate on its own; false when
+ * outside the closed support. */
 static bool blend(const tsv_support *S, uint32_t v, const double x[3], double *w, double g[3])
 {
     double(*k)[5] = S->kv[v];
@@ -172,22 +289,69 @@ static bool blend(const tsv_support *S, uint32_t v, const double x[3], double *w
     return true;
 }
 
-static const uint32_t *candidates(const tsv_support *S, const double x[3], size_t *n)
+/* The candidates of the bin holding x and the distinct univariate bases of
+ * the bin at x (struct tsv_support's tables), each evaluated once: every
+ * blending function and derivative of the point from one Cox-de Boor
+ * evaluation per distinct knot vector (eq. 1's B_v = N N N). */
+typedef struct point_basis {
+    const uint32_t *c;          /* candidates */
+    size_t nc;
+    uint8_t (*loc)[3];          /* their local numbers, NULL: evaluate each on its own */
+    uint8_t in[3][TSV_BIN_AXIS_MAX];   /* x in the closed support of the local basis */
+    double N[3][TSV_BIN_AXIS_MAX], dN[3][TSV_BIN_AXIS_MAX];
+} point_basis;
+
+static void point_basis_at(const tsv_support *S, const double x[3], bool grad, point_basis *pb)
 {
     uint32_t G = S->G;
     size_t id = ((size_t)bin1(G, x[0]) * G + bin1(G, x[1])) * G + bin1(G, x[2]);
-    *n = S->binptr[id + 1] - S->binptr[id];
-    return S->binv + S->binptr[id];
+    pb->c = S->binv + S->binptr[id];
+    pb->nc = S->binptr[id + 1] - S->binptr[id];
+    pb->loc = NULL;
+    if (!S->bintensor[id])
+        return;
+    pb->loc = S->binloc + S->binptr[id];
+    for (int d = 0; d < 3; d++)
+        for (uint32_t j = S->binaxptr[3 * id + d], a = 0; j < S->binaxptr[3 * id + d + 1];
+             j++, a++) {
+            const double *k = S->kv[S->binaxv[j]][d];
+            pb->in[d][a] = !(x[d] < k[0] || x[d] > k[4]);
+            if (pb->in[d][a])
+                pb->N[d][a] = basis_kappa(k, x[d], grad ? &pb->dN[d][a] : NULL);
+        }
+}
+
+/* blend() for candidate i of pb, from the shared univariate values: the same
+ * products in the same order, so the same bits. */
+static bool point_blend(const tsv_support *S, const point_basis *pb, size_t i, const double x[3],
+                        double *w, double g[3])
+{
+    if (!pb->loc)
+        return blend(S, pb->c[i], x, w, g);
+    const uint8_t *l = pb->loc[i];
+    if (!pb->in[0][l[0]] || !pb->in[1][l[1]] || !pb->in[2][l[2]])
+        return false;
+    double N0 = pb->N[0][l[0]], N1 = pb->N[1][l[1]], N2 = pb->N[2][l[2]];
+    double W = S->W[pb->c[i]];
+    *w = W * N0 * N1 * N2;
+    if (g) {
+        g[0] = W * pb->dN[0][l[0]] * N1 * N2;
+        g[1] = W * N0 * pb->dN[1][l[1]] * N2;
+        g[2] = W * N0 * N1 * pb->dN[2][l[2]];
+    }
+    return true;
 }
 
 size_t ffd_tsv_support_eval(const tsv_support *S, const double stu[3], uint32_t *ids, double *w,
                         double *grad)
 {
-    size_t nc, m = 0;
-    const uint32_t *c = candidates(S, stu, &nc);
-    for (size_t i = 0; i < nc; i++) {
+    size_t m = 0;
+    point_basis pb;
+    point_basis_at(S, stu, grad != NULL, &pb);
+    const uint32_t *c = pb.c;
+    for (size_t i = 0; i < pb.nc; i++) {
         double val, g[3];
-        if (!blend(S, c[i], stu, &val, grad ? g : NULL))
+        if (!point_blend(S, &pb, i, stu, &val, grad ? g : NULL))
             continue;
         if (val == 0.0 && (!grad || (g[0] == 0.0 && g[1] == 0.0 && g[2] == 0.0)))
             continue;
@@ -212,11 +376,12 @@ static void eval_sum(const tsv_lattice *L, const tsv_support *S, int channel, bo
     out[0] = out[1] = out[2] = 0.0;
     if (jac)
         memset(jac, 0, 9 * sizeof *jac);
-    size_t nc;
-    const uint32_t *c = candidates(S, x, &nc);
-    for (size_t i = 0; i < nc; i++) {
+    point_basis pb;
+    point_basis_at(S, x, jac != NULL, &pb);
+    const uint32_t *c = pb.c;
+    for (size_t i = 0; i < pb.nc; i++) {
         double val, g[3];
-        if (!blend(S, c[i], x, &val, jac ? g : NULL))
+        if (!point_blend(S, &pb, i, x, &val, jac ? g : NULL))
             continue;
         const tsv_vertex *V = &L->verts[c[i]];
         double P[3];
@@ -269,11 +434,12 @@ ffd_status ffd_tsv_phi_build(const tsv_lattice *L, const tsv_support *S, const d
     for (long long i = 0; i < nn; i++) {
         double x[3];
         clamp01(params + 3 * (size_t)i, x);
-        size_t nc, m = 0;
-        const uint32_t *c = candidates(S, x, &nc);
-        for (size_t k = 0; k < nc; k++) {
+        size_t m = 0;
+        point_basis pb;
+        point_basis_at(S, x, false, &pb);
+        for (size_t k = 0; k < pb.nc; k++) {
             double val;
-            if (blend(S, c[k], x, &val, NULL) && val != 0.0)
+            if (point_blend(S, &pb, k, x, &val, NULL) && val != 0.0)
                 m++;
         }
         phi->rowptr[i + 1] = m;
@@ -291,12 +457,13 @@ ffd_status ffd_tsv_phi_build(const tsv_lattice *L, const tsv_support *S, const d
     for (long long i = 0; i < nn; i++) {
         double x[3];
         clamp01(params + 3 * (size_t)i, x);
-        size_t nc, m = phi->rowptr[i];
-        const uint32_t *c = candidates(S, x, &nc);
-        for (size_t k = 0; k < nc; k++) {
+        size_t m = phi->rowptr[i];
+        point_basis pb;
+        point_basis_at(S, x, false, &pb);
+        for (size_t k = 0; k < pb.nc; k++) {
             double val;
-            if (blend(S, c[k], x, &val, NULL) && val != 0.0) {
-                phi->col[m] = c[k];
+            if (point_blend(S, &pb, k, x, &val, NULL) && val != 0.0) {
+                phi->col[m] = pb.c[k];
                 phi->val[m] = val;
                 m++;
             }
