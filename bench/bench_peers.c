@@ -11,10 +11,12 @@
  *   bench_peers time DIR BASIS R
  *                              library timings on those points, median of R:
  *                              "bind+eval MS eval_after_move MS"
+ *   bench_peers path           the lattice evaluation's SIMD path on this CPU
  *
  * Every control point moves (the same deltas for every tool), so no tool can
  * skip points whose support did not change. */
 #include "ffd.h"
+#include "lattice/lattice.h" /* the evaluation's SIMD path */
 
 #include <stdint.h>
 #include <stdio.h>
@@ -167,10 +169,14 @@ static int time_library(const char *dir, const char *basis_name, int rounds)
 
 int main(int argc, char **argv)
 {
+    if (argc == 2 && strcmp(argv[1], "path") == 0) {
+        printf("%s\n", ffd_simd_path_name(ffd_lattice_simd_path()));
+        return 0;
+    }
     if (argc == 4 && strcmp(argv[1], "gen") == 0)
         return gen(strtoull(argv[2], NULL, 10), argv[3]);
     if (argc == 5 && strcmp(argv[1], "time") == 0)
         return time_library(argv[2], argv[3], atoi(argv[4]) > 0 ? atoi(argv[4]) : 1);
-    fprintf(stderr, "usage: bench_peers gen N DIR | bench_peers time DIR bspline|bernstein ROUNDS\n");
+    fprintf(stderr, "usage: bench_peers gen N DIR | time DIR bspline|bernstein ROUNDS | path\n");
     return 2;
 }

@@ -18,6 +18,9 @@
 ffd_status ffd_fail(ffd_error *err, ffd_status status, const char *fmt, ...) FFD_PRINTF(3, 4);
 
 /* All library allocation goes through these (see ffd_set_allocator). */
+/* Asks for transparent huge pages on the 2 MiB-aligned interior of a big
+ * block (advice only; ffd_malloc and ffd_realloc do it for every block). */
+void ffd_advise_huge(void *p, size_t bytes);
 void *ffd_malloc(size_t size);
 void *ffd_calloc(size_t count, size_t size);  /* zeroed; NULL on overflow */
 void *ffd_realloc(void *ptr, size_t size);

@@ -1,6 +1,5 @@
 /* lattice — binding: local coordinates of object points by inverting the rest
  * map (Hsu et al. 1992, §2 and footnote 5), sorted by cell for evaluation. */
-#define _DEFAULT_SOURCE /* MADV_HUGEPAGE (Linux) */
 #include "lattice/lattice.h"
 #include "math/tolerance.h"
 
@@ -8,7 +7,6 @@
 #include <omp.h>
 #include <stdint.h>
 #include <string.h>
-#include <sys/mman.h>
 #include <unistd.h>
 
 #define BLOCK_POINTS 256u
@@ -39,27 +37,6 @@ int ffd_lattice_binding_params(const ffd_lattice_binding *b, size_t i, double st
 }
 
 
-/* The binding's big arrays are fresh memory written once by the parallel
- * loops below: at 4 KiB per page fault, 1M points take ~19000 faults
- * (77 bytes a point). Asking for transparent huge pages (where the kernel
- * grants them on request, /sys/kernel/mm/transparent_hugepage/enabled =
- * madvise) makes that ~40 faults of 2 MiB. Advice only: any failure is
- * ignored, and the contents are the same. */
-static void advise_huge(void *p, size_t bytes)
-{
-#if defined(MADV_HUGEPAGE)
-    const size_t huge = (size_t)2 << 20;
-    if (!p || bytes < 2 * huge)
-        return;
-    uintptr_t lo = ((uintptr_t)p + huge - 1) & ~(uintptr_t)(huge - 1);
-    uintptr_t hi = ((uintptr_t)p + bytes) & ~(uintptr_t)(huge - 1);
-    if (hi > lo)
-        (void)madvise((void *)lo, hi - lo, MADV_HUGEPAGE);
-#else
-    (void)p;
-    (void)bytes;
-#endif
-}
 
 /* Shared state of one bind. Points are split into `nchunk` contiguous chunks in
  * index order; each chunk has its own histogram row, and placement offsets are
@@ -202,11 +179,6 @@ static int bind_prefix(bind_ctx *x, size_t n)
     b->out_index = ffd_malloc_array(nout, sizeof *b->out_index);
     b->out_params = ffd_malloc_array(nout, 3 * sizeof(double));
     b->out_point = ffd_malloc_array(nout, 3 * sizeof(double));
-    if (b->order && b->local && b->rest) {
-        advise_huge(b->order, nin * sizeof *b->order);
-        advise_huge(b->local, nin * 3 * sizeof(double));
-        advise_huge(b->rest, nin * 3 * sizeof(double));
-    }
     return b->order && b->local && b->rest && b->out_index && b->out_params && b->out_point;
 }
 
@@ -276,8 +248,6 @@ ffd_status ffd_lattice_bind(const ffd_lattice *lat, const double *points, size_t
     x.out_at = ffd_calloc(maxchunk, sizeof *x.out_at);
     if (!b->params || !b->inside || !x.hist || !x.out_at)
         goto oom;
-    advise_huge(b->params, n * 3 * sizeof(double));
-    advise_huge(b->inside, n);
 
     size_t first_bad = SIZE_MAX;
     int ok = 1;
