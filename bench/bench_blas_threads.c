@@ -11,6 +11,7 @@
  * call, the two should match. */
 #include "ffd.h"
 #include "math/dense.h"
+#include "bench_util.h"
 
 #include <omp.h>
 #include <stdio.h>
@@ -18,27 +19,8 @@
 #include <string.h>
 #include <time.h>
 
-static double now(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
-static unsigned long long rng = 0x9E3779B97F4A7C15ull;
-static double rnd(void)
-{
-    rng ^= rng >> 12;
-    rng ^= rng << 25;
-    rng ^= rng >> 27;
-    return (double)((rng * 2685821657736338717ull) >> 11) * (1.0 / 9007199254740992.0);
-}
-
-static int cmp_double(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return (x > y) - (x < y);
-}
+static uint64_t rng = 0x9E3779B97F4A7C15ull;
+static double rnd(void) { return bench_rnd(&rng); }
 
 int main(int argc, char **argv)
 {
@@ -70,16 +52,16 @@ int main(int argc, char **argv)
         for (size_t i = 0; i < k; i++)
             B[i] = rnd();
         size_t rank;
-        double t0 = now();
+        double t0 = bench_now();
         ffd_dense_lstsq(m, k, 1, A, B, 1e-12, &rank, NULL);
-        double t1 = now();
+        double t1 = bench_now();
         ffd_lattice_eval(lat, b, q, NULL);
-        double t2 = now();
+        double t2 = bench_now();
         ts[r] = t1 - t0;
         tl[r] = t2 - t1;
     }
-    qsort(ts, 15, sizeof(double), cmp_double);
-    qsort(tl, 15, sizeof(double), cmp_double);
+    qsort(ts, 15, sizeof(double), bench_cmp_double);
+    qsort(tl, 15, sizeof(double), bench_cmp_double);
     printf("lstsq %zu x %zu: %.2f ms; evaluate right after: %.2f ms (medians of 15)\n", m, k,
            ts[7] * 1e3, tl[7] * 1e3);
     free(A);

@@ -8,6 +8,7 @@
  * volume would give them. */
 #include "ffd.h"
 #include "lattice/lattice.h" /* the evaluation's SIMD path */
+#include "bench_util.h"
 
 #include <math.h>
 #include <omp.h>
@@ -16,21 +17,8 @@
 #include <string.h>
 #include <time.h>
 
-static double now(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
-static unsigned long long rng = 0x9E3779B97F4A7C15ull;
-static double rnd(void)
-{
-    rng ^= rng >> 12;
-    rng ^= rng << 25;
-    rng ^= rng >> 27;
-    return (double)((rng * 2685821657736338717ull) >> 11) * (1.0 / 9007199254740992.0);
-}
+static uint64_t rng = 0x9E3779B97F4A7C15ull;
+static double rnd(void) { return bench_rnd(&rng); }
 
 /* n points in the unit cube: random order, or (grid) one jittered point per cell of
  * the smallest k^3 grid holding n cells, in scan order (x slowest, z fastest). */
@@ -46,22 +34,16 @@ static void fill_points(double *p, size_t n, int grid)
         }
 }
 
-static int cmp_double(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return (x > y) - (x < y);
-}
-
 /* median of reps timings of fn */
 #define MEDIAN_OF(reps, out, stmt)                                                                 \
     do {                                                                                           \
         double ts_[64];                                                                            \
         for (int r_ = 0; r_ < (reps); r_++) {                                                      \
-            double t0_ = now();                                                                    \
+            double t0_ = bench_now();                                                                    \
             stmt;                                                                                  \
-            ts_[r_] = now() - t0_;                                                                 \
+            ts_[r_] = bench_now() - t0_;                                                                 \
         }                                                                                          \
-        qsort(ts_, (size_t)(reps), sizeof(double), cmp_double);                                    \
+        qsort(ts_, (size_t)(reps), sizeof(double), bench_cmp_double);                                    \
         (out) = ts_[(reps) / 2];                                                                   \
     } while (0)
 

@@ -14,19 +14,13 @@
  * print the same hash. */
 #include "ffd.h"
 #include "lattice/lattice.h"
+#include "bench_util.h"
 
 #include <omp.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
-
-static double now(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
 
 /* resident set in bytes (/proc/self/statm, second field, pages) */
 static double rss_bytes(void)
@@ -39,12 +33,6 @@ static double rss_bytes(void)
         fclose(f);
     }
     return (double)resident * 4096.0;
-}
-
-static int cmp_double(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return (x > y) - (x < y);
 }
 
 /* point i of a random (hashed) or grid (jittered scan order) cloud in the unit cube */
@@ -136,20 +124,20 @@ int main(int argc, char **argv)
         for (int i = 0; i < reps; i++) {
             ffd_lattice_binding_destroy(b);
             b = NULL;
-            double r0 = rss_bytes(), t0 = now();
+            double r0 = rss_bytes(), t0 = bench_now();
             if (ffd_lattice_bind(lat, p, n, FFD_OUTSIDE_FIXED, &b, NULL) != FFD_OK)
                 return 1;
-            tb[i] = now() - t0;
+            tb[i] = bench_now() - t0;
             if (i == 0) /* later rounds reuse the freed pages */
                 grow = rss_bytes() - r0;
         }
         for (int i = 0; i < reps; i++) {
-            double t0 = now();
+            double t0 = bench_now();
             ffd_lattice_eval(lat, b, q, NULL);
-            te[i] = now() - t0;
+            te[i] = bench_now() - t0;
         }
-        qsort(tb, (size_t)reps, sizeof(double), cmp_double);
-        qsort(te, (size_t)reps, sizeof(double), cmp_double);
+        qsort(tb, (size_t)reps, sizeof(double), bench_cmp_double);
+        qsort(te, (size_t)reps, sizeof(double), bench_cmp_double);
         size_t nin = ffd_lattice_binding_inside_count(b);
         unsigned long long hash = 0xcbf29ce484222325ull;
         const unsigned char *bytes_out = (const unsigned char *)q;

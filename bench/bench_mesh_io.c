@@ -17,6 +17,7 @@
  * measured by bench/bench_deform_rss.sh. */
 #include "ffd.h"
 #include "mesh/mesh.h"
+#include "bench_util.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -31,18 +32,6 @@ static double now(void)
     struct timespec ts;
     clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
-static int cmp_double(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return (x > y) - (x < y);
-}
-
-static double median(double *v, int n)
-{
-    qsort(v, (size_t)n, sizeof *v, cmp_double);
-    return v[n / 2];
 }
 
 static void die(const char *what, const ffd_error *err)
@@ -181,8 +170,8 @@ int main(int argc, char **argv)
         }
         double mb = (double)size / 1e6;
         printf("%-11s %9.1f %9.0f %9.0f %9.0f %9.0f\n", targets[t].label, mb,
-               mb / median(tr, rounds), mb / median(tw, rounds), mb / median(tu, rounds),
-               mb / median(tm, rounds));
+               mb / bench_median(tr, rounds), mb / bench_median(tw, rounds), mb / bench_median(tu, rounds),
+               mb / bench_median(tm, rounds));
         fflush(stdout);
         ffd_free(file);
     }

@@ -4,30 +4,12 @@
  * Usage: bench_pbffd DATA_DIR [--quick]   (results go to docs/benchmarks.md by hand)
  * Placement itself is timed by bench_placement. */
 #include "ffd.h"
+#include "bench_util.h"
 
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
-
-static double now(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
-static int cmp_double(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return (x > y) - (x < y);
-}
-
-static double median(double *t, int n)
-{
-    qsort(t, (size_t)n, sizeof *t, cmp_double);
-    return t[n / 2];
-}
 
 static int run(const char *label, const ffd_ebf *controls, size_t count, const double *points,
                size_t n, uint32_t levels, int reps)
@@ -36,20 +18,20 @@ static int run(const char *label, const ffd_ebf *controls, size_t count, const d
     ffd_pbffd_options options = {0};
     options.levels = levels;
     ffd_pbffd *pb = NULL;
-    double t0 = now();
+    double t0 = bench_now();
     if (ffd_pbffd_create(controls, count, points, n, &options, &pb, &err) != FFD_OK) {
         fprintf(stderr, "bench_pbffd: %s\n", err.message);
         return 1;
     }
-    double bind = now() - t0;
+    double bind = bench_now() - t0;
     double *out = malloc(n * 3 * sizeof *out);
     double times[64], drag[64];
     for (int r = 0; r < reps; r++) {
         double d[3] = {1e-3, 0, 0};
         ffd_pbffd_move(pb, 0, (size_t)r % count, d, &err);
-        double t = now();
+        double t = bench_now();
         ffd_pbffd_eval(pb, out, &err);
-        times[r] = now() - t;
+        times[r] = bench_now() - t;
     }
     /* a drag step: 10 vertex constraints solved through the generic solver, then eval */
     ffd_linear_map map;
@@ -57,7 +39,7 @@ static int run(const char *label, const ffd_ebf *controls, size_t count, const d
     double cur[30], tgt[30];
     double *delta = malloc(count * 3 * sizeof *delta);
     for (int r = 0; r < reps; r++) {
-        double t = now();
+        double t = bench_now();
         ffd_pbffd_eval(pb, out, &err);
         ffd_pbffd_linear_map(pb, 0, &map, &err);
         for (int c = 0; c < 10; c++) {
@@ -71,9 +53,9 @@ static int run(const char *label, const ffd_ebf *controls, size_t count, const d
             if (delta[3 * j] != 0 || delta[3 * j + 1] != 0 || delta[3 * j + 2] != 0)
                 ffd_pbffd_move(pb, 0, j, delta + 3 * j, &err);
         ffd_pbffd_eval(pb, out, &err);
-        drag[r] = now() - t;
+        drag[r] = bench_now() - t;
     }
-    double ev = median(times, reps), dr = median(drag, reps);
+    double ev = bench_median(times, reps), dr = bench_median(drag, reps);
     printf("| %s | %zu | %zu | %u | %.1f | %.2f | %.2f | %.1f |\n", label, n, count, levels,
            bind * 1e3, ev * 1e3, ev * 1e3 * 1e5 / (double)n, dr * 1e3);
     free(delta);

@@ -17,6 +17,7 @@
  * skip points whose support did not change. */
 #include "ffd.h"
 #include "lattice/lattice.h" /* the evaluation's SIMD path */
+#include "bench_util.h"
 
 #include <stdint.h>
 #include <stdio.h>
@@ -27,27 +28,8 @@
 #define RES 5u
 #define CONTROLS (RES * RES * RES)
 
-static double now(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
 static uint64_t rng = 0x2545F4914F6CDD1Dull;
-static double rnd(void)
-{
-    rng ^= rng >> 12;
-    rng ^= rng << 25;
-    rng ^= rng >> 27;
-    return (double)((rng * 2685821657736338717ull) >> 11) * (1.0 / 9007199254740992.0);
-}
-
-static int cmp_double(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return (x > y) - (x < y);
-}
+static double rnd(void) { return bench_rnd(&rng); }
 
 static FILE *open_in(const char *dir, const char *name, const char *mode)
 {
@@ -139,24 +121,24 @@ static int time_library(const char *dir, const char *basis_name, int rounds)
     for (int r = 0; r < rounds; r++) {
         /* bind + evaluate: what a batch deformation of new points costs */
         ffd_lattice_binding *b = NULL;
-        double t0 = now();
+        double t0 = bench_now();
         if (ffd_lattice_bind(lat, p, n, FFD_OUTSIDE_FIXED, &b, &err) ||
             ffd_lattice_eval(lat, b, q, &err)) {
             fprintf(stderr, "bench_peers: %s\n", err.message);
             return 1;
         }
-        t_bind[r] = now() - t0;
+        t_bind[r] = bench_now() - t0;
         /* a move of every control point, then evaluate: an interactive drag */
         for (unsigned i = 0; i < 3 * CONTROLS; i++)
             delta[i] = -delta[i];
-        t0 = now();
+        t0 = bench_now();
         ffd_lattice_add(lat, delta, &err);
         ffd_lattice_eval(lat, b, q, &err);
-        t_move[r] = now() - t0;
+        t_move[r] = bench_now() - t0;
         ffd_lattice_binding_destroy(b);
     }
-    qsort(t_bind, (size_t)rounds, sizeof *t_bind, cmp_double);
-    qsort(t_move, (size_t)rounds, sizeof *t_move, cmp_double);
+    qsort(t_bind, (size_t)rounds, sizeof *t_bind, bench_cmp_double);
+    qsort(t_move, (size_t)rounds, sizeof *t_move, bench_cmp_double);
     printf("bind+eval %.3f eval_after_move %.3f\n", 1e3 * t_bind[rounds / 2],
            1e3 * t_move[rounds / 2]);
     ffd_lattice_destroy(lat);

@@ -12,6 +12,7 @@
  * points, also relative to the diagonal); "inside" is the fraction of the Voronoi vertices
  * kept as interior candidates. */
 #include "ffd.h"
+#include "bench_util.h"
 
 #include <math.h>
 #include <omp.h>
@@ -19,12 +20,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-
-static int cmp_double(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return (x > y) - (x < y);
-}
 
 static double mean_nearest(const ffd_ebf *from, size_t nf, const ffd_ebf *to, size_t nt)
 {
@@ -71,8 +66,8 @@ static int place(const ffd_mesh *m, size_t sites, int reps, run *r)
         r->controls = c;
         r->count = n;
     }
-    qsort(tv, (size_t)reps, sizeof *tv, cmp_double);
-    qsort(tt, (size_t)reps, sizeof *tt, cmp_double);
+    qsort(tv, (size_t)reps, sizeof *tv, bench_cmp_double);
+    qsort(tt, (size_t)reps, sizeof *tt, bench_cmp_double);
     r->seconds_voronoi = tv[reps / 2];
     r->seconds_total = tt[reps / 2];
     return 0;

@@ -22,6 +22,7 @@
  * the median of K rounds is printed). */
 #include "ffd.h"
 #include "bench_mesh.h"
+#include "bench_util.h"
 
 #include <omp.h>
 #include <stdint.h>
@@ -29,12 +30,6 @@
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
-
-static int cmp_double(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return x < y ? -1 : x > y;
-}
 
 /* The elephant subdivided until it has at least n vertices, cut to n. */
 static int mesh_of(const char *dir, size_t n, double **P, size_t *nv, uint32_t **off,
@@ -163,7 +158,7 @@ static int run(const char *dir, size_t n, uint32_t r, int rounds)
     ffd_mesh_destroy(mesh);
     double *all[] = {bind, eval, jac, fold, total, rbind, reval, rcpu};
     for (int i = 0; i < 8; i++)
-        qsort(all[i], (size_t)rounds, sizeof(double), cmp_double);
+        qsort(all[i], (size_t)rounds, sizeof(double), bench_cmp_double);
     int m = rounds / 2;
     printf("| %zu | %zu | %zu | %.1f | %.1f | %.1f | %.1f | **%.1f** | %.2f | %016llx | %.1f | "
            "%.1f | **%.1f** | %.2f | %.1f |\n",

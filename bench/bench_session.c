@@ -9,6 +9,7 @@
  * --write: also writes the 100K mesh (binary PLY) for editor_drag.mjs. */
 #include "ffd.h"
 #include "bench_mesh.h"
+#include "bench_util.h"
 
 #include <stdio.h>
 #include <stdlib.h>
@@ -38,12 +39,6 @@ static int command(ffd_session *s, const char *op, const char *body, double *ms)
     return st != FFD_OK;
 }
 
-static int cmp_double(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return x < y ? -1 : x > y;
-}
-
 /* Runs `create`, `drag_begin`, then steps drag steps; prints median and p90. */
 static int measure(ffd_session *s, const char *label, const char *create, const char *begin,
                    int vertex_drag, int steps)
@@ -65,7 +60,7 @@ static int measure(ffd_session *s, const char *label, const char *create, const 
         }
     }
     command(s, "drag_end", "{}", NULL);
-    qsort(t, steps, sizeof *t, cmp_double);
+    qsort(t, steps, sizeof *t, bench_cmp_double);
     printf("| %s | %.0f | %.1f | %.2f | %.2f | %.0f |\n", label, setup, start, t[steps / 2],
            t[steps * 9 / 10], 1e3 / t[steps / 2]);
     free(t);

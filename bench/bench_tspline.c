@@ -17,6 +17,7 @@
  * Markdown table. */
 #include "ffd.h"
 #include "bench_mesh.h"
+#include "bench_util.h"
 
 #include <math.h>
 #include <omp.h>
@@ -28,12 +29,6 @@
 static double now(void)
 {
     return omp_get_wtime();
-}
-
-static int cmp_double(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return x < y ? -1 : x > y;
 }
 
 /* One example of Table 1 on a shared mesh: returns 0 on success. */
@@ -205,9 +200,9 @@ static int drag(const char *dir, size_t limit)
         eval[s] = c - b;
         step[s] = c - a;
     }
-    qsort(solve, STEPS, sizeof(double), cmp_double);
-    qsort(eval, STEPS, sizeof(double), cmp_double);
-    qsort(step, STEPS, sizeof(double), cmp_double);
+    qsort(solve, STEPS, sizeof(double), bench_cmp_double);
+    qsort(eval, STEPS, sizeof(double), bench_cmp_double);
+    qsort(step, STEPS, sizeof(double), bench_cmp_double);
     printf("\n| drag: 12x12x12 (%zu control points), %zu vertices, %zu faces, %zu proxy points, "
            "%zu handles, threads %d | ms |\n|---|---:|\n",
            ffd_tsv_control_count(t), nv, nf, px.vertex_count, nh, omp_get_max_threads());
