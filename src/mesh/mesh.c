@@ -356,9 +356,22 @@ static int put_g(char *buf, bool negative, uint64_t N, int P, int X)
 }
 #endif
 
+/* Whether long double arithmetic really carries a 64-bit significand at run
+ * time: the type says so, but an emulator (valgrind computes x87 operations
+ * in double precision) or an unusual FPU control word may not, and then the
+ * error bound above does not hold. Checked on every call (a few operations),
+ * so that no state is shared between threads. */
+static bool long_double_is_extended(void)
+{
+    volatile long double one = 1.0L, tiny = LDBL_EPSILON;
+    return one + tiny != one && LDBL_EPSILON <= 0x1p-63L;
+}
+
 static int format_shortest(char *buf, double v, int pmin, int pmax, bool is_float)
 {
 #if LDBL_MANT_DIG >= 64
+    if (!long_double_is_extended())
+        return format_printf(buf, v, pmin, pmax, is_float);
     double a = fabs(v);
     if (a == 0.0) {
         memcpy(buf, signbit(v) ? "-0" : "0", signbit(v) ? 3 : 2);
