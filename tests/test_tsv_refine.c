@@ -697,6 +697,17 @@ static void test_nomem_rollback(void)
     ffd_tsv_lattice_destroy(L);
 }
 
+/* One refinement round: a random insertion of each kind at once. */
+static void refine_one_of_each_kind(tsv_lattice *L)
+{
+    ffd_tsv_insertion ins[3];
+    for (int i = 0; i < 3; i++)
+        do
+            ins[i] = random_insertion(L);
+        while ((int)ins[i].kind != i);
+    CHECK_OK(ffd_tsv_lattice_refine(L, ins, 3, NULL, NULL));
+}
+
 static void test_phi_threads(void)
 {
 #ifdef _OPENMP
@@ -704,12 +715,7 @@ static void test_phi_threads(void)
     if (!L)
         return;
     add_noise(L);
-    ffd_tsv_insertion ins[3];
-    for (int i = 0; i < 3; i++)
-        do
-            ins[i] = random_insertion(L);
-        while ((int)ins[i].kind != i);
-    CHECK_OK(ffd_tsv_lattice_refine(L, ins, 3, NULL, NULL));
+    refine_one_of_each_kind(L);
     tsv_support *S = NULL;
     CHECK_OK(ffd_tsv_support_build(L, &S, NULL));
     sample_set X = make_samples(L, 5000);
@@ -747,12 +753,7 @@ static void test_support_tables_bitwise(void)
         return;
     add_noise(L);
     for (int round = 0; round < 3; round++) {
-        ffd_tsv_insertion ins[3];
-        for (int i = 0; i < 3; i++)
-            do
-                ins[i] = random_insertion(L);
-            while ((int)ins[i].kind != i);
-        CHECK_OK(ffd_tsv_lattice_refine(L, ins, 3, NULL, NULL));
+        refine_one_of_each_kind(L);
     }
     tsv_support *S = NULL;
     CHECK_OK(ffd_tsv_support_build(L, &S, NULL));
