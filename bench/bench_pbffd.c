@@ -1,7 +1,8 @@
 /* Benchmark: PB-FFD binding (parameterisation), re-evaluation after a move
  * (eq. 7) and a direct-manipulation drag step, on refined_elephant.off
  * (44,460 vertices) and on 1M points sampled around it.
- * Usage: bench_pbffd DATA_DIR [--quick | --curve]   (results go to docs/benchmarks.md by hand)
+ * Usage: bench_pbffd DATA_DIR [--quick | --curve [MAX_POINTS [REPS]]]
+ * (results go to docs/benchmarks.md by hand)
  * Last: the 10^4 -> 10^6 points curve (time per point of bind and eval).
  * Placement itself is timed by bench_placement. */
 #include "ffd.h"
@@ -155,7 +156,12 @@ int main(int argc, char **argv)
     if (!only_curve)
         bad |= run(quick ? "200K jittered copies" : "1M jittered copies", controls, count, p, big,
                    1, reps);
-    bad |= curve(controls, count, p, big, quick ? 3 : 7);
+    /* --curve [MAX_POINTS [REPS]]: a shorter curve (e.g. under callgrind) */
+    size_t top = only_curve && argc > 3 ? (size_t)atoll(argv[3]) : big;
+    int curve_reps = only_curve && argc > 4 ? atoi(argv[4]) : (quick ? 3 : 7);
+    if (curve_reps < 1 || curve_reps > 64)
+        curve_reps = 7;
+    bad |= curve(controls, count, p, top < big ? top : big, curve_reps);
     free(p);
     ffd_free(controls);
     ffd_mesh_destroy(mesh);
