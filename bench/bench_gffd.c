@@ -5,8 +5,11 @@
  * The points lie on a tube of radius 1 around a chain of polylines along x
  * (length 10); every point is inside some primitive's influence. The edit
  * bends the chain: each primitive's vertices are lifted by 0.05 x^2 / 10,
- * so the field changes under every point. Usage: bench_gffd [max_points]. */
+ * so the field changes under every point. Usage: bench_gffd [max_points]
+ * [--curve]: --curve prints only the 10^4 -> 10^6 points curve of 10
+ * primitives (gradient tracking), medians of 5 rounds, time per point. */
 #include "ffd.h"
+#include "bench_util.h"
 
 #include <math.h>
 #include <omp.h>
@@ -35,7 +38,12 @@ static double bend(double x)
     return 0.05 * x * x / 10;
 }
 
-static void run(size_t n, size_t k, ffd_gffd_tracking mode)
+/* Times of one run (seconds): fields + bind, edit, re-track. */
+typedef struct timing {
+    double bind, edit, track;
+} timing;
+
+static timing run(size_t n, size_t k, ffd_gffd_tracking mode, int quiet)
 {
     const double len = 10, tube = 1;
     double *pts = malloc(n * 3 * sizeof(double));
@@ -87,7 +95,9 @@ static void run(size_t n, size_t k, ffd_gffd_tracking mode)
         exit(1);
     }
     double t3 = now();
-    printf("| %zu | %zu | %s | %zu | %.1f | %.1f | %.1f | %zu | %.1f |\n", n, k,
+    timing tm = {t1 - t0, t2 - t1, t3 - t2};
+    if (!quiet)
+        printf("| %zu | %zu | %s | %zu | %.1f | %.1f | %.1f | %zu | %.1f |\n", n, k,
            mode == FFD_GFFD_TRACK_WARP ? "warp" : "gradient", ffd_gffd_influenced_count(g),
            1e3 * (t1 - t0), 1e3 * (t2 - t1), 1e3 * (t3 - t2), r.failed_count,
            r.tracked ? (double)r.iterations / (double)r.tracked : 0.0);
@@ -99,12 +109,37 @@ static void run(size_t n, size_t k, ffd_gffd_tracking mode)
     free(verts);
     free(moved);
     free(prims);
+    return tm;
+}
+
+static void curve(size_t max_points)
+{
+    static const size_t sizes[] = {10000, 30000, 100000, 300000, 1000000};
+    enum { ROUNDS = 5 };
+    printf("| points | primitives | fields + bind (ms) | ns/point | re-track (ms) | ns/point |\n");
+    printf("|---:|---:|---:|---:|---:|---:|\n");
+    for (size_t s = 0; s < sizeof sizes / sizeof sizes[0] && sizes[s] <= max_points; s++) {
+        double b[ROUNDS], t[ROUNDS];
+        for (int r = 0; r < ROUNDS; r++) {
+            timing tm = run(sizes[s], 10, FFD_GFFD_TRACK_GRADIENT, 1);
+            b[r] = tm.bind;
+            t[r] = tm.track;
+        }
+        double mb = bench_median(b, ROUNDS), mt = bench_median(t, ROUNDS);
+        printf("| %zu | 10 | %.1f | %.0f | %.1f | %.0f |\n", sizes[s], 1e3 * mb,
+               1e9 * mb / (double)sizes[s], 1e3 * mt, 1e9 * mt / (double)sizes[s]);
+        fflush(stdout);
+    }
 }
 
 int main(int argc, char **argv)
 {
     size_t max_points = argc > 1 ? (size_t)atoll(argv[1]) : 1000000;
     printf("threads: %d\n\n", omp_get_max_threads());
+    if (argc > 2 && strcmp(argv[2], "--curve") == 0) {
+        curve(max_points);
+        return 0;
+    }
     printf("| points | primitives | tracking | influenced | fields + bind (ms) | edit: refit "
            "(ms) | re-track (ms) | not converged | steps per point |\n");
     printf("|---:|---:|---|---:|---:|---:|---:|---:|---:|\n");
@@ -113,8 +148,8 @@ int main(int argc, char **argv)
         if (ns[a] > max_points)
             break;
         for (int b = 0; b < 3; b++)
-            run(ns[a], ks[b], FFD_GFFD_TRACK_GRADIENT);
+            run(ns[a], ks[b], FFD_GFFD_TRACK_GRADIENT, 0);
     }
-    run(100000 <= max_points ? 100000 : max_points, 10, FFD_GFFD_TRACK_WARP);
+    run(100000 <= max_points ? 100000 : max_points, 10, FFD_GFFD_TRACK_WARP, 0);
     return 0;
 }

@@ -210,6 +210,48 @@ static void test_rbf_matches_dense_solve(void)
     }
 }
 
+/* ffd_rbf_eval's documented sum order (gffd_rbf.c), restated in scalar code:
+ * centre j in lane j % 4, lanes added as (l0 + l2) + (l1 + l3). Whichever
+ * instruction set the CPU gets (SSE2, or AVX where cpuid reports it), the
+ * value and gradient must match it bitwise, for every count modulo 4. */
+static void test_rbf_eval_lane_order(void)
+{
+    for (size_t m = 1; m <= 13; m++) {
+        double c[3 * 13], v[13];
+        random_centres(c, m, -1, 1);
+        for (size_t j = 0; j < m; j++)
+            v[j] = rnd(-1, 1);
+        ffd_rbf r;
+        CHECK(fit(c, m, v, 1, &r, NULL));
+        for (int t = 0; t < 20; t++) {
+            double x[3] = {rnd(-2, 2), rnd(-2, 2), rnd(-2, 2)};
+            double lv[4] = {0, 0, 0, 0}, lg[3][4] = {{0}};
+            for (size_t j = 0; j < m; j++) {
+                const double *q = r.centres + 3 * j;
+                double d[3] = {x[0] - q[0], x[1] - q[1], x[2] - q[2]};
+                double d2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+                double wd = r.weights[j] * sqrt(d2);
+                lv[j % 4] += wd * d2;
+                for (int k = 0; k < 3; k++)
+                    lg[k][j % 4] += wd * d[k];
+            }
+            const double p[3] = {x[0] - r.origin[0], x[1] - r.origin[1], x[2] - r.origin[2]};
+            double want = (lv[0] + lv[2]) + (lv[1] + lv[3]);
+            want += r.poly[0][0] + r.poly[1][0] * p[0] + r.poly[2][0] * p[1] + r.poly[3][0] * p[2];
+            double got, grad[3], plain;
+            ffd_rbf_eval(&r, x, &got, grad);
+            ffd_rbf_eval(&r, x, &plain, NULL);
+            CHECK(memcmp(&got, &want, sizeof got) == 0);
+            CHECK(memcmp(&plain, &want, sizeof got) == 0);
+            for (int k = 0; k < 3; k++) {
+                double g = 3 * ((lg[k][0] + lg[k][2]) + (lg[k][1] + lg[k][3])) + r.poly[1 + k][0];
+                CHECK(memcmp(&grad[k], &g, sizeof g) == 0);
+            }
+        }
+        ffd_rbf_free(&r);
+    }
+}
+
 static void test_rbf_gradient(void)
 {
     size_t m = 80;
@@ -1103,6 +1145,7 @@ int main(int argc, char **argv)
         {"rbf_interpolates_random", test_rbf_interpolates_random},
         {"rbf_matches_dense_solve", test_rbf_matches_dense_solve},
         {"rbf_gradient", test_rbf_gradient},
+        {"rbf_eval_lane_order", test_rbf_eval_lane_order},
         {"rbf_scale_invariance", test_rbf_scale_invariance},
         {"rbf_regularised", test_rbf_regularised},
         {"rbf_bad_input", test_rbf_bad_input},

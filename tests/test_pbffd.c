@@ -824,6 +824,58 @@ static void test_jacobian_finite_differences(void)
 
 /* ================= threads ================= */
 
+/* Binding visits only the grid candidates its counting pass accepted
+ * (ebf_space.c): the rows must be bitwise those of a full scan, for cells of
+ * few and of more than 64 candidates, with and without the grid, disabled
+ * controls, and a sigma small enough that the kernel can underflow. */
+static void test_space_accepted_mask(void)
+{
+    const size_t counts[2] = {20, 150};
+    const double sigmas[2] = {3.0, 0.04};
+    for (int a = 0; a < 2; a++)
+        for (int grid = 0; grid < 2; grid++)
+            for (int g = 0; g < 2; g++) {
+                size_t m = counts[a];
+                ffd_ebf *c = random_controls(m, 1);
+                for (size_t j = 0; j < m; j += 7)
+                    c[j].disabled = 1;
+                ffd_ebf master = sphere(0.5, 0.5, 0.5, 2.0);
+                ffd_ebf_space s;
+                CHECK_OK(ffd_ebf_space_init(&s, c, m, &master, 1.0, sigmas[g], grid));
+                uint32_t *col[2] = {malloc(m * sizeof(uint32_t)), malloc(m * sizeof(uint32_t))};
+                double *w[2] = {malloc(m * sizeof(double)), malloc(m * sizeof(double))};
+                double *d[2] = {malloc(3 * m * sizeof(double)), malloc(3 * m * sizeof(double))};
+                size_t big_cells = 0, entries = 0;
+                for (int t = 0; t < 2000; t++) {
+                    double x[3] = {rnd(-0.3, 1.3), rnd(-0.3, 1.3), rnd(-0.3, 1.3)}, mw[2];
+                    uint64_t mask;
+                    size_t k = ffd_ebf_space_count(&s, x, &mask);
+                    big_cells += mask == FFD_EBF_TEST_ALL;
+                    size_t e0 = ffd_ebf_space_weights(&s, x, mask, col[0], w[0], d[0], &mw[0]);
+                    size_t e1 = ffd_ebf_space_weights(&s, x, FFD_EBF_TEST_ALL, col[1], w[1],
+                                                      d[1], &mw[1]);
+                    entries += e0;
+                    CHECK(e0 == k && e1 == k);
+                    CHECK(memcmp(col[0], col[1], k * sizeof(uint32_t)) == 0);
+                    CHECK(memcmp(w[0], w[1], k * sizeof(double)) == 0);
+                    CHECK(memcmp(d[0], d[1], 3 * k * sizeof(double)) == 0);
+                    CHECK(memcmp(&mw[0], &mw[1], sizeof(double)) == 0);
+                }
+                CHECK(entries > 0);
+                if (m > 64)
+                    CHECK(big_cells > 0); /* the fallback was exercised */
+                else
+                    CHECK(big_cells == 0);
+                for (int i = 0; i < 2; i++) {
+                    free(col[i]);
+                    free(w[i]);
+                    free(d[i]);
+                }
+                ffd_ebf_space_free(&s);
+                free(c);
+            }
+}
+
 static void test_thread_invariance(void)
 {
     size_t m = 60, n = 30000;
@@ -1777,6 +1829,7 @@ int main(int argc, char **argv)
         {"frame_rotation_and_scaling", test_frame_rotation_and_scaling},
         {"jacobian_finite_differences", test_jacobian_finite_differences},
         {"thread_invariance", test_thread_invariance},
+        {"space_accepted_mask", test_space_accepted_mask},
         {"hierarchy_composition", test_hierarchy_composition},
         {"hierarchy_locality", test_hierarchy_locality},
         {"hierarchy_fine_then_coarse", test_hierarchy_fine_then_coarse},

@@ -1,6 +1,7 @@
 /* pbffd — parameterisation (PB-FFD §3.1): the rows of the sparse N x M matrix
  * W (w_ij = normalised weight, eq. 5) and of D (w_ij u_ij, eq. 7), computed in
- * parallel over points (a counting pass, then each row written in place), so
+ * parallel over points (a counting pass that also notes which grid candidates
+ * enter, then each row written in place from those only), so
  * that the rows do not depend on the thread count. Absolute rows (the
  * hierarchy, eq. 10) also keep the master's constant term. */
 #include "pbffd/pbffd.h"
@@ -46,13 +47,17 @@ ffd_status ffd_ebf_rows_bind(const ffd_ebf_space *s, const double *points, size_
 {
     memset(rows, 0, sizeof *rows);
     size_t *start = ffd_malloc_array(n + 1, sizeof *start);
-    if (!start)
+    uint64_t *accepted = ffd_malloc_array(n ? n : 1, sizeof *accepted);
+    if (!start || !accepted) {
+        ffd_free(start);
+        ffd_free(accepted);
         return FFD_ERR_NOMEM;
+    }
     /* pass 1: row lengths (no exp), pass 2: the rows in place; every point on its own */
     const long long nn = (long long)n;
 #pragma omp parallel for schedule(static, CHUNK)
     for (long long i = 0; i < nn; i++)
-        start[i + 1] = ffd_ebf_space_count(s, points + 3 * (size_t)i);
+        start[i + 1] = ffd_ebf_space_count(s, points + 3 * (size_t)i, &accepted[i]);
     start[0] = 0;
     size_t max_nnz = 0;
     for (size_t i = 0; i < n; i++) {
@@ -64,6 +69,7 @@ ffd_status ffd_ebf_rows_bind(const ffd_ebf_space *s, const double *points, size_
     ffd_status st = rows_alloc(rows, n, cap, absolute);
     if (st != FFD_OK) {
         ffd_free(start);
+        ffd_free(accepted);
         return st;
     }
     ffd_free(rows->start);
@@ -75,13 +81,15 @@ ffd_status ffd_ebf_rows_bind(const ffd_ebf_space *s, const double *points, size_
     for (long long ii = 0; ii < nn; ii++) {
         size_t i = (size_t)ii, at = start[i];
         double mw;
-        size_t e = ffd_ebf_space_weights(s, points + 3 * i, col + at, w + at, dd + 3 * at, &mw);
+        size_t e = ffd_ebf_space_weights(s, points + 3 * i, accepted[i], col + at, w + at,
+                                         dd + 3 * at, &mw);
         (void)e;
         assert(e == start[i + 1] - at);
         if (cst)
             for (int c = 0; c < 3; c++) /* the master's p_m + A_m u_m is the point itself */
                 cst[3 * i + c] = mw * points[3 * i + c];
     }
+    ffd_free(accepted);
     return FFD_OK;
 }
 

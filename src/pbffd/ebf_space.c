@@ -82,6 +82,8 @@ static ffd_status build_grid(ffd_ebf_space *s)
         if (ok && cells <= GRID_MAX_CELLS) {
             memcpy(s->lo, lo, sizeof lo);
             s->inv_h = 1.0 / h;
+            for (int c = 0; c < 3; c++) /* the grid's far edge, once instead of per point */
+                s->hi[c] = s->lo[c] + s->dim[c] / s->inv_h;
             size_t entries = 0;
             for (size_t j = 0; j < s->count && entries <= GRID_MAX_ENTRIES; j++) {
                 if (s->kernel[j].weight == 0.0)
@@ -164,7 +166,7 @@ static size_t candidates(const ffd_ebf_space *s, const double x[3], const uint32
     if (!s->dim[0])
         return s->count;
     for (int c = 0; c < 3; c++)
-        if (!(x[c] >= s->lo[c]) || x[c] > s->lo[c] + s->dim[c] / s->inv_h)
+        if (!(x[c] >= s->lo[c]) || x[c] > s->hi[c])
             return 0;
     size_t cell =
         ((size_t)cell_coord(s, 0, x[0]) * s->dim[1] + cell_coord(s, 1, x[1])) * s->dim[2] +
@@ -177,8 +179,9 @@ static size_t candidates(const ffd_ebf_space *s, const double x[3], const uint32
  * outside the ROI's box or the control is disabled. */
 static inline int roi_rho2(const ffd_ebf_kernel *k, const double x[3], double v[3], double *rho2)
 {
-    if (k->weight == 0.0 || x[0] < k->lo[0] || x[0] > k->hi[0] || x[1] < k->lo[1] ||
-        x[1] > k->hi[1] || x[2] < k->lo[2] || x[2] > k->hi[2])
+    /* one branch for the box: most candidates fail it unpredictably (bench_pbffd) */
+    if ((k->weight == 0.0) | (x[0] < k->lo[0]) | (x[0] > k->hi[0]) | (x[1] < k->lo[1]) |
+        (x[1] > k->hi[1]) | (x[2] < k->lo[2]) | (x[2] > k->hi[2]))
         return 0;
     for (int c = 0; c < 3; c++)
         v[c] = x[c] - k->center[c];
@@ -202,25 +205,65 @@ static inline int accept(const ffd_ebf_space *s, double rho2)
            (s->inv2s2 <= NO_UNDERFLOW_INV2S2 || ffd_ebf_phi_of(rho2, s->inv2s2) > 0.0);
 }
 
-size_t ffd_ebf_space_count(const ffd_ebf_space *s, const double x[3])
+size_t ffd_ebf_space_count(const ffd_ebf_space *s, const double x[3], uint64_t *accepted)
 {
     const uint32_t *cand;
     size_t nc = candidates(s, x, &cand), m = 0;
+    uint64_t mask = 0;
+    /* without branches on the data: whether a candidate enters is a coin toss
+     * for the branch predictor (bench_pbffd, callgrind --branch-sim) */
     for (size_t e = 0; e < nc; e++) {
-        double v[3], rho2;
-        if (roi_rho2(&s->kernel[cand ? cand[e] : e], x, v, &rho2) && accept(s, rho2))
-            m++;
+        const ffd_ebf_kernel *k = &s->kernel[cand ? cand[e] : e];
+        int in = (k->weight != 0.0) & (x[0] >= k->lo[0]) & (x[0] <= k->hi[0]) &
+                 (x[1] >= k->lo[1]) & (x[1] <= k->hi[1]) & (x[2] >= k->lo[2]) & (x[2] <= k->hi[2]);
+        double v[3] = {x[0] - k->center[0], x[1] - k->center[1], x[2] - k->center[2]}, rho2 = 0;
+        for (int a = 0; a < 3; a++) { /* as roi_rho2 */
+            double r = k->q[a][0] * v[0] + k->q[a][1] * v[1] + k->q[a][2] * v[2];
+            rho2 += r * r;
+        }
+        in &= rho2 < 1.0;
+        if (s->inv2s2 > NO_UNDERFLOW_INV2S2 && in) /* as accept */
+            in = ffd_ebf_phi_of(rho2, s->inv2s2) > 0.0;
+        m += (size_t)in;
+        if (e < 64)
+            mask |= (uint64_t)in << e;
     }
+    if (accepted)
+        *accepted = nc <= 64 ? mask : FFD_EBF_TEST_ALL;
     return m;
 }
 
-size_t ffd_ebf_space_weights(const ffd_ebf_space *s, const double x[3], uint32_t *col, double *w,
-                             double *d, double *master_w)
+/* The index of the lowest set bit of b (b != 0). */
+static inline size_t lowest_bit(uint64_t b)
+{
+#if defined(__GNUC__) || defined(__clang__)
+    return (size_t)__builtin_ctzll(b);
+#else
+    size_t e = 0;
+    while (!(b & 1)) {
+        b >>= 1;
+        e++;
+    }
+    return e;
+#endif
+}
+
+size_t ffd_ebf_space_weights(const ffd_ebf_space *s, const double x[3], uint64_t accepted,
+                             uint32_t *col, double *w, double *d, double *master_w)
 {
     const uint32_t *cand;
     size_t nc = candidates(s, x, &cand), m = 0;
     double sum = 0.0;
-    for (size_t e = 0; e < nc; e++) {
+    /* with the count's mask only its candidates are visited (in ascending order,
+     * as a full scan would), skipping the box tests most candidates fail; each is
+     * still tested, so a mask that says too much changes nothing */
+    const int masked = nc <= 64 && accepted != FFD_EBF_TEST_ALL;
+    uint64_t bits = masked ? accepted & (nc < 64 ? ((uint64_t)1 << nc) - 1 : ~(uint64_t)0) : 0;
+    for (size_t e = 0; masked ? bits != 0 : e < nc; e++) {
+        if (masked) {
+            e = lowest_bit(bits);
+            bits &= bits - 1;
+        }
         uint32_t j = cand ? cand[e] : (uint32_t)e;
         const ffd_ebf_kernel *k = &s->kernel[j];
         double v[3], rho2;

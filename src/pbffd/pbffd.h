@@ -76,7 +76,7 @@ typedef struct ffd_ebf_space {
     double inv2s2;         /* 1 / (2 sigma^2) */
     /* uniform grid over the ROIs' bounding boxes; dim[0] == 0: no grid (scan all) */
     uint32_t dim[3];
-    double lo[3], inv_h;
+    double lo[3], hi[3], inv_h; /* hi: lo + dim / inv_h, the far edge */
     uint32_t *cell_start; /* cells + 1 */
     uint32_t *cell_ctl;   /* controls whose ROI box meets the cell, ascending per cell */
 } ffd_ebf_space;
@@ -92,11 +92,15 @@ void ffd_ebf_space_free(ffd_ebf_space *s);
  * beta, gamma) (3 each: a row of D, eq. 7). Returns the count (<= s->count). *master_w
  * receives the master's normalised weight, or 1 when no kernel (master
  * included) is positive at x: the point is then held where it is. */
-size_t ffd_ebf_space_weights(const ffd_ebf_space *s, const double x[3], uint32_t *col, double *w,
-                             double *d, double *master_w);
+size_t ffd_ebf_space_weights(const ffd_ebf_space *s, const double x[3], uint64_t accepted,
+                             uint32_t *col, double *w, double *d, double *master_w);
 
-/* The number of entries ffd_ebf_space_weights gives at x (no exp needed). */
-size_t ffd_ebf_space_count(const ffd_ebf_space *s, const double x[3]);
+/* The number of entries ffd_ebf_space_weights gives at x (no exp needed).
+ * *accepted (may be NULL) receives which of x's grid candidates enter (bit
+ * e: the e-th), for ffd_ebf_space_weights to visit only those (binding scans
+ * the candidates once instead of twice), or FFD_EBF_TEST_ALL: test them all. */
+size_t ffd_ebf_space_count(const ffd_ebf_space *s, const double x[3], uint64_t *accepted);
+#define FFD_EBF_TEST_ALL UINT64_MAX
 
 /* ---- rows: sparse W and D (ebf_bind.c) ---- */
 
