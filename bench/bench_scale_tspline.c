@@ -18,8 +18,10 @@
  * builds that print the same hash computed the same bits.
  *
  * Usage: bench_scale_tspline [data_dir] [N ...] [--res R] [--rounds K]
+ *        bench_scale_tspline [data_dir] --write N FILE
  * (default N: 10^4, 3*10^4, 10^5, 3*10^5, 437000, 10^6; R = 12; K = 3,
- * the median of K rounds is printed). */
+ * the median of K rounds is printed). --write only writes the N-vertex mesh
+ * to FILE (any format ffd writes), e.g. to time `ffd tspline proxy` on it. */
 #include "ffd.h"
 #include "bench_mesh.h"
 #include "bench_util.h"
@@ -175,6 +177,27 @@ static int run(const char *dir, size_t n, uint32_t r, int rounds)
     return 0;
 }
 
+/* --write N FILE: the N-vertex mesh of the table, written by the library. */
+static int write_mesh(const char *dir, size_t n, const char *path)
+{
+    double *P;
+    uint32_t *off, *idx;
+    size_t nv, nf;
+    if (mesh_of(dir, n, &P, &nv, &off, &idx, &nf))
+        return 1;
+    ffd_mesh *m = NULL;
+    ffd_error err = {0};
+    int bad = ffd_mesh_create(P, nv, off, idx, nf, &m, &err) != FFD_OK ||
+              ffd_mesh_write(m, path, NULL, &err) != FFD_OK;
+    if (bad)
+        fprintf(stderr, "bench_scale_tspline: %s\n", err.message);
+    ffd_mesh_destroy(m);
+    free(P);
+    free(off);
+    free(idx);
+    return bad;
+}
+
 int main(int argc, char **argv)
 {
     char data_dir[1024];
@@ -182,8 +205,12 @@ int main(int argc, char **argv)
     size_t sizes[32], ns = 0;
     uint32_t res = 12;
     int rounds = 3;
+    const char *write_path = NULL;
     for (int i = 1; i < argc; i++) {
-        if (!strcmp(argv[i], "--res") && i + 1 < argc)
+        if (!strcmp(argv[i], "--write") && i + 2 < argc) {
+            sizes[ns++] = (size_t)strtod(argv[++i], NULL);
+            write_path = argv[++i];
+        } else if (!strcmp(argv[i], "--res") && i + 1 < argc)
             res = (uint32_t)atoi(argv[++i]);
         else if (!strcmp(argv[i], "--rounds") && i + 1 < argc)
             rounds = atoi(argv[++i]);
@@ -194,6 +221,8 @@ int main(int argc, char **argv)
     }
     if (rounds < 1 || rounds > 16)
         rounds = 3;
+    if (write_path)
+        return write_mesh(dir, sizes[0], write_path);
     if (!ns) {
         size_t def[] = {10000, 30000, 100000, 300000, 437000, 1000000};
         memcpy(sizes, def, sizeof def);

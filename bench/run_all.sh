@@ -36,10 +36,27 @@ R=7; [ -n "$QUICK" ] && R=2
 run peers bash "$root/bench/peers.sh" --build "$BUILD" --rounds "$R"
 run lattice "$BUILD/bench_lattice" $QUICK
 run lattice_scale "$BUILD/bench_lattice_scale" --max 10000000
+# 10^8 points: ~12 GB; skipped (named in the output) on a machine with less than 20 GiB
+if [ "$(awk '/MemTotal/ {print int($2 / 1048576)}' /proc/meminfo)" -ge 20 ]; then
+    run lattice_scale_1e8 "$BUILD/bench_lattice_scale" --sizes 100000000 --reps 2
+else
+    echo "skipped: 10^8 points need ~12 GB" >"$OUT/lattice_scale_1e8.txt"
+fi
 run mesh_io "$BUILD/bench_mesh_io" 1000000 "$R"
 run blas_threads "$BUILD/bench_blas_threads"
 run tspline_scale "$BUILD/bench_scale_tspline" "$root/data" 10000 100000 437000
 run tspline "$BUILD/bench_tspline" "$root/data"
+# the whole `ffd tspline proxy` command on the 437K-vertex subdivided elephant
+proxy_cmd() {
+    local ply="$OUT/elephant437k.ply"
+    "$BUILD/bench_scale_tspline" "$root/data" --write 437000 "$ply"
+    for i in 1 2 3; do
+        /usr/bin/time -f "tspline proxy 437K: %e s wall, %U s user, %S s sys, %M KB peak" \
+            "$BUILD/ffd" tspline proxy "$ply" -o "$OUT/proxy437k.obj" --resolution 12 --quiet
+    done
+    rm -f "$ply" "$OUT/proxy437k.obj"
+}
+run tspline_proxy proxy_cmd
 run pbffd "$BUILD/bench_pbffd" "$root/data" $QUICK
 run placement "$BUILD/bench_placement" "$root/data" $QUICK
 run gffd "$BUILD/bench_gffd"

@@ -478,6 +478,22 @@ FFD_API ffd_status ffd_deformer_move_controls(ffd_deformer *d, const uint32_t *i
                                               const double *deltas, ffd_error *err);
 FFD_API ffd_status ffd_deformer_reset(ffd_deformer *d, ffd_error *err);
 
+/* Runs one of the method's own operations with its JSON body (size bytes;
+ * 0: {}), exactly as the editor's operation of that name (docs/editor.md,
+ * "Method operations"): "refine" and "freeze" (T-spline), "level", "frame"
+ * and "curve" (PB-FFD), "primitive" (GFFD). The binding is kept and the next
+ * evaluation sees the change (a refinement may change the control count).
+ * FFD_ERR_UNSUPPORTED for an op the method does not have (the message lists
+ * its operations), FFD_ERR_PARSE for malformed JSON or a wrong key (named);
+ * on error nothing changed. */
+FFD_API ffd_status ffd_deformer_command(ffd_deformer *d, const char *op, const char *body,
+                                        size_t size, ffd_error *err);
+/* The deformer's state as a rig (JSON text, ffd_free): ffd_deformer_create
+ * of it on the same mesh builds the same deformer (its controls where they
+ * are now). */
+FFD_API ffd_status ffd_deformer_rig(const ffd_deformer *d, char **json, size_t *size,
+                                    ffd_error *err);
+
 /* The method's report as JSON (ffd_free the text): {"method", "points",
  * "controls": {"count", ...the method's structure...}, "params": {...}};
  * the keys under "controls" and "params" are the method's (docs/api.md). */

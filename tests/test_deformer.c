@@ -4,7 +4,8 @@
  * second point set bound to it deforms as the same points would as vertices
  * of the mesh; the Jacobian and the linear map agree with finite
  * differences; control edits, reset (identity: the same bits), the report,
- * the method handle and bad input. */
+ * the method handle, the method's own operations, the rig of the state and
+ * bad input. */
 #include "check.h"
 
 #include "ffd.h"
@@ -497,6 +498,100 @@ static void test_bad_input(void)
     ffd_mesh_destroy(mesh);
 }
 
+/* The method's own operations through the generic interface: a T-spline
+ * refinement keeps the shape (the deformed points before and after agree)
+ * and adds controls; an op of another method, a malformed body and a wrong
+ * key are refused with nothing changed. */
+static void test_command(void)
+{
+    const rig_case *tc = NULL;
+    for (size_t c = 0; c < CASE_COUNT && !tc; c++)
+        if (!strcmp(case_table[c].method, "tspline"))
+            tc = &case_table[c];
+    CHECK(tc != NULL);
+    ffd_mesh *mesh = tc ? read_mesh(tc->mesh) : NULL;
+    ffd_deformer *d = mesh ? make(tc, mesh) : NULL;
+    CHECK(d != NULL);
+    if (!d) {
+        ffd_mesh_destroy(mesh);
+        return;
+    }
+    ffd_error err = {{0}};
+    size_t n = ffd_mesh_vertex_count(mesh), count = ffd_deformer_control_count(d);
+    double *before = malloc(3 * n * sizeof *before), *after = malloc(3 * n * sizeof *after);
+    CHECK_OK(ffd_deformer_eval(d, before, &err));
+    static const char *const refused[][2] = {
+        {"level", "{\"level\": 1}"},          /* PB-FFD's */
+        {"refine", "{\"insertions\": ["},     /* malformed */
+        {"refine", "{\"insertion\": []}"},    /* wrong key */
+        {"refine", "[]"},                      /* not an object */
+    };
+    for (size_t i = 0; i < sizeof refused / sizeof *refused; i++) {
+        ffd_status st = ffd_deformer_command(d, refused[i][0], refused[i][1],
+                                             strlen(refused[i][1]), &err);
+        CHECK(st == (i == 0 ? FFD_ERR_UNSUPPORTED : FFD_ERR_PARSE));
+        CHECK(i != 0 || strstr(err.message, "\"refine\"") != NULL);
+        CHECK(ffd_deformer_control_count(d) == count);
+    }
+    CHECK_OK(ffd_deformer_eval(d, after, &err));
+    CHECK(memcmp(before, after, 3 * n * sizeof *after) == 0);
+    const char *refine = "{\"insertions\": [{\"cells\": \"proxy\"}]}";
+    CHECK_OK(ffd_deformer_command(d, "refine", refine, strlen(refine), &err));
+    CHECK(ffd_deformer_control_count(d) > count);
+    CHECK(ffd_deformer_point_count(d) == n);
+    CHECK_OK(ffd_deformer_eval(d, after, &err));
+    double diag = diagonal(before, n), diff = max_diff(before, after, 3 * n);
+    if (diff > 1e-9 * diag)
+        fprintf(stderr, "refine changed the shape by %.3g\n", diff);
+    CHECK(diff <= 1e-9 * diag);
+    free(before);
+    free(after);
+    ffd_deformer_destroy(d);
+    ffd_mesh_destroy(mesh);
+}
+
+/* ffd_deformer_rig: the rig it writes builds a deformer that deforms the
+ * mesh as this one does now (after a control move), for every method. */
+static void test_rig_round_trip(void)
+{
+    for (size_t c = 0; c < CASE_COUNT; c++) {
+        ffd_mesh *mesh = read_mesh(case_table[c].mesh);
+        ffd_deformer *d = mesh ? make(&case_table[c], mesh) : NULL, *again = NULL;
+        CHECK(d != NULL);
+        if (!d) {
+            ffd_mesh_destroy(mesh);
+            continue;
+        }
+        ffd_error err = {{0}};
+        size_t n = ffd_mesh_vertex_count(mesh);
+        uint32_t id = 0;
+        double delta[3] = {0.01, -0.02, 0.015};
+        CHECK_OK(ffd_deformer_move_controls(d, &id, 1, delta, &err));
+        char *json = NULL;
+        size_t size = 0;
+        CHECK_OK(ffd_deformer_rig(d, &json, &size, &err));
+        CHECK(json && size == strlen(json));
+        if (json)
+            CHECK_OK(ffd_deformer_create_json(json, size, case_table[c].rig, mesh, NULL, &again,
+                                              &err));
+        if (again) {
+            double *a = malloc(3 * n * sizeof *a), *b = malloc(3 * n * sizeof *b);
+            CHECK_OK(ffd_deformer_eval(d, a, &err));
+            CHECK_OK(ffd_deformer_eval(again, b, &err));
+            double diff = max_diff(a, b, 3 * n), diag = diagonal(a, n);
+            if (diff > 1e-9 * diag)
+                fprintf(stderr, "%s: rebuilt from its rig: %.3g\n", case_table[c].rig, diff);
+            CHECK(diff <= 1e-9 * diag);
+            free(a);
+            free(b);
+        }
+        ffd_free(json);
+        ffd_deformer_destroy(again);
+        ffd_deformer_destroy(d);
+        ffd_mesh_destroy(mesh);
+    }
+}
+
 int main(int argc, char **argv)
 {
     static const check_test tests[] = {
@@ -507,6 +602,8 @@ int main(int argc, char **argv)
         {"controls_and_reset", test_controls_and_reset},
         {"report_and_handle", test_report_and_handle},
         {"bad_input", test_bad_input},
+        {"command", test_command},
+        {"rig_round_trip", test_rig_round_trip},
     };
     choose_cases();
     return check_run(tests, sizeof tests / sizeof *tests, argc, argv);

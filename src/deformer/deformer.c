@@ -7,6 +7,7 @@
 #include "deformer/method.h"
 
 #include <math.h>
+#include <stdio.h>
 #include <string.h>
 
 struct ffd_deformer {
@@ -253,5 +254,43 @@ ffd_status ffd_deformer_report(const ffd_deformer *d, char **json, size_t *size,
     cJSON_Delete(params);
     cJSON_Delete(controls);
     cJSON_Delete(root);
+    return st;
+}
+
+ffd_status ffd_deformer_command(ffd_deformer *d, const char *op, const char *body, size_t size,
+                                ffd_error *err)
+{
+    if (!d || !op || (!body && size))
+        return ffd_fail(err, FFD_ERR_INVALID, "ffd_deformer_command: NULL argument");
+    const char *const *ops = d->method->ops;
+    size_t i = 0;
+    while (ops && ops[i] && strcmp(ops[i], op))
+        i++;
+    if (!ops || !ops[i]) {
+        char list[256] = "";
+        for (size_t j = 0; ops && ops[j]; j++)
+            snprintf(list + strlen(list), sizeof list - strlen(list), "%s\"%s\"", j ? ", " : "",
+                     ops[j]);
+        return ffd_fail(err, FFD_ERR_UNSUPPORTED, "%s: not an operation of the %s method (%s%s)",
+                        op, d->method->name, *list ? "its operations: " : "it has none", list);
+    }
+    cJSON *doc = NULL;
+    ffd_status st = ffd_sess_parse_body(op, body, size, &doc, err);
+    if (st)
+        return st;
+    int undo_kind = SESS_UNDO_NONE;
+    st = d->m->vt->op(d->m, op, doc, &undo_kind, err);
+    cJSON_Delete(doc);
+    return st;
+}
+
+ffd_status ffd_deformer_rig(const ffd_deformer *d, char **json, size_t *size, ffd_error *err)
+{
+    if (!d || !json)
+        return ffd_fail(err, FFD_ERR_INVALID, "ffd_deformer_rig: NULL argument");
+    *json = NULL;
+    ffd_status st = ffd_sess_rig_text(d->m, json, err);
+    if (size)
+        *size = st ? 0 : strlen(*json);
     return st;
 }

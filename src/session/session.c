@@ -152,26 +152,6 @@ static ffd_status refresh(ffd_session *s, ffd_error *err)
 
 /* ---------- rig text and rebuilding ---------- */
 
-static ffd_status method_rig_text(const sess_method *m, char **text, ffd_error *err)
-{
-    cJSON *root = cJSON_CreateObject();
-    if (!root || !cJSON_AddNumberToObject(root, "version", 1) ||
-        !cJSON_AddStringToObject(root, "deformer", m->vt->name)) {
-        cJSON_Delete(root);
-        return ffd_fail(err, FFD_ERR_NOMEM, "rig: out of memory");
-    }
-    ffd_status st = m->vt->rig(m, root, err);
-    if (!st) {
-        char *printed = cJSON_Print(root);
-        *text = printed ? ffd_strdup(printed) : NULL;
-        cJSON_free(printed);
-        if (!*text)
-            st = ffd_fail(err, FFD_ERR_NOMEM, "rig: out of memory");
-    }
-    cJSON_Delete(root);
-    return st;
-}
-
 static ffd_status method_from_rig(const sess_ctx *ctx, const ffd_rig *rig, sess_method **out,
                                   ffd_error *err)
 {
@@ -210,7 +190,7 @@ static ffd_status capture(ffd_session *s, int kind, const char *label, undo_entr
         e->blob_vt = s->method->vt;
         st = s->method->vt->snapshot(s->method, &e->blob, err);
     } else if (kind == UNDO_REBUILD && s->method) {
-        st = method_rig_text(s->method, &e->rig, err);
+        st = ffd_sess_rig_text(s->method, &e->rig, err);
     }
     if (st)
         entry_free(e);
@@ -865,33 +845,9 @@ ffd_status ffd_session_command(ffd_session *s, const char *op, const char *body,
     *binary = 0;
     double t0 = ffd_now();
     cJSON *doc = NULL;
-    if (body && size) {
-        const char *end = NULL;
-        ffd_status nul = ffd_json_refuse_nul(body, size, op, err);
-        if (nul)
-            return nul;
-        unsigned long oom = ffd_json_alloc_failures();
-        doc = cJSON_ParseWithLengthOpts(body, size, &end, 0);
-        if (!doc && ffd_json_alloc_failures() != oom)
-            return ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory parsing JSON", op);
-        while (doc && end < body + size && (*end == ' ' || *end == '\t' || *end == '\n' ||
-                                            *end == '\r'))
-            end++;
-        if (!doc || end != body + size) {
-            size_t at = end && end >= body ? (size_t)(end - body) : 0;
-            const char *why = doc ? " (text after the value)" : "";
-            cJSON_Delete(doc);
-            return ffd_fail(err, FFD_ERR_PARSE, "%s: malformed JSON at byte %zu%s", op, at, why);
-        }
-    } else {
-        doc = cJSON_CreateObject();
-        if (!doc)
-            return ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory", op);
-    }
-    if (!cJSON_IsObject(doc)) {
-        cJSON_Delete(doc);
-        return ffd_fail(err, FFD_ERR_PARSE, "%s: expected a JSON object", op);
-    }
+    ffd_status parsed = ffd_sess_parse_body(op, body, size, &doc, err);
+    if (parsed)
+        return parsed;
     ffd_rig_parser p = {op, err, NULL};
     ffd_status st;
     int is_drag_step = 0;
@@ -1142,7 +1098,7 @@ ffd_status ffd_session_rig(const ffd_session *s, char **json, size_t *size, ffd_
 {
     if (!s->method)
         return conflict(err, "no deformer: create one first", "rig");
-    ffd_status st = method_rig_text(s->method, json, err);
+    ffd_status st = ffd_sess_rig_text(s->method, json, err);
     if (!st)
         *size = strlen(*json);
     return st;
@@ -1160,7 +1116,7 @@ ffd_status ffd_session_deformed(const ffd_session *s, ffd_mesh **out, ffd_error 
     /* The rig is the deformation's record: replaying it is what ffd deform does. */
     char *text = NULL;
     ffd_rig *rig = NULL;
-    if (!(st = method_rig_text(s->method, &text, err)) &&
+    if (!(st = ffd_sess_rig_text(s->method, &text, err)) &&
         !(st = ffd_rig_parse_json(text, strlen(text), "session", &rig, err)))
         st = ffd_rig_apply_limited(rig, copy, &s->ctx.limits, NULL, err);
     ffd_rig_destroy(rig);

@@ -167,5 +167,12 @@ ffd_status ffd_sess_clone_mesh(const ffd_mesh *mesh, ffd_mesh **out, ffd_error *
 /* Applies rig to a copy of the rest mesh (the report says what it did). */
 ffd_status ffd_sess_apply_rig(const sess_ctx *ctx, const ffd_rig *rig, ffd_rig_report *report,
                           ffd_error *err);
+/* The method's state as rig text (JSON, "version" and "deformer" first; ffd_free). */
+ffd_status ffd_sess_rig_text(const sess_method *m, char **text, ffd_error *err);
+/* Reads an operation's body: size bytes of one JSON object (no NUL; white
+ * space after it allowed), or {} when size is 0. FFD_ERR_PARSE naming op and
+ * the byte offset; *doc (cJSON_Delete) only on success. */
+ffd_status ffd_sess_parse_body(const char *op, const char *body, size_t size, cJSON **doc,
+                               ffd_error *err);
 
 #endif

@@ -231,3 +231,56 @@ ffd_status ffd_sess_check_controls(const sess_ctx *ctx, double count, const char
                         count, ctx->max_controls);
     return FFD_OK;
 }
+
+ffd_status ffd_sess_rig_text(const sess_method *m, char **text, ffd_error *err)
+{
+    cJSON *root = cJSON_CreateObject();
+    if (!root || !cJSON_AddNumberToObject(root, "version", 1) ||
+        !cJSON_AddStringToObject(root, "deformer", m->vt->name)) {
+        cJSON_Delete(root);
+        return ffd_fail(err, FFD_ERR_NOMEM, "rig: out of memory");
+    }
+    ffd_status st = m->vt->rig(m, root, err);
+    if (!st) {
+        char *printed = cJSON_Print(root);
+        *text = printed ? ffd_strdup(printed) : NULL;
+        cJSON_free(printed);
+        if (!*text)
+            st = ffd_fail(err, FFD_ERR_NOMEM, "rig: out of memory");
+    }
+    cJSON_Delete(root);
+    return st;
+}
+
+ffd_status ffd_sess_parse_body(const char *op, const char *body, size_t size, cJSON **doc,
+                               ffd_error *err)
+{
+    *doc = NULL;
+    cJSON *d = NULL;
+    if (body && size) {
+        const char *end = NULL;
+        ffd_status nul = ffd_json_refuse_nul(body, size, op, err);
+        if (nul)
+            return nul;
+        unsigned long oom = ffd_json_alloc_failures();
+        d = cJSON_ParseWithLengthOpts(body, size, &end, 0);
+        if (!d && ffd_json_alloc_failures() != oom)
+            return ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory parsing JSON", op);
+        while (d && end < body + size && (*end == ' ' || *end == '\t' || *end == '\n' ||
+                                          *end == '\r'))
+            end++;
+        if (!d || end != body + size) {
+            size_t at = end && end >= body ? (size_t)(end - body) : 0;
+            const char *why = d ? " (text after the value)" : "";
+            cJSON_Delete(d);
+            return ffd_fail(err, FFD_ERR_PARSE, "%s: malformed JSON at byte %zu%s", op, at, why);
+        }
+    } else if (!(d = cJSON_CreateObject()))
+        return ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory", op);
+    if (!cJSON_IsObject(d)) {
+        cJSON_Delete(d);
+        return ffd_fail(err, FFD_ERR_PARSE, "%s: expected a JSON object", op);
+    }
+    *doc = d;
+    return FFD_OK;
+}
