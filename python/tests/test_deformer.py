@@ -349,3 +349,20 @@ def test_one_thread_at_a_time_per_deformer(bunny):
     assert not errors
     np.testing.assert_allclose(d._get_controls()[0] - ffdkit.Rig.load(BEND).deformer(bunny)._get_controls()[0],
                                (0.02, 0, 0), atol=1e-12)
+
+
+def test_one_id_does_not_leak(bend):
+    """A single id (not a sequence) is reshaped to (1,) without leaking the shape."""
+    delta = np.zeros(3)
+    for _ in range(200):
+        bend.move(4, delta)
+    gc.collect()
+    tracemalloc.start()
+    snap0 = tracemalloc.take_snapshot()
+    for _ in range(10000):
+        bend.move(4, delta)
+    gc.collect()
+    snap1 = tracemalloc.take_snapshot()
+    tracemalloc.stop()
+    grown = sum(s.size_diff for s in snap1.compare_to(snap0, "filename"))
+    assert grown < 64 * 1024, grown
