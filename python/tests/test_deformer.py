@@ -196,6 +196,12 @@ def test_controls_view_writes_through(bend):
     np.testing.assert_array_equal(bend._get_controls(), rest)
     np.testing.assert_array_equal(v, rest)  # refreshed
     np.testing.assert_array_equal(bend.evaluate(), x0)
+    # writes the view does not see are pushed by assigning it back
+    np.copyto(v, rest + 1.0)
+    np.testing.assert_array_equal(bend._get_controls(), rest)
+    bend.controls = v
+    np.testing.assert_array_equal(bend._get_controls(), rest + 1.0)
+    bend.controls = rest
     # derived arrays are copies, not written through
     w = v * 2
     w[0] = 0
