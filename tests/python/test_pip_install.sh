@@ -9,8 +9,10 @@ set -u
 PY=$1
 SRC=$(cd "$2" && pwd)
 source "$SRC/tests/install/lib.sh"
-"$PY" -c "import venv, pip, numpy, setuptools" 2>/dev/null ||
-    { echo "SKIP: $PY lacks venv, pip, setuptools or numpy (bash scripts/setup.sh)"; exit 77; }
+# found, not imported: importing pip before setuptools trips setuptools' distutils check
+"$PY" -c "import importlib.util as u, sys
+sys.exit(any(u.find_spec(m) is None for m in ('venv', 'pip', 'numpy', 'setuptools', 'wheel')))" ||
+    { echo "SKIP: $PY lacks venv, pip, setuptools, wheel or numpy (bash scripts/setup.sh)"; exit 77; }
 "$PY" -m venv --system-site-packages "$T/venv" >"$T/venv.log" 2>&1 || { fail "venv: $(cat "$T/venv.log")"; exit 1; }
 mkdir -p "$T/pkg"
 (cd "$SRC/python" && tar --exclude=./build --exclude='*.egg-info' --exclude=__pycache__ -cf - .) |
