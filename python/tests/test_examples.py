@@ -17,7 +17,7 @@ def run(script, tmp_path, *args):
     import ffdkit
 
     env["PYTHONPATH"] = os.pathsep.join(
-        [str(Path(ffdkit.__file__).resolve().parents[1])] +
+        [str(Path(os.path.abspath(ffdkit.__file__)).parents[1])] +
         ([env["PYTHONPATH"]] if env.get("PYTHONPATH") else []))
     done = subprocess.run([sys.executable, str(EXAMPLES / script), *args], cwd=tmp_path, env=env,
                           capture_output=True, text=True, timeout=120)

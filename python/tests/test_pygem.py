@@ -225,7 +225,7 @@ def find_ffd_cli():
     env = os.environ.get("FFD_BIN")
     if env:
         return env
-    here = Path(ffdkit.__file__).resolve()
+    here = Path(os.path.abspath(ffdkit.__file__))
     for parent in here.parents:
         if (parent / "ffd").is_file() and os.access(parent / "ffd", os.X_OK):
             return str(parent / "ffd")
