@@ -359,3 +359,23 @@ def test_malformed_prm_names_the_line(tmp_path):
     path.write_text("[Box info]\nn control points x: 2\n")
     with pytest.raises(ffdkit.Error):
         FFD().read_parameters(str(path))
+
+
+def test_bound_deformer_loop_as_documented():
+    # docs/python.md, "Speed": the drop-in's rig, bound once, driven by new weights
+    rng = np.random.default_rng(11)
+    ffd = random_ffd(rng)
+    ffd.n_control_points = [4, 3, 5]
+    pts = points_around(rng, ffd, 1000)
+    ffd.reset_weights()
+    d = ffd.rig().deformer(pts)
+    rest = np.array(d.controls)
+    M = ffd.rotation_matrix * ffd.box_length
+    new_points = np.empty_like(pts)
+    for _ in range(3):
+        mu = rng.uniform(-0.3, 0.3, size=(4, 3, 5, 3))
+        d.controls = rest + mu.reshape(-1, 3) @ M.T
+        d.evaluate(out=new_points)
+        ffd.array_mu_x, ffd.array_mu_y, ffd.array_mu_z = (mu[..., a].copy() for a in range(3))
+        assert_close(new_points, reference_of(ffd, pts))
+        assert_close(new_points, ffd(pts))
