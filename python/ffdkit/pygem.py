@@ -209,7 +209,10 @@ class FFD:
         if not os.path.isfile(filename):
             self.write_parameters(filename)
             return
-        Rig.load(filename)  # the strict reader: file:line messages for every bad value
+        with open(filename, "rb") as f:
+            text = f.read().decode("utf-8")
+        # the strict reader, whatever the file's extension: file:line messages for every bad value
+        Rig._parse_prm(text, filename)
         config = configparser.RawConfigParser()
         config.read(filename)
         box = "Box info"

@@ -202,6 +202,12 @@ def test_prm_round_trip(tmp_path):
         assert np.array_equal(getattr(back, name), getattr(ffd, name)), name
     pts = points_around(rng, ffd, 200)
     assert np.array_equal(back(pts), ffd(pts))
+    # PyGeM reads any file name, not only *.prm
+    other = str(tmp_path / "parameters.txt")
+    ffd.write_parameters(other)
+    back = FFD()
+    back.read_parameters(other)
+    assert np.array_equal(back.array_mu_z, ffd.array_mu_z)
     # the file ffdkit's own .prm reader applies gives the same map (for n >= 2 on every axis)
     ffd2 = random_ffd(rng)
     ffd2.n_control_points = [3, 4, 2]
