@@ -3,6 +3,7 @@ bind, evaluate, jacobian, the controls view, move/set/reset, solve, the
 linear map, report/rig/command, errors, no copies, refcounts and memory."""
 import gc
 import json
+import os
 import sys
 import threading
 import tracemalloc
@@ -12,7 +13,7 @@ import pytest
 
 import ffdkit
 from ffdkit import _deformer
-from conftest import EXAMPLES
+from conftest import EXAMPLES, sanitized
 
 BUNNY = EXAMPLES / "lattice" / "bunny.obj"
 BEND = EXAMPLES / "lattice" / "bend.json"
@@ -195,6 +196,12 @@ def test_controls_view_writes_through(bend):
     np.testing.assert_array_equal(bend._get_controls(), rest)
     np.testing.assert_array_equal(v, rest)  # refreshed
     np.testing.assert_array_equal(bend.evaluate(), x0)
+    # writes the view does not see are pushed by assigning it back
+    np.copyto(v, rest + 1.0)
+    np.testing.assert_array_equal(bend._get_controls(), rest)
+    bend.controls = v
+    np.testing.assert_array_equal(bend._get_controls(), rest + 1.0)
+    bend.controls = rest
     # derived arrays are copies, not written through
     w = v * 2
     w[0] = 0
@@ -286,7 +293,7 @@ def test_new_arrays_do_not_leak(bunny, bend):
         bend.evaluate()
         bend.jacobian()
     snap0 = tracemalloc.take_snapshot()
-    for _ in range(10000):
+    for _ in range(3000):
         bend.evaluate()
         bend.jacobian()
         bend.solve([0], [[0.0, 0.0, 0.0]])
@@ -294,6 +301,38 @@ def test_new_arrays_do_not_leak(bunny, bend):
     tracemalloc.stop()
     grown = sum(s.size_diff for s in snap1.compare_to(snap0, "filename"))
     assert grown < 64 * 1024, grown
+
+
+def rss_bytes():
+    with open("/proc/self/statm") as f:
+        return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+
+
+@pytest.mark.skipif(sanitized() or not os.path.exists("/proc/self/statm"),
+                    reason="ASan's quarantine grows the resident set; needs /proc")
+def test_library_memory_stable_over_2000_deformers(bunny):
+    """The C side (libffd's handles, meshes, rigs) frees what it allocates."""
+    pts = bunny[:64]
+    rig = ffdkit.Rig.load(BEND)
+
+    def cycle(n):
+        for _ in range(n):
+            d = ffdkit.Rig.load(IDENTITY).deformer(pts)
+            d.evaluate()
+            d.solve([0], [[0.0, 0.0, 0.0]])
+            d.linear_map()
+            d.report()
+            rig.apply(pts)
+            ffdkit.Mesh(pts, [[0, 1, 2]]).to_bytes("ply")
+            del d
+
+    cycle(300)
+    gc.collect()
+    before = rss_bytes()
+    cycle(2000)
+    gc.collect()
+    grown = rss_bytes() - before
+    assert grown < 8 * 1024 * 1024, grown
 
 
 def test_one_thread_at_a_time_per_deformer(bunny):
@@ -316,3 +355,20 @@ def test_one_thread_at_a_time_per_deformer(bunny):
     assert not errors
     np.testing.assert_allclose(d._get_controls()[0] - ffdkit.Rig.load(BEND).deformer(bunny)._get_controls()[0],
                                (0.02, 0, 0), atol=1e-12)
+
+
+def test_one_id_does_not_leak(bend):
+    """A single id (not a sequence) is reshaped to (1,) without leaking the shape."""
+    delta = np.zeros(3)
+    for _ in range(200):
+        bend.move(4, delta)
+    gc.collect()
+    tracemalloc.start()
+    snap0 = tracemalloc.take_snapshot()
+    for _ in range(10000):
+        bend.move(4, delta)
+    gc.collect()
+    snap1 = tracemalloc.take_snapshot()
+    tracemalloc.stop()
+    grown = sum(s.size_diff for s in snap1.compare_to(snap0, "filename"))
+    assert grown < 64 * 1024, grown

@@ -17,6 +17,10 @@ fi
 export PYTHONPATH=$BUILD/python
 export PYTHONDONTWRITEBYTECODE=1
 export FFDKIT_SOURCE_DIR=$SRC
+# one OpenMP thread unless told otherwise: on a loaded machine the library's
+# spinning worker threads make each small call milliseconds long (the
+# results are the same for any thread count)
+export OMP_NUM_THREADS=${OMP_NUM_THREADS:-1}
 if [ -n "$SAN" ]; then
     asan=$(${CC:-cc} -print-file-name=libasan.so)
     [ -e "$asan" ] || { echo "FAIL: no libasan.so for the sanitizer build ($asan)"; exit 1; }
