@@ -32,6 +32,7 @@ from ._ffd import (
 from ._mesh import Mesh, read_mesh, write_mesh
 from ._rig import Rig
 from ._deformer import ControlsView, Deformer, SolveResult
+from .meshio_interop import deform_meshio
 
 __version__ = f"{_ffd.VERSION_MAJOR}.{_ffd.VERSION_MINOR}.{_ffd.VERSION_PATCH}"
 
