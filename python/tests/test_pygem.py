@@ -385,3 +385,33 @@ def test_bound_deformer_loop_as_documented():
         ffd.array_mu_x, ffd.array_mu_y, ffd.array_mu_z = (mu[..., a].copy() for a in range(3))
         assert_close(new_points, reference_of(ffd, pts))
         assert_close(new_points, ffd(pts))
+
+
+def test_repeated_calls_give_the_rig_apply_bits():
+    """__call__ keeps its lattice and binding between calls; every call still gives
+    exactly rig().apply's bits: new weights, points changed in place (a -0.0 for a
+    0.0 included), other points, a changed box, the other outside rule."""
+    rng = np.random.default_rng(11)
+    for outside in ("fixed", "extrapolate"):
+        ffd = random_ffd(rng, outside=outside)
+        pts = points_around(rng, ffd, 500)
+        pts[0] = 0.0
+        for step in range(7):
+            if step == 1:
+                ffd.array_mu_x[...] = rng.uniform(-0.3, 0.3, size=ffd.array_mu_x.shape)
+            elif step == 2:
+                pts[0] = -0.0  # equal as numbers, not as bits: must rebind
+            elif step == 3:
+                pts[7] += 0.01
+            elif step == 4:
+                pts = points_around(rng, ffd, 300)
+            elif step == 5:
+                ffd.box_length = ffd.box_length * 1.1
+            elif step == 6:
+                ffd.array_mu_z[...] = 0.0
+                ffd.array_mu_x[...] = 0.0
+                ffd.array_mu_y[...] = 0.0
+            got = ffd(pts)
+            want = ffd.rig().apply(pts)
+            assert got.view(np.uint64).tolist() == want.view(np.uint64).tolist(), (outside, step)
+        assert got.view(np.uint64).tolist() == pts.view(np.uint64).tolist()  # identity: same bits
