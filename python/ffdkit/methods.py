@@ -175,7 +175,8 @@ class TSplineDeformer(Deformer):
 
     @property
     def max_weight_deviation(self) -> float:
-        """The largest deviation of the basis weights' sum from 1 (partition of unity)."""
+        """max |W_v - 1| over the control points' rational weights W_v (the
+        refinement's diagnostic, docs/tspline.md)."""
         return float(self.report()["controls"]["max_weight_deviation"])
 
     def proxy_arrays(self) -> Tuple[np.ndarray, List[List[int]], np.ndarray]:
