@@ -477,3 +477,6 @@ METHOD_CLASSES.update(
         "gffd": GFFDDeformer,
     }
 )
+
+# ffdkit.pbffd (automatic placement) is reached as an attribute of the package
+from . import pbffd  # noqa: E402,F401
