@@ -21,6 +21,7 @@ import sys
 import threading
 from concurrent.futures import ThreadPoolExecutor
 from contextlib import contextmanager
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -141,6 +142,18 @@ def test_gil_released_during_read_mesh(tmp_path):
         f.write(f"OFF\n{n} 0 0\n")
         np.savetxt(f, p, fmt="%.17g")
     assert progressed_during(lambda: ffdkit.read_mesh(str(path)))
+
+
+def test_gil_released_during_placement():
+    cow = ffdkit.read_mesh(str(Path(__file__).resolve().parents[2] / "examples" / "pbffd" / "cow.off"))
+    assert progressed_during(lambda: ffdkit.pbffd.place(cow, interior=30, exterior=30), tries=3)
+
+
+def test_gil_released_during_solve(big_points):
+    d = lattice(big_points[:400_000])
+    ids = np.arange(0, 400_000, 40_000)
+    targets = big_points[ids] + 0.01
+    assert progressed_during(lambda: d.solve(ids, targets))
 
 
 # ---------------------------------------------------------------------------
