@@ -24,11 +24,14 @@ the next :meth:`~ffdkit.Deformer.evaluate` sees the change.
 
 from __future__ import annotations
 
-from typing import Any, Dict, Iterable, List, Optional, Sequence, Tuple, Union
+from typing import TYPE_CHECKING, Any, Dict, Iterable, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
 from ._deformer import METHOD_CLASSES, Deformer
+
+if TYPE_CHECKING:
+    from ._mesh import Mesh
 
 ArrayLike3 = Union[Sequence[float], np.ndarray]
 Ids = Union[int, Iterable[int], np.ndarray]
@@ -190,7 +193,7 @@ class TSplineDeformer(Deformer):
         faces = [[int(i) for i in f] for f in proxy["face_points"]]
         return points, faces, point_controls
 
-    def proxy(self):
+    def proxy(self) -> "Mesh":
         """The proxy mesh at the controls' current positions as an
         ``ffdkit.Mesh`` (see :meth:`proxy_arrays` for the point-to-control map)."""
         from . import Mesh
@@ -447,8 +450,9 @@ def _rotation(axis: List[float], angle: float) -> np.ndarray:
 
 
 def _json_int(v: Any, name: str) -> Any:
-    """An int for a JSON body; a non-integer value passes unchanged so the
-    library refuses it by name (ParseError)."""
+    """A numpy integer as a Python int for a JSON body; anything else passes
+    unchanged so that the library refuses it by name (ParseError naming
+    ``name``'s key)."""
     if isinstance(v, (bool, np.bool_)):
         return v
     if isinstance(v, (int, np.integer)):
