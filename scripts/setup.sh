@@ -1,16 +1,20 @@
 #!/usr/bin/env bash
 # Installs every Debian package ffdkit needs. Idempotent: re-running installs nothing new.
+# The Python package (python/, docs/python.md) is built with the rest: its
+# headers, NumPy, and pip/setuptools/venv for `pip install ./python`.
 # With --test also the packages only the tests use: Blender (a real glTF client
-# that imports what ffd writes) and NumPy (which Blender's glTF importer needs).
+# that imports what ffd writes), pytest, and SciPy and meshio (the Python
+# package's optional sparse matrices and meshio interop).
 set -euo pipefail
 PKGS=(build-essential cmake pkg-config
       liblapacke-dev libopenblas-dev libcjson-dev
       clang libclang-rt-14-dev
       libqhull-dev libsuitesparse-dev
       libmicrohttpd-dev chromium curl libomp-dev valgrind
-      groff-base dpkg-dev file binutils)
+      groff-base dpkg-dev file binutils
+      python3-dev python3-numpy python3-pip python3-setuptools python3-venv)
 if [ "${1:-}" = "--test" ]; then
-  PKGS+=(blender python3-numpy)
+  PKGS+=(blender python3-pytest python3-scipy python3-meshio)
 fi
 missing=()
 for p in "${PKGS[@]}"; do

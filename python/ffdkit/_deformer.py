@@ -156,7 +156,10 @@ class Deformer(_ffd.Deformer):
     def controls(self, positions: Any) -> None:
         v = self.__dict__.get("_controls_view")
         if positions is v and v is not None:
-            return  # an augmented assignment on the view, already written through
+            # the view itself (after `d.controls += x`, or writes the view did
+            # not see, e.g. np.copyto): push the rows that differ
+            v._push()
+            return
         self.set_controls(None, positions)
 
     def set_controls(self, ids: Ids, positions: Any) -> None:

@@ -285,8 +285,7 @@ static PyObject *Deformer_command_json(ffdpy_Deformer *self, PyObject *args)
     Py_ssize_t size = 0;
     if (!PyArg_ParseTuple(args, "s|z#:command", &op, &body, &size) || !ready(self))
         return NULL;
-    PyObject *keep = PyTuple_GetItem(args, 0); /* args stays alive: op and body are its strings */
-    (void)keep;
+    /* op and body point into args' strings, alive for the whole call */
     ffd_error err = {{0}};
     ffd_status st;
     enter(self);

@@ -185,7 +185,9 @@ PyArrayObject *ffdpy_ids(PyObject *obj, const char *name)
         return NULL;
     if (PyArray_NDIM(a) == 0) {
         /* one id */
-        PyArrayObject *r = (PyArrayObject *)PyArray_Reshape(a, Py_BuildValue("(i)", 1));
+        npy_intp one = 1;
+        PyArray_Dims shape = {&one, 1};
+        PyArrayObject *r = (PyArrayObject *)PyArray_Newshape(a, &shape, NPY_CORDER);
         Py_DECREF(a);
         if (!r)
             return NULL;
