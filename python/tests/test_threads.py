@@ -1,4 +1,4 @@
-"""Threads, the GIL and asyncio (docs/python.md, "Threads").
+"""Threads, the GIL and asyncio (docs/python-methods.md, "Threads, the GIL, reference counts").
 
 * The GIL is released during binding and evaluation: a second Python thread
   runs while the C call does. The harness is deterministic where it must
