@@ -112,6 +112,17 @@ static double max_diff(const double *a, const double *b, size_t count)
     return m;
 }
 
+/* got and want (count doubles) agree to 1e-9 of diag; what and rig name the
+ * comparison in the message printed when they do not. */
+static void check_agree(const double *got, const double *want, size_t count, double diag,
+                        const char *rig, const char *what)
+{
+    double diff = max_diff(got, want, count);
+    if (diff > 1e-9 * diag)
+        fprintf(stderr, "%s: %s: %.3g\n", rig, what, diff);
+    CHECK(diff <= 1e-9 * diag);
+}
+
 /* The deformer on its mesh gives what ffd_rig_apply gives. */
 static void test_matches_rig_apply(void)
 {
@@ -132,11 +143,9 @@ static void test_matches_rig_apply(void)
             CHECK(strcmp(ffd_deformer_method(d), case_table[c].method) == 0);
             double *out = malloc(3 * n * sizeof *out);
             CHECK_OK(ffd_deformer_eval(d, out, &err));
-            double diag = diagonal(ffd_mesh_positions(mesh), n);
-            double diff = max_diff(out, ffd_mesh_positions(applied), 3 * n);
-            if (diff > 1e-9 * diag)
-                fprintf(stderr, "%s: deformer vs rig_apply: %.3g\n", case_table[c].rig, diff);
-            CHECK(diff <= 1e-9 * diag);
+            check_agree(out, ffd_mesh_positions(applied), 3 * n,
+                        diagonal(ffd_mesh_positions(mesh), n), case_table[c].rig,
+                        "deformer vs rig_apply");
             free(out);
         }
         ffd_deformer_destroy(d);
@@ -212,10 +221,8 @@ static void test_second_point_set(void)
             CHECK_OK(ffd_deformer_eval(e, ref, &err));
             CHECK_OK(ffd_deformer_bind(d, all + 3 * n, m, &err));
             CHECK_OK(ffd_deformer_eval(d, got, &err));
-            double diff = max_diff(got, ref + 3 * n, 3 * m);
-            if (diff > 1e-9 * diag)
-                fprintf(stderr, "%s: centroids vs as vertices: %.3g\n", case_table[c].rig, diff);
-            CHECK(diff <= 1e-9 * diag);
+            check_agree(got, ref + 3 * n, 3 * m, diag, case_table[c].rig,
+                        "centroids vs as vertices");
             free(ref);
             free(got);
         }
@@ -540,10 +547,7 @@ static void test_command(void)
     CHECK(ffd_deformer_control_count(d) > count);
     CHECK(ffd_deformer_point_count(d) == n);
     CHECK_OK(ffd_deformer_eval(d, after, &err));
-    double diag = diagonal(before, n), diff = max_diff(before, after, 3 * n);
-    if (diff > 1e-9 * diag)
-        fprintf(stderr, "refine changed the shape by %.3g\n", diff);
-    CHECK(diff <= 1e-9 * diag);
+    check_agree(after, before, 3 * n, diagonal(before, n), tc->rig, "refine changed the shape");
     free(before);
     free(after);
     ffd_deformer_destroy(d);
@@ -578,10 +582,7 @@ static void test_rig_round_trip(void)
             double *a = malloc(3 * n * sizeof *a), *b = malloc(3 * n * sizeof *b);
             CHECK_OK(ffd_deformer_eval(d, a, &err));
             CHECK_OK(ffd_deformer_eval(again, b, &err));
-            double diff = max_diff(a, b, 3 * n), diag = diagonal(a, n);
-            if (diff > 1e-9 * diag)
-                fprintf(stderr, "%s: rebuilt from its rig: %.3g\n", case_table[c].rig, diff);
-            CHECK(diff <= 1e-9 * diag);
+            check_agree(b, a, 3 * n, diagonal(a, n), case_table[c].rig, "rebuilt from its rig");
             free(a);
             free(b);
         }

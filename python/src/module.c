@@ -85,24 +85,6 @@ static PyArrayObject *as_doubles(PyArrayObject *a)
                                                          NPY_ARRAY_FORCECAST);
 }
 
-PyArrayObject *ffdpy_points(PyObject *obj, const char *name)
-{
-    PyArrayObject *a = numeric_array(obj, name);
-    if (!a)
-        return NULL;
-    if (PyArray_NDIM(a) != 2 || PyArray_DIM(a, 1) != 3) {
-        PyObject *s = shape_text(a);
-        if (s)
-            PyErr_Format(PyExc_ValueError, "%s: expected an (N, 3) array, got shape %U", name, s);
-        Py_XDECREF(s);
-        Py_DECREF(a);
-        return NULL;
-    }
-    PyArrayObject *d = as_doubles(a);
-    Py_DECREF(a);
-    return d;
-}
-
 PyArrayObject *ffdpy_doubles(PyObject *obj, const char *name, int ndim, const npy_intp *dims)
 {
     PyArrayObject *a = numeric_array(obj, name);
@@ -123,7 +105,7 @@ PyArrayObject *ffdpy_doubles(PyObject *obj, const char *name, int ndim, const np
                     snprintf(want + n, sizeof want - n, "%s%ld", i ? ", " : "", (long)dims[i]);
             }
             strncat(want, ndim == 1 ? ",)" : ")", sizeof want - strlen(want) - 1);
-            PyErr_Format(PyExc_ValueError, "%s: expected an array of shape %s, got shape %U", name,
+            PyErr_Format(PyExc_ValueError, "%s: expected an %s array, got shape %U", name,
                          want, s);
         }
         Py_XDECREF(s);
@@ -133,6 +115,12 @@ PyArrayObject *ffdpy_doubles(PyObject *obj, const char *name, int ndim, const np
     PyArrayObject *d = as_doubles(a);
     Py_DECREF(a);
     return d;
+}
+
+PyArrayObject *ffdpy_points(PyObject *obj, const char *name)
+{
+    static const npy_intp n_by_3[2] = {-1, 3};
+    return ffdpy_doubles(obj, name, 2, n_by_3);
 }
 
 int ffdpy_check_out(PyObject *out, int ndim, const npy_intp *dims)
