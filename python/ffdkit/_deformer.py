@@ -19,6 +19,7 @@ Ids = Union[int, Sequence[int], np.ndarray, None]
 
 
 @dataclass
+
 class SolveResult:
     """What :meth:`Deformer.solve` reached: residuals (k,) = |reached - target|,
     reached (k, 3), the rank of the constraint matrix B S, max_residual, and
@@ -186,12 +187,16 @@ class Deformer(_ffd.Deformer):
 
     # ---- direct manipulation, the linear map ----
 
-    def solve(self, points: Any, targets: Any, rcond: float = 1e-10) -> SolveResult:
+    def solve(self, points: Any, targets: Any = None, rcond: float = 1e-10) -> SolveResult:
         """Direct manipulation (Hsu et al. 1992): moves the controls by the
         minimum-norm change that takes bound points ``points`` (k indices) to
         ``targets`` (k, 3) in the least-squares sense (ffd_manip_solve; the
-        GIL released). UnsupportedError for a method without a linear map
-        (GFFD); RangeError for a point index."""
+        GIL released). The constraints may also come alone, as ``points``:
+        a dict {point index: target} or a sequence of (index, target) pairs.
+        UnsupportedError for a method without a linear map (GFFD); RangeError
+        for a point index."""
+        if targets is None:
+            points, targets = _constraint_pairs(points)
         try:
             residuals, reached, rank, max_residual, used = self._solve(points, targets, rcond)
         finally:
@@ -237,3 +242,14 @@ class Deformer(_ffd.Deformer):
     def __repr__(self) -> str:
         return (f"<ffdkit.{type(self).__name__} {self.method}: {self.point_count} points, "
                 f"{self.control_count} controls>")
+
+
+def _constraint_pairs(constraints: Any):
+    """(indices, targets) of constraints given as {index: target} or [(index, target), ...]."""
+    items = constraints.items() if isinstance(constraints, dict) else constraints
+    try:
+        pairs = [(index, target) for index, target in items]
+    except (TypeError, ValueError):
+        raise TypeError("solve: constraints must be {point index: target} or "
+                        "[(point index, target), ...] when no targets are given") from None
+    return [p[0] for p in pairs], [p[1] for p in pairs]

@@ -177,6 +177,25 @@ def test_solve_reaches_targets(bunny, bend):
         gffd_deformer().solve([0], [[0, 0, 0]])
 
 
+def test_solve_takes_constraints_alone(bend):
+    """solve({index: target}) and solve([(index, target), ...]) are solve(indices, targets)."""
+    x = bend.evaluate()
+    start = np.array(bend.controls)
+    goal = {553: x[553] + (0.1, 0, 0), 1043: x[1043] + (0, 0.1, 0)}
+    r = bend.solve(goal)
+    assert r.max_residual < 1e-9
+    moved = bend.evaluate()
+    bend.controls = start
+    r2 = bend.solve(list(goal.items()))
+    assert r2.max_residual < 1e-9
+    assert bend.evaluate().tobytes() == moved.tobytes()
+    bend.controls = start
+    bend.solve(list(goal), list(goal.values()))
+    assert bend.evaluate().tobytes() == moved.tobytes()
+    with pytest.raises(TypeError, match="constraints"):
+        bend.solve([1, 2])
+
+
 def test_controls_view_writes_through(bend):
     v = bend.controls
     assert isinstance(v, ffdkit.ControlsView) and v.shape == (125, 3) and v.dtype == np.float64
