@@ -556,41 +556,35 @@ static void test_command(void)
 
 /* ffd_deformer_rig: the rig it writes builds a deformer that deforms the
  * mesh as this one does now (after a control move), for every method. */
+static void check_rig_round_trip(const rig_case *rc, const ffd_mesh *mesh, ffd_deformer *d)
+{
+    ffd_deformer *again = NULL;
+    ffd_error err = {{0}};
+    size_t n = ffd_mesh_vertex_count(mesh);
+    uint32_t id = 0;
+    double delta[3] = {0.01, -0.02, 0.015};
+    CHECK_OK(ffd_deformer_move_controls(d, &id, 1, delta, &err));
+    char *json = NULL;
+    size_t size = 0;
+    CHECK_OK(ffd_deformer_rig(d, &json, &size, &err));
+    CHECK(json && size == strlen(json));
+    if (json)
+        CHECK_OK(ffd_deformer_create_json(json, size, rc->rig, mesh, NULL, &again, &err));
+    if (again) {
+        double *a = malloc(3 * n * sizeof *a), *b = malloc(3 * n * sizeof *b);
+        CHECK_OK(ffd_deformer_eval(d, a, &err));
+        CHECK_OK(ffd_deformer_eval(again, b, &err));
+        check_agree(b, a, 3 * n, diagonal(a, n), rc->rig, "rebuilt from its rig");
+        free(a);
+        free(b);
+    }
+    ffd_free(json);
+    ffd_deformer_destroy(again);
+}
+
 static void test_rig_round_trip(void)
 {
-    for (size_t c = 0; c < CASE_COUNT; c++) {
-        ffd_mesh *mesh = read_mesh(case_table[c].mesh);
-        ffd_deformer *d = mesh ? make(&case_table[c], mesh) : NULL, *again = NULL;
-        CHECK(d != NULL);
-        if (!d) {
-            ffd_mesh_destroy(mesh);
-            continue;
-        }
-        ffd_error err = {{0}};
-        size_t n = ffd_mesh_vertex_count(mesh);
-        uint32_t id = 0;
-        double delta[3] = {0.01, -0.02, 0.015};
-        CHECK_OK(ffd_deformer_move_controls(d, &id, 1, delta, &err));
-        char *json = NULL;
-        size_t size = 0;
-        CHECK_OK(ffd_deformer_rig(d, &json, &size, &err));
-        CHECK(json && size == strlen(json));
-        if (json)
-            CHECK_OK(ffd_deformer_create_json(json, size, case_table[c].rig, mesh, NULL, &again,
-                                              &err));
-        if (again) {
-            double *a = malloc(3 * n * sizeof *a), *b = malloc(3 * n * sizeof *b);
-            CHECK_OK(ffd_deformer_eval(d, a, &err));
-            CHECK_OK(ffd_deformer_eval(again, b, &err));
-            check_agree(b, a, 3 * n, diagonal(a, n), case_table[c].rig, "rebuilt from its rig");
-            free(a);
-            free(b);
-        }
-        ffd_free(json);
-        ffd_deformer_destroy(again);
-        ffd_deformer_destroy(d);
-        ffd_mesh_destroy(mesh);
-    }
+    for_each_case(check_rig_round_trip);
 }
 
 int main(int argc, char **argv)

@@ -85,6 +85,21 @@ static PyArrayObject *as_doubles(PyArrayObject *a)
                                                          NPY_ARRAY_FORCECAST);
 }
 
+/* The shape dims names as Python writes it, "(N, 3)" or "(5,)" (a negative
+ * dim is any length, "N"), into want. */
+static void shape_wanted(char *want, size_t size, int ndim, const npy_intp *dims)
+{
+    snprintf(want, size, "(");
+    for (int i = 0; i < ndim; i++) {
+        size_t n = strlen(want);
+        if (dims[i] < 0)
+            snprintf(want + n, size - n, "%s%s", i ? ", " : "", "N");
+        else
+            snprintf(want + n, size - n, "%s%ld", i ? ", " : "", (long)dims[i]);
+    }
+    strncat(want, ndim == 1 ? ",)" : ")", size - strlen(want) - 1);
+}
+
 PyArrayObject *ffdpy_doubles(PyObject *obj, const char *name, int ndim, const npy_intp *dims)
 {
     PyArrayObject *a = numeric_array(obj, name);
@@ -96,15 +111,8 @@ PyArrayObject *ffdpy_doubles(PyObject *obj, const char *name, int ndim, const np
     if (!ok) {
         PyObject *s = shape_text(a);
         if (s) {
-            char want[96] = "(";
-            for (int i = 0; i < ndim; i++) {
-                size_t n = strlen(want);
-                if (dims[i] < 0)
-                    snprintf(want + n, sizeof want - n, "%s%s", i ? ", " : "", "N");
-                else
-                    snprintf(want + n, sizeof want - n, "%s%ld", i ? ", " : "", (long)dims[i]);
-            }
-            strncat(want, ndim == 1 ? ",)" : ")", sizeof want - strlen(want) - 1);
+            char want[96];
+            shape_wanted(want, sizeof want, ndim, dims);
             PyErr_Format(PyExc_ValueError, "%s: expected an %s array, got shape %U", name,
                          want, s);
         }
@@ -140,12 +148,8 @@ int ffdpy_check_out(PyObject *out, int ndim, const npy_intp *dims)
     if (!ok) {
         PyObject *s = shape_text(a);
         if (s) {
-            char want[96] = "(";
-            for (int i = 0; i < ndim; i++) {
-                size_t n = strlen(want);
-                snprintf(want + n, sizeof want - n, "%s%ld", i ? ", " : "", (long)dims[i]);
-            }
-            strncat(want, ")", sizeof want - strlen(want) - 1);
+            char want[96];
+            shape_wanted(want, sizeof want, ndim, dims);
             PyErr_Format(PyExc_ValueError, "out: expected shape %s, got %U", want, s);
         }
         Py_XDECREF(s);
