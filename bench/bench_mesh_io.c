@@ -115,7 +115,7 @@ int main(int argc, char **argv)
     };
     ffd_error err = {{0}};
     for (size_t t = 0; t < sizeof targets / sizeof *targets; t++) {
-        ffd_write_options opt = {targets[t].format, targets[t].encoding};
+        ffd_write_options opt = {targets[t].format, targets[t].encoding, 0};
         double tr[99], tw[99], tu[99], tm[99];
         unsigned char *file = NULL;
         size_t size = 0;
@@ -137,7 +137,7 @@ int main(int argc, char **argv)
             if (ffd_mesh_read_memory(file, size, targets[t].format, "bench", &m, &err) != FFD_OK)
                 die("read", &err);
             tr[r] = now() - t0;
-            ffd_write_options same = {targets[t].format, FFD_ENCODING_SAME};
+            ffd_write_options same = {targets[t].format, FFD_ENCODING_SAME, 0};
             t0 = now();
             if (ffd_mesh_write_memory(m, &same, &data, &n, &err) != FFD_OK)
                 die("untouched write", &err);

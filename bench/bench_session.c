@@ -97,7 +97,7 @@ int main(int argc, char **argv)
     free(off);
     free(idx);
     if (write) {
-        ffd_write_options o = {FFD_FORMAT_PLY, FFD_ENCODING_BINARY_LE};
+        ffd_write_options o = {FFD_FORMAT_PLY, FFD_ENCODING_BINARY_LE, 0};
         if (ffd_mesh_write(big, write, &o, &err) != FFD_OK) {
             fprintf(stderr, "%s\n", err.message);
             return 1;

@@ -1,4 +1,5 @@
 /* fuzz_mesh — libFuzzer target for one mesh reader (FUZZ_FORMAT: OBJ, PLY,
+ * VTK, VTU, MSH, SU2, XYZ, NPY,
  * OFF, STL or GLTF, set by the build: one binary per format). A mesh that reads
  * is written back in its own format and read again: the writer and the
  * lossless round trip are fuzzed too. */
@@ -27,7 +28,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     (void)ffd_mesh_compute_info(mesh, &info, &err);
     unsigned char *out = NULL;
     size_t out_size = 0;
-    ffd_write_options o = {FUZZ_FORMAT, FFD_ENCODING_SAME};
+    ffd_write_options o = {FUZZ_FORMAT, FFD_ENCODING_SAME, 0};
     if (ffd_mesh_write_memory(mesh, &o, &out, &out_size, &err) == FFD_OK) {
         ffd_mesh *again = NULL;
         /* what we write we must read back */

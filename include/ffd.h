@@ -115,20 +115,30 @@ typedef enum ffd_format {
     FFD_FORMAT_PLY,
     FFD_FORMAT_OFF,
     FFD_FORMAT_STL,
-    FFD_FORMAT_GLTF /* glTF 2.0: .gltf (ASCII encoding) and .glb (BINARY_LE); docs/mesh-formats.md */
+    FFD_FORMAT_GLTF, /* glTF 2.0: .gltf (ASCII encoding) and .glb (BINARY_LE); docs/mesh-formats.md */
+    /* Volume formats (cells, point and cell data; docs/volume.md): */
+    FFD_FORMAT_VTK,  /* legacy VTK .vtk: ASCII or BINARY_BE; unstructured grid or polydata */
+    FFD_FORMAT_VTU,  /* VTK XML unstructured grid .vtu: ASCII, BASE64 or RAW (appended) */
+    FFD_FORMAT_MSH,  /* Gmsh .msh 2.2 and 4.1: ASCII or BINARY_LE */
+    FFD_FORMAT_SU2,  /* SU2 native .su2 (ASCII), with its boundary markers */
+    FFD_FORMAT_XYZ,  /* a point set, one point per line: .xyz (blanks) or .csv (commas) */
+    FFD_FORMAT_NPY   /* a point set as a NumPy (N, 3) float array, .npy */
 } ffd_format;
 
 typedef enum ffd_encoding {
     FFD_ENCODING_SAME = 0,     /* as the source file; ascii when the source had another format */
     FFD_ENCODING_ASCII,
     FFD_ENCODING_BINARY_LE,    /* PLY binary_little_endian, STL binary */
-    FFD_ENCODING_BINARY_BE     /* PLY binary_big_endian */
+    FFD_ENCODING_BINARY_BE,    /* PLY binary_big_endian, legacy VTK BINARY */
+    FFD_ENCODING_BASE64,       /* VTU: inline base64 data arrays (format="binary") */
+    FFD_ENCODING_RAW           /* VTU: raw appended data (<AppendedData encoding="raw">) */
 } ffd_encoding;
 
 /* Zero means default for every field. */
 typedef struct ffd_write_options {
     ffd_format format;     /* FFD_FORMAT_AUTO: from the path's extension */
-    ffd_encoding encoding; /* PLY and STL only */
+    ffd_encoding encoding; /* PLY, STL, VTK, VTU, MSH and NPY (docs/volume.md) */
+    int compress;          /* VTU: 1 = zlib-compressed data arrays (when built with zlib) */
 } ffd_write_options;
 
 /* Format implied by a path's extension, or FFD_FORMAT_AUTO when unknown. */
@@ -220,6 +230,63 @@ FFD_API const uint32_t *ffd_mesh_normal_anchors(const ffd_mesh *mesh);
  * result degenerates (J t ~ 0, or along the normal) is left as it was. */
 FFD_API ffd_status ffd_mesh_set_positions(ffd_mesh *mesh, const double *positions,
                                           const double *jacobians, ffd_error *err);
+
+/* ---- Cells: volume meshes (docs/volume.md) -------------------------------
+ * A mesh read from a volume format (VTK, VTU, MSH, SU2) keeps its cells with
+ * VTK's cell types and node order (other formats' readers map theirs). A
+ * mesh with a 3D cell is a volume mesh: its faces (ffd_mesh_face_*) are the
+ * boundary surface of its 3D cells (faces of one 3D cell only, oriented
+ * outwards for a positive cell), its vertices are all its nodes. Without 3D
+ * cells the 2D cells are the faces. */
+enum {
+    FFD_CELL_VERTEX = 1, FFD_CELL_POLY_VERTEX = 2, FFD_CELL_LINE = 3, FFD_CELL_POLY_LINE = 4,
+    FFD_CELL_TRIANGLE = 5, FFD_CELL_TRIANGLE_STRIP = 6, FFD_CELL_POLYGON = 7, FFD_CELL_PIXEL = 8,
+    FFD_CELL_QUAD = 9, FFD_CELL_TETRA = 10, FFD_CELL_VOXEL = 11, FFD_CELL_HEXAHEDRON = 12,
+    FFD_CELL_WEDGE = 13, FFD_CELL_PYRAMID = 14, FFD_CELL_QUADRATIC_EDGE = 21,
+    FFD_CELL_QUADRATIC_TRIANGLE = 22, FFD_CELL_QUADRATIC_QUAD = 23, FFD_CELL_QUADRATIC_TETRA = 24,
+    FFD_CELL_QUADRATIC_HEXAHEDRON = 25, FFD_CELL_QUADRATIC_WEDGE = 26,
+    FFD_CELL_QUADRATIC_PYRAMID = 27, FFD_CELL_BIQUADRATIC_QUAD = 28,
+    FFD_CELL_TRIQUADRATIC_HEXAHEDRON = 29
+};
+/* The cell type's name ("tetra", "hexahedron", "wedge", ..., meshio's names), or NULL. */
+FFD_API const char *ffd_cell_type_name(unsigned vtk_id);
+/* 0..3, or -1 for a type the library does not know. */
+FFD_API int ffd_cell_type_dimension(unsigned vtk_id);
+
+FFD_API size_t ffd_mesh_cell_count(const ffd_mesh *mesh);
+/* Per cell its VTK type; cell c's nodes are indices[offsets[c] .. offsets[c+1]).
+ * NULL when the mesh has no cells. */
+FFD_API const uint8_t *ffd_mesh_cell_types(const ffd_mesh *mesh);
+FFD_API const uint64_t *ffd_mesh_cell_offsets(const ffd_mesh *mesh);
+FFD_API const uint32_t *ffd_mesh_cell_indices(const ffd_mesh *mesh);
+/* 1 when the mesh has a 3D cell. */
+FFD_API int ffd_mesh_is_volume(const ffd_mesh *mesh);
+/* Per face, the cell it is a face of (NULL for a mesh without cells). */
+FFD_API const uint32_t *ffd_mesh_face_cells(const ffd_mesh *mesh);
+
+/* Builds a mesh from nodes and cells (copied; VTK types and node order;
+ * offsets has cell_count + 1 entries, offsets[0] == 0). The faces are
+ * derived as for a file. FFD_ERR_INVALID, FFD_ERR_RANGE (a node id),
+ * FFD_ERR_PARSE (a cell's node count), FFD_ERR_UNSUPPORTED (a type). */
+FFD_API ffd_status ffd_mesh_create_cells(const double *positions, size_t vertex_count,
+                                         const uint8_t *types, const uint64_t *offsets,
+                                         const uint32_t *indices, size_t cell_count,
+                                         ffd_mesh **out, ffd_error *err);
+
+/* Point and cell data the file holds (VTK point/cell data, Gmsh tags,
+ * SU2 markers), kept in the mesh so that another volume format can write
+ * them; writing back to the source format keeps their bytes. */
+enum { FFD_FIELD_POINT = 0, FFD_FIELD_CELL = 1 };
+typedef struct ffd_field_info {
+    const char *name;
+    int association;       /* FFD_FIELD_POINT or FFD_FIELD_CELL */
+    uint32_t components;
+    size_t count;          /* vertex_count or cell_count */
+    const double *values;  /* count * components */
+} ffd_field_info;
+FFD_API size_t ffd_mesh_field_count(const ffd_mesh *mesh);
+FFD_API ffd_status ffd_mesh_field_get(const ffd_mesh *mesh, size_t i, ffd_field_info *info,
+                                      ffd_error *err);
 
 typedef struct ffd_mesh_info {
     size_t vertex_count;

@@ -14,7 +14,8 @@ seconds=${1:-30}
 shift || true
 targets=("$@")
 if [ ${#targets[@]} -eq 0 ]; then
-  targets=(fuzz_obj fuzz_ply fuzz_off fuzz_stl fuzz_gltf fuzz_rig_json fuzz_rig_prm fuzz_session fuzz_http)
+  targets=(fuzz_obj fuzz_ply fuzz_off fuzz_stl fuzz_gltf fuzz_vtk fuzz_vtu fuzz_msh fuzz_su2
+           fuzz_xyz fuzz_npy fuzz_rig_json fuzz_rig_prm fuzz_session fuzz_http)
 fi
 build="$root/build-fuzz"
 CC=clang cmake -S "$root" -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DFFD_FUZZ=ON \
@@ -28,11 +29,13 @@ for t in "${targets[@]}"; do
   mkdir -p "$corpus" "$crashes"
   seeds=("$root/fuzz/corpus/$t")
   case $t in
-    fuzz_obj) ext=obj ;; fuzz_ply) ext=ply ;; fuzz_off) ext=off ;; fuzz_stl) ext=stl ;; fuzz_gltf) ext=glb ;; *) ext= ;;
+    fuzz_obj) ext=obj ;; fuzz_ply) ext=ply ;; fuzz_off) ext=off ;; fuzz_stl) ext=stl ;; fuzz_gltf) ext=glb ;;
+    fuzz_vtk) ext=vtk ;; fuzz_vtu) ext=vtu ;; fuzz_msh) ext=msh ;; fuzz_su2) ext=su2 ;;
+    fuzz_xyz) ext=xyz ;; fuzz_npy) ext=npy ;; *) ext= ;;
   esac
   if [ -n "$ext" ]; then
     mkdir -p "$build/seeds/$t"
-    find "$data" -maxdepth 1 -name "*.$ext" -size -2M -exec cp {} "$build/seeds/$t/" \;
+    find "$data" "$data/volume" -maxdepth 1 -name "*.$ext" -size -2M -exec cp {} "$build/seeds/$t/" \;
     seeds+=("$build/seeds/$t")
   fi
   log="$build/$t.log"

@@ -399,11 +399,11 @@ static ffd_status sc_mesh_read_file(const void *ctx, ffd_error *err)
 }
 
 static const ffd_write_options write_targets[] = {
-    {FFD_FORMAT_OBJ, FFD_ENCODING_SAME},      {FFD_FORMAT_PLY, FFD_ENCODING_ASCII},
-    {FFD_FORMAT_PLY, FFD_ENCODING_BINARY_LE}, {FFD_FORMAT_PLY, FFD_ENCODING_BINARY_BE},
-    {FFD_FORMAT_OFF, FFD_ENCODING_SAME},      {FFD_FORMAT_STL, FFD_ENCODING_ASCII},
-    {FFD_FORMAT_STL, FFD_ENCODING_BINARY_LE}, {FFD_FORMAT_GLTF, FFD_ENCODING_ASCII},
-    {FFD_FORMAT_GLTF, FFD_ENCODING_BINARY_LE},
+    {FFD_FORMAT_OBJ, FFD_ENCODING_SAME, 0},      {FFD_FORMAT_PLY, FFD_ENCODING_ASCII, 0},
+    {FFD_FORMAT_PLY, FFD_ENCODING_BINARY_LE, 0}, {FFD_FORMAT_PLY, FFD_ENCODING_BINARY_BE, 0},
+    {FFD_FORMAT_OFF, FFD_ENCODING_SAME, 0},      {FFD_FORMAT_STL, FFD_ENCODING_ASCII, 0},
+    {FFD_FORMAT_STL, FFD_ENCODING_BINARY_LE, 0}, {FFD_FORMAT_GLTF, FFD_ENCODING_ASCII, 0},
+    {FFD_FORMAT_GLTF, FFD_ENCODING_BINARY_LE, 0},
 };
 
 /* The shear x' = S x + 0.125 of pass 2 (row-major; normals and tangents turn). */
@@ -440,7 +440,7 @@ static ffd_status sc_mesh_write(const void *ctx, ffd_error *err)
     for (int pass = 0; pass < 3 && !st; pass++) {
         if (pass > 0 && (st = move_mesh(m, pass, moved, jac, err)))
             break;
-        ffd_write_options same = {fx->format, FFD_ENCODING_SAME};
+        ffd_write_options same = {fx->format, FFD_ENCODING_SAME, 0};
         for (size_t t = 0; t <= sizeof write_targets / sizeof write_targets[0] && !st; t++) {
             const ffd_write_options *o = t ? &write_targets[t - 1] : &same;
             unsigned char *data = NULL;
@@ -913,7 +913,7 @@ static ffd_status sc_session(const void *ctx, ffd_error *err)
     }
     ffd_free(json);
     if (!st) {
-        ffd_write_options wo = {FFD_FORMAT_PLY, FFD_ENCODING_BINARY_LE};
+        ffd_write_options wo = {FFD_FORMAT_PLY, FFD_ENCODING_BINARY_LE, 0};
         st = ffd_session_export(s, &wo, &data, &size, err);
         if (st)
             CHECK(data == NULL);

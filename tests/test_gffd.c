@@ -466,7 +466,7 @@ static void test_resample_bunny(void)
         /* the written file reads back */
         unsigned char *data = NULL;
         size_t size = 0;
-        ffd_write_options wo = {FFD_FORMAT_OBJ, FFD_ENCODING_SAME};
+        ffd_write_options wo = {FFD_FORMAT_OBJ, FFD_ENCODING_SAME, 0};
         CHECK_OK(ffd_mesh_write_memory(out, &wo, &data, &size, NULL));
         ffd_mesh *back = NULL;
         CHECK_OK(ffd_mesh_read_memory(data, size, FFD_FORMAT_OBJ, "back.obj", &back, NULL));

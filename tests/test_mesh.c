@@ -49,7 +49,7 @@ static ffd_mesh *read_path(const char *path)
 
 static unsigned char *write_mem(const ffd_mesh *m, ffd_format f, ffd_encoding e, size_t *size)
 {
-    ffd_write_options o = {f, e};
+    ffd_write_options o = {f, e, 0};
     unsigned char *d = NULL;
     ffd_error err = {{0}};
     ffd_status s = ffd_mesh_write_memory(m, &o, &d, size, &err);
@@ -995,14 +995,14 @@ static void test_atomic_write(void)
     fputs("keep me", f);
     fclose(f);
     ffd_error err = {{0}};
-    ffd_write_options bin = {FFD_FORMAT_OBJ, FFD_ENCODING_BINARY_LE};
+    ffd_write_options bin = {FFD_FORMAT_OBJ, FFD_ENCODING_BINARY_LE, 0};
     CHECK(ffd_mesh_write(m, path, &bin, &err) == FFD_ERR_UNSUPPORTED && strstr(err.message, path));
     size_t size = 0;
     unsigned char *d = load(path, &size);
     CHECK(d && size == 7 && memcmp(d, "keep me", 7) == 0);
     ffd_free(d);
     CHECK(ffd_mesh_write(m, "no/such/dir/out.obj", NULL, &err) == FFD_ERR_IO);
-    CHECK(ffd_mesh_write(m, "out.xyz", NULL, &err) == FFD_ERR_INVALID);
+    CHECK(ffd_mesh_write(m, "out.fbx", NULL, &err) == FFD_ERR_INVALID);
     CHECK_OK(ffd_mesh_write(m, path, NULL, &check_err_));
     d = load(path, &size);
     size_t want_size = 0;
@@ -1048,7 +1048,7 @@ static void test_ply_value_range(void)
         return;
     double p[9] = {0, 0, 0, 1e300, 0, 0, 0, 1, 0};
     CHECK_OK(ffd_mesh_set_positions(m, p, NULL, &check_err_));
-    ffd_write_options bin = {FFD_FORMAT_PLY, FFD_ENCODING_BINARY_LE};
+    ffd_write_options bin = {FFD_FORMAT_PLY, FFD_ENCODING_BINARY_LE, 0};
     unsigned char *data = NULL;
     size_t size = 0;
     CHECK(ffd_mesh_write_memory(m, &bin, &data, &size, &err) == FFD_ERR_RANGE);
@@ -1074,7 +1074,7 @@ static void test_failing_allocations(void)
             size_t size = 0;
             ffd_status w = FFD_OK;
             if (s == FFD_OK) {
-                ffd_write_options o = {FFD_FORMAT_PLY, FFD_ENCODING_BINARY_BE};
+                ffd_write_options o = {FFD_FORMAT_PLY, FFD_ENCODING_BINARY_BE, 0};
                 w = ffd_mesh_write_memory(m, &o, &out, &size, &err);
             }
             ffd_free(out);
@@ -1391,7 +1391,7 @@ static void test_codec_table(void)
     ffd_error err = {{0}};
     CHECK(ffd_mesh_create(P, 3, off, idx, 1, &m, &err) == FFD_OK);
     CHECK(ffd_mesh_codec_find(FFD_FORMAT_AUTO) == NULL);
-    CHECK(ffd_mesh_codec_find((ffd_format)(FFD_FORMAT_GLTF + 1)) == NULL);
+    CHECK(ffd_mesh_codec_find((ffd_format)(FFD_FORMAT_NPY + 1)) == NULL);
     CHECK(ffd_mesh_codec_for_extension("fbx") == NULL);
     for (int f = FFD_FORMAT_OBJ; f <= FFD_FORMAT_GLTF; f++) {
         const ffd_mesh_codec *c = ffd_mesh_codec_find((ffd_format)f);
@@ -1411,7 +1411,7 @@ static void test_codec_table(void)
             CHECK(ffd_format_from_path(path) == (ffd_format)f);
         }
         for (int enc = FFD_ENCODING_ASCII; enc <= FFD_ENCODING_BINARY_BE; enc++) {
-            ffd_write_options o = {(ffd_format)f, (ffd_encoding)enc};
+            ffd_write_options o = {(ffd_format)f, (ffd_encoding)enc, 0};
             unsigned char *data = NULL;
             size_t size = 0;
             ffd_status st = ffd_mesh_write_memory(m, &o, &data, &size, &err);
@@ -1429,8 +1429,8 @@ static void test_codec_table(void)
         }
     }
     char list[FFD_MESH_CODEC_LIST_SIZE];
-    CHECK(strcmp(ffd_mesh_codec_list(false, list, sizeof list), ".obj, .ply, .off, .stl or .gltf") == 0);
-    CHECK(strcmp(ffd_mesh_codec_list(true, list, sizeof list), "OBJ, PLY, OFF, STL or glTF") == 0);
+    CHECK(strcmp(ffd_mesh_codec_list(false, list, sizeof list), ".obj, .ply, .off, .stl, .gltf, .vtk, .vtu, .msh, .su2, .xyz or .npy") == 0);
+    CHECK(strcmp(ffd_mesh_codec_list(true, list, sizeof list), "OBJ, PLY, OFF, STL, glTF, VTK, VTU, MSH, SU2, XYZ or NPY") == 0);
     ffd_mesh_destroy(m);
 }
 

@@ -269,7 +269,7 @@ static unsigned char *write_same(const ffd_mesh *m, size_t *n)
 {
     unsigned char *out = NULL;
     ffd_error err = {{0}};
-    ffd_write_options o = {FFD_FORMAT_GLTF, FFD_ENCODING_SAME};
+    ffd_write_options o = {FFD_FORMAT_GLTF, FFD_ENCODING_SAME, 0};
     *n = 0;
     CHECK_OK(ffd_mesh_write_memory(m, &o, &out, n, &err));
     return out;
@@ -1072,7 +1072,7 @@ static void test_write_from_data(void)
     ffd_error err = {{0}};
     CHECK_OK(ffd_mesh_create(P, 4, off, idx, 1, &m, &err));
     for (int enc = FFD_ENCODING_ASCII; enc <= FFD_ENCODING_BINARY_LE; enc++) {
-        ffd_write_options o = {FFD_FORMAT_GLTF, (ffd_encoding)enc};
+        ffd_write_options o = {FFD_FORMAT_GLTF, (ffd_encoding)enc, 0};
         unsigned char *d = NULL;
         size_t n = 0;
         CHECK_OK(ffd_mesh_write_memory(m, &o, &d, &n, &err));

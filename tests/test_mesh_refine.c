@@ -252,7 +252,7 @@ static ffd_mesh *from_mem(const void *data, size_t size, ffd_format f)
 
 static unsigned char *bytes_of(const ffd_mesh *m, ffd_format f, ffd_encoding e, size_t *size)
 {
-    ffd_write_options o = {f, e};
+    ffd_write_options o = {f, e, 0};
     unsigned char *d = NULL;
     ffd_error err = {{0}};
     *size = 0;

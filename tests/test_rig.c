@@ -648,7 +648,7 @@ static void test_apply_partial_move_keeps_bytes(void)
         fprintf(stderr, "  %s\n", err.message);
     unsigned char *out = NULL;
     size_t out_size = 0;
-    ffd_write_options opt = {FFD_FORMAT_OBJ, FFD_ENCODING_SAME};
+    ffd_write_options opt = {FFD_FORMAT_OBJ, FFD_ENCODING_SAME, 0};
     if (s == FFD_OK)
         CHECK_OK(ffd_mesh_write_memory(mesh, &opt, &out, &out_size, &check_err_));
     if (out) {

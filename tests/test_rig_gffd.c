@@ -829,7 +829,7 @@ static void test_apply_bend_resample(void)
     unsigned char *data = NULL;
     size_t size = 0;
     ffd_error err = {{0}};
-    ffd_write_options wo = {FFD_FORMAT_OFF, FFD_ENCODING_SAME};
+    ffd_write_options wo = {FFD_FORMAT_OFF, FFD_ENCODING_SAME, 0};
     CHECK_OK(ffd_mesh_write_memory(mesh, &wo, &data, &size, &err));
     if (data) {
         ffd_mesh *back = NULL;

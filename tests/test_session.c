@@ -416,7 +416,7 @@ static void test_export_is_the_replay(void)
     CHECK(run(s, "move", "{\"points\":[62],\"delta\":[0,3,0]}", NULL) == FFD_OK);
     void *data = NULL;
     size_t size = 0;
-    ffd_write_options o = {FFD_FORMAT_PLY, FFD_ENCODING_BINARY_LE};
+    ffd_write_options o = {FFD_FORMAT_PLY, FFD_ENCODING_BINARY_LE, 0};
     CHECK_OK(ffd_session_export(s, &o, &data, &size, NULL));
     ffd_mesh *m = NULL;
     CHECK_OK(ffd_mesh_read_memory(data, size, FFD_FORMAT_PLY, "x.ply", &m, NULL));

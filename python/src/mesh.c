@@ -130,7 +130,7 @@ ffd_mesh *ffdpy_mesh_for_change(ffdpy_Mesh *m)
                                  ffd_mesh_face_offsets(old), ffd_mesh_face_indices(old),
                                  ffd_mesh_face_count(old), &copy, &err);
         } else {
-            ffd_write_options wo = {f, FFD_ENCODING_SAME};
+            ffd_write_options wo = {f, FFD_ENCODING_SAME, 0};
             unsigned char *data = NULL;
             size_t size = 0;
             st = ffd_mesh_write_memory(old, &wo, &data, &size, &err);
@@ -404,7 +404,7 @@ static PyObject *Mesh_write(ffdpy_Mesh *m, PyObject *args, PyObject *kwds)
     PyObject *path_obj, *fmt_obj = Py_None, *enc_obj = Py_None, *path_bytes = NULL;
     if (!PyArg_ParseTupleAndKeywords(args, kwds, "O|OO:write", kw, &path_obj, &fmt_obj, &enc_obj))
         return NULL;
-    ffd_write_options wo = {FFD_FORMAT_AUTO, FFD_ENCODING_SAME};
+    ffd_write_options wo = {FFD_FORMAT_AUTO, FFD_ENCODING_SAME, 0};
     if (parse_format(fmt_obj, &wo.format, &wo.encoding) < 0 || parse_encoding(enc_obj, &wo.encoding) < 0 ||
         busy(m) || !PyUnicode_FSConverter(path_obj, &path_bytes))
         return NULL;
@@ -427,7 +427,7 @@ static PyObject *Mesh_to_bytes(ffdpy_Mesh *m, PyObject *args, PyObject *kwds)
     PyObject *fmt_obj = Py_None, *enc_obj = Py_None;
     if (!PyArg_ParseTupleAndKeywords(args, kwds, "|OO:to_bytes", kw, &fmt_obj, &enc_obj))
         return NULL;
-    ffd_write_options wo = {FFD_FORMAT_AUTO, FFD_ENCODING_SAME};
+    ffd_write_options wo = {FFD_FORMAT_AUTO, FFD_ENCODING_SAME, 0};
     if (parse_format(fmt_obj, &wo.format, &wo.encoding) < 0 || parse_encoding(enc_obj, &wo.encoding) < 0 ||
         busy(m))
         return NULL;

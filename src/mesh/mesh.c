@@ -12,6 +12,7 @@
  * Numbers are parsed with strtod, so the C locale's decimal point is assumed
  * (the library never calls setlocale). */
 #include "mesh_codec.h"
+#include "mesh_cells.h"
 
 #include <ctype.h>
 #include <float.h>
@@ -55,6 +56,7 @@ void ffd_mesh_destroy(ffd_mesh *mesh)
     ffd_free(mesh->normal_anchors);
     ffd_free(mesh->tangents);
     ffd_free(mesh->tangent_anchors);
+    ffd_mesh_free_cells(mesh);
     if (mesh->codec_state_free)
         mesh->codec_state_free(mesh->codec_state);
     ffd_free(mesh);

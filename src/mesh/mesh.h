@@ -75,6 +75,21 @@ struct ffd_mesh {
 
     size_t texcoord_count;
 
+    /* Cells of the volume formats (mesh_cells.h, docs/volume.md): VTK cell
+     * types and node order; a mesh with a 3D cell is a volume mesh and its
+     * faces above are the boundary of its 3D cells (face_cells: the cell of
+     * each face; also for faces made of 2D cells). */
+    size_t cell_count, cell_cap;
+    uint8_t *cell_types;
+    uint64_t *cell_offsets; /* cell_count + 1 (NULL without cells) */
+    size_t cell_index_count, cell_index_cap;
+    uint32_t *cell_indices;
+    uint32_t *face_cells;
+    bool volume;
+    /* Point and cell data of the volume formats (struct ffd_mesh_field, mesh_cells.h). */
+    size_t field_count, field_cap;
+    struct ffd_mesh_field *fields;
+
     bool source_is_path; /* read by ffd_mesh_read: the codec may read files beside it */
     void *codec_state; /* a codec's own record of the source (glTF), freed with the mesh */
     void (*codec_state_free)(void *state);

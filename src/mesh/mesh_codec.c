@@ -12,6 +12,12 @@ static const ffd_mesh_codec *const codecs[] = {
     &ffd_mesh_codec_off,
     &ffd_mesh_codec_stl,
     &ffd_mesh_codec_gltf,
+    &ffd_mesh_codec_vtk,
+    &ffd_mesh_codec_vtu,
+    &ffd_mesh_codec_msh,
+    &ffd_mesh_codec_su2,
+    &ffd_mesh_codec_xyz,
+    &ffd_mesh_codec_npy,
 };
 #define CODEC_COUNT (sizeof codecs / sizeof codecs[0])
 

@@ -130,6 +130,12 @@ typedef struct ffd_mesh_codec {
      * path's extension) implies, for a format whose file comes with others
      * (glTF's external buffers) or whose extension names the encoding. */
     ffd_status (*write_file)(const ffd_mesh *m, const char *path, ffd_error *err);
+    /* Optional: every write with the whole options (o->format is the codec's,
+     * o->encoding resolved from SAME), for a format with options beyond the
+     * encoding (VTU's compression); patch/transcode/write are then the
+     * codec's own business. NULL: the dispatch above. */
+    ffd_status (*write_options)(const ffd_mesh *m, const ffd_write_options *o, ffd_buf *b,
+                                ffd_error *err);
 } ffd_mesh_codec;
 
 extern const ffd_mesh_codec ffd_mesh_codec_obj;
@@ -137,6 +143,13 @@ extern const ffd_mesh_codec ffd_mesh_codec_ply;
 extern const ffd_mesh_codec ffd_mesh_codec_off;
 extern const ffd_mesh_codec ffd_mesh_codec_stl;
 extern const ffd_mesh_codec ffd_mesh_codec_gltf;
+/* Volume formats (cells: mesh_cells.h). refine is NULL: refinement is for surfaces. */
+extern const ffd_mesh_codec ffd_mesh_codec_vtk;
+extern const ffd_mesh_codec ffd_mesh_codec_vtu;
+extern const ffd_mesh_codec ffd_mesh_codec_msh;
+extern const ffd_mesh_codec ffd_mesh_codec_su2;
+extern const ffd_mesh_codec ffd_mesh_codec_xyz;
+extern const ffd_mesh_codec ffd_mesh_codec_npy;
 
 /* The codec of a format; NULL for FFD_FORMAT_AUTO or an unknown value. */
 const ffd_mesh_codec *ffd_mesh_codec_find(ffd_format format);
@@ -146,7 +159,7 @@ const ffd_mesh_codec *ffd_mesh_codec_for_extension(const char *ext);
  * (names false) or their names (names true), for messages. */
 const char *ffd_mesh_codec_list(bool names, char *buf, size_t size);
 /* Room for ffd_mesh_codec_list's text. */
-#define FFD_MESH_CODEC_LIST_SIZE 128
+#define FFD_MESH_CODEC_LIST_SIZE 256
 
 /* The generic patch: every changed value of a span rewritten in the
  * source's bytes (text: shortest round-trip; binary: the span's type). */

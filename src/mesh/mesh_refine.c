@@ -547,6 +547,11 @@ ffd_status ffd_mesh_refine(const ffd_mesh *m, const ffd_refine_plan *plan, ffd_m
     *out = NULL;
     if (!m || !plan)
         return ffd_fail(err, FFD_ERR_INVALID, "ffd_mesh_refine: mesh or plan is NULL");
+    if (m->cell_count)
+        return ffd_fail(err, FFD_ERR_UNSUPPORTED,
+                        "refinement (GFFD resampling) is for surface meshes: this mesh has %zu "
+                        "cells, which it would not refine (docs/volume.md)",
+                        m->cell_count);
     ffd_status st = validate(m, plan, err);
     if (st != FFD_OK)
         return st;
@@ -574,7 +579,10 @@ ffd_status ffd_mesh_refine(const ffd_mesh *m, const ffd_refine_plan *plan, ffd_m
     }
     c.nl = detect_nl(m);
     const ffd_mesh_codec *codec = ffd_mesh_codec_find(m->format);
-    if (codec)
+    if (codec && !codec->refine)
+        st = ffd_fail(err, FFD_ERR_UNSUPPORTED, "%s files cannot be refined (docs/volume.md)",
+                      codec->name);
+    else if (codec)
         st = codec->refine(&c, &b, err);
     else
         st = ffd_fail(err, FFD_ERR_INVALID, "ffd_mesh_refine: unknown mesh format");

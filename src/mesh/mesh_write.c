@@ -232,7 +232,7 @@ ffd_status ffd_mesh_write_memory(const ffd_mesh *mesh, const ffd_write_options *
         return ffd_fail(err, FFD_ERR_INVALID, "ffd_mesh_write_memory: options->format must be %s",
                         ffd_mesh_codec_list(true, list, sizeof list));
     }
-    if (enc < FFD_ENCODING_SAME || enc > FFD_ENCODING_BINARY_BE)
+    if (enc < FFD_ENCODING_SAME || enc > FFD_ENCODING_RAW)
         return ffd_fail(err, FFD_ERR_INVALID, "ffd_mesh_write_memory: unknown encoding %d",
                         (int)enc);
     bool same_format = mesh->src && mesh->format == format;
@@ -241,17 +241,27 @@ ffd_status ffd_mesh_write_memory(const ffd_mesh *mesh, const ffd_write_options *
     if (!(codec->encodings & FFD_CODEC_ENCODING(enc))) {
         unsigned binary =
             FFD_CODEC_ENCODING(FFD_ENCODING_BINARY_LE) | FFD_CODEC_ENCODING(FFD_ENCODING_BINARY_BE);
-        if (!(codec->encodings & binary))
+        if (!(codec->encodings & binary) && enc <= FFD_ENCODING_BINARY_BE)
             return ffd_fail(err, FFD_ERR_UNSUPPORTED, "%s has no binary encoding", codec->name);
-        return ffd_fail(err, FFD_ERR_UNSUPPORTED, "%s has no %s binary encoding", codec->name,
-                        enc == FFD_ENCODING_BINARY_BE ? "big-endian" : "little-endian");
+        static const char *const names[] = {"same", "ascii", "little-endian binary",
+                                            "big-endian binary", "base64", "raw appended"};
+        return ffd_fail(err, FFD_ERR_UNSUPPORTED, "%s has no %s encoding", codec->name,
+                        names[enc]);
     }
+    if (options && options->compress && !codec->write_options)
+        return ffd_fail(err, FFD_ERR_UNSUPPORTED, "%s has no compressed encoding (only VTU)",
+                        codec->name);
 
     ffd_buf b = {0};
     ffd_status s;
     ffd_progress progress;
     ffd_progress_begin(&progress, "writing");
-    if (same_format && enc == mesh->encoding)
+    if (codec->write_options) {
+        ffd_write_options o = options ? *options : (ffd_write_options){0};
+        o.format = format;
+        o.encoding = enc;
+        s = codec->write_options(mesh, &o, &b, err);
+    } else if (same_format && enc == mesh->encoding)
         s = codec->patch(mesh, &b, err);
     else if (same_format && codec->transcode)
         s = codec->transcode(mesh, enc, &b, err);

@@ -158,11 +158,16 @@ ffd_status ffd_sess_clone_mesh(const ffd_mesh *mesh, ffd_mesh **out, ffd_error *
     /* A mesh made from arrays (ffd_mesh_create: no source file, no normals)
      * is its positions and faces: copied directly, not printed and parsed
      * (for 1M points the text round trip took seconds). */
+    if (ffd_mesh_source_format(mesh) == FFD_FORMAT_AUTO && ffd_mesh_cell_count(mesh))
+        return ffd_mesh_create_cells(ffd_mesh_positions(mesh), ffd_mesh_vertex_count(mesh),
+                                     ffd_mesh_cell_types(mesh), ffd_mesh_cell_offsets(mesh),
+                                     ffd_mesh_cell_indices(mesh), ffd_mesh_cell_count(mesh), out,
+                                     err);
     if (ffd_mesh_source_format(mesh) == FFD_FORMAT_AUTO && ffd_mesh_normal_count(mesh) == 0)
         return ffd_mesh_create(ffd_mesh_positions(mesh), ffd_mesh_vertex_count(mesh),
                                ffd_mesh_face_offsets(mesh), ffd_mesh_face_indices(mesh),
                                ffd_mesh_face_count(mesh), out, err);
-    ffd_write_options o = {ffd_mesh_source_format(mesh), FFD_ENCODING_SAME};
+    ffd_write_options o = {ffd_mesh_source_format(mesh), FFD_ENCODING_SAME, 0};
     if (o.format == FFD_FORMAT_AUTO)
         o.format = FFD_FORMAT_PLY;
     unsigned char *data = NULL;

@@ -27,7 +27,7 @@ static const char usage[] =
 int cmd_convert(int argc, char **argv)
 {
     const char *in = NULL, *out = NULL, *format_text = NULL;
-    ffd_write_options options = {FFD_FORMAT_AUTO, FFD_ENCODING_SAME};
+    ffd_write_options options = {FFD_FORMAT_AUTO, FFD_ENCODING_SAME, 0};
     int in_place = 0;
     for (int i = 1; i < argc; i++) {
         const char *arg = argv[i];

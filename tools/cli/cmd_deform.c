@@ -134,7 +134,7 @@ static void print_timings(double read, const ffd_timings *t, double write)
 int cmd_deform(int argc, char **argv)
 {
     const char *in = NULL, *out = NULL, *rig_path = NULL, *lattice_out = NULL, *proxy_out = NULL;
-    ffd_write_options options = {FFD_FORMAT_AUTO, FFD_ENCODING_SAME};
+    ffd_write_options options = {FFD_FORMAT_AUTO, FFD_ENCODING_SAME, 0};
     int in_place = 0, want_report = 0, want_timings = 0;
     const char *max_memory = NULL, *format_text = NULL;
     ffd_limits limits = {0};

@@ -78,7 +78,7 @@ static int write_points(const char *path, const ffd_ebf *controls, size_t count,
     for (size_t i = 0; i < count; i++)
         memcpy(p + 3 * i, controls[i].center, sizeof controls[i].center);
     ffd_mesh *mesh = NULL;
-    ffd_write_options options = {FFD_FORMAT_AUTO, FFD_ENCODING_SAME};
+    ffd_write_options options = {FFD_FORMAT_AUTO, FFD_ENCODING_SAME, 0};
     int code = CLI_EXIT_OK;
     if (ffd_mesh_create(p, count, NULL, NULL, 0, &mesh, err) != FFD_OK)
         code = cli_error(CLI_EXIT_INPUT, "%s: %s", path, err->message);

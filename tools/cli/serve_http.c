@@ -637,7 +637,7 @@ static enum MHD_Result get_export(const serve_server *srv, struct MHD_Connection
 {
     const char *format = MHD_lookup_connection_value(c, MHD_GET_ARGUMENT_KIND, "format");
     const char *encoding = MHD_lookup_connection_value(c, MHD_GET_ARGUMENT_KIND, "encoding");
-    ffd_write_options options = {FFD_FORMAT_AUTO, FFD_ENCODING_SAME};
+    ffd_write_options options = {FFD_FORMAT_AUTO, FFD_ENCODING_SAME, 0};
     if (format && *format) {
         int f = FFD_FORMAT_OBJ;
         while (f <= FFD_FORMAT_GLTF && strcmp(format, format_names[f]) != 0)
@@ -860,7 +860,7 @@ static enum MHD_Result post_export_save(serve_server *srv, struct MHD_Connection
     if (code)
         return answer_error(srv, c, r, code, "parse", "%s", msg);
     const char *path = values[0];
-    ffd_write_options options = {FFD_FORMAT_AUTO, FFD_ENCODING_SAME};
+    ffd_write_options options = {FFD_FORMAT_AUTO, FFD_ENCODING_SAME, 0};
     enum MHD_Result ret;
     if (parse_encoding(values[1], &options.encoding) != 0) {
         ret = answer_error(srv, c, r, MHD_HTTP_BAD_REQUEST, "invalid",
