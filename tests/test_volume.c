@@ -202,7 +202,11 @@ static void test_deform_nodes(void)
     CHECK_OK(ffd_rig_parse_json(rig, sizeof rig - 1, "rig", &r, NULL));
     double before[3];
     memcpy(before, ffd_mesh_positions(m) + 3 * 21, sizeof before); /* an interior node */
-    CHECK_OK(ffd_rig_apply(r, m, NULL, NULL));
+    ffd_rig_report rep;
+    CHECK_OK(ffd_rig_apply(r, m, &rep, NULL));
+    CHECK(rep.notes && strstr(rep.notes, "note: volume mesh: all 64 nodes deformed") != NULL);
+    CHECK(rep.notes && strstr(rep.notes, "54 faces of its 27 cells") != NULL);
+    ffd_rig_report_free(&rep);
     CHECK(memcmp(before, ffd_mesh_positions(m) + 3 * 21, sizeof before) != 0);
     CHECK(ffd_mesh_cell_count(m) == 27);
     ffd_rig_destroy(r);

@@ -148,7 +148,16 @@ ffd_status ffd_rig_apply_limited(const ffd_rig *rig, ffd_mesh *mesh, const ffd_l
     const ffd_method *method = ffd_method_of_rig(rig);
     if (!method)
         return ffd_fail(err, FFD_ERR_INVALID, "%s: unknown deformer", rig->name);
+    /* read before apply: a method may replace the mesh's arrays */
+    size_t cells = ffd_mesh_cell_count(mesh), faces = ffd_mesh_face_count(mesh);
+    int volume = ffd_mesh_is_volume(mesh);
     ffd_status s = method->apply(rig, mesh, report, &budget, err);
+    if (s == FFD_OK && report && volume)
+        s = ffd_rig_report_note(report, rig->name, err,
+                                "note: volume mesh: all %zu nodes deformed; steps that need a "
+                                "surface (PB-FFD placement, the T-spline proxy) used its boundary "
+                                "surface, %zu faces of its %zu cells",
+                                ffd_mesh_vertex_count(mesh), faces, cells);
     if (report && s != FFD_OK)
         ffd_rig_report_free(report); /* nothing half-filled on failure */
     else if (report)
