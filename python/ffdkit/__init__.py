@@ -29,14 +29,15 @@ from ._ffd import (
     RangeError,
     UnsupportedError,
 )
-from ._mesh import Mesh, read_mesh, write_mesh
+from ._mesh import CELL_TYPES, Mesh, read_mesh, write_mesh
 from ._rig import Rig
 from ._deformer import ControlsView, Deformer, SolveResult
-from .meshio_interop import deform_meshio
+from .meshio_interop import deform_meshio, from_meshio, to_meshio
 
 __version__ = f"{_ffd.VERSION_MAJOR}.{_ffd.VERSION_MINOR}.{_ffd.VERSION_PATCH}"
 
 __all__ = [
+    "CELL_TYPES",
     "ControlsView",
     "Deformer",
     "Error",
@@ -52,7 +53,10 @@ __all__ = [
     "SolveResult",
     "UnsupportedError",
     "__version__",
+    "deform_meshio",
+    "from_meshio",
     "read_mesh",
+    "to_meshio",
     "write_mesh",
 ]
 

@@ -10,7 +10,7 @@ import os
 
 import numpy as np
 
-__all__ = ["deform_meshio"]
+__all__ = ["deform_meshio", "from_meshio", "to_meshio"]
 
 
 def _meshio():
@@ -88,3 +88,47 @@ def deform_meshio(mesh, rig):
         info=copy.deepcopy(mesh.info),
     )
     return out
+
+
+def to_meshio(mesh):
+    """An ``ffdkit.Mesh`` as a ``meshio.Mesh``: its points (a copy), its cells as
+    meshio cell blocks (a surface mesh without cells: its faces as triangle / quad /
+    polygon blocks) and its point and cell data."""
+    meshio = _meshio()
+    points = np.array(mesh.points)
+    if len(mesh.cell_types):
+        blocks = [(name, np.array(data, dtype=np.int64)) for name, data in mesh.cells]
+        sizes = [len(data) for _, data in blocks]
+        cell_data = {}
+        for name, values in mesh.cell_data.items():
+            parts, at = [], 0
+            for n in sizes:
+                parts.append(values[at:at + n])
+                at += n
+            cell_data[name] = parts
+    else:
+        faces = mesh.faces
+        if isinstance(faces, list):
+            blocks = [("polygon", np.array(f, dtype=np.int64)[None, :]) for f in faces]
+        elif len(faces):
+            k = faces.shape[1]
+            blocks = [({3: "triangle", 4: "quad"}.get(k, "polygon"), np.array(faces, np.int64))]
+        else:
+            blocks = []
+        cell_data = {}
+    return meshio.Mesh(points, blocks, point_data=mesh.point_data, cell_data=cell_data)
+
+
+def from_meshio(m):
+    """A ``meshio.Mesh`` as an ``ffdkit.Mesh`` with its cells (VTK node order, as meshio's);
+    point and cell data are not carried (write the ffdkit mesh and they are not
+    there: deform a meshio mesh with :func:`deform_meshio` to keep them)."""
+    from . import Mesh
+
+    meshio = _meshio()
+    if not isinstance(m, meshio.Mesh):
+        raise TypeError(f"from_meshio: expected a meshio.Mesh, got {type(m).__name__}")
+    points = np.asarray(m.points, dtype=np.float64)
+    if points.ndim == 2 and points.shape[1] == 2:
+        points = np.hstack([points, np.zeros((len(points), 1))])
+    return Mesh(np.ascontiguousarray(points), cells=[(b.type, b.data) for b in m.cells])

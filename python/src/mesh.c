@@ -37,7 +37,9 @@ static ffdpy_MeshStore *store_new(ffd_mesh *mesh)
 
 /* ---------- formats ---------- */
 
-static const char *const format_names[] = {NULL, "obj", "ply", "off", "stl", "gltf"};
+static const char *const format_names[] = {NULL,  "obj", "ply", "off", "stl", "gltf",
+                                           "vtk", "vtu", "msh", "su2", "xyz", "npy"};
+#define FORMAT_LIST "obj, ply, off, stl, gltf, glb, vtk, vtu, msh, su2, xyz, csv, npy"
 
 /* format: None or a name ("obj", "ply", "off", "stl", "gltf", "glb"); *encoding
  * becomes BINARY_LE for "glb". */
@@ -49,10 +51,14 @@ static int parse_format(PyObject *obj, ffd_format *format, ffd_encoding *encodin
     const char *name = PyUnicode_Check(obj) ? PyUnicode_AsUTF8(obj) : NULL;
     if (!name) {
         PyErr_Clear();
-        PyErr_SetString(PyExc_TypeError, "format: expected None or a format name (obj, ply, off, stl, gltf, glb)");
+        PyErr_SetString(PyExc_TypeError, "format: expected None or a format name (" FORMAT_LIST ")");
         return -1;
     }
-    for (int f = FFD_FORMAT_OBJ; f <= FFD_FORMAT_GLTF; f++) {
+    if (!strcmp(name, "csv")) {
+        *format = FFD_FORMAT_XYZ;
+        return 0;
+    }
+    for (int f = FFD_FORMAT_OBJ; f <= FFD_FORMAT_NPY; f++) {
         if (!strcmp(name, format_names[f])) {
             *format = (ffd_format)f;
             return 0;
@@ -64,7 +70,7 @@ static int parse_format(PyObject *obj, ffd_format *format, ffd_encoding *encodin
             *encoding = FFD_ENCODING_BINARY_LE;
         return 0;
     }
-    PyErr_Format(PyExc_ValueError, "format: unknown format %R (obj, ply, off, stl, gltf, glb)", obj);
+    PyErr_Format(PyExc_ValueError, "format: unknown format %R (" FORMAT_LIST ")", obj);
     return -1;
 }
 
@@ -79,11 +85,15 @@ static int parse_encoding(PyObject *obj, ffd_encoding *encoding)
         *encoding = FFD_ENCODING_BINARY_LE;
     else if (name && !strcmp(name, "binary_big_endian"))
         *encoding = FFD_ENCODING_BINARY_BE;
+    else if (name && !strcmp(name, "base64"))
+        *encoding = FFD_ENCODING_BASE64;
+    else if (name && !strcmp(name, "raw"))
+        *encoding = FFD_ENCODING_RAW;
     else {
         PyErr_Clear();
         PyErr_Format(PyExc_ValueError,
-                     "encoding: expected None, 'ascii', 'binary', 'binary_little_endian' or "
-                     "'binary_big_endian', got %R", obj);
+                     "encoding: expected None, 'ascii', 'binary', 'binary_little_endian', "
+                     "'binary_big_endian', 'base64' or 'raw', got %R", obj);
         return -1;
     }
     return 0;
@@ -266,12 +276,55 @@ done:
     return rc;
 }
 
+/* Mesh(points, cells=(types uint8, offsets uint64, indices uint32)): the
+ * compiled form; ffdkit.Mesh converts meshio-style cell blocks to it. */
+static PyObject *mesh_from_cells(PyTypeObject *cls, PyObject *points, PyObject *faces,
+                                 PyObject *cells)
+{
+    if (faces != Py_None) {
+        PyErr_SetString(PyExc_ValueError, "Mesh: give faces or cells, not both (the faces of a "
+                                          "mesh with cells are derived from them)");
+        return NULL;
+    }
+    PyObject *t = NULL, *o = NULL, *x = NULL;
+    if (!PyArg_ParseTuple(cells, "OOO:cells", &t, &o, &x))
+        return NULL;
+    PyArrayObject *p = ffdpy_points(points, "points");
+    PyArrayObject *types = (PyArrayObject *)PyArray_FROMANY(t, NPY_UINT8, 1, 1, NPY_ARRAY_IN_ARRAY);
+    PyArrayObject *off = types ? (PyArrayObject *)PyArray_FROMANY(o, NPY_UINT64, 1, 1, NPY_ARRAY_IN_ARRAY) : NULL;
+    PyArrayObject *idx = off ? (PyArrayObject *)PyArray_FROMANY(x, NPY_UINT32, 1, 1, NPY_ARRAY_IN_ARRAY) : NULL;
+    PyObject *result = NULL;
+    if (p && types && off && idx) {
+        size_t nc = (size_t)PyArray_DIM(types, 0);
+        if ((size_t)PyArray_DIM(off, 0) != nc + 1) {
+            PyErr_Format(PyExc_ValueError, "cells: offsets must have %zu entries (cells + 1), not %zd",
+                         nc + 1, (Py_ssize_t)PyArray_DIM(off, 0));
+        } else if (((const uint64_t *)PyArray_DATA(off))[nc] > (uint64_t)PyArray_DIM(idx, 0)) {
+            PyErr_SetString(PyExc_ValueError, "cells: offsets run past the end of the indices");
+        } else {
+            ffd_mesh *mesh = NULL;
+            ffd_error err = {{0}};
+            ffd_status st = ffd_mesh_create_cells(PyArray_DATA(p), (size_t)PyArray_DIM(p, 0),
+                                                  PyArray_DATA(types), PyArray_DATA(off),
+                                                  PyArray_DATA(idx), nc, &mesh, &err);
+            result = st ? ffdpy_raise(st, &err, NULL) : mesh_wrap(cls, mesh);
+        }
+    }
+    Py_XDECREF(p);
+    Py_XDECREF(types);
+    Py_XDECREF(off);
+    Py_XDECREF(idx);
+    return result;
+}
+
 static PyObject *Mesh_new(PyTypeObject *cls, PyObject *args, PyObject *kwds)
 {
-    static char *kw[] = {"points", "faces", NULL};
-    PyObject *points, *faces = Py_None;
-    if (!PyArg_ParseTupleAndKeywords(args, kwds, "O|O:Mesh", kw, &points, &faces))
+    static char *kw[] = {"points", "faces", "cells", NULL};
+    PyObject *points, *faces = Py_None, *cells = Py_None;
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "O|OO:Mesh", kw, &points, &faces, &cells))
         return NULL;
+    if (cells != Py_None)
+        return mesh_from_cells(cls, points, faces, cells);
     PyArrayObject *p = ffdpy_points(points, "points");
     if (!p)
         return NULL;
@@ -400,11 +453,13 @@ static PyObject *Mesh_from_bytes(PyTypeObject *cls, PyObject *args, PyObject *kw
 
 static PyObject *Mesh_write(ffdpy_Mesh *m, PyObject *args, PyObject *kwds)
 {
-    static char *kw[] = {"path", "format", "encoding", NULL};
+    static char *kw[] = {"path", "format", "encoding", "compress", NULL};
     PyObject *path_obj, *fmt_obj = Py_None, *enc_obj = Py_None, *path_bytes = NULL;
-    if (!PyArg_ParseTupleAndKeywords(args, kwds, "O|OO:write", kw, &path_obj, &fmt_obj, &enc_obj))
+    int compress = 0;
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "O|OOp:write", kw, &path_obj, &fmt_obj, &enc_obj,
+                                     &compress))
         return NULL;
-    ffd_write_options wo = {FFD_FORMAT_AUTO, FFD_ENCODING_SAME, 0};
+    ffd_write_options wo = {FFD_FORMAT_AUTO, FFD_ENCODING_SAME, compress};
     if (parse_format(fmt_obj, &wo.format, &wo.encoding) < 0 || parse_encoding(enc_obj, &wo.encoding) < 0 ||
         busy(m) || !PyUnicode_FSConverter(path_obj, &path_bytes))
         return NULL;
@@ -423,11 +478,12 @@ static PyObject *Mesh_write(ffdpy_Mesh *m, PyObject *args, PyObject *kwds)
 
 static PyObject *Mesh_to_bytes(ffdpy_Mesh *m, PyObject *args, PyObject *kwds)
 {
-    static char *kw[] = {"format", "encoding", NULL};
+    static char *kw[] = {"format", "encoding", "compress", NULL};
     PyObject *fmt_obj = Py_None, *enc_obj = Py_None;
-    if (!PyArg_ParseTupleAndKeywords(args, kwds, "|OO:to_bytes", kw, &fmt_obj, &enc_obj))
+    int compress = 0;
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "|OOp:to_bytes", kw, &fmt_obj, &enc_obj, &compress))
         return NULL;
-    ffd_write_options wo = {FFD_FORMAT_AUTO, FFD_ENCODING_SAME, 0};
+    ffd_write_options wo = {FFD_FORMAT_AUTO, FFD_ENCODING_SAME, compress};
     if (parse_format(fmt_obj, &wo.format, &wo.encoding) < 0 || parse_encoding(enc_obj, &wo.encoding) < 0 ||
         busy(m))
         return NULL;
@@ -435,7 +491,7 @@ static PyObject *Mesh_to_bytes(ffdpy_Mesh *m, PyObject *args, PyObject *kwds)
         wo.format = ffd_mesh_source_format(m->store->mesh);
     if (wo.format == FFD_FORMAT_AUTO) {
         PyErr_SetString(PyExc_ValueError, "format: required for a mesh made from arrays "
-                                          "(obj, ply, off, stl, gltf, glb)");
+                                          "(" FORMAT_LIST ")");
         return NULL;
     }
     ffdpy_MeshStore *store = (ffdpy_MeshStore *)Py_NewRef(m->store);
@@ -573,9 +629,92 @@ static PyObject *Mesh_get_normals(ffdpy_Mesh *m, void *c)
 static PyObject *Mesh_get_format(ffdpy_Mesh *m, void *c)
 {
     ffd_format f = ffd_mesh_source_format(m->store->mesh);
-    if (f <= FFD_FORMAT_AUTO || f > FFD_FORMAT_GLTF)
+    if (f <= FFD_FORMAT_AUTO || f > FFD_FORMAT_NPY)
         Py_RETURN_NONE;
     return PyUnicode_FromString(format_names[f]);
+}
+
+static PyObject *Mesh_get_cell_types(ffdpy_Mesh *m, void *c)
+{
+    if (busy(m))
+        return NULL;
+    const ffd_mesh *mesh = m->store->mesh;
+    static const uint8_t none = 0;
+    const uint8_t *t = ffd_mesh_cell_types(mesh);
+    return view(m, t ? t : &none, ffd_mesh_cell_count(mesh), 0, NPY_UINT8);
+}
+
+static PyObject *Mesh_get_cell_offsets(ffdpy_Mesh *m, void *c)
+{
+    if (busy(m))
+        return NULL;
+    const ffd_mesh *mesh = m->store->mesh;
+    static const uint64_t zero = 0;
+    const uint64_t *o = ffd_mesh_cell_offsets(mesh);
+    return view(m, o ? o : &zero, ffd_mesh_cell_count(mesh) + 1, 0, NPY_UINT64);
+}
+
+static PyObject *Mesh_get_cell_indices(ffdpy_Mesh *m, void *c)
+{
+    if (busy(m))
+        return NULL;
+    const ffd_mesh *mesh = m->store->mesh;
+    const uint64_t *o = ffd_mesh_cell_offsets(mesh);
+    static const uint32_t none = 0;
+    const uint32_t *x = ffd_mesh_cell_indices(mesh);
+    return view(m, x ? x : &none, o ? (size_t)o[ffd_mesh_cell_count(mesh)] : 0, 0, NPY_UINT32);
+}
+
+static PyObject *Mesh_get_face_cells(ffdpy_Mesh *m, void *c)
+{
+    if (busy(m))
+        return NULL;
+    const ffd_mesh *mesh = m->store->mesh;
+    const uint32_t *fc = ffd_mesh_face_cells(mesh);
+    if (!fc)
+        Py_RETURN_NONE;
+    return view(m, fc, ffd_mesh_face_count(mesh), 0, NPY_UINT32);
+}
+
+static PyObject *Mesh_get_is_volume(ffdpy_Mesh *m, void *c)
+{
+    return PyBool_FromLong(ffd_mesh_is_volume(m->store->mesh));
+}
+
+/* [(name, association, values (count, components) float64 copy), ...] */
+static PyObject *Mesh_fields(ffdpy_Mesh *m, PyObject *noargs)
+{
+    if (busy(m))
+        return NULL;
+    const ffd_mesh *mesh = m->store->mesh;
+    size_t n = ffd_mesh_field_count(mesh);
+    PyObject *list = PyList_New((Py_ssize_t)n);
+    for (size_t i = 0; list && i < n; i++) {
+        ffd_field_info f;
+        ffd_error err = {{0}};
+        ffd_status st = ffd_mesh_field_get(mesh, i, &f, &err);
+        if (st) {
+            Py_DECREF(list);
+            return ffdpy_raise(st, &err, NULL);
+        }
+        npy_intp dims[2] = {(npy_intp)f.count, (npy_intp)f.components};
+        PyObject *a = PyArray_SimpleNew(2, dims, NPY_DOUBLE);
+        if (!a) {
+            Py_DECREF(list);
+            return NULL;
+        }
+        if (f.count)
+            memcpy(PyArray_DATA((PyArrayObject *)a), f.values,
+                   f.count * f.components * sizeof(double));
+        PyObject *item = Py_BuildValue("(ssN)", f.name,
+                                       f.association == FFD_FIELD_POINT ? "point" : "cell", a);
+        if (!item) {
+            Py_DECREF(list);
+            return NULL;
+        }
+        PyList_SET_ITEM(list, (Py_ssize_t)i, item);
+    }
+    return list;
 }
 
 static PyObject *Mesh_get_vertex_count(ffdpy_Mesh *m, void *c)
@@ -627,6 +766,9 @@ static PyMethodDef Mesh_methods[] = {
      "set_points(points, jacobians=None)\n\nReplaces the positions ((N, 3), finite). Normals and "
      "tangents follow: carried by jacobians ((N, 3, 3) or (N, 9), d(x')/d(x) per vertex) when given, "
      "else recomputed from the faces (ffd_mesh_set_positions)."},
+    {"_fields", (PyCFunction)Mesh_fields, METH_NOARGS,
+     "_fields() -> [(name, 'point' | 'cell', values (count, components))]: the file's point and "
+     "cell data (copies)."},
     {"info", (PyCFunction)Mesh_info, METH_NOARGS,
      "info() -> dict\n\nCounts, bounding box and edge topology (ffd_mesh_compute_info)."},
     {NULL, NULL, 0, NULL}};
@@ -645,6 +787,17 @@ static PyGetSetDef Mesh_getset[] = {
     {"normals", (getter)Mesh_get_normals, NULL, "(K, 3) float64 read-only view of the file's normals.", NULL},
     {"format", (getter)Mesh_get_format, NULL,
      "The source format ('obj', 'ply', 'off', 'stl', 'gltf'), None for a mesh made from arrays.", NULL},
+    {"cell_types", (getter)Mesh_get_cell_types, NULL,
+     "(C,) uint8 read-only view: each cell's VTK type (empty for a mesh without cells).", NULL},
+    {"cell_offsets", (getter)Mesh_get_cell_offsets, NULL,
+     "(C + 1,) uint64 read-only view: cell c has the nodes cell_indices[cell_offsets[c]:cell_offsets[c+1]].",
+     NULL},
+    {"cell_indices", (getter)Mesh_get_cell_indices, NULL, "uint32 read-only view of every cell's node ids.",
+     NULL},
+    {"face_cells", (getter)Mesh_get_face_cells, NULL,
+     "(F,) uint32 read-only view: the cell each face belongs to (None without cells).", NULL},
+    {"is_volume", (getter)Mesh_get_is_volume, NULL,
+     "True when the mesh has a 3D cell (its faces are then its boundary surface).", NULL},
     {"vertex_count", (getter)Mesh_get_vertex_count, NULL, "The number of vertices.", NULL},
     {"face_count", (getter)Mesh_get_face_count, NULL, "The number of faces.", NULL},
     {NULL, NULL, NULL, NULL, NULL}};
@@ -669,5 +822,21 @@ int ffdpy_init_mesh(PyObject *module)
     if (PyModule_AddObjectRef(module, "Mesh", (PyObject *)&ffdpy_MeshType) < 0 ||
         PyModule_AddObjectRef(module, "_MeshStore", (PyObject *)&ffdpy_MeshStoreType) < 0)
         return -1;
-    return 0;
+    /* CELL_TYPES: {name: VTK id} for every cell type the library reads */
+    PyObject *types = PyDict_New();
+    if (!types)
+        return -1;
+    for (unsigned id = 0; id < 256; id++) {
+        const char *name = ffd_cell_type_name(id);
+        PyObject *v = name ? PyLong_FromUnsignedLong(id) : NULL;
+        if (name && (!v || PyDict_SetItemString(types, name, v) < 0)) {
+            Py_XDECREF(v);
+            Py_DECREF(types);
+            return -1;
+        }
+        Py_XDECREF(v);
+    }
+    int rc = PyModule_AddObjectRef(module, "CELL_TYPES", types);
+    Py_DECREF(types);
+    return rc;
 }
