@@ -42,17 +42,21 @@ def _cell_arrays(cells):
             if arr.ndim != 2:
                 raise ValueError(f"cells: a {kind!r} block must be a (k, n) array, got shape "
                                  f"{arr.shape}")
-            rows = list(arr)
+            rows = [arr]
         for r in rows:
             if r.size and (r.min() < 0 or r.max() > 0xFFFFFFFF):
                 raise ValueError(f"cells: node ids of a {kind!r} cell out of range")
-            types.append(vtk)
-            sizes.append(r.size)
-            chunks.append(r)
+            k = r.shape[0] if r.ndim == 2 else 1
+            n = r.shape[1] if r.ndim == 2 else r.size
+            types.append(np.full(k, vtk, dtype=np.uint8))
+            sizes.append(np.full(k, n, dtype=np.uint64))
+            chunks.append(r.ravel())
+    types = np.concatenate(types) if types else np.empty(0, np.uint8)
+    sizes = np.concatenate(sizes) if sizes else np.empty(0, np.uint64)
     offsets = np.zeros(len(types) + 1, dtype=np.uint64)
     np.cumsum(sizes, out=offsets[1:])
     indices = (np.concatenate(chunks) if chunks else np.empty(0)).astype(np.uint32)
-    return np.asarray(types, dtype=np.uint8), offsets, indices
+    return types, offsets, indices
 
 
 class Mesh(_ffd.Mesh):

@@ -49,12 +49,24 @@ static const ffd_cell_type cell_types[] = {
 };
 #define CELL_TYPE_COUNT (sizeof cell_types / sizeof cell_types[0])
 
+/* VTK id -> 1 + index in cell_types (0: unknown): the look-up is on every face's path. */
+static const uint8_t type_index[256] = {
+    [FFD_CELL_VERTEX] = 1,  [FFD_CELL_POLY_VERTEX] = 2, [FFD_CELL_LINE] = 3,
+    [FFD_CELL_POLY_LINE] = 4, [FFD_CELL_TRIANGLE] = 5, [FFD_CELL_TRIANGLE_STRIP] = 6,
+    [FFD_CELL_POLYGON] = 7, [FFD_CELL_PIXEL] = 8, [FFD_CELL_QUAD] = 9, [FFD_CELL_TETRA] = 10,
+    [FFD_CELL_VOXEL] = 11, [FFD_CELL_HEXAHEDRON] = 12, [FFD_CELL_WEDGE] = 13,
+    [FFD_CELL_PYRAMID] = 14, [FFD_CELL_QUADRATIC_EDGE] = 15, [FFD_CELL_QUADRATIC_TRIANGLE] = 16,
+    [FFD_CELL_QUADRATIC_QUAD] = 17, [FFD_CELL_BIQUADRATIC_QUAD] = 18,
+    [FFD_CELL_QUADRATIC_TETRA] = 19, [FFD_CELL_QUADRATIC_HEXAHEDRON] = 20,
+    [FFD_CELL_TRIQUADRATIC_HEXAHEDRON] = 21, [FFD_CELL_QUADRATIC_WEDGE] = 22,
+    [FFD_CELL_QUADRATIC_PYRAMID] = 23,
+};
+
 const ffd_cell_type *ffd_cell_type_of(unsigned vtk_id)
 {
-    for (size_t i = 0; i < CELL_TYPE_COUNT; i++)
-        if (cell_types[i].vtk == vtk_id)
-            return &cell_types[i];
-    return NULL;
+    if (vtk_id > 255 || !type_index[vtk_id])
+        return NULL;
+    return &cell_types[type_index[vtk_id] - 1];
 }
 
 bool ffd_cell_node_count_ok(const ffd_cell_type *t, size_t n)
@@ -213,7 +225,7 @@ static ffd_status extract_boundary(ffd_mesh *m, const char *name, ffd_error *err
                               name, total)
                    : ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory extracting the boundary", name);
     }
-    uint32_t key[4], other[4];
+    uint32_t key[4];
     size_t at = 0;
     for (size_t c = 0; c < m->cell_count; c++) {
         const ffd_cell_type *t = ffd_cell_type_of(m->cell_types[c]);
@@ -250,28 +262,44 @@ static ffd_status extract_boundary(ffd_mesh *m, const char *name, ffd_error *err
         }
     }
     ffd_free(cursor);
+    /* each bucket's faces get their sorted keys once, then are compared pairwise */
+    uint32_t (*keys)[4] = NULL;
+    size_t keys_cap = 0;
     for (size_t b = 0; b < nv; b++) {
-        for (uint32_t i = bucket_start[b]; i < bucket_start[b + 1]; i++) {
-            size_t ci = (size_t)(ref[i] >> 3);
-            unsigned fi = (unsigned)(ref[i] & 7);
-            const ffd_cell_type *ti = ffd_cell_type_of(m->cell_types[ci]);
-            size_t ni = cell_face(m, ti, ci, fi, key);
-            sort_small(key, ni);
-            for (uint32_t j = i + 1; j < bucket_start[b + 1]; j++) {
-                size_t cj = (size_t)(ref[j] >> 3);
-                unsigned fj = (unsigned)(ref[j] & 7);
-                const ffd_cell_type *tj = ffd_cell_type_of(m->cell_types[cj]);
-                if (tj->face_size[fj] != ni)
-                    continue;
-                cell_face(m, tj, cj, fj, other);
-                sort_small(other, ni);
-                if (memcmp(key, other, ni * sizeof(uint32_t)) == 0) {
-                    shared[first[ci] + fi] = 1;
-                    shared[first[cj] + fj] = 1;
-                }
+        size_t k = bucket_start[b + 1] - bucket_start[b];
+        if (k < 2)
+            continue;
+        if (k > keys_cap) {
+            void *grown = ffd_realloc_array(keys, k, sizeof *keys);
+            if (!grown) {
+                ffd_free(keys);
+                ffd_free(bucket_start);
+                ffd_free(ref);
+                ffd_free(shared);
+                ffd_free(first);
+                return ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory extracting the boundary",
+                                name);
             }
+            keys = grown;
+            keys_cap = k;
         }
+        const uint64_t *r = ref + bucket_start[b];
+        for (size_t i = 0; i < k; i++) {
+            size_t ci = (size_t)(r[i] >> 3);
+            unsigned fi = (unsigned)(r[i] & 7);
+            size_t ni = cell_face(m, ffd_cell_type_of(m->cell_types[ci]), ci, fi, keys[i]);
+            sort_small(keys[i], ni);
+            if (ni == 3)
+                keys[i][3] = UINT32_MAX; /* a triangle never matches a quad */
+        }
+        for (size_t i = 0; i < k; i++)
+            for (size_t j = i + 1; j < k; j++)
+                if (memcmp(keys[i], keys[j], sizeof keys[i]) == 0) {
+                    shared[first[r[i] >> 3] + (r[i] & 7)] = 1;
+                    shared[first[r[j] >> 3] + (r[j] & 7)] = 1;
+                }
     }
+    ffd_free(keys);
     ffd_free(bucket_start);
     ffd_free(ref);
     size_t face_cap = 0;
