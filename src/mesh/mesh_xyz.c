@@ -48,7 +48,7 @@ static ffd_status bad_value(const xyz_ctx *c, const char *t, const char *e, cons
     while (t + len < e && len < 20 && t[len] != '\n' && t[len] != '\r')
         len++;
     if (len == 0)
-        return ffd_fail(err, FFD_ERR_PARSE, "%s:%zu: expected %s, found end of line", c->name,
+        return ffd_fail(err, FFD_ERR_PARSE, "%s:%zu: expected %s, found an empty field", c->name,
                         c->line, what);
     return ffd_fail(err, FFD_ERR_PARSE, "%s:%zu: expected %s, found '%.*s'", c->name, c->line,
                     what, len, t);
@@ -158,7 +158,7 @@ static ffd_status read_xyz(ffd_mesh *m, const char *name, ffd_error *err)
             if (!field_number(b, fe, &v[got])) {
                 if (first && got == 0 && c.csv) /* the header line of names */
                     break;
-                st = bad_value(&c, b, e, got == 0 ? "x" : got == 1 ? "y" : "z", err);
+                st = bad_value(&c, b, fe, got == 0 ? "x" : got == 1 ? "y" : "z", err);
                 goto fail;
             }
             if (!isfinite(v[got])) {
