@@ -226,8 +226,8 @@ static ffd_status read_npy(ffd_mesh *m, const char *name, ffd_error *err)
             v[d] = ffd_read_scalar(u + off, kind, be);
             if (!isfinite(v[d]))
                 return ffd_fail(err, FFD_ERR_NONFINITE,
-                                "%s: byte %zu: coordinate %c of point %zu is not finite", name, off,
-                                "xyz"[d], i);
+                                "%s: byte %zu: element [%zu, %d] (point %zu's %c, 0-based) is not finite",
+                                name, off, i, d, i, "xyz"[d]);
             sp[d].offset = off;
             sp[d].kind = (uint64_t)kind;
         }
