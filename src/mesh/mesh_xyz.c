@@ -105,7 +105,6 @@ static ffd_status read_xyz(ffd_mesh *m, const char *name, ffd_error *err)
     const char *s = (const char *)m->src;
     xyz_ctx c = {name, s, s + m->src_size, false, 0};
     const char *at = s + ffd_utf8_bom_length(m->src, m->src_size);
-    const char *body = at;
 
     /* The spelling: a comma in the first content line. */
     {
@@ -133,7 +132,6 @@ static ffd_status read_xyz(ffd_mesh *m, const char *name, ffd_error *err)
     size_t extra_n = 0, extra_cap = 0;
     long ncols = -1; /* extras per point; -2: inconsistent or not numeric */
     const char *header = NULL, *header_end = NULL;
-    size_t header_line = 0;
     ffd_status st = FFD_OK;
     ffd_text_line l;
     bool first = true;
@@ -172,7 +170,6 @@ static ffd_status read_xyz(ffd_mesh *m, const char *name, ffd_error *err)
         if (got < 3) { /* a CSV header */
             header = ffd_text_skip_blanks(l.p, e);
             header_end = e;
-            header_line = c.line;
             first = false;
             continue;
         }
@@ -214,8 +211,6 @@ static ffd_status read_xyz(ffd_mesh *m, const char *name, ffd_error *err)
                       c.line ? c.line : 1, c.csv ? "," : " ", c.csv ? "," : " ");
         goto fail;
     }
-    (void)body;
-    (void)header_line;
     if (ncols > 0) {
         size_t nv = m->vertex_count, k = (size_t)ncols;
         double *col = ffd_malloc(nv * sizeof(double));
