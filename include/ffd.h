@@ -126,7 +126,8 @@ typedef enum ffd_format {
 } ffd_format;
 
 typedef enum ffd_encoding {
-    FFD_ENCODING_SAME = 0,     /* as the source file; ascii when the source had another format */
+    FFD_ENCODING_SAME = 0,     /* as the source file; ascii when the source had another format
+                                  (NPY, binary only: little-endian) */
     FFD_ENCODING_ASCII,
     FFD_ENCODING_BINARY_LE,    /* PLY binary_little_endian, STL binary */
     FFD_ENCODING_BINARY_BE,    /* PLY binary_big_endian, legacy VTK BINARY */

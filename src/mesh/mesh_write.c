@@ -25,7 +25,7 @@
  *   polygon as a fan from its first corner, with facet normals computed from
  *   the written triangle (unit length, 0 0 0 for a zero-area one).
  * - Encodings: FFD_ENCODING_SAME means the source encoding when the format is
- *   the same, else ascii. OBJ and OFF are ascii only (binary is
+ *   the same, else ascii (the first encoding of a binary-only codec: NPY little-endian). OBJ and OFF are ascii only (binary is
  *   FFD_ERR_UNSUPPORTED); STL has ascii and binary (BINARY_LE; BINARY_BE is
  *   FFD_ERR_UNSUPPORTED); PLY has all three.
  */
@@ -236,8 +236,12 @@ ffd_status ffd_mesh_write_memory(const ffd_mesh *mesh, const ffd_write_options *
         return ffd_fail(err, FFD_ERR_INVALID, "ffd_mesh_write_memory: unknown encoding %d",
                         (int)enc);
     bool same_format = mesh->src && mesh->format == format;
-    if (enc == FFD_ENCODING_SAME)
+    if (enc == FFD_ENCODING_SAME) {
         enc = same_format ? mesh->encoding : FFD_ENCODING_ASCII;
+        /* a binary-only format (NPY) defaults to its first encoding */
+        while (!(codec->encodings & FFD_CODEC_ENCODING(enc)) && enc < FFD_ENCODING_RAW)
+            enc++;
+    }
     if (!(codec->encodings & FFD_CODEC_ENCODING(enc))) {
         unsigned binary =
             FFD_CODEC_ENCODING(FFD_ENCODING_BINARY_LE) | FFD_CODEC_ENCODING(FFD_ENCODING_BINARY_BE);
