@@ -31,3 +31,33 @@ subprocess.run(["gmsh", "-3", "-setnumber", "Mesh.MeshSizeMax", "0.3", "-format"
 box = meshio.read("/tmp/box_tet.msh")
 box = meshio.Mesh(box.points.astype(np.float32), [c for c in box.cells if c.type == "tetra"])
 meshio.vtk.write("box_tet_binary.vtk", box, fmt_version="4.2", binary=True)
+
+# Binary polydata in the 5.1 layout (OFFSETS / CONNECTIVITY per section, as
+# VTK 9 writes it), with a binary string array (vtkDataWriter's length
+# prefixes), a bit array and a METADATA block; meshio cannot write polydata,
+# so it is put together here byte by byte.
+def be(fmt, values):
+    return np.asarray(values, dtype=fmt).tobytes()
+
+
+def vtk_string(s):
+    b = s.encode()
+    return bytes([0xC0 | len(b)]) + b
+
+
+pts = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0, 0, 1], [1, 0, 1], [1, 1, 1],
+                [0, 1, 1], [0.5, 0.5, 1.5], [2, 2, 2]])
+out = b"# vtk DataFile Version 5.1\nbinary polydata put together by make_vtk_samples.py\nBINARY\n"
+out += b"DATASET POLYDATA\nPOINTS 10 double\n" + be(">f8", pts) + b"\n"
+out += b"METADATA\nINFORMATION 0\n\n"
+out += b"VERTICES 2 1\nOFFSETS vtktypeint64\n" + be(">i8", [0, 1]) + b"\n"
+out += b"CONNECTIVITY vtktypeint64\n" + be(">i8", [9]) + b"\n"
+out += b"POLYGONS 4 12\nOFFSETS vtktypeint32\n" + be(">i4", [0, 3, 7, 12]) + b"\n"
+out += b"CONNECTIVITY vtktypeint32\n" + be(">i4", [4, 5, 8, 0, 3, 2, 1, 4, 5, 6, 7, 8]) + b"\n"
+out += b"CELL_DATA 4\nSCALARS flag bit 1\nLOOKUP_TABLE default\n" + bytes([0b1010_0000]) + b"\n"
+out += b"FIELD FieldData 2\nname 1 4 string\n"
+out += b"".join(vtk_string(s) for s in ("vertex", "triangle", "quad", "pentagon")) + b"\n"
+out += b"weight 1 4 float\n" + be(">f4", [0.5, 1, 1.5, 2]) + b"\n"
+out += b"POINT_DATA 10\nVECTORS displacement float\n" + be(">f4", pts * 0.1) + b"\n"
+with open("polydata_binary.vtk", "wb") as f:
+    f.write(out)

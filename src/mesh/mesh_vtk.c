@@ -698,8 +698,9 @@ static ffd_status read_array(vtk_reader *r, const word *nm, const vtk_type *t, u
             ffd_free(vals);
             return st;
         }
+        /* a float array holds floats, whatever digits a text file gave */
         if (vals)
-            vals[i] = v * scale;
+            vals[i] = t->kind == FFD_SPAN_F32 ? (double)(float)(v * scale) : v * scale;
     }
     if (!keep)
         return FFD_OK;
@@ -947,9 +948,11 @@ static ffd_status read_vtk(ffd_mesh *m, const char *name, ffd_error *err)
     /* the version line and the title line: anything */
     for (int line = 1; line <= 2; line++) {
         const char *nl = memchr(r.s + r.pos, '\n', r.n - r.pos);
-        if (!nl)
-            return ffd_fail(err, FFD_ERR_PARSE, "%s:%d: expected %s, found end of file", r.name, line + 1,
-                            line == 1 ? "a title line" : "ASCII or BINARY");
+        if (!nl) {
+            bool title = line == 1 || r.pos == r.n;
+            return ffd_fail(err, FFD_ERR_PARSE, "%s:%d: expected %s, found end of file", r.name,
+                            title ? 2 : 3, title ? "a title line" : "ASCII or BINARY");
+        }
         r.pos = (size_t)(nl - r.s) + 1;
     }
     word w[4];
