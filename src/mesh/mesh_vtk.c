@@ -268,7 +268,8 @@ static ffd_status begin_values(vtk_reader *r, const vtk_type *t, uint64_t count,
         /* every text value takes a character and a separator */
         if (count > left / 2 + 1)
             return fail_at(r, err, FFD_ERR_PARSE, r->pos, false,
-                           "%llu values of %s cannot fit in the %zu bytes left",
+                           "%llu values of %s cannot fit in the %zu bytes left (a file cut "
+                           "short, or a wrong count)",
                            (unsigned long long)count, what, left);
         return FFD_OK;
     }
