@@ -420,6 +420,8 @@ static const bad_case bad[] = {
      "m.vtk:11: expected value 2 of 's', found end of file"},
     {HEAD TRI "POINT_DATA 3\nFIELD f 1\na 0 3 float\n", FFD_ERR_PARSE,
      "m.vtk:9: array 'a' has 0 components"},
+    {HEAD TRI "POINT_DATA 3\nGLOBAL_IDS g vtkIdType\n0 1\n", FFD_ERR_PARSE,
+     "m.vtk:10: expected value 2 of 'g', found end of file"},
     {HEAD TRI "FOO 3\n", FFD_ERR_PARSE, "m.vtk:7: unknown keyword 'FOO' in a UNSTRUCTURED_GRID dataset"},
     {HEAD "CELLS 1 2\n1 0\nCELL_TYPES 1\n1\n", FFD_ERR_PARSE, "m.vtk:5: cells before POINTS"},
     {HEAD "\n", FFD_ERR_PARSE, "m.vtk:6: expected a POINTS section, found end of file"},

@@ -64,6 +64,7 @@ static const vtk_type vtk_types[] = {
     {"vtktypeuint32", FFD_SPAN_U32, 4},
     {"vtktypeint64", FFD_FIELD_I64, 8},
     {"vtktypeuint64", FFD_FIELD_U64, 8},
+    {"vtkIdType", FFD_SPAN_I32, 4}, /* vtkDataWriter writes id arrays as 32-bit int */
     {"string", KIND_STRING, 0},
     {"utf8_string", KIND_STRING, 0},
 };
