@@ -121,6 +121,7 @@ typedef struct reader {
     bool any_physical, any_geometrical;
 
     bool have_nodes, have_elements;
+    const char *section_at; /* the "$Name" of the section being read */
 } reader;
 
 static size_t line_of(const char *s, const char *at)
@@ -542,7 +543,7 @@ static long long node_index(const reader *r, long long t)
 static ffd_status read_nodes(reader *r)
 {
     if (r->have_nodes)
-        return fail_at(r, r->p, FFD_ERR_PARSE, "a second $Nodes section");
+        return fail_at(r, r->section_at, FFD_ERR_PARSE, "a second $Nodes section");
     r->have_nodes = true;
     const char *section_at = r->p;
     ffd_status s;
@@ -786,9 +787,9 @@ static ffd_status read_elements_22_binary(reader *r, long long n)
 static ffd_status read_elements(reader *r)
 {
     if (r->have_elements)
-        return fail_at(r, r->p, FFD_ERR_PARSE, "a second $Elements section");
+        return fail_at(r, r->section_at, FFD_ERR_PARSE, "a second $Elements section");
     if (!r->have_nodes)
-        return fail_at(r, r->p, FFD_ERR_PARSE, "$Elements before $Nodes");
+        return fail_at(r, r->section_at, FFD_ERR_PARSE, "$Elements before $Nodes");
     r->have_elements = true;
     ffd_status s;
     const char *section_at = r->p;
@@ -911,6 +912,7 @@ static ffd_status read_sections(reader *r)
         size_t len = (size_t)(e - name);
         /* past the name's line: binary data starts on the next */
         r->p = e;
+        r->section_at = at;
         while (r->p < r->end && ffd_is_blank((unsigned char)*r->p))
             r->p++;
         if (r->p < r->end && *r->p == '\n')
