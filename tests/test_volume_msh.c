@@ -526,6 +526,93 @@ static void test_binary_huge_block(void)
     free(src);
 }
 
+/* A hand-made binary 4.1 file: size_t counts and tags, entities with
+ * physical tags, one node block per point entity. Its data starts right after
+ * each section's line with a byte that looks like a blank (9: 0x09, a tab):
+ * data, not space. */
+static void put_u64(unsigned char **q, uint64_t v)
+{
+    for (int k = 0; k < 8; k++)
+        *(*q)++ = (unsigned char)(v >> (8 * k));
+}
+static void put_i32le(unsigned char **q, int32_t v)
+{
+    for (int k = 0; k < 4; k++)
+        *(*q)++ = (unsigned char)((uint32_t)v >> (8 * k));
+}
+static void put_f64(unsigned char **q, double v)
+{
+    uint64_t u;
+    memcpy(&u, &v, 8);
+    put_u64(q, u);
+}
+static void put_text(unsigned char **q, const char *t)
+{
+    memcpy(*q, t, strlen(t));
+    *q += strlen(t);
+}
+
+static void test_binary_data_after_section_line(void)
+{
+    static unsigned char buf[4096];
+    unsigned char *q = buf;
+    put_text(&q, "$MeshFormat\n4.1 1 8\n");
+    put_i32le(&q, 1);
+    put_text(&q, "\n$EndMeshFormat\n$Entities\n");
+    put_u64(&q, 9); /* points */
+    for (int i = 0; i < 3; i++)
+        put_u64(&q, 0);
+    for (int i = 1; i <= 9; i++) {
+        put_i32le(&q, i);
+        for (int k = 0; k < 3; k++)
+            put_f64(&q, i);
+        put_u64(&q, 1); /* one physical tag: 100 + i */
+        put_i32le(&q, 100 + i);
+    }
+    put_text(&q, "\n$EndEntities\n$Nodes\n");
+    put_u64(&q, 9);  /* blocks: 0x09 again */
+    put_u64(&q, 9);  /* nodes */
+    put_u64(&q, 1);
+    put_u64(&q, 9);
+    for (int i = 1; i <= 9; i++) {
+        put_i32le(&q, 0);
+        put_i32le(&q, i);
+        put_i32le(&q, 0);
+        put_u64(&q, 1);
+        put_u64(&q, (uint64_t)i);
+        for (int k = 0; k < 3; k++)
+            put_f64(&q, i + 0.5 * k);
+    }
+    put_text(&q, "\n$EndNodes\n$Elements\n");
+    put_u64(&q, 9);
+    put_u64(&q, 9);
+    put_u64(&q, 1);
+    put_u64(&q, 9);
+    for (int i = 1; i <= 9; i++) {
+        put_i32le(&q, 0);
+        put_i32le(&q, i);
+        put_i32le(&q, 15); /* point */
+        put_u64(&q, 1);
+        put_u64(&q, (uint64_t)i);
+        put_u64(&q, (uint64_t)i);
+    }
+    put_text(&q, "\n$EndElements\n");
+    ffd_mesh *m = NULL;
+    ffd_error e = {{0}};
+    ffd_status s = ffd_mesh_read_memory(buf, (size_t)(q - buf), FFD_FORMAT_MSH, "tab.msh", &m, &e);
+    if (s)
+        fprintf(stderr, "%s\n", e.message);
+    CHECK(s == FFD_OK);
+    if (!m)
+        return;
+    CHECK(ffd_mesh_vertex_count(m) == 9);
+    CHECK(ffd_mesh_cell_count(m) == 9);
+    CHECK_NEAR(ffd_mesh_positions(m)[3 * 8 + 2], 10, 0);
+    const double *ph = field(m, "gmsh:physical");
+    CHECK(ph && ph[8] == 109);
+    ffd_mesh_destroy(m);
+}
+
 int main(int argc, char **argv)
 {
     static const check_test tests[] = {
@@ -540,6 +627,7 @@ int main(int argc, char **argv)
         {"bad_inputs", test_bad_inputs},
         {"truncated_prefixes", test_truncated_prefixes},
         {"binary_huge_block", test_binary_huge_block},
+        {"binary_data_after_section_line", test_binary_data_after_section_line},
     };
     return check_run(tests, sizeof tests / sizeof tests[0], argc, argv);
 }
