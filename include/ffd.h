@@ -119,7 +119,7 @@ typedef enum ffd_format {
     /* Volume formats (cells, point and cell data; docs/volume.md): */
     FFD_FORMAT_VTK,  /* legacy VTK .vtk: ASCII or BINARY_BE; unstructured grid or polydata */
     FFD_FORMAT_VTU,  /* VTK XML unstructured grid .vtu: ASCII, BASE64 or RAW (appended) */
-    FFD_FORMAT_MSH,  /* Gmsh .msh 2.2 and 4.1: ASCII or BINARY_LE */
+    FFD_FORMAT_MSH,  /* Gmsh .msh 2.2 and 4.1: ASCII or BINARY_LE; written from data as 2.2 */
     FFD_FORMAT_SU2,  /* SU2 native .su2 (ASCII), with its boundary markers */
     FFD_FORMAT_XYZ,  /* a point set, one point per line: .xyz (blanks) or .csv (commas) */
     FFD_FORMAT_NPY   /* a point set as a NumPy (N, 3) float array, .npy */
