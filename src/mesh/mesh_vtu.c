@@ -758,6 +758,9 @@ static ffd_status check_count(const reader *r, const vtu_array *a, const char *w
 {
     char label[96];
     array_label(a, label, sizeof label);
+    if (a->format == FMT_APPENDED && !r->st->appended_start)
+        return FAIL_AT(r, a->tag, FFD_ERR_PARSE, "%s is appended but the file has no <AppendedData>",
+                       label);
     uint64_t mv = max_values(r, a);
     if (count > UINT64_MAX / a->components || count * a->components > mv)
         return FAIL_AT(r, a->tag, FFD_ERR_PARSE,
@@ -1003,9 +1006,12 @@ static ffd_status decode_array(reader *r, vtu_array *a, uint64_t count, double *
             double x;
             int got = ffd_parse_number(&p, e, false, &x);
             if (got != 1) {
+                const char *we = at;
+                while (we < e && we - at < 20 && !ffd_is_space((unsigned char)*we))
+                    we++;
                 ffd_free(v);
-                return FAIL_AT(r, (size_t)(at - r->s), FFD_ERR_PARSE, "%s: expected a number, found '%.*s'",
-                               label, (int)(ffd_text_word_end(at, e) - at > 20 ? 20 : ffd_text_word_end(at, e) - at), at);
+                return FAIL_AT(r, (size_t)(at - r->s), FFD_ERR_PARSE,
+                               "%s: expected a number, found '%.*s'", label, (int)(we - at), at);
             }
             if (count != SIZE_MAX && n == cap) {
                 ffd_free(v);
