@@ -160,6 +160,17 @@ static void test_untouched_round_trip_identical(void)
         unsigned char *out = m ? write_vtu(m, FFD_ENCODING_SAME, samples[s].compressed, &w) : NULL;
         CHECK(out && w == n && memcmp(out, src, n) == 0);
         ffd_free(out);
+        /* compress 0: as the source (what ffd deform/convert pass by default) */
+        out = m ? write_vtu(m, FFD_ENCODING_SAME, 0, &w) : NULL;
+        CHECK(out && w == n && memcmp(out, src, n) == 0);
+        ffd_free(out);
+        /* compress -1: never compressed, so a compressed source is rewritten */
+        out = m ? write_vtu(m, FFD_ENCODING_SAME, -1, &w) : NULL;
+        CHECK(out && (samples[s].compressed ? w != n : w == n && memcmp(out, src, n) == 0));
+        ffd_mesh *back = out ? read_mem(out, w) : NULL;
+        check_same(m, back, 0);
+        ffd_mesh_destroy(back);
+        ffd_free(out);
         ffd_free(src);
         ffd_mesh_destroy(m);
     }

@@ -1628,23 +1628,26 @@ done:
     return s;
 }
 
+/* compress: 1 zlib, -1 none, 0 as the source when writing back to its own
+ * format and encoding (so a compressed file is patched, not rewritten), else none. */
 static ffd_status write_vtu_options(const ffd_mesh *m, const ffd_write_options *o, ffd_buf *b,
                                     ffd_error *err)
 {
-    if (o->compress && o->encoding == FFD_ENCODING_ASCII)
+    if (o->compress > 0 && o->encoding == FFD_ENCODING_ASCII)
         return ffd_fail(err, FFD_ERR_UNSUPPORTED,
                         "VTU: compression applies to base64 or raw appended arrays, not ascii");
 #ifndef FFD_HAVE_ZLIB
-    if (o->compress)
+    if (o->compress > 0)
         return ffd_fail(err, FFD_ERR_UNSUPPORTED,
                         "VTU: compressed output needs zlib (this ffdkit was built without it)");
 #endif
-    const vtu_state *st = m->codec_state;
-    bool same = m->src && m->format == FFD_FORMAT_VTU && st && o->encoding == m->encoding &&
-                (o->compress != 0) == st->compressed;
-    if (same)
+    const vtu_state *st = m->src && m->format == FFD_FORMAT_VTU ? m->codec_state : NULL;
+    if (st && o->encoding == m->encoding &&
+        (o->compress == 0 || (o->compress > 0) == st->compressed))
         return patch_vtu(m, b, err);
-    return write_vtu_data(m, o, b, err);
+    ffd_write_options w = *o;
+    w.compress = o->compress > 0;
+    return write_vtu_data(m, &w, b, err);
 }
 
 static ffd_status write_vtu(const ffd_mesh *m, ffd_encoding enc, ffd_buf *b, ffd_error *err)
