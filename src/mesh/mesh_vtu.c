@@ -801,8 +801,13 @@ static ffd_status payload_of(reader *r, vtu_array *a, const unsigned char **out,
             return FAIL_AT(r, (size_t)(bad - r->s), FFD_ERR_PARSE, "%s: invalid base64", label);
         }
         /* separately encoded header: its base64 chunk ends in padding */
-        size_t hc = b64_chars(hsize);
-        a->separate = hsize % 3 && (size_t)(e - b) >= hc && b[hc - 1] == '=';
+        uint64_t hbytes = hsize;
+        if (st->compressed && n >= hsize) {
+            uint64_t nb = load_u64(buf, hsize, st->big_endian);
+            hbytes = nb < (uint64_t)(e - b) ? (3 + nb) * hsize : 0;
+        }
+        size_t hc = b64_chars((size_t)hbytes);
+        a->separate = hbytes % 3 && (size_t)(e - b) >= hc && b[hc - 1] == '=';
         *out = buf;
         *owned = buf;
         *size = n;
