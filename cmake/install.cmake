@@ -16,7 +16,7 @@ install(FILES ${FFD_PUBLIC_HEADERS} DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})
 # `pkg-config --static` (libffd.a). Named as libraries, not Requires.private:
 # pkg-config would demand lapacke.pc and libcjson.pc (the -dev packages) even
 # for the shared library
-set(FFD_PC_LIBS_PRIVATE "-llapacke -lcjson -lqhull_r -lcholmod -lsuitesparseconfig -lopenblas -lm ${OpenMP_C_FLAGS}")
+set(FFD_PC_LIBS_PRIVATE "-llapacke -lcjson -lqhull_r -lcholmod -lsuitesparseconfig -lopenblas -lz -lm ${OpenMP_C_FLAGS}")
 file(RELATIVE_PATH FFD_PC_TO_PREFIX ${CMAKE_INSTALL_FULL_LIBDIR}/pkgconfig ${CMAKE_INSTALL_PREFIX})
 string(REGEX REPLACE "/$" "" FFD_PC_TO_PREFIX "${FFD_PC_TO_PREFIX}")
 configure_file(${CMAKE_SOURCE_DIR}/cmake/ffd.pc.in ${CMAKE_BINARY_DIR}/ffd.pc @ONLY)
@@ -60,7 +60,7 @@ if(FFD_DPKG_SHLIBDEPS)
   set(CPACK_DEBIAN_PACKAGE_SHLIBDEPS ON)
 else()
   # Debian 12's runtime packages of the libraries libffd and ffd link
-  set(CPACK_DEBIAN_PACKAGE_DEPENDS "libc6, libgomp1, liblapacke, libopenblas0, libcjson1, libqhull-r8.0, libcholmod3, libsuitesparseconfig5, libmicrohttpd12")
+  set(CPACK_DEBIAN_PACKAGE_DEPENDS "libc6, libgomp1, liblapacke, libopenblas0, libcjson1, libqhull-r8.0, libcholmod3, libsuitesparseconfig5, libmicrohttpd12, zlib1g")
 endif()
 # gzip the man pages; copyright and changelog.gz in /usr/share/doc/ffdkit
 set(CPACK_PRE_BUILD_SCRIPTS ${CMAKE_SOURCE_DIR}/cmake/deb_fixups.cmake)

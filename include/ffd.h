@@ -139,7 +139,9 @@ typedef enum ffd_encoding {
 typedef struct ffd_write_options {
     ffd_format format;     /* FFD_FORMAT_AUTO: from the path's extension */
     ffd_encoding encoding; /* PLY, STL, VTK, VTU, MSH and NPY (docs/volume.md) */
-    int compress;          /* VTU: 1 = zlib-compressed data arrays (when built with zlib) */
+    int compress;          /* VTU: 1 = zlib-compressed data arrays (when built with zlib);
+                              0 = as the source when writing a .vtu back to its own
+                              encoding, else none; -1 = none (docs/volume.md, "VTU") */
 } ffd_write_options;
 
 /* Format implied by a path's extension, or FFD_FORMAT_AUTO when unknown. */

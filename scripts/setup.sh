@@ -9,7 +9,7 @@ set -euo pipefail
 PKGS=(build-essential cmake pkg-config
       liblapacke-dev libopenblas-dev libcjson-dev
       clang libclang-rt-14-dev
-      libqhull-dev libsuitesparse-dev
+      libqhull-dev libsuitesparse-dev zlib1g-dev
       libmicrohttpd-dev chromium curl libomp-dev valgrind
       groff-base dpkg-dev file binutils
       python3-dev python3-numpy python3-pip python3-setuptools python3-venv)

@@ -252,7 +252,7 @@ ffd_status ffd_mesh_write_memory(const ffd_mesh *mesh, const ffd_write_options *
         return ffd_fail(err, FFD_ERR_UNSUPPORTED, "%s has no %s encoding", codec->name,
                         names[enc]);
     }
-    if (options && options->compress && !codec->write_options)
+    if (options && options->compress > 0 && !codec->write_options)
         return ffd_fail(err, FFD_ERR_UNSUPPORTED, "%s has no compressed encoding (only VTU)",
                         codec->name);
 

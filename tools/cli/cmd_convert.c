@@ -18,6 +18,9 @@ static const char usage[] =
     "  --ascii       text encoding (PLY, STL)\n"
     "  --binary      binary little-endian (PLY binary_little_endian, STL binary)\n"
     "  --binary-be   binary big-endian (PLY only)\n"
+    "  --base64      VTU: inline base64 data arrays (format=\"binary\")\n"
+    "  --raw         VTU: raw appended data arrays\n"
+    "  --compress    VTU: zlib-compressed data arrays (with --base64 or --raw)\n"
     "  --in-place    allow OUT to be IN itself\n"
     "  -o, --output OUT\n"
     "                the output, instead of the second argument\n"
@@ -45,6 +48,8 @@ int cmd_convert(int argc, char **argv)
         } else if ((e = cli_option_value(argc, argv, &i, "--format", NULL, &format_text)) != 0) {
             if (e < 0)
                 return cli_option_error("convert", arg, e);
+        } else if (strcmp(arg, "--compress") == 0) {
+            options.compress = 1;
         } else if (strcmp(arg, "--in-place") == 0) {
             in_place = 1;
         } else if (arg[0] == '-' && arg[1] != 0) {

@@ -41,6 +41,9 @@ static const char usage[] =
     "  --ascii           text encoding (PLY, STL)\n"
     "  --binary          binary little-endian (PLY, STL)\n"
     "  --binary-be       binary big-endian (PLY)\n"
+    "  --base64          VTU: inline base64 data arrays (format=\"binary\")\n"
+    "  --raw             VTU: raw appended data arrays\n"
+    "  --compress        VTU: zlib-compressed data arrays (with --base64 or --raw)\n"
     "  -h, --help        this help\n";
 
 /* One JSON value of the details, in the report's own style (", " and ": "
@@ -178,6 +181,8 @@ int cmd_deform(int argc, char **argv)
             if (e < 0)
                 return cli_usage_error("deform", "'%s' conflicts with an earlier encoding option",
                                        arg);
+        } else if (strcmp(arg, "--compress") == 0) {
+            options.compress = 1;
         } else if (strcmp(arg, "--in-place") == 0) {
             in_place = 1;
         } else if (strcmp(arg, "--report") == 0) {

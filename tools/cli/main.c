@@ -113,6 +113,10 @@ int cli_encoding_option(const char *arg, ffd_encoding *encoding)
         e = FFD_ENCODING_BINARY_LE;
     else if (strcmp(arg, "--binary-be") == 0)
         e = FFD_ENCODING_BINARY_BE;
+    else if (strcmp(arg, "--base64") == 0)
+        e = FFD_ENCODING_BASE64;
+    else if (strcmp(arg, "--raw") == 0)
+        e = FFD_ENCODING_RAW;
     else
         return 0;
     if (*encoding != FFD_ENCODING_SAME && *encoding != e)
