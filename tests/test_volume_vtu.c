@@ -234,6 +234,20 @@ static void test_deformed_round_trip(void)
                 CHECK(last < first + 16 + 14 * 3 * 4 * 4 / 3 + 16);
             }
         }
+        if (out && strcmp(samples[s].file, "mixed_zlib.vtu") == 0) {
+            /* meshio's compressed arrays encode the block header apart (padded):
+             * the re-encoded Points keep that split, which meshio needs */
+            const char *a = strstr((const char *)src, "Name=\"Points\"");
+            const char *b = strstr((const char *)out, "Name=\"Points\"");
+            a = a ? strchr(a, '>') : NULL;
+            b = b ? strchr(b, '>') : NULL;
+            while (a && (a[1] == '\n' || a[1] == ' '))
+                a++;
+            while (b && (b[1] == '\n' || b[1] == ' '))
+                b++;
+            const char *pad = a ? strchr(a, '=') : NULL;
+            CHECK(a && b && pad && pad - a < 64 && b[pad - a] == '=');
+        }
         if (out && strstr(samples[s].file, "ascii")) {
             /* text: the file without its Points content is unchanged */
             const char *a = strstr((const char *)src, "NumberOfComponents=\"3\" format=\"ascii\">");

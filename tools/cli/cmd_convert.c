@@ -4,7 +4,7 @@
 #include <string.h>
 
 static const char usage[] =
-    "usage: ffd convert IN OUT [--ascii|--binary|--binary-be] [--in-place] [--format FMT]\n"
+    "usage: ffd convert IN OUT [ENCODING] [--in-place] [--format FMT]\n"
     "       ffd convert IN -o OUT [options]\n"
     "\n"
     "Reads IN and writes OUT in the format of OUT's extension (.obj .ply .off .stl).\n"
