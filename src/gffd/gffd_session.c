@@ -1002,10 +1002,11 @@ static void *gf_handle(sess_method *base);
 static ffd_status gf_no_sensitivity(const char *what, ffd_error *err)
 {
     return ffd_fail(err, FFD_ERR_UNSUPPORTED,
-                    "%s: the gffd method has no sensitivities: a tracked point keeps its field "
-                    "value only to the tracking tolerance, and that condition fixes only the "
-                    "motion along the field's gradient; the rest comes from the tracking path "
-                    "(docs/sensitivities.md, \"GFFD\")",
+                    "%s: the gffd method has no sensitivities: its deformed points are not a "
+                    "linear map of its controls, and tracking gives them no derivative: a "
+                    "tracked point keeps its field value only to the tracking tolerance, and "
+                    "that condition fixes only the motion along the field's gradient; the rest "
+                    "comes from the tracking path (docs/sensitivities.md, \"GFFD\")",
                     what);
 }
 
