@@ -73,7 +73,12 @@ static size_t merged_row(const ffd_linear_map *map, size_t i, row_scratch *s)
             continue;
         s->entries[n++] = (row_entry){var, (uint32_t)e, s->weights[e]};
     }
-    if (n > 64) {
+    size_t unsorted = 0;
+    for (size_t e = 1; e < n && !unsorted; e++)
+        unsorted = s->entries[e].var < s->entries[e - 1].var;
+    if (!unsorted) {
+        /* a Bernstein row, or no ties: already in order */
+    } else if (n > 64) {
         qsort(s->entries, n, sizeof *s->entries, entry_order);
     } else { /* rows arrive nearly sorted; insertion sort is stable */
         for (size_t a = 1; a < n; a++) {
