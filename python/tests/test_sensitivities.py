@@ -1,8 +1,7 @@
 """Deformer.sensitivities, sensitivity_product, sensitivity_transpose_product
 (docs/sensitivities.md): W against central differences of evaluate, the
 products against W and against each other, --expand's Kronecker form, out=,
-the GIL released, and GFFD refused."""
-import threading
+and GFFD refused."""
 
 import numpy as np
 import pytest

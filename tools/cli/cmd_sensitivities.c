@@ -29,6 +29,17 @@ static const char usage[] =
     "  --format FMT      the format of MESH '-' (obj, ply, off, stl, gltf or glb)\n"
     "  -h, --help        this help\n";
 
+/* name with control characters (a newline would end the comment line)
+ * shown as '?', into buf. */
+static const char *comment_name(const char *name, char *buf, size_t size)
+{
+    size_t i = 0;
+    for (; name[i] && i + 1 < size; i++)
+        buf[i] = (unsigned char)name[i] < 0x20 || name[i] == 0x7f ? '?' : name[i];
+    buf[i] = 0;
+    return buf;
+}
+
 /* The Matrix Market text of W (or W (x) I3 when expand), 1-based indices,
  * values with 17 significant digits; NULL when out of memory. */
 static char *matrix_market(const ffd_sparse *W, int expand, const char *mesh, const char *rig,
@@ -36,7 +47,7 @@ static char *matrix_market(const ffd_sparse *W, int expand, const char *mesh, co
 {
     size_t k = expand ? 3 : 1;
     /* a line is at most 20 + 20 + 24 digits and signs and 3 separators */
-    size_t cap = 2048 + strlen(mesh) + strlen(rig) + strlen(method), len = 0;
+    size_t cap = 4096 + strlen(method), len = 0;
     if (W->nnz > (SIZE_MAX - cap) / (80 * k))
         return NULL;
     cap += W->nnz * k * 80;
@@ -45,8 +56,10 @@ static char *matrix_market(const ffd_sparse *W, int expand, const char *mesh, co
         return NULL;
 #define PUT(...) (len += (size_t)snprintf(text + len, cap - len, __VA_ARGS__))
     PUT("%%%%MatrixMarket matrix coordinate real general\n");
+    char mesh_name[1024], rig_name[1024];
     PUT("%% ffd sensitivities: dX/dP of the deformed vertices of %s under %s (%s method)\n",
-        mesh, rig, method);
+        comment_name(mesh, mesh_name, sizeof mesh_name), comment_name(rig, rig_name, sizeof rig_name),
+        method);
     if (!expand) {
         PUT("%% W: row i = vertex i-1 of the mesh (file order); column j = control j-1 of the\n"
             "%% deformer (ffd_deformer_controls order; tied slots merged, fixed ones dropped)\n"
