@@ -521,7 +521,8 @@ FFD_API void ffd_sparse_free(ffd_sparse *m);
  * manipulation: a B-spline border slot's weight is added to the control it
  * follows; fixed slots dropped). The derivative of coordinate a of point i
  * with respect to coordinate b of control j is W_ij delta_ab
- * (dX/dP = W (x) I3). Duplicate entries merged, columns sorted in each row.
+ * (dX/dP = W (x) I3). Duplicate entries merged, columns sorted in each row,
+ * exact zeros left out (a basis function vanishing at the point).
  * out is overwritten (not freed first); on error it is zeroed.
  * Errors: FFD_ERR_UNSUPPORTED naming the method for one whose deformed
  * points are not linear in its controls (GFFD), FFD_ERR_NOMEM. */

@@ -62,7 +62,8 @@ static int entry_order(const void *pa, const void *pb)
 
 /* Row i of W = B S: the method's row, slots mapped to their controls
  * (fixed slots dropped), sorted by control, duplicates summed in the
- * order they came. Returns the merged count; entries in s->entries. */
+ * order they came, exact zeros left out. Returns the merged count;
+ * entries in s->entries. */
 static size_t merged_row(const ffd_linear_map *map, size_t i, row_scratch *s)
 {
     size_t k = map->row(map->self, i, s->columns, s->weights), n = 0;
@@ -72,7 +73,12 @@ static size_t merged_row(const ffd_linear_map *map, size_t i, row_scratch *s)
             continue;
         s->entries[n++] = (row_entry){var, (uint32_t)e, s->weights[e]};
     }
-    if (n > 64) {
+    size_t unsorted = 0;
+    for (size_t e = 1; e < n && !unsorted; e++)
+        unsorted = s->entries[e].var < s->entries[e - 1].var;
+    if (!unsorted) {
+        /* a Bernstein row, or no ties: already in order */
+    } else if (n > 64) {
         qsort(s->entries, n, sizeof *s->entries, entry_order);
     } else { /* rows arrive nearly sorted; insertion sort is stable */
         for (size_t a = 1; a < n; a++) {
@@ -90,7 +96,13 @@ static size_t merged_row(const ffd_linear_map *map, size_t i, row_scratch *s)
         else
             s->entries[m++] = s->entries[e];
     }
-    return m;
+    /* a basis function that vanishes at the point (a cubic B-spline at the
+     * end of its support) is not an entry of W */
+    size_t kept = 0;
+    for (size_t e = 0; e < m; e++)
+        if (s->entries[e].w != 0)
+            s->entries[kept++] = s->entries[e];
+    return kept;
 }
 
 static ffd_status no_linear_map(const char *what, const char *method, ffd_error *err)
@@ -111,6 +123,9 @@ static ffd_status deformer_map(ffd_deformer *d, const char *what, ffd_linear_map
         return no_linear_map(what, m->vt->name, err);
     ffd_error inner = {{0}};
     ffd_status st = m->vt->map_points(m, b, map, &inner);
+    if (st == FFD_ERR_UNSUPPORTED) /* e.g. PB-FFD with a frame at a coarser level */
+        return ffd_fail(err, st, "%s: the %s method has no sensitivities here: %s", what,
+                        m->vt->name, inner.message);
     if (st)
         return ffd_fail(err, st, "%s: %s", what, inner.message);
     if (map->point_count != ffd_deformer_point_count(d)
