@@ -999,15 +999,14 @@ static void *gf_handle(sess_method *base);
  * the rest position with halvings and a secant, the warp's fallback, the
  * rigid shortcut, the influence band's blend), which switches branches and
  * stops at a tolerance: it has no derivative to give. */
-static ffd_status gf_no_sensitivity(const char *what, ffd_error *err)
+static ffd_status gf_no_sensitivity(ffd_error *err)
 {
     return ffd_fail(err, FFD_ERR_UNSUPPORTED,
-                    "%s: the gffd method has no sensitivities: its deformed points are not a "
-                    "linear map of its controls, and tracking gives them no derivative: a "
+                    "sensitivities: the gffd method has no sensitivities: its deformed points "
+                    "are not a linear map of its controls, and tracking gives them no derivative: a "
                     "tracked point keeps its field value only to the tracking tolerance, and "
                     "that condition fixes only the motion along the field's gradient; the rest "
-                    "comes from the tracking path (docs/sensitivities.md, \"GFFD\")",
-                    what);
+                    "comes from the tracking path (docs/sensitivities.md, \"GFFD\")");
 }
 
 static ffd_status gf_sensitivity_product(sess_method *m, const sess_binding *b, const double *v,
@@ -1017,7 +1016,7 @@ static ffd_status gf_sensitivity_product(sess_method *m, const sess_binding *b, 
     (void)b;
     (void)v;
     (void)out;
-    return gf_no_sensitivity("sensitivity product", err);
+    return gf_no_sensitivity(err);
 }
 
 static ffd_status gf_sensitivity_transpose_product(sess_method *m, const sess_binding *b,
@@ -1027,7 +1026,7 @@ static ffd_status gf_sensitivity_transpose_product(sess_method *m, const sess_bi
     (void)b;
     (void)w;
     (void)out;
-    return gf_no_sensitivity("sensitivity transpose product", err);
+    return gf_no_sensitivity(err);
 }
 
 static const sess_vtable gffd_vtable = {
