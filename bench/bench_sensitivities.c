@@ -1,7 +1,8 @@
 /* Benchmark: sensitivities of a lattice deformer on 1M points
  * (ffd.h "Sensitivities"): one evaluation against the product W v, the
  * adjoint product W^T w and forming W, through the public ffd_deformer.
- * Usage: bench_sensitivities [--quick]   (results go to docs/benchmarks.md by hand)
+ * Usage: bench_sensitivities [--quick]   (median of 3; --quick: 100k points;
+ * results go to docs/benchmarks.md by hand)
  *
  * Points are one jittered point per cell of a 100^3 grid in scan order
  * (bench_lattice's "grid" order, like a structured volume mesh's nodes). */
@@ -22,7 +23,7 @@ int main(int argc, char **argv)
 {
     int quick = argc > 1 && strcmp(argv[1], "--quick") == 0;
     const size_t n = quick ? 100000 : 1000000;
-    const int reps = quick ? 3 : 7;
+    const int reps = 3;
     const char *bases[] = {"bspline", "bernstein"};
     const unsigned res[] = {5, 8};
     uint64_t rng = 0x9E3779B97F4A7C15ull;

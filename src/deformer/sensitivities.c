@@ -8,9 +8,9 @@
  * are. Everything here goes through the method's linear map (map_points),
  * so every linear method gets it without a copy; a method may provide the
  * two products itself (sess_vtable.sensitivity_product, _transpose_product)
- * and then forming W goes through them, one control at a time. The lattice
- * has a blocked transpose product (lattice_sensitivity.c) that its
- * vtable entry uses.
+ * and then, without a linear map, forming W goes through them, one control
+ * at a time. The lattice gives both products block by block over its
+ * binding, as its evaluation (lattice_eval.c, lattice_sensitivity.c).
  *
  * Determinism: W and W v are computed row by row (one fixed sequence of
  * operations per row); W^T w sums the rows of fixed ranges (chosen from the

@@ -241,6 +241,8 @@ static ffd_status lat_jacobian_points(sess_method *m, const sess_binding *b, dou
                                       ffd_error *err);
 static ffd_status lat_map_points(sess_method *m, const sess_binding *b, ffd_linear_map *map,
                                  ffd_error *err);
+static ffd_status lat_sensitivity_product(sess_method *m, const sess_binding *b, const double *v,
+                                          double *out, ffd_error *err);
 static ffd_status lat_sensitivity_transpose(sess_method *m, const sess_binding *b, const double *w,
                                             double *out, ffd_error *err);
 static void *lat_handle(sess_method *m);
@@ -269,6 +271,7 @@ static const sess_vtable lattice_vtable = {
     .eval_points = lat_eval_points,
     .jacobian_points = lat_jacobian_points,
     .map_points = lat_map_points,
+    .sensitivity_product = lat_sensitivity_product,
     .sensitivity_transpose_product = lat_sensitivity_transpose,
     .handle = lat_handle,
 };
@@ -383,8 +386,15 @@ static ffd_status lat_eval_points(sess_method *m, const sess_binding *b, double 
     return ffd_lattice_eval(as_lattice(m)->lattice, b->lattice, out, err);
 }
 
-/* W^T w blockwise (lattice_sensitivity.c); W v and W itself go through
- * lat_map_points (deformer/sensitivities.c). */
+/* W v and W^T w blockwise, as the evaluation (lattice_eval.c,
+ * lattice_sensitivity.c); W itself goes through lat_map_points
+ * (deformer/sensitivities.c). */
+static ffd_status lat_sensitivity_product(sess_method *m, const sess_binding *b, const double *v,
+                                          double *out, ffd_error *err)
+{
+    return ffd_lattice_sensitivity_product(as_lattice(m)->lattice, b->lattice, v, out, err);
+}
+
 static ffd_status lat_sensitivity_transpose(sess_method *m, const sess_binding *b, const double *w,
                                             double *out, ffd_error *err)
 {
