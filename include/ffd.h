@@ -570,6 +570,45 @@ FFD_API ffd_status ffd_deformer_rig(const ffd_deformer *d, char **json, size_t *
 FFD_API ffd_status ffd_deformer_report(const ffd_deformer *d, char **json, size_t *size, ffd_error *err);
 
 /* ======================================================================
+ * Sensitivities: dX/dP of the bound points (docs/sensitivities.md)
+ * ====================================================================== */
+
+/* A sparse matrix in compressed rows (CSR), owned by the caller
+ * (ffd_sparse_free): row r's entries are col[k], val[k] for k in
+ * [row_ptr[r], row_ptr[r+1]); row_ptr has rows + 1 entries. */
+typedef struct ffd_sparse {
+    size_t rows, cols, nnz;
+    size_t *row_ptr;
+    uint32_t *col;
+    double *val;
+} ffd_sparse;
+/* Frees the arrays and zeroes m (NULL-safe; a zeroed m is fine). */
+FFD_API void ffd_sparse_free(ffd_sparse *m);
+
+/* W = dX/dP of the bound points: rows are the bound points
+ * (ffd_deformer_point_count), columns the control variables (column j is
+ * control j of ffd_deformer_controls; ties merged as in direct
+ * manipulation: a B-spline border slot's weight is added to the control it
+ * follows; fixed slots dropped). The derivative of coordinate a of point i
+ * with respect to coordinate b of control j is W_ij delta_ab
+ * (dX/dP = W (x) I3). Duplicate entries merged, columns sorted in each row,
+ * exact zeros left out (a basis function vanishing at the point).
+ * out is overwritten (not freed first); on error it is zeroed.
+ * Errors: FFD_ERR_UNSUPPORTED naming the method for one whose deformed
+ * points are not linear in its controls (GFFD), FFD_ERR_NOMEM. */
+FFD_API ffd_status ffd_deformer_sensitivities(ffd_deformer *d, ffd_sparse *out, ffd_error *err);
+/* out (point_count by 3) = W v for v (control_count by 3): the change of the
+ * deformed points for a change v of the controls, without forming W.
+ * Errors as ffd_deformer_sensitivities, and FFD_ERR_INVALID for NULL. */
+FFD_API ffd_status ffd_deformer_sensitivity_product(ffd_deformer *d, const double *v, double *out,
+                                                    ffd_error *err);
+/* out (control_count by 3) = W^T w for w (point_count by 3): the adjoint
+ * product dJ/dP = (dX/dP)^T dJ/dX, without forming W. Bitwise identical for
+ * any thread count. Errors as ffd_deformer_sensitivity_product. */
+FFD_API ffd_status ffd_deformer_sensitivity_transpose_product(ffd_deformer *d, const double *w,
+                                                              double *out, ffd_error *err);
+
+/* ======================================================================
  * Editing sessions: the editor's model (ffd serve is HTTP around it)
  * ====================================================================== */
 

@@ -168,6 +168,38 @@ FFD_API ffd_status ffd_pbffd_jacobian(const ffd_pbffd *pb, double *out, ffd_erro
  * new map of the same level, invalidates it. */
 FFD_API ffd_status ffd_pbffd_linear_map(ffd_pbffd *pb, size_t level, ffd_linear_map *map, ffd_error *err);
 
+/* --- Frame sensitivities (docs/sensitivities.md, "PB-FFD frames") ---
+ * The bound points' derivatives with respect to the frames of the controls
+ * of level (0 = finest). Each control q has six design variables, taken at
+ * its current frame A_q = (a, b, c): a rotation vector omega (radians; the
+ * frame turned about the control's centre, axis m becoming
+ * exp([omega]x) A_q[m]) in columns 6q, 6q+1, 6q+2, and scalings s (axis m
+ * becoming s_m A_q[m]; the derivative is at s = 1, i.e. per unit of
+ * relative stretch) in columns 6q+3+m. Eq. 7 is linear in the frames with
+ * the parameterisation kept, so with g = D_iq (w_iq times the parameters)
+ * and v = g_0 a + g_1 b + g_2 c: d x'_i / d omega_q = -[v]x and
+ * d x'_i / d s_qm = g_m A_q[m]; a coarser level's frame moves the finer
+ * centres through eq. 10 and then the points through eq. 9 (ffd_pbffd_set_frame's
+ * cascade). Rows are 3i + coordinate (3n rows, 6 x count columns); the
+ * master is no column; a disabled control's columns are empty. The
+ * centres' derivatives are ffd_deformer_sensitivities (generic W) or
+ * ffd_pbffd_linear_map. */
+/* The matrix, 3n by 6 count, in out (overwritten; free with
+ * ffd_sparse_free; zeroed on error). Columns are in order within each
+ * row. FFD_ERR_RANGE (level), FFD_ERR_INVALID (NULL, more than 2^32/6
+ * controls), FFD_ERR_NOMEM. */
+FFD_API ffd_status ffd_pbffd_frame_sensitivities(const ffd_pbffd *pb, size_t level, ffd_sparse *out,
+                                                 ffd_error *err);
+/* out (n by 3) = the matrix times v (6 per control of level), without
+ * forming it. Errors as above. */
+FFD_API ffd_status ffd_pbffd_frame_sensitivity_product(const ffd_pbffd *pb, size_t level,
+                                                       const double *v, double *out, ffd_error *err);
+/* out (6 per control of level) = the matrix's transpose times w (n by 3):
+ * dJ/d(omega, s) = (dX/d(omega, s))^T dJ/dX. Errors as above. */
+FFD_API ffd_status ffd_pbffd_frame_sensitivity_transpose_product(const ffd_pbffd *pb, size_t level,
+                                                                 const double *w, double *out,
+                                                                 ffd_error *err);
+
 /* --- Automatic placement (§3.2.1, Figure 2) --- */
 
 typedef enum ffd_surface_kind {

@@ -249,6 +249,29 @@ typedef struct ffd_tsv_arap_report {
 FFD_API ffd_status ffd_tsv_arap_solve(ffd_tsv_arap *arap, const double *targets,
                                       ffd_tsv_arap_report *report, ffd_error *err);
 
+/* --- Sensitivities of a drag (docs/sensitivities.md, "T-spline proxy handles") ---
+ * The bound points X as a function of the k handle targets q: X = X_0 +
+ * Phi (P(q) - P_rest), Phi the T-spline's linear map (ffd_tsv_linear_map's
+ * rows) and P(q) the ARAP solution. These give the derivative of ONE GLOBAL
+ * STEP AT FIXED ROTATIONS, dX/dq = Phi M^-1 B (M the factored ARAP matrix,
+ * B the targets' columns of the right-hand side: eq. 4 in soft mode, the
+ * fixed rows in hard mode), at the rotations the drag's last solve left
+ * (the identity before the first). It is exact for that step (affine in
+ * q) but is not the derivative of ffd_tsv_arap_solve, whose local steps
+ * refit the rotations to the new positions: their derivative is left out.
+ * With rotations converged it is the usual "frozen rotations" ARAP
+ * linearisation. Frozen points are fixed (zero columns). One solve with the
+ * drag's CHOLMOD factor per call; the transpose product is a solve with the
+ * same symmetric factor. */
+/* out (bound points n by 3) = dX/dq v, v k by 3 (handle order of begin).
+ * FFD_ERR_INVALID (NULL argument; the lattice was refined or the frozen set
+ * changed since begin), FFD_ERR_NUMERIC (CHOLMOD), FFD_ERR_NOMEM. */
+FFD_API ffd_status ffd_tsv_arap_sensitivity_product(ffd_tsv_arap *arap, const double *v, double *out,
+                                                    ffd_error *err);
+/* out (k by 3) = (dX/dq)^T w, w n by 3 (e.g. dJ/dX of an objective J).
+ * Errors as ffd_tsv_arap_sensitivity_product. */
+FFD_API ffd_status ffd_tsv_arap_sensitivity_transpose_product(ffd_tsv_arap *arap, const double *w,
+                                                              double *out, ffd_error *err);
 /* --- Fold-over check (beyond the paper: its stated limitation) --- */
 
 typedef struct ffd_tsv_fold_report {

@@ -218,6 +218,24 @@ class Deformer(_ffd.Deformer):
         W.sum_duplicates()
         return W
 
+    def sensitivities(self, expand: bool = False):
+        """W = dX/dP of the bound points (ffd_deformer_sensitivities,
+        docs/sensitivities.md): a scipy.sparse.csr_matrix (M, C), rows the
+        bound points, columns the controls (ties merged, columns sorted), with
+        dX/dP = W (x) I3: d x[i, a] / d controls[j, b] = W[i, j] if a == b.
+        expand=True gives that (3M, 3C) matrix itself (row 3i+a, column
+        3j+b). Exact (no finite differences). UnsupportedError for GFFD. Needs
+        scipy (Debian: python3-scipy)."""
+        try:
+            import scipy.sparse
+        except ImportError as e:  # pragma: no cover - depends on the machine
+            raise ImportError("Deformer.sensitivities needs scipy (Debian: apt install python3-scipy)") from e
+        indptr, indices, data, M, C = self._sensitivities_csr()
+        W = scipy.sparse.csr_matrix((data, indices, indptr), shape=(M, C))
+        if expand:
+            W = scipy.sparse.kron(W, scipy.sparse.identity(3, format="csr"), format="csr")
+        return W
+
     # ---- reports, rigs, method operations ----
 
     def report(self) -> dict:

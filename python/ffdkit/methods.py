@@ -145,6 +145,23 @@ class TSplineDeformer(Deformer):
         """Refines every cell inside the proxy."""
         self.refine({"cells": "proxy"})
 
+    def arap_sensitivity_product(self, handles: Ids, v: np.ndarray, soft: bool = False) -> np.ndarray:
+        """dX/dq v for an ARAP drag of control points ``handles`` (k ids)
+        begun from the current lattice: ``v`` (k, 3) target changes, result
+        (M, 3) changes of the bound points. The derivative of one global
+        step at fixed rotations (the identity here: a fresh drag), not of the
+        rotation refit (ffd_tsv_arap_sensitivity_product; docs/sensitivities.md,
+        "T-spline proxy handles"). Nothing changes. ``soft``: the handles are
+        soft targets (eq. 4)."""
+        return self._tspline_arap_product(_ids(handles), v, False, bool(soft))
+
+    def arap_sensitivity_transpose_product(
+        self, handles: Ids, w: np.ndarray, soft: bool = False
+    ) -> np.ndarray:
+        """(dX/dq)^T w, ``w`` (M, 3) (e.g. dJ/dX), result (k, 3): the adjoint of
+        :meth:`arap_sensitivity_product`, one solve with the same factor."""
+        return self._tspline_arap_product(_ids(handles), w, True, bool(soft))
+
     def freeze(self, ids: Ids, frozen: bool = True) -> None:
         """Freezes (or with ``frozen=False`` frees) control points: frozen
         points stay put in ARAP drags. All or nothing: RangeError for an id
@@ -279,6 +296,24 @@ class PBFFDDeformer(Deformer):
         if scale is not None:
             body["scale"] = _vec3(scale, "scale")
         self.command("frame", **body)
+
+    def frame_sensitivities(self, level: Optional[int] = None):
+        """The bound points' derivatives with respect to the EBF frames of
+        ``level`` (None: the level shown), a scipy.sparse.csr_matrix of shape
+        ``(3 M, 6 E)``: row ``3 i + a`` is coordinate ``a`` of point ``i``;
+        columns ``6 q .. 6 q + 2`` are the rotation vector (radians) turning
+        EBF ``q``'s frame about its centre, ``6 q + 3 + m`` the scaling of its
+        axis ``m`` (per unit of relative stretch), both at the current frame
+        (ffd_pbffd_frame_sensitivities; docs/sensitivities.md, "PB-FFD
+        frames"). The curves' samples are not included. ValueError when the
+        deformer was bound to points other than the mesh's. Needs scipy."""
+        try:
+            import scipy.sparse
+        except ImportError as e:  # pragma: no cover - depends on the machine
+            raise ImportError("frame_sensitivities needs scipy (Debian: apt install python3-scipy)") from e
+        k = self.level if level is None else _json_int(level, "level")
+        indptr, indices, data, rows, cols = self._pbffd_frame_sensitivities_csr(k)
+        return scipy.sparse.csr_matrix((data, indices, indptr), shape=(rows, cols))
 
     def rotate_frame(self, controls: Ids, axis: ArrayLike3, angle: float) -> None:
         """Twists: rotates the frames of EBFs ``controls`` about ``axis`` by ``angle`` radians."""

@@ -1,7 +1,8 @@
 /* ffdkit._ffd.Deformer: libffd's generic deformer (ffd_deformer, ffd.h
  * "Deformers") over numpy arrays. A deformer is not thread-safe: each
  * handle has a lock, held by every call that touches it, and the long calls
- * (create, bind, evaluate, jacobian, solve, command, linear map) release the
+ * (create, bind, evaluate, jacobian, solve, command, linear map,
+ * sensitivities and their products) release the
  * GIL while they hold it. */
 #include "ffdpy.h"
 
@@ -507,6 +508,231 @@ static PyObject *Deformer_linear_map_csr(ffdpy_Deformer *self, PyObject *noargs)
     return Py_BuildValue("(NNNnn)", indptr, indices, data, (Py_ssize_t)M, (Py_ssize_t)C);
 }
 
+/* W = dX/dP (ffd_deformer_sensitivities) in CSR form: (indptr int64
+ * (M+1,), indices int64, data float64, M, C); the GIL released while the
+ * library forms it. */
+static PyObject *Deformer_sensitivities_csr(ffdpy_Deformer *self, PyObject *noargs)
+{
+    if (!ready(self))
+        return NULL;
+    ffd_error err = {{0}};
+    ffd_status st;
+    ffd_sparse W = {0};
+    enter(self);
+    Py_BEGIN_ALLOW_THREADS
+    st = ffd_deformer_sensitivities(self->d, &W, &err);
+    Py_END_ALLOW_THREADS
+    leave(self);
+    if (st)
+        return ffdpy_raise(st, &err, NULL);
+    npy_intp np1 = (npy_intp)W.rows + 1, nnz = (npy_intp)W.nnz;
+    PyObject *indptr = PyArray_SimpleNew(1, &np1, NPY_INT64);
+    PyObject *indices = PyArray_SimpleNew(1, &nnz, NPY_INT64);
+    PyObject *data = PyArray_SimpleNew(1, &nnz, NPY_DOUBLE);
+    if (indptr && indices && data) {
+        int64_t *ptr = PyArray_DATA((PyArrayObject *)indptr);
+        int64_t *ind = PyArray_DATA((PyArrayObject *)indices);
+        for (size_t i = 0; i <= W.rows; i++)
+            ptr[i] = (int64_t)W.row_ptr[i];
+        for (size_t k = 0; k < W.nnz; k++)
+            ind[k] = W.col[k];
+        if (W.nnz)
+            memcpy(PyArray_DATA((PyArrayObject *)data), W.val, W.nnz * sizeof *W.val);
+    }
+    size_t M = W.rows, C = W.cols;
+    ffd_sparse_free(&W);
+    if (!indptr || !indices || !data) {
+        Py_XDECREF(indptr);
+        Py_XDECREF(indices);
+        Py_XDECREF(data);
+        return NULL;
+    }
+    return Py_BuildValue("(NNNnn)", indptr, indices, data, (Py_ssize_t)M, (Py_ssize_t)C);
+}
+
+/* W v (transpose 0: v is (C, 3), the result (M, 3)) or W^T w (transpose 1:
+ * w is (M, 3), the result (C, 3)), into out or a new array; the GIL
+ * released during the product. */
+static PyObject *sensitivity_product(ffdpy_Deformer *self, PyObject *args, PyObject *kwds,
+                                     int transpose)
+{
+    static char *kw[] = {"v", "out", NULL};
+    static char *kw_t[] = {"w", "out", NULL};
+    PyObject *in = NULL, *out = Py_None;
+    if (!PyArg_ParseTupleAndKeywords(args, kwds,
+                                     transpose ? "O|O:sensitivity_transpose_product"
+                                               : "O|O:sensitivity_product",
+                                     transpose ? kw_t : kw, &in, &out) ||
+        !ready(self))
+        return NULL;
+    enter(self);
+    size_t M = ffd_deformer_point_count(self->d), C = ffd_deformer_control_count(self->d);
+    npy_intp in_dims[2] = {(npy_intp)(transpose ? M : C), 3};
+    npy_intp out_dims[2] = {(npy_intp)(transpose ? C : M), 3};
+    PyArrayObject *x = ffdpy_doubles(in, transpose ? "w" : "v", 2, in_dims);
+    if (!x || (out != Py_None && ffdpy_check_out(out, 2, out_dims) < 0)) {
+        leave(self);
+        Py_XDECREF(x);
+        return NULL;
+    }
+    PyObject *result = out != Py_None ? Py_NewRef(out) : PyArray_SimpleNew(2, out_dims, NPY_DOUBLE);
+    if (!result) {
+        leave(self);
+        Py_DECREF(x);
+        return NULL;
+    }
+    double *dst = PyArray_DATA((PyArrayObject *)result);
+    const double *src = PyArray_DATA(x);
+    ffd_error err = {{0}};
+    ffd_status st;
+    Py_BEGIN_ALLOW_THREADS
+    st = transpose ? ffd_deformer_sensitivity_transpose_product(self->d, src, dst, &err)
+                   : ffd_deformer_sensitivity_product(self->d, src, dst, &err);
+    Py_END_ALLOW_THREADS
+    leave(self);
+    Py_DECREF(x);
+    if (st) {
+        Py_DECREF(result);
+        return ffdpy_raise(st, &err, NULL);
+    }
+    return result;
+}
+
+static PyObject *Deformer_sensitivity_product(ffdpy_Deformer *self, PyObject *args, PyObject *kwds)
+{
+    return sensitivity_product(self, args, kwds, 0);
+}
+
+static PyObject *Deformer_sensitivity_transpose_product(ffdpy_Deformer *self, PyObject *args,
+                                                        PyObject *kwds)
+{
+    return sensitivity_product(self, args, kwds, 1);
+}
+
+/* PB-FFD frame sensitivities (ffd_pbffd_frame_sensitivities) of the
+ * deformer's pbffd handle at level: (indptr int64 (3M+1,), indices int64,
+ * data float64, 3M, 6E). The handle's own points must be the bound points
+ * (the deformer was not bound to other points). */
+static PyObject *Deformer_pbffd_frame_sensitivities_csr(ffdpy_Deformer *self, PyObject *args)
+{
+    Py_ssize_t level;
+    if (!PyArg_ParseTuple(args, "n:_pbffd_frame_sensitivities_csr", &level) || !ready(self))
+        return NULL;
+    if (level < 0) {
+        PyErr_Format(PyExc_ValueError, "level %zd: expected >= 0", level);
+        return NULL;
+    }
+    enter(self);
+    const ffd_pbffd *pb = ffd_deformer_handle(self->d, "pbffd");
+    if (!pb || ffd_pbffd_point_count(pb) != ffd_deformer_point_count(self->d)) {
+        leave(self);
+        PyErr_SetString(PyExc_ValueError,
+                        pb ? "frame sensitivities are of the mesh's own vertices: this deformer was "
+                             "bound to other points"
+                           : "frame sensitivities: not a PB-FFD deformer");
+        return NULL;
+    }
+    ffd_sparse W = {0};
+    ffd_error err = {{0}};
+    ffd_status st;
+    Py_BEGIN_ALLOW_THREADS
+    st = ffd_pbffd_frame_sensitivities(pb, (size_t)level, &W, &err);
+    Py_END_ALLOW_THREADS
+    leave(self);
+    if (st)
+        return ffdpy_raise(st, &err, NULL);
+    npy_intp np1 = (npy_intp)W.rows + 1, nnz = (npy_intp)W.nnz;
+    PyObject *indptr = PyArray_SimpleNew(1, &np1, NPY_INT64);
+    PyObject *indices = PyArray_SimpleNew(1, &nnz, NPY_INT64);
+    PyObject *data = PyArray_SimpleNew(1, &nnz, NPY_DOUBLE);
+    if (!indptr || !indices || !data) {
+        Py_XDECREF(indptr);
+        Py_XDECREF(indices);
+        Py_XDECREF(data);
+        ffd_sparse_free(&W);
+        return NULL;
+    }
+    int64_t *ptr = PyArray_DATA((PyArrayObject *)indptr), *ind = PyArray_DATA((PyArrayObject *)indices);
+    for (size_t r = 0; r <= W.rows; r++)
+        ptr[r] = (int64_t)W.row_ptr[r];
+    for (size_t k = 0; k < W.nnz; k++)
+        ind[k] = W.col[k];
+    if (W.nnz)
+        memcpy(PyArray_DATA((PyArrayObject *)data), W.val, W.nnz * sizeof(double));
+    PyObject *res = Py_BuildValue("(NNNnn)", indptr, indices, data, (Py_ssize_t)W.rows,
+                                  (Py_ssize_t)W.cols);
+    ffd_sparse_free(&W);
+    return res;
+}
+
+/* T-spline ARAP drag sensitivities at fixed rotations
+ * (ffd_tsv_arap_sensitivity_product / _transpose_product) for a drag of
+ * handles begun from the current lattice (identity rotations; nothing
+ * changes): transpose 0: values (k, 3) -> (M, 3); 1: values (M, 3) -> (k, 3). */
+static PyObject *Deformer_tspline_arap_product(ffdpy_Deformer *self, PyObject *args)
+{
+    PyObject *ids_obj, *values_obj;
+    int transpose, soft;
+    if (!PyArg_ParseTuple(args, "OOpp:_tspline_arap_product", &ids_obj, &values_obj, &transpose,
+                          &soft) ||
+        !ready(self))
+        return NULL;
+    PyArrayObject *ids = ffdpy_ids(ids_obj, "handles");
+    if (!ids)
+        return NULL;
+    size_t k = (size_t)PyArray_SIZE(ids);
+    enter(self);
+    ffd_tsv *t = ffd_deformer_handle(self->d, "tspline");
+    size_t n = ffd_deformer_point_count(self->d);
+    if (!t || ffd_tsv_point_count(t) != n) {
+        leave(self);
+        Py_DECREF(ids);
+        PyErr_SetString(PyExc_ValueError,
+                        t ? "ARAP sensitivities are of the mesh's own vertices: this deformer was "
+                            "bound to other points"
+                          : "ARAP sensitivities: not a T-spline deformer");
+        return NULL;
+    }
+    leave(self);
+    npy_intp in_dims[2] = {(npy_intp)(transpose ? n : k), 3};
+    PyArrayObject *values = ffdpy_doubles(values_obj, transpose ? "w" : "v", 2, in_dims);
+    if (!values) {
+        Py_DECREF(ids);
+        return NULL;
+    }
+    npy_intp out_dims[2] = {(npy_intp)(transpose ? k : n), 3};
+    PyObject *out = PyArray_SimpleNew(2, out_dims, NPY_DOUBLE);
+    if (!out) {
+        Py_DECREF(ids);
+        Py_DECREF(values);
+        return NULL;
+    }
+    const uint32_t *h = PyArray_DATA(ids);
+    const double *in = PyArray_DATA(values);
+    double *o = PyArray_DATA((PyArrayObject *)out);
+    ffd_error err = {{0}};
+    ffd_status st;
+    enter(self);
+    Py_BEGIN_ALLOW_THREADS
+    ffd_tsv_arap_options opt = {0};
+    opt.soft = soft;
+    ffd_tsv_arap *a = NULL;
+    st = ffd_tsv_arap_begin(t, h, k, &opt, &a, &err);
+    if (!st)
+        st = transpose ? ffd_tsv_arap_sensitivity_transpose_product(a, in, o, &err)
+                       : ffd_tsv_arap_sensitivity_product(a, in, o, &err);
+    ffd_tsv_arap_destroy(a);
+    Py_END_ALLOW_THREADS
+    leave(self);
+    Py_DECREF(ids);
+    Py_DECREF(values);
+    if (st) {
+        Py_DECREF(out);
+        return ffdpy_raise(st, &err, NULL);
+    }
+    return out;
+}
+
 static PyObject *Deformer_get_method(ffdpy_Deformer *self, void *c)
 {
     if (!ready(self))
@@ -559,9 +785,28 @@ static PyMethodDef Deformer_methods[] = {
     {"_solve", (PyCFunction)(void (*)(void))Deformer_solve, METH_VARARGS | METH_KEYWORDS,
      "_solve(points, targets, rcond=1e-10) -> (residuals, reached, rank, max_residual, "
      "variables_used)\n\nDirect manipulation of bound points towards targets (GIL released)."},
+    {"_sensitivities_csr", (PyCFunction)Deformer_sensitivities_csr, METH_NOARGS,
+     "W = dX/dP in CSR form: (indptr, indices, data, M, C)."},
+    {"sensitivity_product", (PyCFunction)(void (*)(void))Deformer_sensitivity_product,
+     METH_VARARGS | METH_KEYWORDS,
+     "sensitivity_product(v, out=None) -> (M, 3)\n\nW @ v for v (C, 3): the change of the bound "
+     "points' deformed positions\nfor a change v of the controls (dX/dP = W (x) I3), without "
+     "forming W.\nUnsupportedError for a method without a linear map (GFFD)."},
+    {"sensitivity_transpose_product",
+     (PyCFunction)(void (*)(void))Deformer_sensitivity_transpose_product,
+     METH_VARARGS | METH_KEYWORDS,
+     "sensitivity_transpose_product(w, out=None) -> (C, 3)\n\nW.T @ w for w (M, 3): the adjoint "
+     "product dJ/dP = (dX/dP)^T dJ/dX,\nwithout forming W. UnsupportedError for GFFD."},
     {"_linear_map_csr", (PyCFunction)Deformer_linear_map_csr, METH_NOARGS,
      "_linear_map_csr() -> (indptr, indices, data, M, C)\n\nThe linear map's rows by control id "
      "(duplicates not summed)."},
+    {"_pbffd_frame_sensitivities_csr", (PyCFunction)Deformer_pbffd_frame_sensitivities_csr,
+     METH_VARARGS,
+     "_pbffd_frame_sensitivities_csr(level) -> (indptr, indices, data, rows, cols)\n\nPB-FFD frame "
+     "sensitivities (ffd_pbffd_frame_sensitivities)."},
+    {"_tspline_arap_product", (PyCFunction)Deformer_tspline_arap_product, METH_VARARGS,
+     "_tspline_arap_product(handles, values, transpose, soft) -> ndarray\n\nT-spline ARAP drag "
+     "sensitivity products at fixed rotations (ffd_tsv_arap_sensitivity_product)."},
     {NULL, NULL, 0, NULL}};
 
 static PyGetSetDef Deformer_getset[] = {

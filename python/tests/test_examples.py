@@ -67,3 +67,11 @@ def test_direct_manipulation(tmp_path):
     ear = int(np.argmax(np.array(rest.points)[:, 1]))
     np.testing.assert_allclose(np.array(m.points)[ear] - np.array(rest.points)[ear],
                                [6.0, 3.0, 0.0], atol=1e-6)
+
+
+def test_shape_optimisation(tmp_path):
+    out = run("shape_optimisation.py", tmp_path, "8")
+    J = [float(line.split("J = ")[1].split()[0]) for line in out.splitlines() if "J = " in line]
+    assert len(J) == 9
+    assert all(b < a for a, b in zip(J, J[1:]))  # gradient descent with a 1/L step: J falls
+    assert J[-1] < 0.05 * J[0]

@@ -294,3 +294,9 @@ ffd_status ffd_deformer_rig(const ffd_deformer *d, char **json, size_t *size, ff
         *size = st ? 0 : strlen(*json);
     return st;
 }
+
+sess_method *ffd_deformer_session_method(ffd_deformer *d, const sess_binding **binding)
+{
+    *binding = d->binding;
+    return d->m;
+}

@@ -76,5 +76,9 @@ int ffd_method_op_known(const char *op);
  * \"c\"", registry order) into buf (truncated to size); returns buf. */
 const char *ffd_method_names(char *buf, size_t size);
 
+/* The method behind a public deformer and its binding of the bound points
+ * (deformer.c; for the generic operations in other files: sensitivities.c). */
+sess_method *ffd_deformer_session_method(ffd_deformer *d, const sess_binding **binding);
+
 
 #endif

@@ -991,6 +991,44 @@ static ffd_status gf_eval_points(sess_method *base, const sess_binding *b, doubl
                                  ffd_error *err);
 static void *gf_handle(sess_method *base);
 
+/* No sensitivities (docs/sensitivities.md, "GFFD"). A tracked point x
+ * satisfies the field-value condition E(x, S) = e0 only to the tracking
+ * tolerance, and implicit differentiation of it, grad_x E . dx =
+ * -(dE/dS) dS, fixes only the component of dx along grad_x E. The rest of
+ * the motion is decided by the path gffd_track.c takes (gradient steps from
+ * the rest position with halvings and a secant, the warp's fallback, the
+ * rigid shortcut, the influence band's blend), which switches branches and
+ * stops at a tolerance: it has no derivative to give. */
+static ffd_status gf_no_sensitivity(ffd_error *err)
+{
+    return ffd_fail(err, FFD_ERR_UNSUPPORTED,
+                    "sensitivities: the gffd method has no sensitivities: its deformed points "
+                    "are not a linear map of its controls, and tracking gives them no derivative: a "
+                    "tracked point keeps its field value only to the tracking tolerance, and "
+                    "that condition fixes only the motion along the field's gradient; the rest "
+                    "comes from the tracking path (docs/sensitivities.md, \"GFFD\")");
+}
+
+static ffd_status gf_sensitivity_product(sess_method *m, const sess_binding *b, const double *v,
+                                         double *out, ffd_error *err)
+{
+    (void)m;
+    (void)b;
+    (void)v;
+    (void)out;
+    return gf_no_sensitivity(err);
+}
+
+static ffd_status gf_sensitivity_transpose_product(sess_method *m, const sess_binding *b,
+                                                   const double *w, double *out, ffd_error *err)
+{
+    (void)m;
+    (void)b;
+    (void)w;
+    (void)out;
+    return gf_no_sensitivity(err);
+}
+
 static const sess_vtable gffd_vtable = {
     .name = "gffd",
     .destroy = gf_destroy,
@@ -1017,6 +1055,8 @@ static const sess_vtable gffd_vtable = {
     .jacobian_points = NULL, /* tracking has no derivative to give (docs/gffd.md) */
     .map_points = NULL,      /* GFFD is not linear in its skeleton */
     .handle = gf_handle,
+    .sensitivity_product = gf_sensitivity_product,
+    .sensitivity_transpose_product = gf_sensitivity_transpose_product,
 };
 
 /* ---- any point set (ffd_deformer_bind) ------------------------------- */

@@ -127,6 +127,18 @@ ffd_simd_path ffd_lattice_simd_path(void);
 /* "default", "avx2" or "avx512". */
 const char *ffd_simd_path_name(ffd_simd_path path);
 
+/* The sensitivity product out = W v (lattice_eval.c: the evaluation's
+ * blocks with v, spread onto the slots, in place of the displacements): v is
+ * the l*m*n controls by 3, out bind->n by 3. FFD_ERR_INVALID, FFD_ERR_NOMEM. */
+ffd_status ffd_lattice_sensitivity_product(const ffd_lattice *lat, const ffd_lattice_binding *bind,
+                                           const double *v, double *out, ffd_error *err);
+/* The adjoint sensitivity product out = W^T w (lattice_sensitivity.c):
+ * w is bind->n by 3, out the l*m*n controls by 3 (ties of the B-spline
+ * border summed onto their control); bitwise the same for any thread
+ * count. FFD_ERR_INVALID (binding of another lattice), FFD_ERR_NOMEM. */
+ffd_status ffd_lattice_sensitivity_transpose(const ffd_lattice *lat, const ffd_lattice_binding *bind,
+                                             const double *w, double *out, ffd_error *err);
+
 /* Rebuilds P_ext from P (B-spline). */
 void ffd_lattice_sync(ffd_lattice *lat);
 

@@ -144,7 +144,8 @@ typedef void (*bspline_kernel)(const double *restrict, const double *restrict,
                                const double *restrict, size_t, const double *restrict,
                                double *restrict, double *restrict, double *restrict);
 typedef void (*bernstein_kernel)(const ffd_lattice *, const double *restrict,
-                                 const double *restrict, const double *restrict, size_t,
+                                 const double *restrict, const double *restrict,
+                                 const double *restrict, size_t,
                                  double *restrict, double *restrict, double *restrict,
                                  double *restrict);
 
@@ -168,14 +169,16 @@ static void pick_kernels(bspline_kernel *bk, bernstein_kernel *ek)
 #endif
 }
 
-static void gather_cell(const ffd_lattice *lat, const uint32_t cell[3], double *cp)
+/* The cell's 64 entries of net (laid out like D_ext). */
+static void gather_cell(const ffd_lattice *lat, const double *net, const uint32_t cell[3],
+                        double *cp)
 {
     for (int a = 0; a < 4; a++)
         for (int b = 0; b < 4; b++)
             for (int c = 0; c < 4; c++) {
                 size_t e = (((size_t)(cell[0] + a)) * lat->ext[1] + cell[1] + b) * lat->ext[2] +
                            cell[2] + c;
-                memcpy(cp + 3 * ((a * 4 + b) * 4 + c), lat->D_ext + 3 * e, 3 * sizeof(double));
+                memcpy(cp + 3 * ((a * 4 + b) * 4 + c), net + 3 * e, 3 * sizeof(double));
             }
 }
 
@@ -188,12 +191,12 @@ ffd_status ffd_lattice_check_binding(const ffd_lattice *lat, const ffd_lattice_b
     return FFD_OK;
 }
 
-ffd_status ffd_lattice_eval(const ffd_lattice *lat, const ffd_lattice_binding *bind, double *out,
-                            ffd_error *err)
+/* out_i = x_i + sum B net (points) when points, else sum B net alone (the
+ * sensitivity product, net = v on the slots): the blocks, then the outside
+ * points (fixed ones: x_i, or 0 without points). */
+static ffd_status eval_blocks(const ffd_lattice *lat, const ffd_lattice_binding *bind,
+                              const double *net, int points, double *out, ffd_error *err)
 {
-    ffd_status st = ffd_lattice_check_binding(lat, bind, err);
-    if (st != FFD_OK)
-        return st;
     const size_t nin = bind->inside_count;
     const double *S = bind->local, *T = bind->local + nin, *U = bind->local + 2 * nin;
     const int bspline = lat->basis == FFD_BASIS_BSPLINE;
@@ -216,12 +219,19 @@ ffd_status ffd_lattice_eval(const ffd_lattice *lat, const ffd_lattice_binding *b
             const ffd_lattice_block *blk = &bind->blocks[bi];
             size_t p0 = blk->begin, np = blk->end - blk->begin;
             if (bspline) {
-                gather_cell(lat, blk->cell, cp);
+                gather_cell(lat, net, blk->cell, cp);
                 bspline_block(S + p0, T + p0, U + p0, np, cp, x, y, z);
             } else {
-                bernstein_block(lat, S + p0, T + p0, U + p0, np, x, y, z, scratch);
+                bernstein_block(lat, net, S + p0, T + p0, U + p0, np, x, y, z, scratch);
             }
             const double *rest = bind->rest + 3 * p0;
+            if (!points) {
+                for (size_t p = 0; p < np; p++) {
+                    double *o = out + 3 * (size_t)bind->order[p0 + p];
+                    o[0] = x[p], o[1] = y[p], o[2] = z[p];
+                }
+                continue;
+            }
             for (size_t p = 0; p < np; p++) { /* the point plus the displacement sum B D */
                 double *o = out + 3 * (size_t)bind->order[p0 + p];
                 const double *r = rest + 3 * p;
@@ -240,15 +250,50 @@ ffd_status ffd_lattice_eval(const ffd_lattice *lat, const ffd_lattice_binding *b
         double *dst = out + 3 * (size_t)bind->out_index[o];
         const double *x = bind->out_point + 3 * o;
         if (bind->outside == FFD_OUTSIDE_FIXED) {
-            memcpy(dst, x, 3 * sizeof(double));
+            if (points)
+                memcpy(dst, x, 3 * sizeof(double));
+            else
+                dst[0] = dst[1] = dst[2] = 0.0;
             continue;
         }
         /* clamp: the displacement of the nearest boundary point; Bernstein
          * extrapolation: of the polynomials at the raw parameters */
         double d[3];
-        ffd_lattice_displacement_at(lat, bind->out_params + 3 * o, d, NULL);
+        eval_net(lat, net, bind->out_params + 3 * o, d, NULL);
         for (int c = 0; c < 3; c++)
-            dst[c] = d[c] != 0.0 ? x[c] + d[c] : x[c];
+            dst[c] = !points ? d[c] : d[c] != 0.0 ? x[c] + d[c] : x[c];
     }
     return FFD_OK;
+}
+
+ffd_status ffd_lattice_eval(const ffd_lattice *lat, const ffd_lattice_binding *bind, double *out,
+                            ffd_error *err)
+{
+    ffd_status st = ffd_lattice_check_binding(lat, bind, err);
+    if (st != FFD_OK)
+        return st;
+    return eval_blocks(lat, bind, lat->D_ext, 1, out, err);
+}
+
+/* W v is the evaluation of the displacement sum with v in place of the
+ * displacements (Hsu et al. eq. 1 is linear in the net): v spread onto the
+ * slots through the tie (S v, eq. 6), then the evaluation's own blocks. */
+ffd_status ffd_lattice_sensitivity_product(const ffd_lattice *lat, const ffd_lattice_binding *bind,
+                                           const double *v, double *out, ffd_error *err)
+{
+    ffd_status st = ffd_lattice_check_binding(lat, bind, err);
+    if (st != FFD_OK)
+        return st;
+    if (lat->basis != FFD_BASIS_BSPLINE)
+        return eval_blocks(lat, bind, v, 0, out, err);
+    size_t slots = (size_t)lat->ext[0] * lat->ext[1] * lat->ext[2];
+    double *net = ffd_malloc_array(slots, 3 * sizeof *net);
+    if (!net)
+        return ffd_fail(err, FFD_ERR_NOMEM, "sensitivity product: out of memory for %zu slots",
+                        slots);
+    for (size_t e = 0; e < slots; e++)
+        memcpy(net + 3 * e, v + 3 * (size_t)lat->tie[e], 3 * sizeof *net);
+    st = eval_blocks(lat, bind, net, 0, out, err);
+    ffd_free(net);
+    return st;
 }

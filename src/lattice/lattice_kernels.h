@@ -76,11 +76,13 @@ KERNEL_TARGET static void KERNEL(bernstein_axis)(uint32_t deg, const double *res
 }
 
 /* Bernstein: x = sum_a B_a(s) sum_b B_b(t) sum_c B_c(u) D_abc over the whole
- * net (Sederberg & Parry eq. 2), summed one axis at a time (tensor
+ * net D (the displacements D_ext, or any net laid out like them: the
+ * sensitivity product W v), summed one axis at a time (tensor
  * factorisation): l m n + l m + l multiply-adds per coordinate instead of
  * 4 l m n for the full products B_a B_b B_c. scratch holds
  * (l + m + n + 6) * BLK doubles. */
-KERNEL_TARGET static void KERNEL(bernstein_block)(const ffd_lattice *lat, const double *restrict s,
+KERNEL_TARGET static void KERNEL(bernstein_block)(const ffd_lattice *lat, const double *restrict net,
+                                                  const double *restrict s,
                                                   const double *restrict t,
                                                   const double *restrict u, size_t np,
                                                   double *restrict x, double *restrict y,
@@ -100,7 +102,7 @@ KERNEL_TARGET static void KERNEL(bernstein_block)(const ffd_lattice *lat, const 
         for (size_t p = 0; p < np; p++)
             xb[p] = yb[p] = zb[p] = 0.0;
         for (uint32_t b = 0; b < m; b++) {
-            const double *q = lat->D_ext + 3 * ((size_t)a * m + b) * n;
+            const double *q = net + 3 * ((size_t)a * m + b) * n;
             for (size_t p = 0; p < np; p++)
                 xc[p] = yc[p] = zc[p] = 0.0;
             uint32_t c = 0;

@@ -2,6 +2,7 @@
  * B-spline lattice, Hsu et al. direct manipulation): control points are the
  * lattice's l*m*n points; its rig is the box made explicit plus one move per
  * displaced control point (delta = current - rest). */
+#include "lattice/lattice.h"
 #include "lattice/lattice_method.h"
 #include "session/session.h"
 
@@ -240,6 +241,10 @@ static ffd_status lat_jacobian_points(sess_method *m, const sess_binding *b, dou
                                       ffd_error *err);
 static ffd_status lat_map_points(sess_method *m, const sess_binding *b, ffd_linear_map *map,
                                  ffd_error *err);
+static ffd_status lat_sensitivity_product(sess_method *m, const sess_binding *b, const double *v,
+                                          double *out, ffd_error *err);
+static ffd_status lat_sensitivity_transpose(sess_method *m, const sess_binding *b, const double *w,
+                                            double *out, ffd_error *err);
 static void *lat_handle(sess_method *m);
 
 static const sess_vtable lattice_vtable = {
@@ -266,6 +271,8 @@ static const sess_vtable lattice_vtable = {
     .eval_points = lat_eval_points,
     .jacobian_points = lat_jacobian_points,
     .map_points = lat_map_points,
+    .sensitivity_product = lat_sensitivity_product,
+    .sensitivity_transpose_product = lat_sensitivity_transpose,
     .handle = lat_handle,
 };
 
@@ -377,6 +384,21 @@ static ffd_status lat_eval_points(sess_method *m, const sess_binding *b, double 
                                   ffd_error *err)
 {
     return ffd_lattice_eval(as_lattice(m)->lattice, b->lattice, out, err);
+}
+
+/* W v and W^T w blockwise, as the evaluation (lattice_eval.c,
+ * lattice_sensitivity.c); W itself goes through lat_map_points
+ * (deformer/sensitivities.c). */
+static ffd_status lat_sensitivity_product(sess_method *m, const sess_binding *b, const double *v,
+                                          double *out, ffd_error *err)
+{
+    return ffd_lattice_sensitivity_product(as_lattice(m)->lattice, b->lattice, v, out, err);
+}
+
+static ffd_status lat_sensitivity_transpose(sess_method *m, const sess_binding *b, const double *w,
+                                            double *out, ffd_error *err)
+{
+    return ffd_lattice_sensitivity_transpose(as_lattice(m)->lattice, b->lattice, w, out, err);
 }
 
 static ffd_status lat_jacobian_points(sess_method *m, const sess_binding *b, double *out,

@@ -229,6 +229,16 @@ void ffd_pb_jacobian_row(const ffd_pbffd *pb, const ffd_ebf_kernel *K, const ffd
 ffd_status ffd_pb_rows_linear_map(const ffd_pbffd *pb, size_t level, const ffd_ebf_rows *rows,
                                   ffd_linear_map *map, ffd_pb_map_state **state, ffd_error *err);
 
+/* ebf_sensitivity.c: the bound points' derivatives with respect to the
+ * frames of level's controls (6 columns per control: rotation vector, then
+ * the three axis scalings), as CSR (3n rows + 1 in ptr; ffd_free each), and
+ * its product (v: 6 per control -> out: 3n) or transpose product
+ * (transpose: v 3n -> out 6 per control). FFD_ERR_RANGE, FFD_ERR_NOMEM. */
+ffd_status ffd_pb_frame_sensitivities_csr(const ffd_pbffd *pb, size_t level, size_t **ptr,
+                                          uint32_t **col, double **val, ffd_error *err);
+ffd_status ffd_pb_frame_sensitivity_product(const ffd_pbffd *pb, size_t level, const double *v,
+                                            double *out, int transpose, ffd_error *err);
+
 /* ---- other point sets (ebf_points.c) ----
  * Points bound after creation as they would have been bound as the
  * deformer's points at creation: rows over level 0's base state, which is

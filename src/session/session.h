@@ -130,6 +130,17 @@ struct sess_vtable {
                              ffd_error *err);
     /* The method's public handle (its ffd_<method> object, ffd.h). */
     void *(*handle)(sess_method *m);
+
+    /* Optional sensitivity products (ffd_deformer_sensitivity_product and
+     * _transpose_product, ffd.h "Sensitivities"): out (b's n by 3) = W v
+     * for v (control_count by 3), and out (control_count by 3) = W^T w for w
+     * (n by 3), W = dX/dP at the bound points. When present they are used
+     * instead of the generic path through map_points (a method whose
+     * variables are composed with a solve, or that has no linear map). */
+    ffd_status (*sensitivity_product)(sess_method *m, const sess_binding *b, const double *v,
+                                      double *out, ffd_error *err);
+    ffd_status (*sensitivity_transpose_product)(sess_method *m, const sess_binding *b,
+                                                const double *w, double *out, ffd_error *err);
 };
 
 /* Constructors. create: from the body of the "create" op, which is a rig's

@@ -311,6 +311,17 @@ void ffd_tsv_arap_solver_destroy(tsv_arap *a);
  * Rotations persist between calls (warm start). */
 ffd_status ffd_tsv_arap_solver_solve(tsv_arap *a, const double *targets, double *x, uint32_t iterations,
                           ffd_error *err);
+/* The global step at the current rotations, linearised in the targets
+ * (exact: the step is affine in them): transpose 0: out = M^-1 B in (in: n
+ * by 3 target changes, read at constrained rows; out: n by 3 point
+ * changes); transpose 1: out = B^T M^-1 in (in: n by 3; out: n by 3, zero
+ * at free rows). One solve with the cached factor. FFD_ERR_NUMERIC,
+ * FFD_ERR_NOMEM (CHOLMOD). */
+ffd_status ffd_tsv_arap_solver_linear(tsv_arap *a, const double *in, double *out, int transpose,
+                                      ffd_error *err);
+/* One global step at the current rotations, without the refit (x: n by 3 out). */
+ffd_status ffd_tsv_arap_solver_global_step(tsv_arap *a, const double *targets, double *x,
+                                           ffd_error *err);
 
 /* ---------------------------------------------------------------------
  * tsv_deformer.c — the public object
@@ -338,6 +349,13 @@ struct ffd_tsv {
  * functions and their derivatives per point and without Phi: the rig's one
  * final evaluation does not build Phi. Cannot fail today (FFD_OK). */
 ffd_status ffd_tsv_eval_jacobian(const ffd_tsv *t, double *x, double *jac, ffd_error *err);
+
+/* The bound points after one ARAP global step for the handle targets
+ * (k by 3) at the drag's current rotations, without the refit and without
+ * changing the drag or the lattice (out: n by 3): the map whose derivative
+ * ffd_tsv_arap_sensitivity_product gives; for tests. */
+ffd_status ffd_tsv_arap_global_step(ffd_tsv_arap *a, const double *targets, double *out,
+                                    ffd_error *err);
 
 /* ---------------------------------------------------------------------
  * tsv_deformer.c — any point set (ffd_deformer_bind)

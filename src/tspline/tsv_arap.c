@@ -1265,3 +1265,103 @@ ffd_status ffd_tsv_arap_solver_solve(tsv_arap *a, const double *targets, double 
         memcpy(x, a->sv, 3 * n * sizeof *x);
     return FFD_OK;
 }
+
+/* ---------------------------------------------------------------------
+ * The global step at fixed rotations, linearised in the targets
+ * --------------------------------------------------------------------- */
+
+/* One global step solves M x = b(R) + B q (design §6): M is the factored
+ * matrix (identity on the hard rows and columns), b(R) the rotated terms
+ * (eq. 5-7), B q the targets' part: w_target q_i on a soft row (eq. 4),
+ * -A_fc q_c on a free row f coupled to a hard point c, q_c on a hard row.
+ * At fixed rotations x is affine in q and dx = M^-1 B dq exactly; M is
+ * symmetric, so the transpose is B^T M^-1. One solve with the cached factor
+ * either way. */
+ffd_status ffd_tsv_arap_solver_linear(tsv_arap *a, const double *in, double *out, int transpose,
+                                      ffd_error *err)
+{
+    size_t n = a->n;
+    if (a->free_count == 0) { /* x = q: B = I, M = I */
+        memcpy(out, in, 3 * n * sizeof *out);
+        return FFD_OK;
+    }
+    double *Bx = a->B->x;
+    if (!transpose) {
+        double *b = a->rhs;
+        memset(b, 0, 3 * n * sizeof *b);
+        for (size_t s = 0; s < a->soft_count; s++)
+            for (int r = 0; r < 3; r++)
+                b[3 * (size_t)a->soft[s] + r] = a->w_target * in[3 * (size_t)a->soft[s] + r];
+        for (size_t h = 0; h < a->hard_count; h++) {
+            size_t c = a->hard[h];
+            for (size_t k = a->couple_ptr[h]; k < a->couple_ptr[h + 1]; k++)
+                for (int r = 0; r < 3; r++)
+                    b[3 * (size_t)a->couple_row[k] + r] -= a->couple_val[k] * in[3 * c + r];
+            for (int r = 0; r < 3; r++)
+                b[3 * c + r] = in[3 * c + r];
+        }
+        for (size_t i = 0; i < n; i++)
+            for (int c = 0; c < 3; c++)
+                Bx[i + n * (size_t)c] = b[3 * i + c];
+    } else {
+        for (size_t i = 0; i < n; i++)
+            for (int c = 0; c < 3; c++)
+                Bx[i + n * (size_t)c] = in[3 * i + c];
+    }
+    if (!cholmod_solve2(CHOLMOD_A, a->L, a->B, NULL, &a->X, NULL, &a->Y, &a->E, &a->cc))
+        return ffd_fail(err, a->cc.status == CHOLMOD_OUT_OF_MEMORY ? FFD_ERR_NOMEM : FFD_ERR_NUMERIC,
+                        "tsv_arap: CHOLMOD solve failed (status %d)", a->cc.status);
+    const double *Xx = a->X->x;
+    if (!transpose) {
+        for (size_t i = 0; i < n; i++)
+            for (int c = 0; c < 3; c++)
+                out[3 * i + c] = Xx[i + n * (size_t)c];
+        for (size_t h = 0; h < a->hard_count; h++) /* exactly, as the solve sets them */
+            for (int r = 0; r < 3; r++)
+                out[3 * (size_t)a->hard[h] + r] = in[3 * (size_t)a->hard[h] + r];
+        return FFD_OK;
+    }
+    /* B^T y: soft rows w_target y_i, hard rows y_c - sum_f A_fc y_f, free rows 0 */
+    memset(out, 0, 3 * n * sizeof *out);
+    for (size_t s = 0; s < a->soft_count; s++)
+        for (int r = 0; r < 3; r++)
+            out[3 * (size_t)a->soft[s] + r] = a->w_target * Xx[a->soft[s] + n * (size_t)r];
+    for (size_t h = 0; h < a->hard_count; h++) {
+        size_t c = a->hard[h];
+        for (int r = 0; r < 3; r++) {
+            double acc = in[3 * c + r]; /* y_c = g_c: M is the identity there */
+            for (size_t k = a->couple_ptr[h]; k < a->couple_ptr[h + 1]; k++)
+                acc -= a->couple_val[k] * Xx[a->couple_row[k] + n * (size_t)r];
+            out[3 * c + r] = acc;
+        }
+    }
+    return FFD_OK;
+}
+
+/* The global step alone at the current rotations (no refit): what
+ * ffd_tsv_arap_solver_linear differentiates; for tests. */
+ffd_status ffd_tsv_arap_solver_global_step(tsv_arap *a, const double *targets, double *x,
+                                           ffd_error *err)
+{
+    size_t n = a->n;
+    if (a->free_count == 0) {
+        memcpy(x, targets, 3 * n * sizeof *x);
+        return FFD_OK;
+    }
+    assemble_rhs(a, targets);
+    double *Bx = a->B->x;
+    for (size_t i = 0; i < n; i++)
+        for (int c = 0; c < 3; c++)
+            Bx[i + n * (size_t)c] = a->rhs[3 * i + c];
+    if (!cholmod_solve2(CHOLMOD_A, a->L, a->B, NULL, &a->X, NULL, &a->Y, &a->E, &a->cc))
+        return ffd_fail(err, a->cc.status == CHOLMOD_OUT_OF_MEMORY ? FFD_ERR_NOMEM : FFD_ERR_NUMERIC,
+                        "tsv_arap: CHOLMOD solve failed (status %d)", a->cc.status);
+    const double *Xx = a->X->x;
+    for (size_t i = 0; i < n; i++)
+        for (int c = 0; c < 3; c++)
+            x[3 * i + c] = Xx[i + n * (size_t)c];
+    for (size_t h = 0; h < a->hard_count; h++)
+        for (int c = 0; c < 3; c++)
+            x[3 * (size_t)a->hard[h] + c] = targets[3 * (size_t)a->hard[h] + c];
+    return FFD_OK;
+}

@@ -885,6 +885,141 @@ ffd_status ffd_tsv_arap_solve(ffd_tsv_arap *a, const double *targets,
     return FFD_OK;
 }
 
+/* --- sensitivities of a drag (docs/sensitivities.md, "T-spline proxy handles") ---
+ * The bound points are X = X_0 + Phi (P - P_rest) (eq. 1 in displacement
+ * form) and P is the ARAP solution for the handle targets q. At fixed
+ * rotations one global step gives P = M^-1 (b(R) + B q) (tsv_arap.c), so
+ * dX/dq = Phi M^-1 B S, S scattering the k handles into the lattice; its
+ * transpose is S^T B^T M^-1 Phi^T (M symmetric). The rotation refit is not
+ * differentiated. */
+
+static ffd_status arap_current(const ffd_tsv_arap *a, ffd_error *err)
+{
+    if (a->t->L->version != a->version)
+        return ffd_fail(err, FFD_ERR_INVALID,
+                        "the lattice was refined since the drag began: begin a new drag");
+    if (a->t->frozen_version != a->frozen_version)
+        return ffd_fail(err, FFD_ERR_INVALID,
+                        "the frozen set changed since the drag began: begin a new drag");
+    return need_phi(a->t, err);
+}
+
+ffd_status ffd_tsv_arap_sensitivity_product(ffd_tsv_arap *a, const double *v, double *out,
+                                            ffd_error *err)
+{
+    if (!a || (!v && a->k) || (!out && a->t->n))
+        return ffd_fail(err, FFD_ERR_INVALID, "ffd_tsv_arap_sensitivity_product: NULL argument");
+    ffd_status st = arap_current(a, err);
+    if (st != FFD_OK)
+        return st;
+    const ffd_tsv *t = a->t;
+    size_t nv = t->L->nv;
+    double *dq = ffd_calloc(nv ? nv : 1, 3 * sizeof *dq);
+    double *dp = ffd_malloc_array(nv ? nv : 1, 3 * sizeof *dp);
+    if (!dq || !dp) {
+        ffd_free(dq);
+        ffd_free(dp);
+        return ffd_fail(err, FFD_ERR_NOMEM, "out of memory");
+    }
+    for (size_t h = 0; h < a->k; h++)
+        memcpy(dq + 3 * (size_t)a->handles[h], v + 3 * h, 3 * sizeof *dq);
+    st = ffd_tsv_arap_solver_linear(a->solver, dq, dp, 0, err);
+    if (st == FFD_OK) {
+        const tsv_phi *phi = &t->phi;
+        const long long n = (long long)phi->rows;
+#pragma omp parallel for schedule(static, 1024)
+        for (long long ii = 0; ii < n; ii++) {
+            size_t i = (size_t)ii;
+            double x = 0, y = 0, z = 0;
+            for (size_t k = phi->rowptr[i]; k < phi->rowptr[i + 1]; k++) {
+                const double *d = dp + 3 * (size_t)phi->col[k];
+                x += phi->val[k] * d[0];
+                y += phi->val[k] * d[1];
+                z += phi->val[k] * d[2];
+            }
+            out[3 * i] = x;
+            out[3 * i + 1] = y;
+            out[3 * i + 2] = z;
+        }
+    }
+    ffd_free(dq);
+    ffd_free(dp);
+    return st;
+}
+
+ffd_status ffd_tsv_arap_sensitivity_transpose_product(ffd_tsv_arap *a, const double *w, double *out,
+                                                      ffd_error *err)
+{
+    if (!a || (!w && a->t->n) || (!out && a->k))
+        return ffd_fail(err, FFD_ERR_INVALID,
+                        "ffd_tsv_arap_sensitivity_transpose_product: NULL argument");
+    ffd_status st = arap_current(a, err);
+    if (st != FFD_OK)
+        return st;
+    const ffd_tsv *t = a->t;
+    size_t nv = t->L->nv;
+    double *g = ffd_calloc(nv ? nv : 1, 3 * sizeof *g);
+    double *y = ffd_malloc_array(nv ? nv : 1, 3 * sizeof *y);
+    if (!g || !y) {
+        ffd_free(g);
+        ffd_free(y);
+        return ffd_fail(err, FFD_ERR_NOMEM, "out of memory");
+    }
+    /* Phi^T w: a scatter over the rows, in row order (deterministic) */
+    const tsv_phi *phi = &t->phi;
+    for (size_t i = 0; i < phi->rows; i++)
+        for (size_t k = phi->rowptr[i]; k < phi->rowptr[i + 1]; k++) {
+            double *gv = g + 3 * (size_t)phi->col[k];
+            gv[0] += phi->val[k] * w[3 * i];
+            gv[1] += phi->val[k] * w[3 * i + 1];
+            gv[2] += phi->val[k] * w[3 * i + 2];
+        }
+    st = ffd_tsv_arap_solver_linear(a->solver, g, y, 1, err);
+    if (st == FFD_OK)
+        for (size_t h = 0; h < a->k; h++)
+            memcpy(out + 3 * h, y + 3 * (size_t)a->handles[h], 3 * sizeof *out);
+    ffd_free(g);
+    ffd_free(y);
+    return st;
+}
+
+ffd_status ffd_tsv_arap_global_step(ffd_tsv_arap *a, const double *targets, double *out,
+                                    ffd_error *err)
+{
+    ffd_status st = arap_current(a, err);
+    if (st != FFD_OK)
+        return st;
+    ffd_tsv *t = a->t;
+    tsv_lattice *L = t->L;
+    size_t nv = L->nv;
+    double *q = ffd_malloc_array(nv ? nv : 1, 3 * sizeof *q);
+    double *x = ffd_malloc_array(nv ? nv : 1, 3 * sizeof *x);
+    if (!q || !x) {
+        ffd_free(q);
+        ffd_free(x);
+        return ffd_fail(err, FFD_ERR_NOMEM, "out of memory");
+    }
+    memcpy(q, a->targets, 3 * nv * sizeof *q);
+    for (size_t h = 0; h < a->k; h++)
+        memcpy(q + 3 * (size_t)a->handles[h], targets + 3 * h, 3 * sizeof *q);
+    st = ffd_tsv_arap_solver_global_step(a->solver, q, x, err);
+    if (st == FFD_OK) {
+        const tsv_phi *phi = &t->phi;
+        for (size_t i = 0; i < phi->rows; i++)
+            for (int c = 0; c < 3; c++) {
+                double d = 0;
+                for (size_t k = phi->rowptr[i]; k < phi->rowptr[i + 1]; k++) {
+                    size_t v = phi->col[k];
+                    d += phi->val[k] * (x[3 * v + c] - L->verts[v].P[TSV_REST][c]);
+                }
+                out[3 * i + c] = t->points[3 * i + c] + d;
+            }
+    }
+    ffd_free(q);
+    ffd_free(x);
+    return st;
+}
+
 /* --- fold-over check --- */
 
 static double det3(const double m[9])

@@ -25,6 +25,8 @@ commands:
                                          rewrite a mesh in the format of OUT's extension
   deform IN -o OUT --rig RIG [--report] [--timings] [--in-place]
          [--ascii|--binary|--binary-be]  apply a rig (JSON or PyGeM .prm) to a mesh
+  sensitivities MESH --rig RIG -o OUT.mtx [--expand]
+                                         dX/dP of the deformed vertices (Matrix Market)
   pbffd place MESH -o CONTROLS.json [--interior N] [--exterior N] ...
                                          place PB-FFD control points, write them as a rig
   tspline proxy MESH -o PROXY.obj [--resolution L,M,N] [--rig RIG] [--lattice F]
@@ -46,9 +48,9 @@ Exit status: 0 success, 1 bad or unreadable input (or a failed write), 2 usage e
 HELP
 cmp -s "$T/stdout" "$T/help.expected" || fail "ffd --help differs: $(diff "$T/help.expected" "$T/stdout")"
 bad 2
-has stderr "ffd: missing command (info, convert, deform, pbffd, tspline, serve)"
+has stderr "ffd: missing command (info, convert, deform, sensitivities, pbffd, tspline, serve)"
 bad 2 bogus
-has stderr "ffd: unknown command 'bogus' (expected info, convert, deform, pbffd, tspline or serve)"
+has stderr "ffd: unknown command 'bogus' (expected info, convert, deform, sensitivities, pbffd, tspline or serve)"
 for c in pbffd tspline; do
     ok "$c" --help
     has stdout "usage: ffd $c"

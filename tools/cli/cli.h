@@ -138,6 +138,7 @@ void cli_json_number(FILE *f, double v);
 int cmd_info(int argc, char **argv);
 int cmd_convert(int argc, char **argv);
 int cmd_deform(int argc, char **argv);
+int cmd_sensitivities(int argc, char **argv);
 int cmd_serve(int argc, char **argv);
 
 /* A method's own command (`ffd METHOD SUBCOMMAND ...`), described in the

@@ -26,7 +26,9 @@ static const char usage_head[] =
     "  convert IN OUT [--ascii|--binary|--binary-be]\n"
     "                                         rewrite a mesh in the format of OUT's extension\n"
     "  deform IN -o OUT --rig RIG [--report] [--timings] [--in-place]\n"
-    "         [--ascii|--binary|--binary-be]  apply a rig (JSON or PyGeM .prm) to a mesh\n";
+    "         [--ascii|--binary|--binary-be]  apply a rig (JSON or PyGeM .prm) to a mesh\n"
+    "  sensitivities MESH --rig RIG -o OUT.mtx [--expand]\n"
+    "                                         dX/dP of the deformed vertices (Matrix Market)\n";
 static const char usage_tail[] =
     "  serve [MESH] [--port N] [--host ADDR] [--root DIR] [--web DIR] [--max-upload MB]\n"
     "        [--verbose]                      the editor: a local web server, deform in a browser\n"
@@ -286,11 +288,11 @@ void cli_json_number(FILE *f, double v)
         fputs("null", f);
 }
 
-/* The command names for messages: "info, convert, deform, M1, M2, serve",
+/* The command names for messages: "info, convert, deform, sensitivities, M1, M2, serve",
  * the last separator being last_sep (", " or " or "). */
 static const char *command_list(char *buf, size_t size, const char *last_sep)
 {
-    int n = snprintf(buf, size, "info, convert, deform");
+    int n = snprintf(buf, size, "info, convert, deform, sensitivities");
     for (size_t i = 0; i < cli_method_command_count() && n >= 0 && (size_t)n < size; i++)
         n += snprintf(buf + n, size - (size_t)n, ", %s", cli_method_command_at(i)->name);
     if (n >= 0 && (size_t)n < size)
@@ -334,6 +336,8 @@ int main(int argc, char **argv)
         return cmd_convert(argc - 1, argv + 1);
     if (strcmp(command, "deform") == 0)
         return cmd_deform(argc - 1, argv + 1);
+    if (strcmp(command, "sensitivities") == 0)
+        return cmd_sensitivities(argc - 1, argv + 1);
     for (size_t i = 0; i < cli_method_command_count(); i++) {
         const cli_command *c = cli_method_command_at(i);
         if (strcmp(command, c->name) == 0)
