@@ -12,10 +12,10 @@
  * at a time. The lattice gives both products block by block over its
  * binding, as its evaluation (lattice_eval.c, lattice_sensitivity.c).
  *
- * Determinism: W and W v are computed row by row (one fixed sequence of
- * operations per row); W^T w sums the rows of fixed ranges (chosen from the
- * sizes only) into one buffer per range and adds the ranges in order, so
- * every result is bitwise identical for any thread count. */
+ * One thread, rows in order: a method's row function may use scratch of
+ * its map's own (PB-FFD's composed levels do), so the generic path never
+ * calls it from two threads; every result is then the same for any thread
+ * count. The methods' own products run in parallel where they can. */
 #include "deformer/method.h"
 
 #include <stdlib.h>
@@ -180,46 +180,30 @@ static ffd_status form_from_map(const ffd_linear_map *map, ffd_sparse *out, ffd_
     ffd_status st = sparse_alloc(out, rows, map->variable_count, err);
     if (st)
         return st;
-    int failed = 0;
-    for (int pass = 0; pass < 2 && !failed; pass++) {
-#pragma omp parallel
-        {
-            row_scratch s;
-            int ok = scratch_init(&s, map->max_row_nnz);
-            if (!ok) {
-#pragma omp atomic write
-                failed = 1;
-            }
-#pragma omp for schedule(static)
-            for (size_t i = 0; i < rows; i++) {
-                if (!ok)
-                    continue;
-                size_t m = merged_row(map, i, &s);
-                if (pass == 0) {
-                    out->row_ptr[i + 1] = m;
-                } else {
-                    size_t at = out->row_ptr[i];
-                    for (size_t e = 0; e < m; e++) {
-                        out->col[at + e] = s.entries[e].var;
-                        out->val[at + e] = s.entries[e].w;
-                    }
-                }
-            }
-            scratch_free(&s);
-        }
-        if (failed)
-            break;
-        if (pass == 0) {
-            for (size_t i = 0; i < rows; i++)
-                out->row_ptr[i + 1] += out->row_ptr[i];
-            if ((st = sparse_alloc_entries(out, err)))
-                return st;
-        }
-    }
-    if (failed)
+    row_scratch s;
+    if (!scratch_init(&s, map->max_row_nnz)) {
+        scratch_free(&s);
         return ffd_fail(err, FFD_ERR_NOMEM, "sensitivities: out of memory for a row of %zu entries",
                         map->max_row_nnz);
-    return FFD_OK;
+    }
+    for (int pass = 0; pass < 2 && !st; pass++) {
+        for (size_t i = 0; i < rows; i++) {
+            size_t m = merged_row(map, i, &s);
+            if (pass == 0) {
+                out->row_ptr[i + 1] = out->row_ptr[i] + m;
+                continue;
+            }
+            size_t at = out->row_ptr[i];
+            for (size_t e = 0; e < m; e++) {
+                out->col[at + e] = s.entries[e].var;
+                out->val[at + e] = s.entries[e].w;
+            }
+        }
+        if (pass == 0)
+            st = sparse_alloc_entries(out, err);
+    }
+    scratch_free(&s);
+    return st;
 }
 
 /* W through a method's own product: column j is W e_j (coordinate x of
@@ -296,91 +280,33 @@ ffd_status ffd_deformer_sensitivities(ffd_deformer *d, ffd_sparse *out, ffd_erro
  * Products without forming W.
  * --------------------------------------------------------------------- */
 
-/* out = W v, row by row. */
-static ffd_status product_from_map(const ffd_linear_map *map, const double *v, double *out,
-                                   ffd_error *err)
+/* out = W v (transpose 0) or W^T w (transpose 1), row by row in order. */
+static ffd_status products_from_map(const ffd_linear_map *map, const double *x, double *out,
+                                    int transpose, const char *what, ffd_error *err)
 {
-    int failed = 0;
-    size_t rows = map->point_count;
-#pragma omp parallel
-    {
-        row_scratch s;
-        int ok = scratch_init(&s, map->max_row_nnz);
-        if (!ok) {
-#pragma omp atomic write
-            failed = 1;
-        }
-#pragma omp for schedule(static)
-        for (size_t i = 0; i < rows; i++) {
-            if (!ok)
-                continue;
-            size_t m = merged_row(map, i, &s);
-            double x[3] = {0, 0, 0};
+    row_scratch s;
+    if (!scratch_init(&s, map->max_row_nnz)) {
+        scratch_free(&s);
+        return ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory for a row of %zu entries", what,
+                        map->max_row_nnz);
+    }
+    if (transpose)
+        memset(out, 0, map->variable_count * 3 * sizeof *out);
+    for (size_t i = 0; i < map->point_count; i++) {
+        size_t m = merged_row(map, i, &s);
+        if (transpose) {
             for (size_t e = 0; e < m; e++)
                 for (int a = 0; a < 3; a++)
-                    x[a] += s.entries[e].w * v[3 * (size_t)s.entries[e].var + a];
-            memcpy(out + 3 * i, x, sizeof x);
+                    out[3 * (size_t)s.entries[e].var + a] += s.entries[e].w * x[3 * i + a];
+            continue;
         }
-        scratch_free(&s);
+        double y[3] = {0, 0, 0};
+        for (size_t e = 0; e < m; e++)
+            for (int a = 0; a < 3; a++)
+                y[a] += s.entries[e].w * x[3 * (size_t)s.entries[e].var + a];
+        memcpy(out + 3 * i, y, sizeof y);
     }
-    if (failed)
-        return ffd_fail(err, FFD_ERR_NOMEM, "sensitivity product: out of memory");
-    return FFD_OK;
-}
-
-/* The fixed row ranges of the transpose product: a count chosen from the
- * sizes alone (never the thread count), at most 16, and small enough that
- * their buffers stay under 256 MiB. */
-static size_t transpose_ranges(size_t rows, size_t cols)
-{
-    size_t r = rows / 4096;
-    if (r > 16)
-        r = 16;
-    while (r > 1 && (double)r * (double)cols * 24.0 > 256.0 * 1024 * 1024)
-        r--;
-    return r ? r : 1;
-}
-
-/* out = W^T w: each range's rows summed in order into its buffer (the
- * first range straight into out), then the ranges added in order. */
-static ffd_status transpose_from_map(const ffd_linear_map *map, const double *w, double *out,
-                                     ffd_error *err)
-{
-    size_t rows = map->point_count, cols = map->variable_count;
-    size_t ranges = transpose_ranges(rows, cols);
-    double *partial = NULL;
-    if (ranges > 1
-        && !(partial = ffd_calloc(ranges - 1, cols * 3 * sizeof *partial)))
-        return ffd_fail(err, FFD_ERR_NOMEM, "sensitivity transpose product: out of memory for "
-                                            "%zu controls",
-                        cols);
-    memset(out, 0, cols * 3 * sizeof *out);
-    int failed = 0;
-#pragma omp parallel for schedule(dynamic, 1)
-    for (size_t r = 0; r < ranges; r++) {
-        row_scratch s;
-        if (!scratch_init(&s, map->max_row_nnz)) {
-#pragma omp atomic write
-            failed = 1;
-        } else {
-            double *acc = r ? partial + (r - 1) * cols * 3 : out;
-            size_t lo = rows * r / ranges, hi = rows * (r + 1) / ranges;
-            for (size_t i = lo; i < hi; i++) {
-                size_t m = merged_row(map, i, &s);
-                for (size_t e = 0; e < m; e++)
-                    for (int a = 0; a < 3; a++)
-                        acc[3 * (size_t)s.entries[e].var + a] += s.entries[e].w * w[3 * i + a];
-            }
-        }
-        scratch_free(&s);
-    }
-    if (!failed)
-        for (size_t r = 1; r < ranges; r++)
-            for (size_t c = 0; c < 3 * cols; c++)
-                out[c] += partial[(r - 1) * cols * 3 + c];
-    ffd_free(partial);
-    if (failed)
-        return ffd_fail(err, FFD_ERR_NOMEM, "sensitivity transpose product: out of memory");
+    scratch_free(&s);
     return FFD_OK;
 }
 
@@ -396,7 +322,7 @@ ffd_status ffd_deformer_sensitivity_product(ffd_deformer *d, const double *v, do
         return m->vt->sensitivity_product(m, b, v, out, err);
     ffd_linear_map map;
     ffd_status st = deformer_map(d, what, &map, err);
-    return st ? st : product_from_map(&map, v, out, err);
+    return st ? st : products_from_map(&map, v, out, 0, what, err);
 }
 
 ffd_status ffd_deformer_sensitivity_transpose_product(ffd_deformer *d, const double *w,
@@ -412,5 +338,5 @@ ffd_status ffd_deformer_sensitivity_transpose_product(ffd_deformer *d, const dou
         return m->vt->sensitivity_transpose_product(m, b, w, out, err);
     ffd_linear_map map;
     ffd_status st = deformer_map(d, what, &map, err);
-    return st ? st : transpose_from_map(&map, w, out, err);
+    return st ? st : products_from_map(&map, w, out, 1, what, err);
 }
