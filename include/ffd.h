@@ -645,6 +645,28 @@ FFD_API ffd_status ffd_deformer_rig(const ffd_deformer *d, char **json, size_t *
  * the keys under "controls" and "params" are the method's (docs/api.md). */
 FFD_API ffd_status ffd_deformer_report(const ffd_deformer *d, char **json, size_t *size, ffd_error *err);
 
+/* The fold-over check of the deformer's map (docs/volume.md "Inverted
+ * cells and fold-overs"): det J of the map sampled per cell of the method's
+ * control structure, so a method can say "injective where you asked" or
+ * where it is not. lattice: each lattice cell (B-spline: each knot span of
+ * the tripled-border net, (l+1)(m+1)(n+1) cells; Bernstein: each cell of
+ * the control grid, (l-1)(m-1)(n-1)) on a 5x5x5 grid at fractions 0,
+ * 1/4, .., 1 of the cell (corners, edge and face midpoints, centre and
+ * between: a cubic's derivative can turn negative between corners);
+ * id = i + I (j + J k) with I, J the cells per axis. tspline: each T-mesh
+ * cell of nonzero volume at 3^3 interior samples (ffd_tsv_check_folds).
+ * pbffd and gffd: FFD_ERR_UNSUPPORTED (not done yet). */
+typedef struct ffd_fold_report {
+    const char *cells;      /* what a cell is ("lattice cell", "T-spline cell"); static */
+    size_t cells_checked;
+    size_t samples;         /* det J evaluations */
+    size_t folded;          /* cells with det J <= 0 at a sample */
+    double min_det;         /* smallest det J sampled (NaN when none) */
+    uint32_t *cell_ids;     /* the folded cells, ascending (all of them); NULL when none */
+} ffd_fold_report;
+FFD_API ffd_status ffd_deformer_fold_check(ffd_deformer *d, ffd_fold_report *out, ffd_error *err);
+FFD_API void ffd_fold_report_free(ffd_fold_report *report);
+
 /* ======================================================================
  * Editing sessions: the editor's model (ffd serve is HTTP around it)
  * ====================================================================== */

@@ -356,12 +356,189 @@ static void test_mesh_summary_and_inversions(void)
     ffd_mesh_destroy(m);
 }
 
+/* A hexahedral grid of [0,1]^3 with n nodes per axis. */
+static ffd_mesh *hex_grid(int n)
+{
+    size_t nv = (size_t)n * n * n, nc = (size_t)(n - 1) * (n - 1) * (n - 1);
+    double *p = malloc(nv * 3 * sizeof *p);
+    uint8_t *types = malloc(nc);
+    uint64_t *off = malloc((nc + 1) * sizeof *off);
+    uint32_t *ix = malloc(nc * 8 * sizeof *ix);
+#define NODE(i, j, k) ((uint32_t)((i) + n * ((j) + n * (k))))
+    for (int k = 0; k < n; k++)
+        for (int j = 0; j < n; j++)
+            for (int i = 0; i < n; i++) {
+                double *q = p + 3 * NODE(i, j, k);
+                q[0] = (double)i / (n - 1), q[1] = (double)j / (n - 1), q[2] = (double)k / (n - 1);
+            }
+    size_t c = 0;
+    off[0] = 0;
+    for (int k = 0; k + 1 < n; k++)
+        for (int j = 0; j + 1 < n; j++)
+            for (int i = 0; i + 1 < n; i++, c++) {
+                uint32_t h[8] = {NODE(i, j, k),         NODE(i + 1, j, k),
+                                 NODE(i + 1, j + 1, k), NODE(i, j + 1, k),
+                                 NODE(i, j, k + 1),     NODE(i + 1, j, k + 1),
+                                 NODE(i + 1, j + 1, k + 1), NODE(i, j + 1, k + 1)};
+                memcpy(ix + 8 * c, h, sizeof h);
+                types[c] = FFD_CELL_HEXAHEDRON;
+                off[c + 1] = 8 * (c + 1);
+            }
+#undef NODE
+    ffd_mesh *m = NULL;
+    CHECK_OK(ffd_mesh_create_cells(p, nv, types, off, ix, nc, &m, NULL));
+    free(p), free(types), free(off), free(ix);
+    return m;
+}
+
+/* A B-spline lattice whose middle control point is pulled through its +x
+ * neighbour (and beyond): the fold check finds lattice cells with det <= 0
+ * and the inversion check finds the volume mesh's inverted cells; at rest
+ * neither finds anything. */
+static void test_lattice_fold(void)
+{
+    ffd_mesh *m = hex_grid(9);
+    if (!m)
+        return;
+    static const char rest_rig[] = "{\"version\": 1, \"deformer\": \"lattice\", \"basis\": \"bspline\","
+        " \"resolution\": [5, 5, 5], \"box\": {\"origin\": [0, 0, 0], \"axes\": [[1, 0, 0], [0, 1, 0], [0, 0, 1]]}}";
+    static const char fold_rig[] = "{\"version\": 1, \"deformer\": \"lattice\", \"basis\": \"bspline\","
+        " \"resolution\": [5, 5, 5], \"box\": {\"origin\": [0, 0, 0], \"axes\": [[1, 0, 0], [0, 1, 0], [0, 0, 1]]},"
+        " \"moves\": [{\"index\": [2, 2, 2], \"delta\": [1.5, 0, 0]}]}";
+    ffd_deformer *d = NULL;
+    ffd_fold_report f;
+    CHECK_OK(ffd_deformer_create_json(rest_rig, sizeof rest_rig - 1, "rest.json", m, NULL, &d, NULL));
+    if (d) {
+        CHECK_OK(ffd_deformer_fold_check(d, &f, NULL));
+        CHECK(f.cells_checked == 6 * 6 * 6 && f.samples == 125 * f.cells_checked);
+        CHECK(f.folded == 0 && f.cell_ids == NULL);
+        CHECK_NEAR(f.min_det, 1.0, 1e-9);
+        CHECK(strcmp(f.cells, "lattice cell") == 0);
+        ffd_fold_report_free(&f);
+    }
+    ffd_deformer_destroy(d);
+    d = NULL;
+    CHECK_OK(ffd_deformer_create_json(fold_rig, sizeof fold_rig - 1, "fold.json", m, NULL, &d, NULL));
+    if (d) {
+        CHECK_OK(ffd_deformer_fold_check(d, &f, NULL));
+        CHECK(f.folded > 0 && f.min_det < 0);
+        /* the folded cells are knot spans next to the moved control (segments 2..5 per axis) */
+        for (size_t i = 0; i < f.folded && f.cell_ids; i++) {
+            uint32_t c = f.cell_ids[i], a = c % 6, b = c / 6 % 6, e = c / 36;
+            CHECK(a >= 1 && a <= 5 && b >= 1 && b <= 5 && e >= 1 && e <= 5);
+        }
+        ffd_fold_report_free(&f);
+        /* the same map applied to the nodes inverts cells */
+        size_t nv = ffd_mesh_vertex_count(m);
+        double *x = malloc(nv * 3 * sizeof *x);
+        CHECK_OK(ffd_deformer_eval(d, x, NULL));
+        ffd_mesh *def = hex_grid(9);
+        if (def) {
+            CHECK_OK(ffd_mesh_set_positions(def, x, NULL, NULL));
+            ffd_inversion_report r;
+            CHECK_OK(ffd_mesh_check_inversions(def, ffd_mesh_positions(m), 0, &r, NULL));
+            CHECK(r.inverted > 0 && r.worst_det < 0 && r.cell_id_count == r.inverted);
+            ffd_inversion_report_free(&r);
+            ffd_mesh_destroy(def);
+        }
+        free(x);
+    }
+    ffd_deformer_destroy(d);
+    ffd_mesh_destroy(m);
+}
+
+/* The bunny under a mirror-like fold: a trilinear (Bernstein 2x2x2)
+ * lattice whose two x layers of controls swap places maps x to its mirror
+ * image (det J = -1 everywhere: the one lattice cell folded), and the faces
+ * whose deformed normal opposes the rest one are found. */
+static void test_bunny_flipped_faces(void)
+{
+    ffd_mesh *m = NULL;
+    CHECK_OK(ffd_mesh_read(FFD_DATA_DIR "/bunny.obj", &m, NULL));
+    if (!m)
+        return;
+    ffd_mesh_info info;
+    CHECK_OK(ffd_mesh_compute_info(m, &info, NULL));
+    double lo[3], w[3];
+    for (int a = 0; a < 3; a++) {
+        w[a] = (info.bbox_max[a] - info.bbox_min[a]) * 1.2;
+        lo[a] = info.bbox_min[a] - 0.1 * w[a] / 1.2;
+    }
+    char rig[1024];
+    int len = snprintf(rig, sizeof rig,
+                       "{\"version\": 1, \"deformer\": \"lattice\", \"basis\": \"bernstein\","
+                       " \"resolution\": [2, 2, 2], \"box\": {\"origin\": [%.17g, %.17g, %.17g],"
+                       " \"axes\": [[%.17g, 0, 0], [0, %.17g, 0], [0, 0, %.17g]]}, \"moves\": [",
+                       lo[0], lo[1], lo[2], w[0], w[1], w[2]);
+    for (int j = 0; j < 2; j++)
+        for (int k = 0; k < 2; k++)
+            len += snprintf(rig + len, sizeof rig - (size_t)len,
+                            "%s{\"index\": [0, %d, %d], \"delta\": [%.17g, 0, 0]},"
+                            " {\"index\": [1, %d, %d], \"delta\": [%.17g, 0, 0]}",
+                            j || k ? ", " : "", j, k, w[0], j, k, -w[0]);
+    len += snprintf(rig + len, sizeof rig - (size_t)len, "]}");
+    size_t nv = ffd_mesh_vertex_count(m);
+    double *rest = malloc(nv * 3 * sizeof *rest);
+    memcpy(rest, ffd_mesh_positions(m), nv * 3 * sizeof *rest);
+    ffd_rig *r = NULL;
+    CHECK_OK(ffd_rig_parse_json(rig, (size_t)len, "mirror.json", &r, NULL));
+    ffd_deformer *d = NULL;
+    if (r)
+        CHECK_OK(ffd_deformer_create(r, m, NULL, &d, NULL));
+    if (d) {
+        ffd_fold_report f;
+        CHECK_OK(ffd_deformer_fold_check(d, &f, NULL));
+        CHECK(f.cells_checked == 1 && f.folded == 1);
+        CHECK_NEAR(f.min_det, -1.0, 1e-12);
+        ffd_fold_report_free(&f);
+    }
+    ffd_deformer_destroy(d);
+    if (r)
+        CHECK_OK(ffd_rig_apply(r, m, NULL, NULL));
+    ffd_inversion_report ir;
+    CHECK_OK(ffd_mesh_check_inversions(m, rest, 0, &ir, NULL));
+    CHECK(ir.cells_checked == 0);
+    CHECK(ir.faces_checked == ffd_mesh_face_count(m));
+    /* the mirror maps a rest normal (a, b, c) to (a, -b, -c): the face
+     * counts as flipped when a^2 < b^2 + c^2 (triangles here) */
+    const uint32_t *fo = ffd_mesh_face_offsets(m), *fi = ffd_mesh_face_indices(m);
+    size_t expect = 0, first = SIZE_MAX;
+    for (size_t f = 0; f < ffd_mesh_face_count(m); f++) {
+        CHECK(fo[f + 1] - fo[f] == 3);
+        const double *a = rest + 3 * fi[fo[f]], *b = rest + 3 * fi[fo[f] + 1],
+                     *c = rest + 3 * fi[fo[f] + 2];
+        double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
+        double v[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
+        double n[3] = {u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2],
+                       u[0] * v[1] - u[1] * v[0]};
+        if (n[0] * n[0] < n[1] * n[1] + n[2] * n[2]) {
+            expect++;
+            if (first == SIZE_MAX)
+                first = f;
+        }
+    }
+    CHECK(expect > 100 && ir.flipped_faces == expect);
+    CHECK(ir.face_id_count == (expect < 1000 ? expect : 1000));
+    CHECK(ir.face_ids && ir.face_ids[0] == first);
+    ffd_inversion_report_free(&ir);
+    /* at rest: nothing flipped */
+    CHECK_OK(ffd_mesh_set_positions(m, rest, NULL, NULL));
+    CHECK_OK(ffd_mesh_check_inversions(m, rest, 0, &ir, NULL));
+    CHECK(ir.flipped_faces == 0);
+    ffd_inversion_report_free(&ir);
+    ffd_rig_destroy(r);
+    free(rest);
+    ffd_mesh_destroy(m);
+}
+
 static const check_test tests[] = {
     {"reference_cells", test_reference_cells},
     {"volumes", test_volumes},
     {"quadratic_straight", test_quadratic_straight},
     {"inverted_each_type", test_inverted_each_type},
     {"mesh_summary_and_inversions", test_mesh_summary_and_inversions},
+    {"lattice_fold", test_lattice_fold},
+    {"bunny_flipped_faces", test_bunny_flipped_faces},
 };
 
 int main(int argc, char **argv)

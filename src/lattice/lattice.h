@@ -127,6 +127,10 @@ ffd_simd_path ffd_lattice_simd_path(void);
 /* "default", "avx2" or "avx512". */
 const char *ffd_simd_path_name(ffd_simd_path path);
 
+/* The fold-over check (ffd_deformer_fold_check, ffd.h): det J of the map
+ * on a 5x5x5 grid in every lattice cell (lattice_map.c). */
+ffd_status ffd_lattice_fold_check(const ffd_lattice *lat, ffd_fold_report *out, ffd_error *err);
+
 /* Rebuilds P_ext from P (B-spline). */
 void ffd_lattice_sync(ffd_lattice *lat);
 

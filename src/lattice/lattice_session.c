@@ -3,6 +3,7 @@
  * lattice's l*m*n points; its rig is the box made explicit plus one move per
  * displaced control point (delta = current - rest). */
 #include "lattice/lattice_method.h"
+#include "lattice/lattice.h"
 #include "session/session.h"
 
 #include <string.h>
@@ -241,6 +242,10 @@ static ffd_status lat_jacobian_points(sess_method *m, const sess_binding *b, dou
 static ffd_status lat_map_points(sess_method *m, const sess_binding *b, ffd_linear_map *map,
                                  ffd_error *err);
 static void *lat_handle(sess_method *m);
+static ffd_status lat_fold_check(sess_method *m, ffd_fold_report *out, ffd_error *err)
+{
+    return ffd_lattice_fold_check(as_lattice(m)->lattice, out, err);
+}
 
 static const sess_vtable lattice_vtable = {
     .name = "lattice",
@@ -267,6 +272,7 @@ static const sess_vtable lattice_vtable = {
     .jacobian_points = lat_jacobian_points,
     .map_points = lat_map_points,
     .handle = lat_handle,
+    .fold_check = lat_fold_check,
 };
 
 /* Builds the lattice and binds the rest mesh. */

@@ -130,6 +130,9 @@ struct sess_vtable {
                              ffd_error *err);
     /* The method's public handle (its ffd_<method> object, ffd.h). */
     void *(*handle)(sess_method *m);
+    /* The fold-over check of the current map (ffd_deformer_fold_check);
+     * NULL: unsupported. */
+    ffd_status (*fold_check)(sess_method *m, ffd_fold_report *out, ffd_error *err);
 };
 
 /* Constructors. create: from the body of the "create" op, which is a rig's
