@@ -531,6 +531,116 @@ static void test_bunny_flipped_faces(void)
     ffd_mesh_destroy(m);
 }
 
+/* The hexahedral grid with each hexahedron split into six tetrahedra
+ * around its diagonal 0-6 (all positive). */
+static ffd_mesh *tet_grid(int n)
+{
+    ffd_mesh *h = hex_grid(n);
+    if (!h)
+        return NULL;
+    static const uint8_t split[6][4] = {{0, 1, 2, 6}, {0, 2, 3, 6}, {0, 3, 7, 6},
+                                        {0, 7, 4, 6}, {0, 4, 5, 6}, {0, 5, 1, 6}};
+    size_t nh = ffd_mesh_cell_count(h), nc = 6 * nh;
+    const uint32_t *hx = ffd_mesh_cell_indices(h);
+    uint8_t *types = malloc(nc);
+    uint64_t *off = malloc((nc + 1) * sizeof *off);
+    uint32_t *ix = malloc(nc * 4 * sizeof *ix);
+    off[0] = 0;
+    for (size_t c = 0; c < nh; c++)
+        for (int t = 0; t < 6; t++) {
+            size_t k = 6 * c + (size_t)t;
+            for (int v = 0; v < 4; v++)
+                ix[4 * k + v] = hx[8 * c + split[t][v]];
+            types[k] = FFD_CELL_TETRA;
+            off[k + 1] = 4 * (k + 1);
+        }
+    ffd_mesh *m = NULL;
+    CHECK_OK(ffd_mesh_create_cells(ffd_mesh_positions(h), ffd_mesh_vertex_count(h), types, off, ix,
+                                   nc, &m, NULL));
+    free(types), free(off), free(ix);
+    ffd_mesh_destroy(h);
+    return m;
+}
+
+/* Step limiting: a constraint drags an inner node of a small tet mesh
+ * through its +x neighbours. Without "limit_step" cells invert; with it the
+ * applied fraction of the step is < 1, the lattice does not fold and no
+ * cell inverts; the report says the fraction, and a deformer built from
+ * the rig (the session's replay) gives the same positions. */
+static void test_limit_step(void)
+{
+    ffd_mesh *m = tet_grid(5);
+    if (!m)
+        return;
+    size_t nv = ffd_mesh_vertex_count(m);
+    uint32_t v = 1 + 5 * (2 + 5 * 2); /* (0.25, 0.5, 0.5) */
+    const double *x0 = ffd_mesh_positions(m);
+    double *rest = malloc(nv * 3 * sizeof *rest);
+    memcpy(rest, x0, nv * 3 * sizeof *rest);
+    for (int limited = 0; limited < 2; limited++) {
+        char rig[512];
+        int len = snprintf(rig, sizeof rig,
+                           "{\"version\": 1, \"deformer\": \"lattice\", \"resolution\": [4, 4, 4],"
+                           " \"box\": \"auto\",%s \"constraints\": [{\"vertex\": %u, \"target\":"
+                           " [%.17g, %.17g, %.17g]}]}",
+                           limited ? " \"limit_step\": true," : "", v, rest[3 * v] + 0.7,
+                           rest[3 * v + 1], rest[3 * v + 2]);
+        ffd_rig *r = NULL;
+        CHECK_OK(ffd_rig_parse_json(rig, (size_t)len, "drag.json", &r, NULL));
+        if (!r)
+            continue;
+        ffd_mesh *def = tet_grid(5);
+        ffd_rig_report report;
+        memset(&report, 0, sizeof report);
+        CHECK_OK(ffd_rig_apply(r, def, &report, NULL));
+        ffd_inversion_report ir;
+        CHECK_OK(ffd_mesh_check_inversions(def, rest, 0, &ir, NULL));
+        ffd_deformer *d = NULL;
+        CHECK_OK(ffd_deformer_create(r, m, NULL, &d, NULL));
+        ffd_fold_report f;
+        memset(&f, 0, sizeof f);
+        if (d)
+            CHECK_OK(ffd_deformer_fold_check(d, &f, NULL));
+        if (!limited) {
+            CHECK(ir.inverted > 0);
+            CHECK(f.folded > 0);
+            CHECK(!report.details || !strstr(report.details, "step_fraction"));
+        } else {
+            CHECK(ir.inverted == 0);
+            CHECK(f.folded == 0);
+            const char *sf = report.details ? strstr(report.details, "\"step_fraction\":") : NULL;
+            CHECK(sf != NULL);
+            double t = sf ? atof(sf + strlen("\"step_fraction\":")) : 1;
+            CHECK(t > 0.05 && t < 1);
+            CHECK(report.notes && strstr(report.notes, "limit_step"));
+            /* the replay (a deformer, as the editor's session) lands on the same positions */
+            double *y = malloc(nv * 3 * sizeof *y);
+            if (d) {
+                CHECK_OK(ffd_deformer_eval(d, y, NULL));
+                CHECK(memcmp(y, ffd_mesh_positions(def), nv * 3 * sizeof *y) == 0);
+            }
+            free(y);
+        }
+        ffd_fold_report_free(&f);
+        ffd_deformer_destroy(d);
+        ffd_inversion_report_free(&ir);
+        ffd_rig_report_free(&report);
+        ffd_mesh_destroy(def);
+        ffd_rig_destroy(r);
+    }
+    /* only the lattice limits the step so far */
+    static const char pb[] = "{\"version\": 1, \"deformer\": \"pbffd\", \"limit_step\": true}";
+    ffd_rig *r = NULL;
+    ffd_error err = {{0}};
+    CHECK(ffd_rig_parse_json(pb, sizeof pb - 1, "pb.json", &r, &err) == FFD_ERR_UNSUPPORTED);
+    CHECK(strstr(err.message, "limit_step: only"));
+    static const char bad[] = "{\"version\": 1, \"deformer\": \"lattice\", \"limit_step\": 1}";
+    CHECK(ffd_rig_parse_json(bad, sizeof bad - 1, "bad.json", &r, &err) == FFD_ERR_PARSE);
+    CHECK(strstr(err.message, "limit_step"));
+    free(rest);
+    ffd_mesh_destroy(m);
+}
+
 static const check_test tests[] = {
     {"reference_cells", test_reference_cells},
     {"volumes", test_volumes},
@@ -539,6 +649,7 @@ static const check_test tests[] = {
     {"mesh_summary_and_inversions", test_mesh_summary_and_inversions},
     {"lattice_fold", test_lattice_fold},
     {"bunny_flipped_faces", test_bunny_flipped_faces},
+    {"limit_step", test_limit_step},
 };
 
 int main(int argc, char **argv)

@@ -10,6 +10,7 @@
  * library", 2007): a regular cell scores 1. The choices are documented in
  * include/ffd.h ("Cell quality and inversions") and docs/volume.md. */
 #include "mesh/mesh_cells.h"
+#include "mesh/mesh_quality.h"
 
 #include <math.h>
 #include <string.h>
@@ -366,6 +367,26 @@ static void face_normal(const ffd_mesh *m, const double *x, size_t f, double n[3
     }
 }
 
+/* A cell inverted between rest and now (ffd_mesh_check_inversions). */
+static int inverted_between(const ffd_cell_quality *was, const ffd_cell_quality *now)
+{
+    for (size_t k = 0; k < now->sample_count; k++)
+        if (!(now->det[k] > 0) || (was->det[k] < 0 && now->det[k] > 0))
+            return 1;
+    return 0;
+}
+
+size_t ffd_mesh_inverted_cells(const ffd_mesh *m, const double *x, const double *rest)
+{
+    size_t count = 0;
+    for (size_t c = 0; c < m->cell_count; c++) {
+        ffd_cell_quality now, was;
+        if (cell_quality(m, x, c, &now) && cell_quality(m, rest, c, &was))
+            count += (size_t)inverted_between(&was, &now);
+    }
+    return count;
+}
+
 void ffd_inversion_report_free(ffd_inversion_report *report)
 {
     if (!report)
@@ -406,11 +427,7 @@ ffd_status ffd_mesh_check_inversions(const ffd_mesh *mesh, const double *rest, s
         }
         if (isnan(out->worst_scaled_jacobian) || now.scaled_jacobian < out->worst_scaled_jacobian)
             out->worst_scaled_jacobian = now.scaled_jacobian;
-        int inverted = 0;
-        for (size_t k = 0; k < now.sample_count; k++)
-            if (!(now.det[k] > 0) || (was.det[k] < 0 && now.det[k] > 0))
-                inverted = 1;
-        if (inverted) {
+        if (inverted_between(&was, &now)) {
             if (out->cell_id_count < cap)
                 out->cell_ids[out->cell_id_count++] = (uint32_t)c;
             out->inverted++;
