@@ -312,6 +312,85 @@ typedef struct ffd_mesh_info {
  * are joined through welded positions. */
 FFD_API ffd_status ffd_mesh_compute_info(const ffd_mesh *mesh, ffd_mesh_info *info, ffd_error *err);
 
+/* ---- Cell quality and inversions (docs/volume.md "Inverted cells and fold-overs") ----
+ * The Jacobian determinant of a 3D cell at a corner is det[e1 e2 e3] of the
+ * corner's three edges, taken in the order that is positive for a valid cell
+ * in VTK's node order (tetra, voxel, hexahedron, wedge: every corner;
+ * pyramid: the four base corners, each with its two base edges and the edge
+ * to the apex: the four base-corner tetrahedra, as VTK's verdict does; the
+ * apex has four edges and no frame of its own). Quadratic cells: the same at
+ * their corners (from the corner nodes), and at the centre the
+ * isoparametric Jacobian of the quadratic shape functions (tetra10,
+ * hexahedron20, hexahedron27, wedge15; pyramid13's rational basis is not
+ * sampled at its centre). The scaled Jacobian is the minimum over the corners
+ * of det / (|e1| |e2| |e3|), times sqrt(2) (tetra, pyramid) or 2/sqrt(3)
+ * (wedge) as verdict does, so that a regular cell scores 1; <= 0 means
+ * inverted or degenerate. Volumes are exact for linear cells: tetra by its
+ * determinant, hexahedron and voxel by 2x2x2 Gauss quadrature of the
+ * trilinear map's determinant, wedge by a 3-point triangle rule times 2-point
+ * Gauss (both exact for those polynomial degrees), pyramid by the mean of
+ * its two diagonal splits into tetrahedra (exact for a bilinear base);
+ * quadratic cells by their corners' linear cell (exact with straight edges). */
+#define FFD_CELL_SAMPLES_MAX 9 /* 8 corners and the centre */
+typedef struct ffd_cell_quality {
+    size_t sample_count;                 /* corners (4 base corners for a pyramid),
+                                            then the centre for a quadratic cell */
+    double det[FFD_CELL_SAMPLES_MAX];    /* det J per sample */
+    double min_det;                      /* the smallest of them */
+    double scaled_jacobian;              /* min over corners, normalised (above) */
+    double volume;                       /* signed: negative for an inverted cell */
+} ffd_cell_quality;
+
+/* The quality of one 3D cell of VTK type vtk_type given its node_count
+ * nodes' positions (node_count by 3, VTK order). FFD_ERR_UNSUPPORTED for a
+ * type that is not 3D (or unknown), FFD_ERR_INVALID for a wrong node count. */
+FFD_API ffd_status ffd_cell_quality_compute(unsigned vtk_type, const double *nodes,
+                                            size_t node_count, ffd_cell_quality *q,
+                                            ffd_error *err);
+
+/* A volume mesh's summary (ffd info): cells per type, boundary faces, the
+ * total volume of the 3D cells and the worst scaled Jacobian. */
+typedef struct ffd_mesh_quality {
+    size_t cells_of_type[32];      /* indexed by VTK id (FFD_CELL_*) */
+    size_t cell_count;
+    size_t volume_cell_count;      /* 3D cells */
+    size_t boundary_face_count;    /* the mesh's faces (the boundary of its 3D cells) */
+    double volume;                 /* sum of the 3D cells' signed volumes */
+    double min_scaled_jacobian;    /* over the 3D cells (NaN when there is none) */
+    size_t min_scaled_cell;        /* the cell that has it (SIZE_MAX when none) */
+    size_t inverted_count;         /* 3D cells with det J <= 0 at some sample */
+} ffd_mesh_quality;
+FFD_API ffd_status ffd_mesh_quality_compute(const ffd_mesh *mesh, ffd_mesh_quality *q,
+                                            ffd_error *err);
+
+/* The inversion check of a deformed mesh against its rest state. */
+#define FFD_INVERSION_IDS_DEFAULT 1000
+typedef struct ffd_inversion_report {
+    size_t cells_checked;          /* 3D cells */
+    size_t inverted;               /* cells with det J <= 0 at a sample, or whose sign there
+                                      changed from the rest */
+    double worst_det;              /* smallest det J over the checked cells' samples
+                                      (NaN when none was checked) */
+    double worst_scaled_jacobian;  /* smallest scaled Jacobian (NaN when none) */
+    size_t worst_cell;             /* the cell of worst_det (SIZE_MAX when none) */
+    uint32_t *cell_ids;            /* the first cell_id_count inverted cells, ascending */
+    size_t cell_id_count;          /* <= max_ids; inverted - cell_id_count were left out */
+    size_t faces_checked;          /* the mesh's faces (a volume mesh: its boundary) */
+    size_t flipped_faces;          /* faces whose deformed normal has dot < 0 with the rest one */
+    uint32_t *face_ids;            /* the first face_id_count of them, ascending */
+    size_t face_id_count;          /* <= max_ids */
+} ffd_inversion_report;
+
+/* Checks mesh (deformed) against rest (the rest positions, vertex_count
+ * by 3): every 3D cell at every sample (ffd_cell_quality_compute) and every
+ * face (Newell normals of the rest and deformed polygon, flipped when their
+ * dot product is < 0). max_ids caps each id list (0: FFD_INVERSION_IDS_DEFAULT).
+ * Free with ffd_inversion_report_free. FFD_ERR_INVALID (NULL), FFD_ERR_NOMEM. */
+FFD_API ffd_status ffd_mesh_check_inversions(const ffd_mesh *mesh, const double *rest,
+                                             size_t max_ids, ffd_inversion_report *out,
+                                             ffd_error *err);
+FFD_API void ffd_inversion_report_free(ffd_inversion_report *report);
+
 /* ======================================================================
  * Linear deformers: the interface direct manipulation needs
  * ====================================================================== */
@@ -568,6 +647,28 @@ FFD_API ffd_status ffd_deformer_rig(const ffd_deformer *d, char **json, size_t *
  * "controls": {"count", ...the method's structure...}, "params": {...}};
  * the keys under "controls" and "params" are the method's (docs/api.md). */
 FFD_API ffd_status ffd_deformer_report(const ffd_deformer *d, char **json, size_t *size, ffd_error *err);
+
+/* The fold-over check of the deformer's map (docs/volume.md "Inverted
+ * cells and fold-overs"): det J of the map sampled per cell of the method's
+ * control structure, so a method can say "injective where you asked" or
+ * where it is not. lattice: each lattice cell (B-spline: each knot span of
+ * the tripled-border net, (l+1)(m+1)(n+1) cells; Bernstein: each cell of
+ * the control grid, (l-1)(m-1)(n-1)) on a 5x5x5 grid at fractions 0,
+ * 1/4, .., 1 of the cell (corners, edge and face midpoints, centre and
+ * between: a cubic's derivative can turn negative between corners);
+ * id = i + I (j + J k) with I, J the cells per axis. tspline: each T-mesh
+ * cell of nonzero volume at 3^3 interior samples (ffd_tsv_check_folds).
+ * pbffd and gffd: FFD_ERR_UNSUPPORTED (not done yet). */
+typedef struct ffd_fold_report {
+    const char *cells;      /* what a cell is ("lattice cell", "T-spline cell"); static */
+    size_t cells_checked;
+    size_t samples;         /* det J evaluations */
+    size_t folded;          /* cells with det J <= 0 at a sample */
+    double min_det;         /* smallest det J sampled (NaN when none) */
+    uint32_t *cell_ids;     /* the folded cells, ascending (all of them); NULL when none */
+} ffd_fold_report;
+FFD_API ffd_status ffd_deformer_fold_check(ffd_deformer *d, ffd_fold_report *out, ffd_error *err);
+FFD_API void ffd_fold_report_free(ffd_fold_report *report);
 
 /* ======================================================================
  * Sensitivities: dX/dP of the bound points (docs/sensitivities.md)

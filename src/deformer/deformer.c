@@ -300,3 +300,22 @@ sess_method *ffd_deformer_session_method(ffd_deformer *d, const sess_binding **b
     *binding = d->binding;
     return d->m;
 }
+
+ffd_status ffd_deformer_fold_check(ffd_deformer *d, ffd_fold_report *out, ffd_error *err)
+{
+    if (!d || !out)
+        return ffd_fail(err, FFD_ERR_INVALID, "ffd_deformer_fold_check: NULL argument");
+    memset(out, 0, sizeof *out);
+    out->min_det = NAN;
+    if (!d->m->vt->fold_check)
+        return unsupported(d, "fold check", err);
+    return d->m->vt->fold_check(d->m, out, err);
+}
+
+void ffd_fold_report_free(ffd_fold_report *report)
+{
+    if (!report)
+        return;
+    ffd_free(report->cell_ids);
+    memset(report, 0, sizeof *report);
+}

@@ -138,6 +138,9 @@ ffd_status ffd_lattice_sensitivity_product(const ffd_lattice *lat, const ffd_lat
  * count. FFD_ERR_INVALID (binding of another lattice), FFD_ERR_NOMEM. */
 ffd_status ffd_lattice_sensitivity_transpose(const ffd_lattice *lat, const ffd_lattice_binding *bind,
                                              const double *w, double *out, ffd_error *err);
+/* The fold-over check (ffd_deformer_fold_check, ffd.h): det J of the map
+ * on a 5x5x5 grid in every lattice cell (lattice_map.c). */
+ffd_status ffd_lattice_fold_check(const ffd_lattice *lat, ffd_fold_report *out, ffd_error *err);
 
 /* Rebuilds P_ext from P (B-spline). */
 void ffd_lattice_sync(ffd_lattice *lat);

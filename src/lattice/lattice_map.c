@@ -66,6 +66,106 @@ ffd_status ffd_lattice_jacobian(const ffd_lattice *lat, const ffd_lattice_bindin
     return FFD_OK;
 }
 
+/* World Jacobian of the map at global parameters S (as ffd_lattice_jacobian
+ * for an inside point). */
+static void jacobian_at(const ffd_lattice *lat, const double S_in[3], double J[9])
+{
+    const int bspline = lat->basis == FFD_BASIS_BSPLINE;
+    double S[3], g[3];
+    for (int c = 0; c < 3; c++) {
+        S[c] = S_in[c];
+        g[c] = 1.0;
+        if (bspline) {
+            double hi = (double)lat->res[c] + 1.0;
+            if (S[c] < JACOBIAN_NUDGE)
+                S[c] = JACOBIAN_NUDGE;
+            if (S[c] > hi - JACOBIAN_NUDGE)
+                S[c] = hi - JACOBIAN_NUDGE;
+            double df;
+            ffd_bspline_rest_map(lat->res[c], S[c], &df);
+            g[c] = 1.0 / df;
+        }
+    }
+    double d[3], dd[3][3];
+    ffd_lattice_displacement_at(lat, S, d, dd);
+    for (int r = 0; r < 3; r++)
+        for (int c = 0; c < 3; c++)
+            J[3 * r + c] = (r == c ? 1.0 : 0.0) + (dd[0][r] * g[0] * lat->dual[0][c] +
+                                                   dd[1][r] * g[1] * lat->dual[1][c] +
+                                                   dd[2][r] * g[2] * lat->dual[2][c]);
+}
+
+static double det3(const double m[9])
+{
+    return m[0] * (m[4] * m[8] - m[5] * m[7]) - m[1] * (m[3] * m[8] - m[5] * m[6]) +
+           m[2] * (m[3] * m[7] - m[4] * m[6]);
+}
+
+#define FOLD_GRID 5 /* samples per axis and lattice cell */
+
+ffd_status ffd_lattice_fold_check(const ffd_lattice *lat, ffd_fold_report *out, ffd_error *err)
+{
+    const int bspline = lat->basis == FFD_BASIS_BSPLINE;
+    memset(out, 0, sizeof *out);
+    out->cells = "lattice cell";
+    out->min_det = NAN;
+    /* cells per axis and the parameter span of one: B-spline knot spans
+     * (global parameter 0..res+1), Bernstein control-grid cells (0..1) */
+    uint32_t nc[3];
+    double h[3];
+    for (int a = 0; a < 3; a++) {
+        nc[a] = bspline ? lat->res[a] + 1 : (lat->res[a] > 1 ? lat->res[a] - 1 : 1);
+        h[a] = bspline ? 1.0 : 1.0 / nc[a];
+    }
+    size_t total = (size_t)nc[0] * nc[1] * nc[2];
+    double *cell_min = ffd_malloc_array(total, sizeof(double));
+    if (!cell_min)
+        return ffd_fail(err, FFD_ERR_NOMEM, "fold check: out of memory");
+    const long long nn = (long long)total;
+#pragma omp parallel for schedule(static)
+    for (long long ii = 0; ii < nn; ii++) {
+        size_t c = (size_t)ii;
+        uint32_t ijk[3] = {(uint32_t)(c % nc[0]), (uint32_t)(c / nc[0] % nc[1]),
+                           (uint32_t)(c / ((size_t)nc[0] * nc[1]))};
+        double lo = INFINITY;
+        /* a 5x5x5 grid at fractions 0, 1/4, .., 1 of the cell: the corners
+         * and centre alone miss folds inside a knot span (a cubic's
+         * derivative turns between them) */
+        for (int s = 0; s < FOLD_GRID * FOLD_GRID * FOLD_GRID; s++) {
+            double S[3], J[9];
+            int g[3] = {s % FOLD_GRID, s / FOLD_GRID % FOLD_GRID, s / (FOLD_GRID * FOLD_GRID)};
+            for (int a = 0; a < 3; a++)
+                S[a] = (ijk[a] + (double)g[a] / (FOLD_GRID - 1)) * h[a];
+            jacobian_at(lat, S, J);
+            double dj = det3(J);
+            if (!(dj >= lo))
+                lo = dj; /* a NaN is kept: it is not > 0 */
+        }
+        cell_min[c] = lo;
+    }
+    size_t folded = 0;
+    for (size_t c = 0; c < total; c++) {
+        if (isnan(out->min_det) || cell_min[c] < out->min_det || isnan(cell_min[c]))
+            out->min_det = cell_min[c];
+        folded += !(cell_min[c] > 0);
+    }
+    out->cells_checked = total;
+    out->samples = (size_t)FOLD_GRID * FOLD_GRID * FOLD_GRID * total;
+    out->folded = folded;
+    if (folded) {
+        out->cell_ids = ffd_malloc_array(folded, sizeof(uint32_t));
+        if (!out->cell_ids) {
+            ffd_free(cell_min);
+            return ffd_fail(err, FFD_ERR_NOMEM, "fold check: out of memory");
+        }
+        for (size_t c = 0, k = 0; c < total; c++)
+            if (!(cell_min[c] > 0))
+                out->cell_ids[k++] = (uint32_t)c;
+    }
+    ffd_free(cell_min);
+    return FFD_OK;
+}
+
 static size_t lattice_row(const void *self, size_t i, uint32_t *cols, double *w)
 {
     const ffd_lattice_binding *b = self;

@@ -7,6 +7,8 @@
  * the solve never touches the mesh-sized binding. The mesh is changed only by
  * the final ffd_mesh_set_positions, which is all-or-nothing. */
 #include "lattice/lattice_method.h"
+#include "lattice/lattice.h"
+#include "mesh/mesh_quality.h"
 
 #include <cjson/cJSON.h>
 #include <math.h>
@@ -77,6 +79,90 @@ static ffd_status charge_lattice(const ffd_rig *rig, size_t n, ffd_budget *budge
                              rig->basis == FFD_BASIS_BERNSTEIN ? "l m n" : "64");
 }
 
+/* ---- step limiting ("limit_step", docs/rig.md) ---- */
+
+#define STEP_HALVINGS 20 /* the fraction found is within 2^-20 of the largest that passes */
+
+/* Whether the lattice as it is now passes: the map folds nowhere (the fold
+ * check) and no 3D cell of the mesh inverts against the rest positions. */
+static ffd_status step_passes(const ffd_lattice *lattice, const ffd_lattice_binding *binding,
+                              const ffd_mesh *mesh, double *x, int *ok, ffd_error *err)
+{
+    ffd_fold_report f;
+    ffd_status s = ffd_lattice_fold_check(lattice, &f, err);
+    if (s)
+        return s;
+    *ok = f.folded == 0;
+    ffd_free(f.cell_ids);
+    if (*ok && ffd_mesh_cell_count(mesh)) {
+        if ((s = ffd_lattice_eval(lattice, binding, x, err)))
+            return s;
+        *ok = ffd_mesh_inverted_cells(mesh, x, ffd_mesh_positions(mesh)) == 0;
+    }
+    return FFD_OK;
+}
+
+/* The controls at start + t delta (nc by 3 each). */
+static ffd_status step_to(ffd_lattice *lattice, const double *start, const double *delta, size_t nc,
+                          double t, double *work, ffd_error *err)
+{
+    for (size_t i = 0; i < 3 * nc; i++)
+        work[i] = start[i] + t * delta[i];
+    return ffd_lattice_set_control_points(lattice, work, err);
+}
+
+/* After the full step (start + delta) was applied: when it fails the check
+ * and the state before it passes, bisects on the fraction t in [0, 1]
+ * (STEP_HALVINGS halvings) and leaves the lattice at the largest t found
+ * to pass. *fraction: the t applied (1 when the full step passes, or when
+ * the state before the step fails too: then limiting cannot help, *hopeless). */
+static ffd_status limit_step(ffd_lattice *lattice, const ffd_lattice_binding *binding,
+                             const ffd_mesh *mesh, const double *start, const double *delta,
+                             double *fraction, int *hopeless, ffd_error *err)
+{
+    size_t nc = ffd_lattice_control_count(lattice), n = ffd_mesh_vertex_count(mesh);
+    double *full = ffd_malloc_array(nc, 3 * sizeof(double));
+    double *work = ffd_malloc_array(nc, 3 * sizeof(double));
+    double *x = ffd_malloc_array(n ? n : 1, 3 * sizeof(double));
+    ffd_status s = FFD_OK;
+    *fraction = 1.0;
+    *hopeless = 0;
+    if (!full || !work || !x) {
+        s = ffd_fail(err, FFD_ERR_NOMEM, "limit_step: out of memory");
+        goto done;
+    }
+    memcpy(full, ffd_lattice_control_points(lattice), nc * 3 * sizeof(double));
+    int ok;
+    if ((s = step_passes(lattice, binding, mesh, x, &ok, err)) || ok)
+        goto done;
+    if ((s = step_to(lattice, start, delta, nc, 0.0, work, err)) ||
+        (s = step_passes(lattice, binding, mesh, x, &ok, err)))
+        goto done;
+    if (!ok) { /* folded before the solve: keep the full step */
+        *hopeless = 1;
+        s = ffd_lattice_set_control_points(lattice, full, err);
+        goto done;
+    }
+    double lo = 0.0, hi = 1.0;
+    for (int h = 0; h < STEP_HALVINGS; h++) {
+        double mid = 0.5 * (lo + hi);
+        if ((s = step_to(lattice, start, delta, nc, mid, work, err)) ||
+            (s = step_passes(lattice, binding, mesh, x, &ok, err)))
+            goto done;
+        if (ok)
+            lo = mid;
+        else
+            hi = mid;
+    }
+    *fraction = lo;
+    s = step_to(lattice, start, delta, nc, lo, work, err);
+done:
+    ffd_free(full);
+    ffd_free(work);
+    ffd_free(x);
+    return s;
+}
+
 ffd_status ffd_rig_apply_lattice(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report *report,
                                  ffd_budget *budget, ffd_error *err)
 {
@@ -91,6 +177,8 @@ ffd_status ffd_rig_apply_lattice(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_rep
     double *rest = NULL, *current = NULL, *delta = NULL, *residuals = NULL;
     double *deformed = NULL, *jacobians = NULL, *report_points = NULL;
     size_t *rows = NULL;
+    double *start = NULL, step_fraction = 1.0;
+    int hopeless = 0;
     ffd_manip_result result = {0};
     ffd_timings timings = {0};
 
@@ -179,7 +267,18 @@ ffd_status ffd_rig_apply_lattice(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_rep
         ffd_manip_options options = {rig->rcond};
         s = ffd_manip_solve(&map, rows, k, current, targets, &options, delta, NULL, &result,
                             &inner);
-        if (!s && (s = ffd_lattice_add(lattice, delta, &inner)) == FFD_OK) {
+        if (!s && rig->limit_step) {
+            size_t nc0 = ffd_lattice_control_count(lattice);
+            start = ffd_malloc_array(nc0, 3 * sizeof *start);
+            if (!start)
+                s = ffd_fail(&inner, FFD_ERR_NOMEM, "out of memory");
+            else
+                memcpy(start, ffd_lattice_control_points(lattice), nc0 * 3 * sizeof *start);
+        }
+        if (!s && (s = ffd_lattice_add(lattice, delta, &inner)) == FFD_OK && rig->limit_step)
+            s = limit_step(lattice, binding, mesh, start, delta, &step_fraction, &hopeless,
+                           &inner);
+        if (!s) {
             /* Report what the deformation really does at the constrained points. */
             s = ffd_lattice_eval(lattice, pins, current, &inner);
         }
@@ -225,10 +324,25 @@ ffd_status ffd_rig_apply_lattice(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_rep
         }
         memcpy(report_points, ffd_lattice_control_points(lattice), nc * 3 * sizeof(double));
         /* the lattice's details: none beyond the shared part (its resolution
-         * is a field) */
+         * is a field), but the step fraction with "limit_step" */
         unsigned long mark;
         cJSON *details = ffd_rig_details_create(&mark);
+        if (details && rig->limit_step && k)
+            cJSON_AddNumberToObject(details, "step_fraction", step_fraction);
         if ((s = ffd_rig_report_set_details(report, details, mark, name, err)))
+            goto fail;
+        if (rig->limit_step && k && step_fraction < 1.0 &&
+            (s = ffd_rig_report_note(report, name, err,
+                                     "note: limit_step: the constraints' step shrunk to %.6g of "
+                                     "the full step (the full step folds the lattice or inverts "
+                                     "a cell)",
+                                     step_fraction)))
+            goto fail;
+        if (hopeless &&
+            (s = ffd_rig_report_note(report, name, err,
+                                     "warning: limit_step: the lattice folds (or a cell is "
+                                     "inverted) before the constraints' step: the full step "
+                                     "was applied")))
             goto fail;
     }
     if ((s = ffd_mesh_set_positions(mesh, deformed, jacobians, &inner))) {
@@ -252,6 +366,7 @@ ffd_status ffd_rig_apply_lattice(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_rep
         ffd_lattice_resolution(lattice, report->resolution);
     }
 fail:
+    ffd_free(start);
     ffd_lattice_binding_destroy(pins);
     ffd_lattice_binding_destroy(binding);
     ffd_lattice_destroy(lattice);

@@ -4,6 +4,7 @@
  * displaced control point (delta = current - rest). */
 #include "lattice/lattice.h"
 #include "lattice/lattice_method.h"
+#include "lattice/lattice.h"
 #include "session/session.h"
 
 #include <string.h>
@@ -246,6 +247,10 @@ static ffd_status lat_sensitivity_product(sess_method *m, const sess_binding *b,
 static ffd_status lat_sensitivity_transpose(sess_method *m, const sess_binding *b, const double *w,
                                             double *out, ffd_error *err);
 static void *lat_handle(sess_method *m);
+static ffd_status lat_fold_check(sess_method *m, ffd_fold_report *out, ffd_error *err)
+{
+    return ffd_lattice_fold_check(as_lattice(m)->lattice, out, err);
+}
 
 static const sess_vtable lattice_vtable = {
     .name = "lattice",
@@ -274,6 +279,7 @@ static const sess_vtable lattice_vtable = {
     .sensitivity_product = lat_sensitivity_product,
     .sensitivity_transpose_product = lat_sensitivity_transpose,
     .handle = lat_handle,
+    .fold_check = lat_fold_check,
 };
 
 /* Builds the lattice and binds the rest mesh. */

@@ -33,6 +33,8 @@ struct ffd_rig {
     ffd_box box;             /* when box_auto == 0 */
     ffd_outside outside;     /* default FFD_OUTSIDE_FIXED */
     double rcond;            /* 0: solver default */
+    int limit_step;          /* "limit_step": shrink the constraint solve's step by bisection
+                                until no cell inverts and the map does not fold (lattice) */
     ffd_rig_move *moves;
     size_t move_count;
     ffd_rig_constraint *constraints;

@@ -463,7 +463,8 @@ ffd_status ffd_rig_read_array(const ffd_rig_parser *p, const cJSON *item, const 
 
 ffd_status ffd_rig_read_linear_root(const ffd_rig_parser *p, const cJSON *root, ffd_rig *rig)
 {
-    static const char *const common[] = {"version", "deformer", "rcond", "constraints", NULL};
+    static const char *const common[] = {"version", "deformer", "rcond", "constraints",
+                                         "limit_step", NULL};
     const ffd_method *own = rig->method;
     const cJSON *item;
     ffd_status s;
@@ -508,6 +509,16 @@ ffd_status ffd_rig_read_linear_root(const ffd_rig_parser *p, const cJSON *root, 
             return s;
         if (rig->rcond < 0 || rig->rcond >= 1)
             return ffd_rig_expected(p, "rcond", "a number in [0, 1) (0: the solver's default)");
+    }
+    if ((item = cJSON_GetObjectItemCaseSensitive(root, "limit_step"))) {
+        if (!cJSON_IsBool(item))
+            return ffd_rig_expected(p, "limit_step", "true or false");
+        rig->limit_step = cJSON_IsTrue(item);
+        if (rig->limit_step && strcmp(own->name, "lattice") != 0)
+            return ffd_fail(p->err, FFD_ERR_UNSUPPORTED,
+                            "%s: limit_step: only \"deformer\": \"lattice\" rigs limit the step "
+                            "so far (this rig's deformer is \"%s\")",
+                            p->name, own->name);
     }
     if ((item = cJSON_GetObjectItemCaseSensitive(root, "constraints"))) {
         if ((s = ffd_rig_read_constraints(p, item, "constraints", &rig->constraints, &rig->constraint_count)))
@@ -684,6 +695,7 @@ ffd_status ffd_rig_write_json(const ffd_rig *rig, char **text, ffd_error *err)
              cJSON_AddStringToObject(root, "deformer", rig->method->name) &&
              rig->method->write(rig, root) &&
              (!(rig->rcond > 0) || ffd_sess_add_item(root, "rcond", ffd_sess_number(rig->rcond))) &&
+             (!rig->limit_step || cJSON_AddTrueToObject(root, "limit_step")) &&
              (!rig->constraint_count ||
               ffd_sess_add_item(root, "constraints", constraints_json(rig)));
     char *printed = ok ? cJSON_Print(root) : NULL;

@@ -141,6 +141,9 @@ struct sess_vtable {
                                       double *out, ffd_error *err);
     ffd_status (*sensitivity_transpose_product)(sess_method *m, const sess_binding *b,
                                                 const double *w, double *out, ffd_error *err);
+    /* The fold-over check of the current map (ffd_deformer_fold_check);
+     * NULL: unsupported. */
+    ffd_status (*fold_check)(sess_method *m, ffd_fold_report *out, ffd_error *err);
 };
 
 /* Constructors. create: from the body of the "create" op, which is a rig's

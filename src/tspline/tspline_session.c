@@ -9,6 +9,7 @@
 #include "session/session.h"
 #include "tspline/tsv.h"
 
+#include <math.h>
 #include <stdio.h>
 #include <string.h>
 
@@ -424,6 +425,7 @@ static ffd_status tsv_jacobian_points(sess_method *m, const sess_binding *b, dou
 static ffd_status tsv_map_points(sess_method *m, const sess_binding *b, ffd_linear_map *map,
                                  ffd_error *err);
 static void *tsv_handle(sess_method *m);
+static ffd_status tsv_fold_check(sess_method *m, ffd_fold_report *out, ffd_error *err);
 
 static const sess_vtable tspline_vtable = {
     .name = "tspline",
@@ -450,6 +452,7 @@ static const sess_vtable tspline_vtable = {
     .jacobian_points = tsv_jacobian_points,
     .map_points = tsv_map_points,
     .handle = tsv_handle,
+    .fold_check = tsv_fold_check,
 };
 
 static ffd_status tspline_build(const sess_ctx *ctx, const uint32_t res[3], double padding,
@@ -603,4 +606,23 @@ static ffd_status tsv_map_points(sess_method *m, const sess_binding *b, ffd_line
 static void *tsv_handle(sess_method *m)
 {
     return as_tsv(m)->t;
+}
+
+/* The T-spline's own fold check (ffd_tsv_check_folds, 3^3 samples per cell)
+ * as the generic report; its inverted faces stay in the rig report. */
+static ffd_status tsv_fold_check(sess_method *m, ffd_fold_report *out, ffd_error *err)
+{
+    ffd_tsv_fold_report f;
+    ffd_status st = ffd_tsv_check_folds(as_tsv(m)->t, 0, &f, err);
+    if (st)
+        return st;
+    out->cells = "T-spline cell";
+    out->cells_checked = f.cells_checked;
+    out->samples = 27 * f.cells_checked;
+    out->folded = f.folded_cell_count;
+    out->min_det = f.cells_checked ? f.min_det : NAN;
+    out->cell_ids = f.folded_cells;
+    f.folded_cells = NULL;
+    ffd_tsv_fold_report_free(&f);
+    return FFD_OK;
 }

@@ -27,7 +27,11 @@ static const char usage[] =
     "                    glb; OUT '-' without it: the format of IN's extension)\n"
     "  --in-place        allow OUT to be IN (OUT defaults to IN)\n"
     "  --report          print the report as JSON on stdout: residuals, then the\n"
-    "                    method's details (docs/rig.md \"The report\")\n"
+    "                    method's details (docs/rig.md \"The report\"), the inverted\n"
+    "                    cells and flipped faces (\"inversions\") and the fold check\n"
+    "                    of the map (\"folds\"; docs/volume.md)\n"
+    "  --fail-on-inversion  exit 1 without writing anything when a cell inverted or\n"
+    "                    a face flipped (the message names the count and the worst cell)\n"
     "  --lattice-out F   also write the deformed control structure to F (OBJ: its\n"
     "                    control points, and lines along its edges or grid if it has\n"
     "                    them; what each method writes: docs/cli.md)\n"
@@ -76,7 +80,16 @@ static void print_json(const cJSON *v)
 
 /* The shared part of the report, then the method's details as more keys of
  * the same object, whatever they are. */
-static void print_report(const ffd_rig_report *report)
+static void print_ids(const uint32_t *ids, size_t n)
+{
+    printf("[");
+    for (size_t i = 0; i < n; i++)
+        printf("%s%u", i ? ", " : "", ids[i]);
+    printf("]");
+}
+
+static void print_report(const ffd_rig_report *report, const ffd_inversion_report *inv,
+                         const ffd_fold_report *folds)
 {
     printf("{\"constraints\": [");
     for (size_t c = 0; c < report->constraint_count; c++) {
@@ -102,6 +115,29 @@ static void print_report(const ffd_rig_report *report)
         print_json(c);
     }
     cJSON_Delete(details);
+    if (inv) {
+        printf(", \"inversions\": {\"cells_checked\": %zu, \"inverted\": %zu, \"worst_det\": ",
+               inv->cells_checked, inv->inverted);
+        cli_json_number(stdout, inv->worst_det);
+        printf(", \"worst_scaled_jacobian\": ");
+        cli_json_number(stdout, inv->worst_scaled_jacobian);
+        printf(", \"cell_ids\": ");
+        print_ids(inv->cell_ids, inv->cell_id_count);
+        printf(", \"faces_checked\": %zu, \"flipped_faces\": %zu, \"face_ids\": ",
+               inv->faces_checked, inv->flipped_faces);
+        print_ids(inv->face_ids, inv->face_id_count);
+        printf("}");
+    }
+    if (folds) {
+        printf(", \"folds\": {\"cells\": ");
+        cli_json_string(stdout, folds->cells ? folds->cells : "");
+        printf(", \"cells_checked\": %zu, \"samples\": %zu, \"folded\": %zu, \"min_det\": ",
+               folds->cells_checked, folds->samples, folds->folded);
+        cli_json_number(stdout, folds->min_det);
+        printf(", \"cell_ids\": ");
+        print_ids(folds->cell_ids, folds->folded);
+        printf("}");
+    }
     printf("}\n");
 }
 
@@ -138,7 +174,7 @@ int cmd_deform(int argc, char **argv)
 {
     const char *in = NULL, *out = NULL, *rig_path = NULL, *lattice_out = NULL, *proxy_out = NULL;
     ffd_write_options options = {FFD_FORMAT_AUTO, FFD_ENCODING_SAME, 0};
-    int in_place = 0, want_report = 0, want_timings = 0;
+    int in_place = 0, want_report = 0, want_timings = 0, fail_on_inversion = 0;
     const char *max_memory = NULL, *format_text = NULL;
     ffd_limits limits = {0};
     for (int i = 1; i < argc; i++) {
@@ -187,6 +223,8 @@ int cmd_deform(int argc, char **argv)
             in_place = 1;
         } else if (strcmp(arg, "--report") == 0) {
             want_report = 1;
+        } else if (strcmp(arg, "--fail-on-inversion") == 0) {
+            fail_on_inversion = 1;
         } else if (strcmp(arg, "--timings") == 0) {
             want_timings = 1;
         } else if (arg[0] == '-' && arg[1] != 0) {
@@ -236,6 +274,11 @@ int cmd_deform(int argc, char **argv)
     unsigned char *bytes = NULL; /* the output mesh, made before any file is written */
     size_t nbytes = 0;
     ffd_rig_report report = {0};
+    ffd_inversion_report inv = {0};
+    ffd_fold_report folds = {0};
+    int have_inv = 0, have_folds = 0;
+    double *rest = NULL;
+    ffd_deformer *deformer = NULL;
     int code = CLI_EXIT_INPUT;
     double t0 = cli_now();
     if (cli_mesh_read(in, stdio_format, &mesh, &err) != FFD_OK ||
@@ -247,9 +290,62 @@ int cmd_deform(int argc, char **argv)
         code = bad;
         goto done;
     }
+    size_t rest_count = ffd_mesh_vertex_count(mesh);
+    if (want_report || fail_on_inversion) {
+        /* the rest state for the inversion check, and the rig's deformer
+         * (the rig replayed once more) for the fold check of its map */
+        rest = malloc((rest_count ? rest_count : 1) * 3 * sizeof *rest);
+        if (!rest) {
+            cli_error(code, "%s: out of memory", in);
+            goto done;
+        }
+        memcpy(rest, ffd_mesh_positions(mesh), rest_count * 3 * sizeof *rest);
+        if (want_report) {
+            ffd_error ferr = {{0}};
+            if (ffd_deformer_create(rig, mesh, &limits, &deformer, &err) != FFD_OK) {
+                cli_error(code, "%s: %s", in, err.message);
+                goto done;
+            }
+            ffd_status fs = ffd_deformer_fold_check(deformer, &folds, &ferr);
+            if (fs == FFD_OK) {
+                have_folds = 1;
+            } else if (fs != FFD_ERR_UNSUPPORTED) {
+                cli_error(code, "%s: fold check: %s", in, ferr.message);
+                goto done;
+            }
+            ffd_deformer_destroy(deformer);
+            deformer = NULL;
+        }
+    }
     double t1 = cli_now();
     if (ffd_rig_apply_limited(rig, mesh, &limits, &report, &err) != FFD_OK) {
         cli_error(code, "%s: %s", in, err.message); /* the mesh, then the rig's message */
+        goto done;
+    }
+    if (rest && ffd_mesh_vertex_count(mesh) == rest_count) {
+        if (ffd_mesh_check_inversions(mesh, rest, 0, &inv, &err) != FFD_OK) {
+            cli_error(code, "%s: inversion check: %s", in, err.message);
+            goto done;
+        }
+        have_inv = 1;
+    } else if (fail_on_inversion) {
+        cli_error(code, "%s: --fail-on-inversion: the %s method replaced the mesh (%zu vertices, "
+                        "%zu at rest): its cells cannot be compared with the rest state",
+                  in, report.method ? report.method : "rig's", ffd_mesh_vertex_count(mesh),
+                  rest_count);
+        goto done;
+    }
+    if (fail_on_inversion && (inv.inverted || inv.flipped_faces)) {
+        if (inv.inverted)
+            cli_error(code,
+                      "%s: %zu cell%s inverted (worst det J %.6g at cell %zu), %zu face%s "
+                      "flipped: nothing written (--fail-on-inversion)",
+                      in, inv.inverted, inv.inverted == 1 ? "" : "s", inv.worst_det,
+                      inv.worst_cell, inv.flipped_faces, inv.flipped_faces == 1 ? "" : "s");
+        else
+            cli_error(code, "%s: %zu face%s flipped (the first: face %u): nothing written "
+                            "(--fail-on-inversion)",
+                      in, inv.flipped_faces, inv.flipped_faces == 1 ? "" : "s", inv.face_ids[0]);
         goto done;
     }
     double t2 = cli_now();
@@ -312,7 +408,7 @@ int cmd_deform(int argc, char **argv)
         line += len + (eol != NULL);
     }
     if (want_report)
-        print_report(&report);
+        print_report(&report, have_inv ? &inv : NULL, have_folds ? &folds : NULL);
     if (want_timings)
         print_timings(t1 - t0, &report.timings, t3 - t2);
     cli_note("wrote %s (%zu vertices, %zu faces)\n", to_stdout ? "<stdout>" : out,
@@ -320,6 +416,10 @@ int cmd_deform(int argc, char **argv)
     code = CLI_EXIT_OK;
 done:
     ffd_free(bytes);
+    free(rest);
+    ffd_deformer_destroy(deformer);
+    ffd_inversion_report_free(&inv);
+    ffd_fold_report_free(&folds);
     ffd_rig_report_free(&report);
     ffd_rig_destroy(rig);
     ffd_mesh_destroy(mesh);
