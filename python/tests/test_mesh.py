@@ -85,7 +85,7 @@ def test_read_errors_are_mapped(tmp_path):
     with pytest.raises(ffdkit.FileError):
         ffdkit.read_mesh(tmp_path / "missing.obj", format="obj")
     with pytest.raises(ValueError, match="format"):
-        ffdkit.read_mesh(BUNNY, format="xyz")
+        ffdkit.read_mesh(BUNNY, format="fbx")
 
 
 def test_write_is_lossless_and_atomic(tmp_path):

@@ -41,8 +41,8 @@ global options (any command):
                                          (errors are still printed)
 
 '-' as a mesh or rig file reads standard input or writes standard output;
---format FMT (obj, ply, off, stl, gltf or glb) names its format (docs/cli.md
-"Pipes").
+--format FMT (obj, ply, off, stl, gltf, glb, vtk, vtu, msh, su2, xyz, csv or
+npy) names its format (docs/cli.md "Pipes").
 Run 'ffd COMMAND --help' for a command's options.
 Exit status: 0 success, 1 bad or unreadable input (or a failed write), 2 usage error.
 HELP

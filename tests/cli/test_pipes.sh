@@ -72,7 +72,7 @@ refused "needs --format FMT" deform - -o "$T/x.ply" --rig "$RIG"
 refused "needs --format FMT" convert - "$T/x.ply"
 refused "needs --format FMT" info -
 refused "both read standard input" deform - -o - --rig - --format ply
-refused "unknown format" deform - -o - --rig "$RIG" --format xyz
+refused "unknown format" deform - -o - --rig "$RIG" --format fbx
 refused "--report prints on standard output" deform "$PLY" -o - --rig "$RIG" --report
 refused "only the mesh (-o) can go to standard output" deform "$PLY" -o "$T/y.ply" --rig "$RIG" --lattice-out -
 refused "--in-place: standard input" deform - --in-place --rig "$RIG" --format ply
@@ -92,8 +92,8 @@ for cmd in info convert deform "pbffd place" "tspline proxy"; do
     args=(-o "$T/x.obj")
     case $cmd in info) args=() ;; deform) args+=(--rig "$RIG") ;; esac
     # shellcheck disable=SC2086
-    "$FFD" $cmd - "${args[@]}" --format xyz >/dev/null 2>"$T/stderr"
-    has stderr "--format 'xyz': unknown format (expected $formats)"
+    "$FFD" $cmd - "${args[@]}" --format fbx >/dev/null 2>"$T/stderr"
+    has stderr "--format 'fbx': unknown format (expected $formats)"
 done
 [ -e "$T/x.obj" ] && fail "a refused tspline proxy wrote its proxy"
 [ -e "$T/x.ply" ] || [ -e "$T/y.ply" ] && fail "a refused command wrote a file"

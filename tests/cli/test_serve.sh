@@ -296,7 +296,7 @@ expect 413 too_large POST /api/create -H 'Transfer-Encoding: chunked' --data-bin
 expect 413 too_large POST /api/open -H 'Expect:' --data-binary 'x' -H 'Content-Length: 1048577'
 expect 413 too_large POST /api/rig/upload?name=r.json --data-binary 'x' -H 'Expect:' \
     -H 'Content-Length: 999999999999'
-expect 415 unsupported_format POST '/api/upload?name=model.xyz' --data-binary @"$ROOT/bunny.obj"
+expect 415 unsupported_format POST '/api/upload?name=model.fbx' --data-binary @"$ROOT/bunny.obj"
 expect 415 unsupported_format POST '/api/rig/upload?name=rig.txt' --data-binary @"$ROOT/bend.json"
 expect 400 invalid POST '/api/upload' --data-binary @"$ROOT/bunny.obj"
 expect 400 parse POST '/api/upload?name=broken.obj' --data-binary 'v 1 x 3'

@@ -24,7 +24,8 @@ static const char usage[] =
     "  --in-place    allow OUT to be IN itself\n"
     "  -o, --output OUT\n"
     "                the output, instead of the second argument\n"
-    "  --format FMT  the format of '-' (obj, ply, off, stl, gltf or glb)\n"
+    "  --format FMT  the format of '-' (obj, ply, off, stl, gltf, glb, vtk,\n"
+    "                vtu, msh, su2, xyz, csv or npy)\n"
     "  -h, --help    this help\n";
 
 int cmd_convert(int argc, char **argv)

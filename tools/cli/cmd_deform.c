@@ -23,8 +23,9 @@ static const char usage[] =
     "options:\n"
     "  -o, --output OUT  the deformed mesh\n"
     "  -r, --rig RIG     the rig file\n"
-    "  --format FMT      the format of IN or OUT '-' (obj, ply, off, stl, gltf or\n"
-    "                    glb; OUT '-' without it: the format of IN's extension)\n"
+    "  --format FMT      the format of IN or OUT '-' (obj, ply, off, stl, gltf,\n"
+    "                    glb, vtk, vtu, msh, su2, xyz, csv or npy; OUT '-' without\n"
+    "                    it: the format of IN's extension)\n"
     "  --in-place        allow OUT to be IN (OUT defaults to IN)\n"
     "  --report          print the report as JSON on stdout: residuals, then the\n"
     "                    method's details (docs/rig.md \"The report\"), the inverted\n"
@@ -302,11 +303,14 @@ int cmd_deform(int argc, char **argv)
         memcpy(rest, ffd_mesh_positions(mesh), rest_count * 3 * sizeof *rest);
         if (want_report) {
             ffd_error ferr = {{0}};
-            if (ffd_deformer_create(rig, mesh, &limits, &deformer, &err) != FFD_OK) {
-                cli_error(code, "%s: %s", in, err.message);
-                goto done;
-            }
-            ffd_status fs = ffd_deformer_fold_check(deformer, &folds, &ferr);
+            /* a rig no deformer replays (GFFD's resampling or replacement
+             * changes the mesh) has no fold check; its own errors come
+             * from the application below */
+            ffd_status fs = ffd_deformer_create(rig, mesh, &limits, &deformer, &ferr);
+            if (fs == FFD_OK)
+                fs = ffd_deformer_fold_check(deformer, &folds, &ferr);
+            else
+                fs = FFD_ERR_UNSUPPORTED;
             if (fs == FFD_OK) {
                 have_folds = 1;
             } else if (fs != FFD_ERR_UNSUPPORTED) {

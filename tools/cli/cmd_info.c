@@ -16,7 +16,7 @@ static const char usage[] =
     "options:\n"
     "  --json        one JSON object on stdout instead of text\n"
     "  --format FMT  MESH '-' is standard input in this format (obj, ply, off, stl,\n"
-    "                gltf or glb)\n"
+    "                gltf, glb, vtk, vtu, msh, su2, xyz, csv or npy)\n"
     "  -h, --help    this help\n";
 
 /* The cells part of a mesh with cells (JSON keys after the surface's). */

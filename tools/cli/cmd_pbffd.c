@@ -29,7 +29,7 @@ static const char usage[] =
     "  --points F            also write the control points as an OBJ point cloud\n"
     "  --report              print the placement report as JSON on stdout\n"
     "  --format FMT          MESH '-' is standard input in this format (obj, ply, off,\n"
-    "                        stl, gltf or glb)\n"
+    "                        stl, gltf, glb, vtk, vtu, msh, su2, xyz, csv or npy)\n"
     "  -h, --help            this help\n";
 
 /* A positive integer, or -1. */

@@ -26,7 +26,8 @@ static const char usage[] =
     "  -r, --rig RIG     the rig file (JSON, or PyGeM .prm)\n"
     "  --expand          write the 3N x 3C matrix dX/dP itself: row 3i+a, column\n"
     "                    3j+a (0-based; a = x, y, z) holds W_ij\n"
-    "  --format FMT      the format of MESH '-' (obj, ply, off, stl, gltf or glb)\n"
+    "  --format FMT      the format of MESH '-' (obj, ply, off, stl,\n"
+    "                    gltf, glb, vtk, vtu, msh, su2, xyz, csv or npy)\n"
     "  -h, --help        this help\n";
 
 /* name with control characters (a newline would end the comment line)

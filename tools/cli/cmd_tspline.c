@@ -29,7 +29,7 @@ static const char usage[] =
     "  --lattice F           also write the full T-lattice (OBJ: points and edges)\n"
     "  --report              print the counts as JSON on stdout\n"
     "  --format FMT          MESH '-' is standard input in this format (obj, ply, off,\n"
-    "                        stl, gltf or glb);\n"
+    "                        stl, gltf, glb, vtk, vtu, msh, su2, xyz, csv or npy);\n"
     "                        RIG '-' reads a JSON rig from standard input\n"
     "  -h, --help            this help\n";
 

@@ -40,8 +40,8 @@ static const char usage_tail[] =
     "                                         (errors are still printed)\n"
     "\n"
     "'-' as a mesh or rig file reads standard input or writes standard output;\n"
-    "--format FMT (obj, ply, off, stl, gltf or glb) names its format (docs/cli.md\n"
-    "\"Pipes\").\n"
+    "--format FMT (obj, ply, off, stl, gltf, glb, vtk, vtu, msh, su2, xyz, csv or\n"
+    "npy) names its format (docs/cli.md \"Pipes\").\n"
     "Run 'ffd COMMAND --help' for a command's options.\n"
     "Exit status: 0 success, 1 bad or unreadable input (or a failed write), 2 usage error.\n";
 
