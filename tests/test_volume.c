@@ -7,21 +7,7 @@
 
 #include <ffd.h>
 
-/* Signed volume enclosed by the mesh's faces (fans), by the divergence
- * theorem: positive when they are closed and oriented outwards. */
-static double enclosed_volume(const ffd_mesh *m)
-{
-    const double *p = ffd_mesh_positions(m);
-    const uint32_t *off = ffd_mesh_face_offsets(m), *ix = ffd_mesh_face_indices(m);
-    double v = 0;
-    for (size_t f = 0; f < ffd_mesh_face_count(m); f++)
-        for (uint32_t k = off[f] + 1; k + 1 < off[f + 1]; k++) {
-            const double *a = p + 3 * ix[off[f]], *b = p + 3 * ix[k], *c = p + 3 * ix[k + 1];
-            v += (a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0]) +
-                  a[2] * (b[0] * c[1] - b[1] * c[0])) / 6;
-        }
-    return v;
-}
+#include "check_volume.h"
 
 typedef struct {
     uint8_t type;

@@ -10,25 +10,12 @@
 #include <stdint.h>
 
 #include <ffd.h>
+#include "check_volume.h"
 
 #define VOL FFD_DATA_DIR "/volume/"
 
 /* Signed volume enclosed by the mesh's faces (fans): positive when they are
  * closed and oriented outwards (the boundary of positive cells). */
-static double enclosed_volume(const ffd_mesh *m)
-{
-    const double *p = ffd_mesh_positions(m);
-    const uint32_t *off = ffd_mesh_face_offsets(m), *ix = ffd_mesh_face_indices(m);
-    double v = 0;
-    for (size_t f = 0; f < ffd_mesh_face_count(m); f++)
-        for (uint32_t k = off[f] + 1; k + 1 < off[f + 1]; k++) {
-            const double *a = p + 3 * ix[off[f]], *b = p + 3 * ix[k], *c = p + 3 * ix[k + 1];
-            v += (a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0]) +
-                  a[2] * (b[0] * c[1] - b[1] * c[0])) / 6;
-        }
-    return v;
-}
-
 static size_t count_type(const ffd_mesh *m, unsigned type)
 {
     size_t n = 0;
@@ -60,16 +47,6 @@ static unsigned char *read_file(const char *path, size_t *size)
     *size = fread(d, 1, (size_t)n, f);
     fclose(f);
     return d;
-}
-
-static const double *field(const ffd_mesh *m, const char *name)
-{
-    for (size_t i = 0; i < ffd_mesh_field_count(m); i++) {
-        ffd_field_info fi;
-        if (ffd_mesh_field_get(m, i, &fi, NULL) == FFD_OK && strcmp(fi.name, name) == 0)
-            return fi.values;
-    }
-    return NULL;
 }
 
 typedef struct sample {

@@ -11,33 +11,9 @@
 #include <string.h>
 
 #include <ffd.h>
+#include "check_volume.h"
 
 #define VOL FFD_DATA_DIR "/volume/"
-
-static unsigned char *slurp(const char *path, size_t *size)
-{
-    FILE *f = fopen(path, "rb");
-    if (!f)
-        return NULL;
-    fseek(f, 0, SEEK_END);
-    long n = ftell(f);
-    fseek(f, 0, SEEK_SET);
-    unsigned char *b = malloc((size_t)n + 1);
-    *size = fread(b, 1, (size_t)n, f);
-    b[*size] = 0;
-    fclose(f);
-    return b;
-}
-
-static ffd_mesh *read_ok(const char *path)
-{
-    ffd_mesh *m = NULL;
-    ffd_error err = {{0}};
-    if (ffd_mesh_read(path, &m, &err) != FFD_OK)
-        fprintf(stderr, "%s: %s\n", path, err.message);
-    CHECK(m != NULL);
-    return m;
-}
 
 static unsigned char *write_enc(const ffd_mesh *m, ffd_encoding enc, size_t *size)
 {
@@ -56,13 +32,6 @@ static bool contains(const unsigned char *b, const char *s, size_t n)
         if (memcmp(b + i, s, n) == 0)
             return true;
     return false;
-}
-
-static bool same_nodes(const ffd_mesh *a, const ffd_mesh *b)
-{
-    size_t n = ffd_mesh_vertex_count(a);
-    return n == ffd_mesh_vertex_count(b) &&
-           (n == 0 || memcmp(ffd_mesh_positions(a), ffd_mesh_positions(b), 3 * n * sizeof(double)) == 0);
 }
 
 /* The bunny's vertices rounded to float, for the '>f4' sample. */

@@ -11,67 +11,9 @@
 #include <unistd.h>
 
 #include <ffd.h>
+#include "check_volume.h"
 
 #define VOL FFD_DATA_DIR "/volume/"
-
-static unsigned char *slurp(const char *path, size_t *size)
-{
-    FILE *f = fopen(path, "rb");
-    if (!f)
-        return NULL;
-    fseek(f, 0, SEEK_END);
-    long n = ftell(f);
-    fseek(f, 0, SEEK_SET);
-    unsigned char *b = malloc((size_t)n + 1);
-    *size = fread(b, 1, (size_t)n, f);
-    b[*size] = 0;
-    fclose(f);
-    return b;
-}
-
-static ffd_mesh *read_ok(const char *path)
-{
-    ffd_mesh *m = NULL;
-    ffd_error err = {{0}};
-    if (ffd_mesh_read(path, &m, &err) != FFD_OK)
-        fprintf(stderr, "%s: %s\n", path, err.message);
-    CHECK(m != NULL);
-    return m;
-}
-
-static unsigned char *write_mem(const ffd_mesh *m, ffd_format f, size_t *size)
-{
-    ffd_write_options o = {f, FFD_ENCODING_SAME, 0};
-    unsigned char *out = NULL;
-    ffd_error err = {{0}};
-    if (ffd_mesh_write_memory(m, &o, &out, size, &err) != FFD_OK)
-        fprintf(stderr, "write: %s\n", err.message);
-    CHECK(out != NULL);
-    if (!out)
-        return NULL;
-    unsigned char *text = malloc(*size + 1); /* NUL-terminated, for strstr */
-    memcpy(text, out, *size);
-    text[*size] = 0;
-    ffd_free(out);
-    return text;
-}
-
-static const double *field(const ffd_mesh *m, const char *name)
-{
-    for (size_t i = 0; i < ffd_mesh_field_count(m); i++) {
-        ffd_field_info fi;
-        if (ffd_mesh_field_get(m, i, &fi, NULL) == FFD_OK && strcmp(fi.name, name) == 0)
-            return fi.values;
-    }
-    return NULL;
-}
-
-static bool same_nodes(const ffd_mesh *a, const ffd_mesh *b)
-{
-    size_t n = ffd_mesh_vertex_count(a);
-    return n == ffd_mesh_vertex_count(b) &&
-           (n == 0 || memcmp(ffd_mesh_positions(a), ffd_mesh_positions(b), 3 * n * sizeof(double)) == 0);
-}
 
 static void test_read_samples(void)
 {
