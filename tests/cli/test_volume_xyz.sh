@@ -90,7 +90,9 @@ PYEOF
 # Python reads a .npy point set (when the package is built beside ffd).
 pydir=$(dirname "$FFD")/python
 if [ -d "$pydir/ffdkit" ]; then
-    PYTHONPATH=$pydir "$PY" -c "
+    # a sanitizer build's module needs its runtime loaded first (as run_pytest.sh does)
+    asan=$(ldd "$FFD" | awk '/libasan/ {print $3}')
+    LD_PRELOAD=$asan ASAN_OPTIONS=detect_leaks=0 PYTHONPATH=$pydir "$PY" -c "
 import ffdkit, numpy as np
 m = ffdkit.read_mesh('$V/bunny_points.npy')
 assert np.array_equal(m.points, np.load('$V/bunny_points.npy'))
