@@ -316,6 +316,30 @@ static ffd_status check_count(reader *r, const char *at, long long n, size_t min
     return FFD_OK;
 }
 
+/* The header of MSH 4.1's $Nodes and $Elements: the entity block count,
+ * the item count and the smallest and largest tag (read past), both counts
+ * checked against the bytes left (an item takes at least item_binary or
+ * item_ascii bytes, an entity block 20 or 8). item names it: "node". */
+static ffd_status read_blocks_header_41(reader *r, const char *item, size_t item_binary,
+                                        size_t item_ascii, long long *blocks, long long *n)
+{
+    char count[48], smallest[48], largest[48], name[48];
+    snprintf(count, sizeof count, "the %s count", item);
+    snprintf(smallest, sizeof smallest, "the smallest %s tag", item);
+    snprintf(largest, sizeof largest, "the largest %s tag", item);
+    snprintf(name, sizeof name, "%s count", item);
+    long long min_tag, max_tag;
+    ffd_status s;
+    const char *at = (skip_space(r), r->p);
+    if ((s = read_num(r, true, "the entity block count", blocks)) ||
+        (s = read_num(r, true, count, n)) || (s = read_num(r, true, smallest, &min_tag)) ||
+        (s = read_num(r, true, largest, &max_tag)))
+        return s;
+    if ((s = check_count(r, at, *n, r->binary ? item_binary : item_ascii, name)))
+        return s;
+    return check_count(r, at, *blocks, r->binary ? 20 : 8, "entity block count");
+}
+
 /* After a section's content: "$End<name>" on its own line. */
 static ffd_status expect_end(reader *r, const char *section)
 {
@@ -584,15 +608,8 @@ static ffd_status read_nodes(reader *r)
                 return s;
         }
     } else {
-        long long blocks, n, min_tag, max_tag;
-        const char *at = (skip_space(r), r->p);
-        if ((s = read_num(r, true, "the entity block count", &blocks)) ||
-            (s = read_num(r, true, "the node count", &n)) ||
-            (s = read_num(r, true, "the smallest node tag", &min_tag)) ||
-            (s = read_num(r, true, "the largest node tag", &max_tag)))
-            return s;
-        if ((s = check_count(r, at, n, r->binary ? 32 : 8, "node count")) ||
-            (s = check_count(r, at, blocks, r->binary ? 20 : 8, "entity block count")))
+        long long blocks, n;
+        if ((s = read_blocks_header_41(r, "node", 32, 8, &blocks, &n)))
             return s;
         if (!ffd_mesh_reserve(r->m, (size_t)n, 0, 0, 0))
             return oom(r);
@@ -812,15 +829,8 @@ static ffd_status read_elements(reader *r)
         if (s)
             return s;
     } else {
-        long long blocks, n, min_tag, max_tag;
-        const char *at = (skip_space(r), r->p);
-        if ((s = read_num(r, true, "the entity block count", &blocks)) ||
-            (s = read_num(r, true, "the element count", &n)) ||
-            (s = read_num(r, true, "the smallest element tag", &min_tag)) ||
-            (s = read_num(r, true, "the largest element tag", &max_tag)))
-            return s;
-        if ((s = check_count(r, at, n, r->binary ? 16 : 4, "element count")) ||
-            (s = check_count(r, at, blocks, r->binary ? 20 : 8, "entity block count")))
+        long long blocks, n;
+        if ((s = read_blocks_header_41(r, "element", 16, 4, &blocks, &n)))
             return s;
         long long total = 0, nodes[27];
         for (long long b = 0; b < blocks; b++) {
