@@ -13,23 +13,8 @@
 #define FFD_DATA_DIR "data"
 #endif
 
-typedef struct {
-    uint8_t type;
-    size_t n;
-    double p[8][3];
-    double volume;
-} ref_cell;
+#include "check_cells.h"
 
-/* One positive cell of each linear 3D type, VTK node order. */
-static const ref_cell refs[] = {
-    {FFD_CELL_TETRA, 4, {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}}, 1.0 / 6},
-    {FFD_CELL_HEXAHEDRON, 8,
-     {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}, {0, 0, 1}, {1, 0, 1}, {1, 1, 1}, {0, 1, 1}}, 1},
-    {FFD_CELL_VOXEL, 8,
-     {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {1, 1, 0}, {0, 0, 1}, {1, 0, 1}, {0, 1, 1}, {1, 1, 1}}, 1},
-    {FFD_CELL_WEDGE, 6, {{0, 0, 0}, {0, 1, 0}, {1, 0, 0}, {0, 0, 1}, {0, 1, 1}, {1, 0, 1}}, 0.5},
-    {FFD_CELL_PYRAMID, 5, {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}, {0.5, 0.5, 1}}, 1.0 / 3},
-};
 #define NREFS (sizeof refs / sizeof refs[0])
 
 static ffd_cell_quality quality(uint8_t type, const double *p, size_t n)
