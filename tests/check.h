@@ -80,6 +80,15 @@ static inline double check_rand01(void)
     return (double)((check_rng_state * 2685821657736338717ull) >> 11) * (1.0 / 9007199254740992.0);
 }
 
+/* The step of an allocation-failure sweep (for (k = 0;; k += check_sweep_step())):
+ * every allocation normally; every 7th under valgrind (scripts/valgrind.sh sets
+ * FFD_TEST_QUICK), where each failing run costs a hundred times more and the
+ * release and ASan+LeakSanitizer builds still fail every allocation. */
+static inline long check_sweep_step(void)
+{
+    return getenv("FFD_TEST_QUICK") ? 7 : 1;
+}
+
 /* An allocator (ffd_set_allocator) that fails after `left` successful
  * allocations (-1: never) and counts the calls, for the out-of-memory tests:
  *   fail_alloc fa = {k, 0};

@@ -926,7 +926,7 @@ static void test_failing_allocations(void)
     size_t n = ffd_mesh_vertex_count(m);
     double line[6] = {0, 0, 0, 2, 0, 0}, bent[6] = {0, 0, 0, 2, 0.6, 0};
     ffd_gffd_primitive sk[1] = {polyline(line, 2, 0.9)};
-    for (long k = 0;; k++) {
+    for (long k = 0;; k += check_sweep_step()) {
         fail_alloc fa = {k, 0};
         ffd_allocator al = {fa_malloc, fa_realloc, fa_free, &fa};
         ffd_set_allocator(&al);

@@ -1063,7 +1063,7 @@ static void test_failing_allocations(void)
     char path[512];
     for (size_t i = 0; i < sizeof fixtures / sizeof *fixtures; i++) {
         snprintf(path, sizeof path, FIX "%s", fixtures[i]);
-        for (long k = 0;; k++) {
+        for (long k = 0;; k += check_sweep_step()) {
             fail_alloc fa = {k, 0};
             ffd_allocator a = {fa_malloc, fa_realloc, fa_free, &fa};
             ffd_set_allocator(&a);
@@ -1245,7 +1245,10 @@ static void check_format(double v)
 static void test_format_matches_printf(void)
 {
     format_mismatches = 0;
-    for (int i = 0; i < 300000; i++) {
+    /* a tenth of the random values under valgrind (FFD_TEST_QUICK): the
+     * formatter's memory use does not depend on the value */
+    const int samples = getenv("FFD_TEST_QUICK") ? 30000 : 300000;
+    for (int i = 0; i < samples; i++) {
         uint64_t bits = next_bits();
         double v;
         memcpy(&v, &bits, 8);
@@ -1310,7 +1313,8 @@ static void test_strtod_matches(void)
     for (size_t i = 0; i < sizeof texts / sizeof *texts; i++)
         check_parse(texts[i]);
     char buf[64];
-    for (int i = 0; i < 200000; i++) {
+    const int samples = getenv("FFD_TEST_QUICK") ? 20000 : 200000; /* as above */
+    for (int i = 0; i < samples; i++) {
         uint64_t bits = next_bits();
         double v;
         memcpy(&v, &bits, 8);

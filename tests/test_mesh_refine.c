@@ -908,7 +908,7 @@ static void test_failing_allocations(void)
             continue;
         const ffd_refine_plan *plan = cases[i].stl ? &stl_plan : &tet_plan;
         long k;
-        for (k = 0;; k++) {
+        for (k = 0;; k += check_sweep_step()) {
             fail_alloc fa = {k, 0};
             ffd_allocator a = {fa_malloc, fa_realloc, fa_free, &fa};
             ffd_set_allocator(&a);

@@ -1707,7 +1707,7 @@ static void test_failing_allocations(void)
     double *p = random_points(n, 0, 1);
     double cp[9] = {0, 0, 0, 1, 0, 0, 1, 1, 0};
     omp_set_num_threads(1);
-    for (long k = 0;; k++) {
+    for (long k = 0;; k += check_sweep_step()) {
         fail_alloc fa = {k, 0};
         ffd_allocator a = {fa_malloc, fa_realloc, fa_free, &fa};
         ffd_set_allocator(&a);

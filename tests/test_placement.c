@@ -1091,7 +1091,7 @@ static void failing_sweep(const ffd_mesh *m, size_t expect)
     o.interior_count = 20;
     o.exterior_count = 20;
     o.voronoi_sites = 300;
-    for (long k = 0;; k++) {
+    for (long k = 0;; k += check_sweep_step()) {
         fail_alloc fa = {k, 0};
         ffd_allocator a = {fa_malloc, fa_realloc, fa_free, &fa};
         ffd_set_allocator(&a);

@@ -1074,7 +1074,7 @@ static void test_failing_allocations(void)
     }
     double *rest = copy_positions(mesh);
     long k;
-    for (k = 0;; k++) {
+    for (k = 0;; k += check_sweep_step()) {
         fail_alloc fa = {k, 0};
         ffd_allocator al = {fa_malloc, fa_realloc, fa_free, &fa};
         ffd_rig_report r;

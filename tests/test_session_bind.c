@@ -225,7 +225,7 @@ static void test_gffd_primitive_ops(void)
 static void sweep_binding(sess_method *m, const double *points, size_t n)
 {
     double *out = malloc(3 * n * sizeof *out);
-    for (long k = 0;; k++) {
+    for (long k = 0;; k += check_sweep_step()) {
         fail_alloc fa = {k, 0};
         ffd_allocator a = {fa_malloc, fa_realloc, fa_free, &fa};
         ffd_set_allocator(&a);

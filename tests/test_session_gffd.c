@@ -661,7 +661,7 @@ static void test_failing_allocations(void)
     sess_fixture f;
     if (!fixture_open(&f, COW))
         return;
-    for (long k = 0;; k++) {
+    for (long k = 0;; k += check_sweep_step()) {
         fail_alloc fa = {k, 0};
         ffd_allocator al = {fa_malloc, fa_realloc, fa_free, &fa};
         cJSON *body = json("{\"method\": \"gffd\"}");
