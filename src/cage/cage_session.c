@@ -64,7 +64,7 @@ static ffd_status cage_describe(const sess_method *m, cJSON *params, cJSON *cont
         uint32_t a = tri[h], b = tri[h - h % 3 + (h % 3 + 1) % 3];
         ok = a > b || ffd_sess_add_edge(edges, a, b);
     }
-    ok = ok && (faces = cJSON_AddArrayToObject(controls, "faces")) != NULL;
+    ok = ok && (faces = cJSON_AddArrayToObject(controls, "triangles")) != NULL;
     for (size_t t = 0; ok && t < nt; t++)
         ok = ffd_sess_add_to_array(faces, ffd_sess_uint_array(tri + 3 * t, 3));
     ok = ok &&
