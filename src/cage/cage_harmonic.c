@@ -259,10 +259,11 @@ ffd_status ffd_cage_harmonic_solve(ffd_cage *cage, uint32_t resolution, ffd_erro
         st = ffd_fail(err, FFD_ERR_NOMEM, "harmonic coordinates: grid too large");
         goto done;
     }
-    A = cholmod_allocate_sparse(nu, nu, nnz, 1, 1, -1, CHOLMOD_REAL, &cc);
-    B = cholmod_zeros(nu, nv, CHOLMOD_REAL, &cc);
-    if (!A || !B) {
-        st = cholmod_failed(&cc, "allocation", err);
+    /* each call resets cc.status: a NULL is out of memory whatever it says */
+    if (!(A = cholmod_allocate_sparse(nu, nu, nnz, 1, 1, -1, CHOLMOD_REAL, &cc)) ||
+        !(B = cholmod_zeros(nu, nv, CHOLMOD_REAL, &cc))) {
+        st = ffd_fail(err, FFD_ERR_NOMEM, "harmonic coordinates: out of memory for the grid "
+                      "Laplacian (%zu unknowns, %zu cage vertices)", nu, nv);
         goto done;
     }
     int *Ap = A->p, *Ai = A->i;
