@@ -66,12 +66,15 @@ int ffd_cage_mean_value(const ffd_cage *cage, const double x[3], double *w, doub
         double det = u0[0] * (u1[1] * u2[2] - u1[2] * u2[1]) -
                      u0[1] * (u1[0] * u2[2] - u1[2] * u2[0]) +
                      u0[2] * (u1[0] * u2[1] - u1[1] * u2[0]);
-        double sign = det < 0 ? -1.0 : 1.0;
         int in_plane = 0;
         for (int i = 0; i < 3; i++) {
-            c[i] = 2.0 * sin(h) * sin(h - theta[i]) /
-                       (sin_theta[(i + 1) % 3] * sin_theta[(i + 2) % 3]) - 1.0;
-            s[i] = sign * sqrt(fmax(0.0, 1.0 - c[i] * c[i]));
+            double adjacent = sin_theta[(i + 1) % 3] * sin_theta[(i + 2) % 3];
+            c[i] = 2.0 * sin(h) * sin(h - theta[i]) / adjacent - 1.0;
+            /* Fig. 4's s_i = sign(det) sqrt(1 - c_i^2) is the sine of the
+             * spherical angle at u_i; det[u0 u1 u2] = sin(theta_{i+1})
+             * sin(theta_{i-1}) sin(phi_i) gives it with its sign and without
+             * the cancellation of 1 - c_i^2 when x nears t's plane */
+            s[i] = det / adjacent;
             in_plane |= fabs(s[i]) <= FFD_TOL_CAGE_PLANE;
         }
         if (in_plane) /* x in t's plane, outside t */
