@@ -43,6 +43,12 @@ static const rig_case cases[] = {
     {"pbffd", EX "pbffd/cow.off", FFD_SOURCE_DIR "/tests/data/deformer/cow-frames.json"},
     {"pbffd", EX "pbffd/cow.off", FFD_SOURCE_DIR "/tests/data/deformer/cow-coarse-frame.json"},
     {"pbffd", EX "pbffd/elephant.off", EX "pbffd/elephant-trunk.json"},
+    /* cage: mean value coordinates moved and dragged, harmonic coordinates
+     * (a coarse grid) on the file cage and on the "auto" box with "clamp" */
+    {"cage", EX "cage/bunny.obj", EX "cage/bunny-mvc.json"},
+    {"cage", EX "cage/bunny.obj", EX "cage/bunny-drag.json"},
+    {"cage", EX "cage/bunny.obj", EX "cage/bunny-harmonic.json"},
+    {"cage", EX "cage/bunny.obj", EX "cage/bunny-auto.json"},
 };
 #define ALL_CASES (sizeof cases / sizeof *cases)
 

@@ -970,6 +970,43 @@ static void test_mesh_write(void)
     CHECK(rmdir(gltf_out_dir) == 0);
 }
 
+/* The cage deformer: an octahedron cage, mean value and harmonic
+ * coordinates (the grid, CHOLMOD), binding, moves, evaluation. */
+static ffd_status sc_cage(const void *ctx, ffd_error *err)
+{
+    (void)ctx;
+    static const double v[] = {1, 0, 0, -1, 0, 0, 0, 1, 0, 0, -1, 0, 0, 0, 1, 0, 0, -1};
+    static const uint32_t t[] = {0, 2, 4, 2, 1, 4, 1, 3, 4, 3, 0, 4,
+                                 2, 0, 5, 1, 2, 5, 3, 1, 5, 0, 3, 5};
+    const double p[3 * 4] = {0.1, 0.2, 0.1, -0.3, 0, 0.2, 2, 2, 2, 0, 0, -0.5};
+    const double d[3] = {0.1, 0, 0.2};
+    double out[12];
+    arm();
+    ffd_status st = FFD_OK;
+    for (int kind = 0; kind < 2 && !st; kind++) {
+        ffd_cage_options o = {(ffd_cage_coordinates)kind, 6, FFD_CAGE_OUTSIDE_CLAMP};
+        ffd_cage *c = NULL;
+        ffd_cage_binding *b = NULL;
+        st = ffd_cage_create(v, 6, t, 8, NULL, &o, &c, err);
+        if (!st)
+            st = ffd_cage_bind(c, p, 4, &b, err);
+        if (!st)
+            st = ffd_cage_move(c, 4, d, err);
+        if (!st)
+            st = ffd_cage_eval(c, b, out, err);
+        CHECK(st || b != NULL);
+        ffd_cage_binding_destroy(b);
+        ffd_cage_destroy(c);
+    }
+    return st;
+}
+
+static void test_cage(void)
+{
+    scenario sc = {"cage", sc_cage, NULL, 0, 0};
+    sweep(&sc);
+}
+
 static void test_lattice(void)
 {
     scenario sc = {"lattice+manip", sc_lattice, NULL, 0, 0};
@@ -1039,6 +1076,7 @@ int main(int argc, char **argv)
         {"mesh_read", test_mesh_read}, {"mesh_write", test_mesh_write},
         {"lattice", test_lattice},     {"pbffd", test_pbffd},
         {"gffd", test_gffd},           {"tspline", test_tspline},
+        {"cage", test_cage},
         {"rigs", test_rigs},           {"session", test_session},
     };
     int rc = check_run(tests, sizeof tests / sizeof tests[0], argc, argv);

@@ -298,7 +298,7 @@ static void test_controls_and_reset(void)
  * method's own and no other method's. */
 static void test_report_and_handle(void)
 {
-    static const char *const methods[] = {"lattice", "pbffd", "gffd", "tspline"};
+    static const char *const methods[] = {"lattice", "pbffd", "gffd", "tspline", "cage"};
     for (size_t c = 0; c < CASE_COUNT; c++) {
         ffd_mesh *mesh = read_mesh(case_table[c].mesh);
         ffd_deformer *d = mesh ? make(&case_table[c], mesh) : NULL;

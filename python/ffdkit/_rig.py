@@ -22,7 +22,7 @@ class Rig(_ffd.Rig):
     """A recorded deformation: a JSON rig (docs/rig.md) or PyGeM .prm parameters.
 
     Made by :meth:`Rig.load`. ``rig.method`` names the method ('lattice',
-    'pbffd', 'gffd', 'tspline').
+    'pbffd', 'gffd', 'tspline', 'cage').
     """
 
     @classmethod

@@ -375,6 +375,11 @@ static int edge_side(const double *x, uint32_t u, uint32_t v, const double *q)
     uint32_t a = u < v ? u : v, b = u < v ? v : u;
     const double *pa = x + 3 * (size_t)a, *pb = x + 3 * (size_t)b;
     double o = (pb[0] - pa[0]) * (q[1] - pa[1]) - (pb[1] - pa[1]) * (q[0] - pa[0]);
+    /* q on the edge's line: decided as for q moved by (eps, eps^2), the
+     * same move for every edge (simulation of simplicity), so a ray through
+     * a vertex or an edge crosses exactly one of the triangles around it */
+    if (o == 0)
+        o = pb[1] != pa[1] ? -(pb[1] - pa[1]) : pb[0] - pa[0];
     int s = o >= 0 ? 1 : -1;
     return u < v ? s : -s;
 }

@@ -46,7 +46,9 @@ void ffd_inside_index_destroy(ffd_inside_index *index);
 /* 1 when the ray from q along +z crosses the triangles an odd number of
  * times: q is inside the closed surface they form. A ray through a shared
  * edge or vertex is counted once: orientation tests run on each edge in one
- * canonical direction (lower vertex index first) and zero counts as left. */
+ * canonical direction (lower vertex index first), and q on an edge's line is
+ * decided as for q moved by (eps, eps^2) (simulation of simplicity), so a ray
+ * through a vertex (a grid of query points often meets one) is counted once too. */
 int ffd_inside_index_test(const ffd_inside_index *index, const double q[3]);
 
 #endif

@@ -37,4 +37,17 @@
  * centre, within the jitter's reach). */
 #define FFD_TOL_MEDIAL_WELD 1e-3
 
+/* Cage deformation (mean value coordinates, Ju, Schaefer & Warren 2005,
+ * Fig. 4): a point within FFD_TOL_CAGE_VERTEX times the cage's diagonal of a
+ * cage vertex is on it; a triangle whose projection on the unit sphere
+ * around the point spans pi - h < FFD_TOL_CAGE_FACE holds the point (on its
+ * face or an edge; pi - h shrinks as the square of the distance, so a point
+ * within ~3e-8 of the diagonal from a face counts as on it); one with |s_i| <= FFD_TOL_CAGE_PLANE has the point in
+ * its plane, outside it, and adds nothing. A cage triangle whose area is
+ * below FFD_TOL_CAGE_AREA times the squared diagonal is degenerate. */
+#define FFD_TOL_CAGE_VERTEX 1e-12
+#define FFD_TOL_CAGE_FACE 1e-15
+#define FFD_TOL_CAGE_PLANE 1e-12
+#define FFD_TOL_CAGE_AREA 1e-14
+
 #endif

@@ -5,14 +5,14 @@
 // API and by replaying the session's rig with `ffd deform`.
 //
 //   node web/tests/e2e.mjs --ffd build/ffd --out DIR [--chromium PATH]
-//                          [--methods lattice,tspline,pbffd,gffd] [--keep]
+//                          [--methods lattice,tspline,pbffd,gffd,cage] [--keep]
 //
 // Stages: (a) lattice: create via the panel, click-select a control, drag it
 // with the gizmo's translate arrow; (b) mesh tool: pin two vertices (Alt+click)
 // and drag a third; (c) Ctrl+Z / Ctrl+Shift+Z; (d) rig save + replay;
 // (e) cow.off from the file list, T-spline: ARAP drag of a proxy point, refine
 // by clicking the mesh, undo; (f) PB-FFD: drag an EBF; GFFD: drag a skeleton
-// vertex; (g) help overlay, influence map, an error toast. Screenshots of each
+// vertex; cage: drag a vertex of the "auto" cage; (g) help overlay, influence map, an error toast. Screenshots of each
 // stage go to DIR. Prints "ok"/"FAIL" lines; exits 1 on a failed check or a
 // console error of the page.
 
@@ -31,7 +31,7 @@ const opt = (name, dflt) => { const i = argv.indexOf(`--${name}`); return i >= 0
 const FFD = path.resolve(opt('ffd', path.join(REPO, 'build', 'ffd')));
 const OUT = path.resolve(opt('out', path.join(tmpdir(), 'ffd-e2e')));
 const EXE = opt('chromium', ['/usr/bin/chromium', '/usr/bin/chromium-browser', '/usr/bin/google-chrome'].find(existsSync));
-const METHODS = opt('methods', 'lattice,tspline,pbffd,gffd').split(',');
+const METHODS = opt('methods', 'lattice,tspline,pbffd,gffd,cage').split(',');
 const KEEP = argv.includes('--keep');
 const WEB = path.join(REPO, 'web', 'dist');
 const LIMIT_S = Number(opt('limit', 170));
@@ -335,6 +335,7 @@ async function main() {
   if (METHODS.includes('tspline')) await tsplineStage();
   if (METHODS.includes('pbffd')) await guarded('pbffd', pbffdStage);
   if (METHODS.includes('gffd')) await guarded('gffd', gffdStage);
+  if (METHODS.includes('cage')) await guarded('cage', cageStage);
   await uiStage();
 }
 
@@ -583,6 +584,24 @@ async function gffdStage() {
   check(maxDisplacement(r.f1.positions, rest) > 1e-3, `(f) GFFD moved the mesh (max ${maxDisplacement(r.f1.positions, rest).toFixed(4)})`);
   await replay('bunny.obj', 1e-3 * diag, '(f) GFFD (tracking tolerance 1e-3 x diagonal)');
   await shot('12-gffd-dragged');
+}
+
+async function cageStage() {
+  // the "auto" cage (the bounding box, 8 vertices) with mean value coordinates:
+  // its wireframe drawn, a vertex picked and dragged, the rig replayed
+  await openBunny();
+  const st = await createViaPanel('cage');
+  check(st.method === 'cage' && st.controls.count === 8 && (st.controls.edges || []).length === 18,
+    `(f) cage created via the panel (${st.controls.count} vertices, ${(st.controls.edges || []).length} edges)`);
+  const rest = (await frame()).positions.slice();
+  const ids = await pickableControls([...Array(st.controls.count).keys()]);
+  must(ids.length > 0, `(f) a pickable cage vertex (${ids.length})`);
+  const r = await dragControl(ids[0].id, 50, -40);
+  must(!!r, '(f) cage vertex drag');
+  check(r.s1.undo === r.s0.undo + 1 && pointDist(r.f1.controls, ids[0].id, r.f0.controls) > 1e-3, `(f) cage vertex ${ids[0].id} dragged (undo ${r.s1.undo})`);
+  check(maxDisplacement(r.f1.positions, rest) > 1e-3, `(f) the cage moved the mesh (max ${maxDisplacement(r.f1.positions, rest).toFixed(4)})`);
+  await replay('bunny.obj', 1e-4, '(f) cage');
+  await shot('13-cage-dragged');
 }
 
 async function uiStage() {
