@@ -46,8 +46,11 @@ typedef struct ffd_kelvinlet_brush {
 typedef enum ffd_kelvinlet_combine {
     FFD_KELVINLET_SUPERPOSE = 0, /* x' = x + sum_j u_j(x): every brush at the rest positions;
                                     linear in the grabs' displacements */
-    FFD_KELVINLET_SEQUENCE       /* brush after brush in order, each at the positions the
-                                    previous left, each in `steps` sub-steps (§7) */
+    FFD_KELVINLET_SEQUENCE       /* brush after brush in order, each from the positions the
+                                    previous left, its field a velocity integrated over `steps`
+                                    time steps (RK4; a grab's center moves along): near its
+                                    center a twist rotates by angle, a scale by factor, a
+                                    pinch P applies exp(P) (a stroke, §7) */
 } ffd_kelvinlet_combine;
 
 /* The multi-scale extrapolation (§6): faster falloff by combining radii

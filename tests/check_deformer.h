@@ -43,6 +43,11 @@ static const rig_case cases[] = {
     {"pbffd", EX "pbffd/cow.off", FFD_SOURCE_DIR "/tests/data/deformer/cow-frames.json"},
     {"pbffd", EX "pbffd/cow.off", FFD_SOURCE_DIR "/tests/data/deformer/cow-coarse-frame.json"},
     {"pbffd", EX "pbffd/elephant.off", EX "pbffd/elephant-trunk.json"},
+    /* Kelvinlet brushes: the four loads superposed, a multi-scale stroke in
+     * sequence, constraints solved over three grabs */
+    {"kelvinlet", EX "lattice/bunny.obj", EX "kelvinlet/bunny-brushes.json"},
+    {"kelvinlet", EX "lattice/bunny.obj", EX "kelvinlet/bunny-stroke.json"},
+    {"kelvinlet", EX "lattice/bunny.obj", EX "kelvinlet/bunny-pins.json"},
 };
 #define ALL_CASES (sizeof cases / sizeof *cases)
 

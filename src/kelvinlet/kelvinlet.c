@@ -252,9 +252,11 @@ static void calibrate(const ffd_kelvinlet *k, const ffd_kelvinlet_brush *br, bru
         break;
     }
     case FFD_KELVINLET_SCALE: {
-        /* F = s I: grad u(0) = 5/2 (2b - a) g3 s I = (factor^(1/steps) - 1) I, so that
-         * the steps compose to the factor near the center */
-        double per = steps == 1 ? br->factor - 1 : pow(br->factor, 1 / steps) - 1;
+        /* F = s I: grad u(0) = 5/2 (2b - a) g3 s I = (factor - 1) I when superposed; in a
+         * sequence the field is a velocity whose flow over the steps is exp(steps (grad
+         * u(0))) near the center, so log(factor) / steps there */
+        double per = k->options.combine == FFD_KELVINLET_SEQUENCE ? log(br->factor) / steps
+                                                                   : br->factor - 1;
         double sc = s->active ? per / (2.5 * (2 * b - a) * g3) : 0;
         for (int c = 0; c < 3; c++)
             s->F[c][c] = sc;
@@ -464,9 +466,10 @@ static void deform_point(const ffd_kelvinlet *k, const double x[3], double out[3
                     J[p][q] += G[p][q];
         return;
     }
-    /* sequence (§7): brush after brush, each in steps at the current
-     * position; a grab's center advances with its steps, so the point at
-     * its center follows it to center + displacement */
+    /* sequence (§7): brush after brush, each brush's field a velocity
+     * integrated over its steps with the classical Runge-Kutta rule (RK4)
+     * from the current positions; a grab's center advances with the steps,
+     * so the point at its center follows it to center + displacement */
     double p[3] = {x[0], x[1], x[2]};
     for (size_t j = 0; j < k->count; j++) {
         const brush_state *s = &k->state[j];
@@ -474,21 +477,47 @@ static void deform_point(const ffd_kelvinlet *k, const double x[3], double out[3
             continue;
         const ffd_kelvinlet_brush *br = &k->brushes[j];
         for (uint32_t t = 0; t < k->options.steps; t++) {
-            double c[3], u[3] = {0, 0, 0}, G[3][3] = {{0}};
-            for (int a = 0; a < 3; a++)
-                c[a] = br->center[a] + t * s->step[a];
-            brush_step(k, br, s, c, p, u, J ? G : NULL);
-            if (J) { /* J <- (I + G) J */
+            /* stage i at time t + tau[i], from p + frac[i] k_(i-1) */
+            static const double tau[4] = {0, 0.5, 0.5, 1}, frac[4] = {0, 0.5, 0.5, 1};
+            static const double weight[4] = {1.0 / 6, 2.0 / 6, 2.0 / 6, 1.0 / 6};
+            double kv[4][3], KG[4][3][3], sum[3] = {0, 0, 0}, JS[3][3] = {{0}};
+            for (int i = 0; i < 4; i++) {
+                double c[3], q[3], G[3][3] = {{0}};
+                for (int a = 0; a < 3; a++) {
+                    c[a] = br->center[a] + (t + tau[i]) * s->step[a];
+                    q[a] = i ? p[a] + frac[i] * kv[i - 1][a] : p[a];
+                    kv[i][a] = 0;
+                }
+                brush_step(k, br, s, c, q, kv[i], J ? G : NULL);
+                if (J) { /* K_i = G_i (I + frac_i K_(i-1)) */
+                    for (int r = 0; r < 3; r++)
+                        for (int col = 0; col < 3; col++) {
+                            double v = G[r][col];
+                            if (i)
+                                v += frac[i] * (G[r][0] * KG[i - 1][0][col] +
+                                                G[r][1] * KG[i - 1][1][col] +
+                                                G[r][2] * KG[i - 1][2][col]);
+                            KG[i][r][col] = v;
+                        }
+                }
+                for (int a = 0; a < 3; a++)
+                    sum[a] += weight[i] * kv[i][a];
+                if (J)
+                    for (int r = 0; r < 3; r++)
+                        for (int col = 0; col < 3; col++)
+                            JS[r][col] += weight[i] * KG[i][r][col];
+            }
+            if (J) { /* J <- (I + JS) J */
                 double N[3][3];
                 for (int r = 0; r < 3; r++)
                     for (int q = 0; q < 3; q++)
-                        N[r][q] = J[r][q] + G[r][0] * J[0][q] + G[r][1] * J[1][q] +
-                                  G[r][2] * J[2][q];
+                        N[r][q] = J[r][q] + JS[r][0] * J[0][q] + JS[r][1] * J[1][q] +
+                                  JS[r][2] * J[2][q];
                 memcpy(J, N, sizeof N);
             }
             for (int a = 0; a < 3; a++)
-                if (u[a] != 0)
-                    p[a] += u[a];
+                if (sum[a] != 0)
+                    p[a] += sum[a];
         }
     }
     memcpy(out, p, sizeof p);
