@@ -573,6 +573,48 @@ static void test_rig_errors(void)
     }
 }
 
+/* The editor's "brush" operation through ffd_deformer_command: a brush added
+ * and removed, the controls following; bad bodies change nothing. */
+static void test_brush_command(void)
+{
+    double tri[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0}, x[9];
+    uint32_t off[2] = {0, 3}, idx[3] = {0, 1, 2};
+    ffd_mesh *mesh = NULL;
+    ffd_deformer *d = NULL;
+    ffd_error err = {{0}};
+    const char *rig = "{\"deformer\": \"kelvinlet\", \"brushes\": []}";
+    CHECK_OK(ffd_mesh_create(tri, 3, off, idx, 1, &mesh, &err));
+    CHECK_OK(ffd_deformer_create_json(rig, strlen(rig), "r.json", mesh, NULL, &d, &err));
+    if (!d)
+        return;
+    CHECK(ffd_deformer_control_count(d) == 0);
+    const char *add = "{\"add\": {\"type\": \"grab\", \"center\": [1, 0, 0], \"radius\": 0.5, "
+                      "\"displacement\": [0, 0, 0.25]}}";
+    CHECK_OK(ffd_deformer_command(d, "brush", add, strlen(add), &err));
+    CHECK(ffd_deformer_control_count(d) == 1);
+    CHECK_OK(ffd_deformer_eval(d, x, &err));
+    CHECK_NEAR(x[5], 0.25, 1e-15); /* vertex 1 is the grab's center */
+    const char *bad[] = {"{\"add\": {\"type\": \"twist\", \"center\": [0, 0, 0], \"radius\": 1}}",
+                         "{\"remove\": 3}", "{\"add\": {}, \"remove\": 0}", "{\"move\": 1}"};
+    const ffd_status want[] = {FFD_ERR_PARSE, FFD_ERR_RANGE, FFD_ERR_PARSE, FFD_ERR_PARSE};
+    for (int i = 0; i < 4; i++) {
+        CHECK(ffd_deformer_command(d, "brush", bad[i], strlen(bad[i]), &err) == want[i]);
+        CHECK(ffd_deformer_control_count(d) == 1);
+    }
+    CHECK(ffd_deformer_command(d, "refine", "{}", 2, &err) == FFD_ERR_UNSUPPORTED);
+    char *json = NULL;
+    size_t size = 0;
+    CHECK_OK(ffd_deformer_rig(d, &json, &size, &err));
+    CHECK(json && strstr(json, "\"grab\"") != NULL);
+    ffd_free(json);
+    CHECK_OK(ffd_deformer_command(d, "brush", "{\"remove\": 0}", 13, &err));
+    CHECK(ffd_deformer_control_count(d) == 0);
+    CHECK_OK(ffd_deformer_eval(d, x, &err));
+    CHECK(memcmp(x, tri, sizeof x) == 0);
+    ffd_deformer_destroy(d);
+    ffd_mesh_destroy(mesh);
+}
+
 /* ---- threads ---- */
 
 static void test_threads_bitwise(void)
@@ -617,6 +659,7 @@ int main(int argc, char **argv)
         {"grab_blocks", test_grab_blocks},
         {"rig_constraints_reach_targets", test_rig_constraints_reach_targets},
         {"rig_errors", test_rig_errors},
+        {"brush_command", test_brush_command},
         {"threads_bitwise", test_threads_bitwise},
     };
     return check_run(tests, sizeof tests / sizeof *tests, argc, argv);

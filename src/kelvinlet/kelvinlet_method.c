@@ -7,6 +7,9 @@
 static const char *const kelvinlet_create_keys[] = {"brushes", "poisson_ratio", "combine", "steps",
                                                     "multiscale", "ratio", NULL};
 
+/* Its own editor operations (kelvinlet_session.c, docs/kelvinlet.md). */
+static const char *const kelvinlet_ops[] = {"brush", NULL};
+
 const ffd_method ffd_method_kelvinlet = {
     .name = "kelvinlet",
     .rig_keys = ffd_rig_keys_kelvinlet,
@@ -17,4 +20,5 @@ const ffd_method ffd_method_kelvinlet = {
     .load = ffd_sess_kelvinlet_load,
     .create_keys = kelvinlet_create_keys,
     .release = ffd_rig_release_kelvinlet,
+    .ops = kelvinlet_ops,
 };

@@ -29,6 +29,11 @@ extern const char *const ffd_rig_keys_kelvinlet[];
 ffd_status ffd_rig_parse_kelvinlet(const ffd_rig_parser *p, const cJSON *root, ffd_rig *rig);
 int ffd_rig_write_kelvinlet(const ffd_rig *rig, cJSON *root);
 void ffd_rig_release_kelvinlet(ffd_rig *rig);
+/* One brush object at path (an ffd_rig_element_reader: element is an
+ * ffd_kelvinlet_brush; the checks that need the Poisson ratio are the
+ * caller's, ffd_kelvinlet_check_brush). */
+ffd_status ffd_rig_read_kelvinlet_brush(const ffd_rig_parser *p, const cJSON *item,
+                                        const char *path, void *element, void *ctx);
 
 /* kelvinlet_rig.c: the rig's brushes as a handle, with its constraints
  * solved over the grabs' displacements (points: the mesh's n rest

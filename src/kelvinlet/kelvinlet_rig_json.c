@@ -61,8 +61,8 @@ static ffd_status read_matrix3(const ffd_rig_parser *p, const cJSON *item, const
     return FFD_OK;
 }
 
-static ffd_status read_brush(const ffd_rig_parser *p, const cJSON *item, const char *path,
-                             void *element, void *ctx)
+ffd_status ffd_rig_read_kelvinlet_brush(const ffd_rig_parser *p, const cJSON *item,
+                                        const char *path, void *element, void *ctx)
 {
     ffd_kelvinlet_brush *br = element;
     char sub[RIG_PATH_MAX + 32];
@@ -172,7 +172,7 @@ ffd_status ffd_rig_parse_kelvinlet(const ffd_rig_parser *p, const cJSON *root, f
         return ffd_rig_expected(p, "brushes", "an array of brushes (missing)");
     void *brushes = NULL;
     s = ffd_rig_read_array(p, item, "brushes", "an array of brush objects", sizeof *kr->brushes,
-                           read_brush, NULL, NULL, &brushes, &kr->brush_count);
+                           ffd_rig_read_kelvinlet_brush, NULL, NULL, &brushes, &kr->brush_count);
     kr->brushes = brushes;
     if (s)
         return s;

@@ -255,11 +255,94 @@ static ffd_status kel_influence(sess_method *m, const uint32_t *ids, size_t k, f
     return st;
 }
 
+/* The grab index of the brushes (control id -> brush). */
+static ffd_status index_grabs(kelvinlet_method *km, ffd_error *err)
+{
+    size_t count = brush_count(km);
+    size_t *grab = ffd_malloc_array(count ? count : 1, sizeof *grab);
+    if (!grab)
+        return ffd_fail(err, FFD_ERR_NOMEM, "out of memory");
+    km->grabs = 0;
+    for (size_t j = 0; j < count; j++)
+        if (ffd_kelvinlet_brush_at(km->kel, j)->type == FFD_KELVINLET_GRAB)
+            grab[km->grabs++] = j;
+    ffd_free(km->grab);
+    km->grab = grab;
+    return FFD_OK;
+}
+
+/* "brush": {"add": {a brush as in a rig}} appends one, {"remove": i}
+ * removes brush i (docs/kelvinlet.md, "In the editor"). The brushes are
+ * rebuilt with the same options; on error nothing changed. */
+static ffd_status op_brush(kelvinlet_method *km, const cJSON *body, int *undo_kind,
+                           ffd_error *err)
+{
+    static const char *const keys[] = {"add", "remove", NULL};
+    ffd_rig_parser p = {"brush", err, NULL};
+    ffd_status st = ffd_rig_check_keys(&p, body, "brush", keys, "\"add\", \"remove\"");
+    if (st)
+        return st;
+    const cJSON *add = cJSON_GetObjectItemCaseSensitive(body, "add");
+    const cJSON *remove = cJSON_GetObjectItemCaseSensitive(body, "remove");
+    if (!add == !remove)
+        return ffd_fail(err, FFD_ERR_PARSE, "brush: expected one of \"add\" or \"remove\"");
+    size_t count = brush_count(km), index = 0;
+    ffd_kelvinlet_brush added;
+    memset(&added, 0, sizeof added);
+    ffd_kelvinlet_options o;
+    ffd_kelvinlet_get_options(km->kel, &o);
+    if (add) {
+        if ((st = ffd_rig_read_kelvinlet_brush(&p, add, "add", &added, NULL)) ||
+            (st = ffd_kelvinlet_check_brush(&added, o.poisson_ratio, "brush: add", err)))
+            return st;
+        for (int a = 0; a < 3; a++)
+            if (fabs(added.center[a]) > SESS_COORD_MAX)
+                return ffd_fail(err, FFD_ERR_INVALID, "brush: add.center: too far away");
+    } else {
+        uint32_t i;
+        if ((st = ffd_rig_read_index(&p, remove, "remove", "a brush index", &i)))
+            return st;
+        if (i >= count)
+            return ffd_fail(err, FFD_ERR_RANGE, "brush: remove: %u out of range (%zu brushes)", i,
+                            count);
+        index = i;
+    }
+    size_t next_count = add ? count + 1 : count - 1;
+    ffd_kelvinlet_brush *next = ffd_malloc_array(next_count ? next_count : 1, sizeof *next);
+    if (!next)
+        return ffd_fail(err, FFD_ERR_NOMEM, "brush: out of memory");
+    size_t k = 0;
+    for (size_t j = 0; j < count; j++)
+        if (add || j != index)
+            next[k++] = *ffd_kelvinlet_brush_at(km->kel, j);
+    if (add)
+        next[k++] = added;
+    ffd_kelvinlet *kel = NULL;
+    st = ffd_kelvinlet_create(next, k, &o, &kel, err);
+    ffd_free(next);
+    if (st)
+        return st;
+    ffd_kelvinlet *old = km->kel;
+    km->kel = kel;
+    if ((st = index_grabs(km, err))) {
+        km->kel = old;
+        ffd_kelvinlet_destroy(kel);
+        return st;
+    }
+    ffd_kelvinlet_destroy(old);
+    *undo_kind = SESS_UNDO_REBUILD;
+    return FFD_OK;
+}
+
 static ffd_status kel_op(sess_method *m, const char *op, const cJSON *body, int *undo_kind,
                          ffd_error *err)
 {
-    (void)m, (void)body, (void)undo_kind;
-    return ffd_fail(err, FFD_ERR_UNSUPPORTED, "%s: not a kelvinlet operation", op);
+    if (strcmp(op, "brush") != 0)
+        return ffd_fail(err, FFD_ERR_UNSUPPORTED, "%s: not an operation of the kelvinlet method",
+                        op);
+    if (!cJSON_IsObject(body))
+        return ffd_fail(err, FFD_ERR_PARSE, "brush: expected a JSON object");
+    return op_brush(as_kel(m), body, undo_kind, err);
 }
 
 /* ---- any point set (ffd_deformer_bind): the brushes need only the points ---- */
@@ -350,15 +433,8 @@ ffd_status ffd_sess_kelvinlet_load(const sess_ctx *ctx, const ffd_rig *rig, sess
     km->base.ctx = ctx;
     ffd_status st = ffd_kelvinlet_from_rig(rig, ctx->rest, ctx->n, &budget, &km->kel, NULL, NULL,
                                            NULL, err);
-    if (!st) {
-        size_t count = brush_count(km);
-        km->grab = ffd_malloc_array(count ? count : 1, sizeof *km->grab);
-        if (!km->grab)
-            st = ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory", rig->name);
-        for (size_t j = 0; !st && j < count; j++)
-            if (ffd_kelvinlet_brush_at(km->kel, j)->type == FFD_KELVINLET_GRAB)
-                km->grab[km->grabs++] = j;
-    }
+    if (!st)
+        st = index_grabs(km, err);
     if (st) {
         kel_destroy(&km->base);
         return st;
