@@ -7,8 +7,9 @@ import lattice from './lattice.js';
 import pbffd from './pbffd.js';
 import gffd from './gffd.js';
 import tspline from './tspline.js';
+import kelvinlet from './kelvinlet.js';
 
-export const METHODS = [lattice, pbffd, gffd, tspline];
+export const METHODS = [lattice, pbffd, gffd, tspline, kelvinlet];
 
 /** What a method module may leave out, and the page without a deformer. */
 const DEFAULTS = {
