@@ -96,3 +96,20 @@ def test_bad_poisson_ratio_names_the_range():
     with pytest.raises(ffdkit.Error) as e:
         kelvinlet([], poisson_ratio=0.6)
     assert "[0, 0.5]" in str(e.value)
+
+
+def test_add_and_remove_brushes(bunny):
+    from ffdkit.methods import KelvinletDeformer
+    d = kelvinlet([]).deformer(bunny)
+    assert isinstance(d, KelvinletDeformer) and d.controls.shape == (0, 3)
+    d.add_brush("grab", bunny[553], 1.5, displacement=np.array([0.0, 1.0, 0.0]))
+    np.testing.assert_allclose(d.evaluate()[553], bunny[553] + [0, 1, 0], atol=1e-12)
+    d.add_brush("twist", [0, 8, -1], 1.0, axis=[0, 1, 0], angle=0.5)
+    assert [b["type"] for b in d.brushes] == ["grab", "twist"] and d.controls.shape == (1, 3)
+    with pytest.raises(ffdkit.RangeError):
+        d.remove_brush(5)
+    with pytest.raises(ffdkit.ParseError):
+        d.add_brush("grab", [0, 0, 0], 1.0, angle=1.0)
+    d.remove_brush(0)
+    d.remove_brush(0)
+    assert np.array_equal(d.evaluate(), bunny)
