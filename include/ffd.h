@@ -630,7 +630,7 @@ FFD_API ffd_status ffd_deformer_reset(ffd_deformer *d, ffd_error *err);
 /* Runs one of the method's own operations with its JSON body (size bytes;
  * 0: {}), exactly as the editor's operation of that name (docs/editor.md,
  * "Method operations"): "refine" and "freeze" (T-spline), "level", "frame"
- * and "curve" (PB-FFD), "primitive" (GFFD). The binding is kept and the next
+ * and "curve" (PB-FFD), "primitive" (GFFD), "brush" (Kelvinlet). The binding is kept and the next
  * evaluation sees the change (a refinement may change the control count).
  * FFD_ERR_UNSUPPORTED for an op the method does not have (the message lists
  * its operations), FFD_ERR_PARSE for malformed JSON or a wrong key (named);

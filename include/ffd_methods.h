@@ -16,5 +16,6 @@
 #include "ffd_gffd.h"
 #include "ffd_tspline.h"
 #include "ffd_cage.h"
+#include "ffd_kelvinlet.h"
 
 #endif /* FFD_METHODS_H */

@@ -49,6 +49,11 @@ static const rig_case cases[] = {
     {"cage", EX "cage/bunny.obj", EX "cage/bunny-drag.json"},
     {"cage", EX "cage/bunny.obj", EX "cage/bunny-harmonic.json"},
     {"cage", EX "cage/bunny.obj", EX "cage/bunny-auto.json"},
+    /* Kelvinlet brushes: the four loads superposed, a multi-scale stroke in
+     * sequence, constraints solved over three grabs */
+    {"kelvinlet", EX "lattice/bunny.obj", EX "kelvinlet/bunny-brushes.json"},
+    {"kelvinlet", EX "lattice/bunny.obj", EX "kelvinlet/bunny-stroke.json"},
+    {"kelvinlet", EX "lattice/bunny.obj", EX "kelvinlet/bunny-pins.json"},
 };
 #define ALL_CASES (sizeof cases / sizeof *cases)
 

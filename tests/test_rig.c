@@ -154,7 +154,7 @@ static void test_parse_bad_keys_and_types(void)
     parse_bad("\"lattice\"", FFD_ERR_PARSE, "expected a JSON object");
     parse_bad("{\"version\": 2}", FFD_ERR_PARSE, "rig.json: version: expected 1");
     parse_bad("{\"version\": \"1\"}", FFD_ERR_PARSE, "version: expected 1");
-    parse_bad("{\"deformer\": \"tsplines\"}", FFD_ERR_PARSE, "rig.json: deformer: expected \"lattice\", \"pbffd\", \"gffd\", \"tspline\" or \"cage\"");
+    parse_bad("{\"deformer\": \"tsplines\"}", FFD_ERR_PARSE, "rig.json: deformer: expected \"lattice\", \"pbffd\", \"gffd\", \"tspline\"");
     parse_bad("{\"deformer\": 1}", FFD_ERR_PARSE, "deformer: expected \"lattice\"");
     parse_bad("{\"basis\": \"nurbs\"}", FFD_ERR_PARSE,
               "rig.json: basis: expected \"bspline\" or \"bernstein\"");
@@ -802,6 +802,7 @@ static void test_registry_schemas(void)
         "\"radius\": 1}]}",
         "{\"deformer\": \"tspline\", \"resolution\": [4, 4, 4]}",
         "{\"deformer\": \"cage\", \"cage\": \"auto\"}",
+        "{\"deformer\": \"kelvinlet\", \"brushes\": []}",
     };
     CHECK(ffd_method_count() == sizeof rigs / sizeof *rigs);
     for (size_t i = 0; i < ffd_method_count(); i++) {
@@ -937,8 +938,16 @@ static void test_registry_write_round_trip(void)
          "\"resolution\": 9, \"outside\": \"clamp\", \"moves\": [{\"index\": 4, \"delta\": [0, "
          "0, 0.5]}]}",
          "\"outside\":\t\"clamp\""},
+        {"{\"deformer\": \"kelvinlet\", \"poisson_ratio\": 0.3, \"combine\": \"sequence\", "
+         "\"steps\": 3, \"multiscale\": \"triscale\", \"ratio\": 1.5, \"brushes\": [{\"type\": "
+         "\"grab\", \"center\": [0, 0, 0], \"radius\": 1, \"displacement\": [0, 0, 1]}, "
+         "{\"type\": \"twist\", \"center\": [1, 0, 0], \"radius\": 2, \"axis\": [0, 1, 0], "
+         "\"angle\": 0.5}, {\"type\": \"scale\", \"center\": [0, 1, 0], \"radius\": 1, "
+         "\"factor\": 2}, {\"type\": \"pinch\", \"center\": [0, 0, 1], \"radius\": 1, "
+         "\"pinch\": [[1, 0, 0], [0, -1, 0], [0, 0, 0]]}]}",
+         "\"ratio\":\t1.5"},
     };
-    CHECK(ffd_method_count() == 5);
+    CHECK(ffd_method_count() == 6);
     for (size_t i = 0; i < ffd_method_count(); i++)
         CHECK(ffd_method_at(i)->write != NULL);
     for (size_t r = 0; r < sizeof rigs / sizeof *rigs; r++) {

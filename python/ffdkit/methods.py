@@ -11,7 +11,8 @@ subclass of the rig's method, registered here in
 * :class:`PBFFDDeformer` -- the hierarchy level shown and edited (§3.4), the
   EBFs' frames (twist, stretch), deformation curves (§3.5);
 * :class:`GFFDDeformer` -- skeleton primitives: add, change the radius,
-  remove, transform.
+  remove, transform;
+* :class:`KelvinletDeformer` -- Kelvinlet brushes: add, remove.
 
 Every operation is a thin layer over :meth:`ffdkit.Deformer.command`, the one
 C entry point ``ffd_deformer_command``, with exactly the JSON bodies of the
@@ -36,7 +37,7 @@ if TYPE_CHECKING:
 ArrayLike3 = Union[Sequence[float], np.ndarray]
 Ids = Union[int, Iterable[int], np.ndarray]
 
-__all__ = ["LatticeDeformer", "TSplineDeformer", "PBFFDDeformer", "GFFDDeformer"]
+__all__ = ["LatticeDeformer", "TSplineDeformer", "PBFFDDeformer", "GFFDDeformer", "KelvinletDeformer"]
 
 
 def _ids(ids: Ids) -> List[int]:
@@ -484,6 +485,34 @@ def _rotation(axis: List[float], angle: float) -> np.ndarray:
     return np.eye(3) + np.sin(angle) * k + (1 - np.cos(angle)) * (k @ k)
 
 
+# ---------------------------------------------------------------------------
+# Kelvinlet brushes
+# ---------------------------------------------------------------------------
+
+
+class KelvinletDeformer(Deformer):
+    """Kelvinlet brushes (de Goes & James 2017; docs/kelvinlet.md). The
+    controls are the grab brushes' handles (center + displacement); there is
+    no linear map (a grab's response is a 3x3 block)."""
+
+    @property
+    def brushes(self) -> List[Dict[str, Any]]:
+        """The brushes as in rigs (each grab with its ``control`` id)."""
+        return list(self.report()["controls"].get("brushes", []))
+
+    def add_brush(self, type: str, center: ArrayLike3, radius: float, **keys: Any) -> None:
+        """Adds a brush: ``type`` "grab", "twist", "scale" or "pinch", its
+        ``center`` and ``radius``, and its type's keys (``displacement``;
+        ``axis`` and ``angle``; ``factor``; ``pinch``)."""
+        brush = {"type": type, "center": _vec3(center, "center"), "radius": float(radius)}
+        brush.update(_json_ready(keys))
+        self.command("brush", add=brush)
+
+    def remove_brush(self, index: int) -> None:
+        """Removes brush ``index`` (RangeError past the end)."""
+        self.command("brush", remove=_json_int(index, "remove"))
+
+
 def _json_int(v: Any, name: str) -> Any:
     """A numpy integer as a Python int for a JSON body; anything else passes
     unchanged so that the library refuses it by name (ParseError naming
@@ -514,6 +543,7 @@ METHOD_CLASSES.update(
         "tspline": TSplineDeformer,
         "pbffd": PBFFDDeformer,
         "gffd": GFFDDeformer,
+        "kelvinlet": KelvinletDeformer,
     }
 )
 

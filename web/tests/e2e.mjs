@@ -5,7 +5,7 @@
 // API and by replaying the session's rig with `ffd deform`.
 //
 //   node web/tests/e2e.mjs --ffd build/ffd --out DIR [--chromium PATH]
-//                          [--methods lattice,tspline,pbffd,gffd,cage] [--keep]
+//                          [--methods lattice,tspline,pbffd,gffd,cage,kelvinlet] [--keep]
 //
 // Stages: (a) lattice: create via the panel, click-select a control, drag it
 // with the gizmo's translate arrow; (b) mesh tool: pin two vertices (Alt+click)
@@ -31,7 +31,7 @@ const opt = (name, dflt) => { const i = argv.indexOf(`--${name}`); return i >= 0
 const FFD = path.resolve(opt('ffd', path.join(REPO, 'build', 'ffd')));
 const OUT = path.resolve(opt('out', path.join(tmpdir(), 'ffd-e2e')));
 const EXE = opt('chromium', ['/usr/bin/chromium', '/usr/bin/chromium-browser', '/usr/bin/google-chrome'].find(existsSync));
-const METHODS = opt('methods', 'lattice,tspline,pbffd,gffd,cage').split(',');
+const METHODS = opt('methods', 'lattice,tspline,pbffd,gffd,cage,kelvinlet').split(',');
 const KEEP = argv.includes('--keep');
 const WEB = path.join(REPO, 'web', 'dist');
 const LIMIT_S = Number(opt('limit', 170));
@@ -336,6 +336,7 @@ async function main() {
   if (METHODS.includes('pbffd')) await guarded('pbffd', pbffdStage);
   if (METHODS.includes('gffd')) await guarded('gffd', gffdStage);
   if (METHODS.includes('cage')) await guarded('cage', cageStage);
+  if (METHODS.includes('kelvinlet')) await guarded('kelvinlet', kelvinletStage);
   await uiStage();
 }
 
@@ -602,6 +603,28 @@ async function cageStage() {
   check(maxDisplacement(r.f1.positions, rest) > 1e-3, `(f) the cage moved the mesh (max ${maxDisplacement(r.f1.positions, rest).toFixed(4)})`);
   await replay('bunny.obj', 1e-4, '(f) cage');
   await shot('13-cage-dragged');
+async function kelvinletStage() {
+  // Kelvinlet brushes: created without brushes, a grab placed by clicking the
+  // mesh (the panel's tool), its handle dragged, the rig replayed by ffd deform
+  await openBunny();
+  const st = await createViaPanel('kelvinlet');
+  check(st.method === 'kelvinlet' && (st.controls.brushes || []).length === 0, '(k) Kelvinlet created via the panel, no brushes');
+  const rest = (await frame()).positions.slice();
+  const diag = Math.hypot(...st.mesh.max.map((x, i) => x - st.mesh.min[i]));
+  await ed(() => window.ffdEditor.editor.setTool('addbrush'));
+  const rev = (await state()).revision;
+  await page.mouse.click(470, 470); // the bunny's body in the 960-wide viewport
+  await page.waitForFunction((r) => window.ffdEditor.state.revision > r, rev, { timeout: 20000 });
+  await settle();
+  const s1 = await state();
+  check((s1.controls.brushes || []).length === 1 && s1.controls.count === 1, `(k) a grab brush placed by clicking the mesh (${(s1.controls.brushes || []).length} brushes)`);
+  await shot('k1-kelvinlet');
+  const r = await dragControl(0, 50, -40);
+  must(!!r, '(k) grab handle drag');
+  check(pointDist(r.f1.controls, 0, r.f0.controls) > 1e-3, '(k) the grab handle dragged');
+  check(maxDisplacement(r.f1.positions, rest) > 1e-3, `(k) the brush moved the mesh (max ${maxDisplacement(r.f1.positions, rest).toFixed(4)})`);
+  await replay('bunny.obj', 1e-6 * diag, '(k) Kelvinlet (float32 frame)');
+  await shot('k2-kelvinlet-dragged');
 }
 
 async function uiStage() {

@@ -8,8 +8,9 @@ import pbffd from './pbffd.js';
 import gffd from './gffd.js';
 import tspline from './tspline.js';
 import cage from './cage.js';
+import kelvinlet from './kelvinlet.js';
 
-export const METHODS = [lattice, pbffd, gffd, tspline, cage];
+export const METHODS = [lattice, pbffd, gffd, tspline, cage, kelvinlet];
 
 /** What a method module may leave out, and the page without a deformer. */
 const DEFAULTS = {
