@@ -15,5 +15,6 @@
 #include "ffd_pbffd.h"
 #include "ffd_gffd.h"
 #include "ffd_tspline.h"
+#include "ffd_rbf.h"
 
 #endif /* FFD_METHODS_H */

@@ -9,12 +9,14 @@ extern const ffd_method ffd_method_lattice;
 extern const ffd_method ffd_method_pbffd;
 extern const ffd_method ffd_method_gffd;
 extern const ffd_method ffd_method_tspline;
+extern const ffd_method ffd_method_rbf;
 
 static const ffd_method *const registry[] = {
     &ffd_method_lattice,
     &ffd_method_pbffd,
     &ffd_method_gffd,
     &ffd_method_tspline,
+    &ffd_method_rbf,
 };
 
 size_t ffd_method_count(void)
