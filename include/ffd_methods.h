@@ -16,5 +16,6 @@
 #include "ffd_gffd.h"
 #include "ffd_tspline.h"
 #include "ffd_rbf.h"
+#include "ffd_idw.h"
 
 #endif /* FFD_METHODS_H */

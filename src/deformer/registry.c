@@ -10,6 +10,7 @@ extern const ffd_method ffd_method_pbffd;
 extern const ffd_method ffd_method_gffd;
 extern const ffd_method ffd_method_tspline;
 extern const ffd_method ffd_method_rbf;
+extern const ffd_method ffd_method_idw;
 
 static const ffd_method *const registry[] = {
     &ffd_method_lattice,
@@ -17,6 +18,7 @@ static const ffd_method *const registry[] = {
     &ffd_method_gffd,
     &ffd_method_tspline,
     &ffd_method_rbf,
+    &ffd_method_idw,
 };
 
 size_t ffd_method_count(void)
