@@ -43,6 +43,11 @@ static const rig_case cases[] = {
     {"pbffd", EX "pbffd/cow.off", FFD_SOURCE_DIR "/tests/data/deformer/cow-frames.json"},
     {"pbffd", EX "pbffd/cow.off", FFD_SOURCE_DIR "/tests/data/deformer/cow-coarse-frame.json"},
     {"pbffd", EX "pbffd/elephant.off", EX "pbffd/elephant-trunk.json"},
+    /* RBF and IDW (docs/rbf-idw.md): moves, and constraints solved by direct manipulation */
+    {"rbf", EX "lattice/bunny.obj", EX "rbf/bunny-ears.json"},
+    {"rbf", EX "lattice/bunny.obj", EX "rbf/bunny-pins.json"},
+    {"idw", EX "lattice/bunny.obj", EX "idw/bunny-ears.json"},
+    {"idw", EX "lattice/bunny.obj", EX "idw/bunny-pins.json"},
 };
 #define ALL_CASES (sizeof cases / sizeof *cases)
 
