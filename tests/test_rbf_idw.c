@@ -9,6 +9,7 @@
 #include "check.h"
 
 #include "ffd.h"
+#include "rig/rig_json.h" /* ffd_rig_write_json: the rig as JSON text */
 
 #include <omp.h>
 
@@ -472,6 +473,84 @@ static void test_refusals(void)
             "kernel: only for \"deformer\": \"rbf\" rigs");
 }
 
+/* ---- PyGeM parameter files ---- */
+
+/* PyGeM's cube examples (the layout of its write_parameters) read, written
+ * back, read again: the same rig text; and they deform as the same rig in
+ * JSON does. */
+static void test_prm_round_trip(void)
+{
+    const char *files[] = {EX "rbf/cube.prm", EX "idw/cube.prm"};
+    const char *methods[] = {"rbf", "idw"};
+    for (int f = 0; f < 2; f++) {
+        ffd_rig *rig = NULL, *again = NULL;
+        ffd_error err = {{0}};
+        char *prm = NULL, *json = NULL, *json2 = NULL;
+        CHECK_OK(ffd_rig_read(files[f], &rig, &err));
+        if (!rig) {
+            fprintf(stderr, "%s\n", err.message);
+            continue;
+        }
+        CHECK_OK(ffd_rig_write_prm(rig, &prm, &err));
+        CHECK(prm && strstr(prm, f ? "[Inverse Distance Weighting]" : "[Radial Basis Functions]"));
+        CHECK_OK(ffd_rig_parse_prm(prm, prm ? strlen(prm) : 0, "again.prm", &again, &err));
+        CHECK_OK(ffd_rig_write_json(rig, &json, &err));
+        if (again)
+            CHECK_OK(ffd_rig_write_json(again, &json2, &err));
+        CHECK(json && json2 && strcmp(json, json2) == 0);
+        CHECK(json && strstr(json, methods[f]) != NULL);
+        /* the cube's corner (1,1,1) moved to (1.5,1.6,1.7): points at the corners follow */
+        double pts[2][3] = {{1, 1, 1}, {0, 0, 0}};
+        ffd_mesh *mesh = NULL;
+        CHECK_OK(ffd_mesh_create(&pts[0][0], 2, NULL, NULL, 0, &mesh, &err));
+        if (mesh) {
+            CHECK_OK(ffd_rig_apply(rig, mesh, NULL, &err));
+            const double *x = ffd_mesh_positions(mesh);
+            CHECK_NEAR(x[0], 1.5, 1e-12);
+            CHECK_NEAR(x[1], 1.6, 1e-12);
+            CHECK_NEAR(x[2], 1.7, 1e-12);
+            CHECK(x[3] == 0 && x[4] == 0 && x[5] == 0);
+        }
+        ffd_mesh_destroy(mesh);
+        ffd_free(prm);
+        ffd_free(json);
+        ffd_free(json2);
+        ffd_rig_destroy(rig);
+        ffd_rig_destroy(again);
+    }
+}
+
+/* .prm text refused with a message holding want. */
+static void prm_refused(const char *text, const char *want)
+{
+    ffd_rig *rig = NULL;
+    ffd_error err = {{0}};
+    CHECK(ffd_rig_parse_prm(text, strlen(text), "bad.prm", &rig, &err) != FFD_OK);
+    CHECK(rig == NULL);
+    if (!strstr(err.message, want))
+        fprintf(stderr, "message '%s' lacks '%s'\n", err.message, want);
+    CHECK(strstr(err.message, want) != NULL);
+}
+
+static void test_prm_refusals(void)
+{
+    prm_refused("[Radial Basis Functions]\nbasis function: cubic\nradius: 1\n",
+                "bad.prm:2: basis function: unknown kernel 'cubic'");
+    prm_refused("[Radial Basis Functions]\nbasis function: gaussian_spline\nradius: 0\n",
+                "bad.prm:3: radius: 0: expected a number > 0");
+    prm_refused("[Radial Basis Functions]\nbasis function: gaussian_spline\nradius: 1\n"
+                "[Control points]\noriginal control points: 0 0 0\n  1 0 0\n"
+                "deformed control points: 0 0 0\n",
+                "bad.prm:7: deformed control points: 1 points for 2 original control points");
+    prm_refused("[Inverse Distance Weighting]\npower = 2\n[Control points]\n"
+                "original control points: 0 0 0\n  1 0\ndeformed control points: 0 0 0\n  1 0 0\n",
+                "bad.prm:5: original control points: expected 3 numbers a line, got 2");
+    prm_refused("[Inverse Distance Weighting]\npower = 1.5\n",
+                "bad.prm:2: power: 1.5: expected an integer >= 1");
+    prm_refused("[Radial Basis Functions]\nbasis function: gaussian_spline\nradius: 1\nepsilon: 2\n",
+                "bad.prm:4: 'epsilon': not a kernel parameter");
+}
+
 int main(int argc, char **argv)
 {
     static const check_test tests[] = {
@@ -484,6 +563,8 @@ int main(int argc, char **argv)
         {"direct_manipulation", test_direct_manipulation},
         {"threads", test_threads},
         {"refusals", test_refusals},
+        {"prm_round_trip", test_prm_round_trip},
+        {"prm_refusals", test_prm_refusals},
     };
     return check_run(tests, sizeof tests / sizeof *tests, argc, argv);
 }

@@ -15,4 +15,7 @@ const ffd_method ffd_method_idw = {
     .load = ffd_sess_idw_load,
     .create_keys = idw_create_keys,
     .release = ffd_rig_release_idw,
+    .prm_section = "Inverse Distance Weighting",
+    .parse_prm = ffd_rig_parse_prm_idw,
+    .write_prm = ffd_rig_write_prm_idw,
 };

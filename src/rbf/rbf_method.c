@@ -15,4 +15,7 @@ const ffd_method ffd_method_rbf = {
     .load = ffd_sess_rbf_load,
     .create_keys = rbf_create_keys,
     .release = ffd_rig_release_rbf,
+    .prm_section = "Radial Basis Functions",
+    .parse_prm = ffd_rig_parse_prm_rbf,
+    .write_prm = ffd_rig_write_prm_rbf,
 };
