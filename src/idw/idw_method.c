@@ -14,6 +14,7 @@ const ffd_method ffd_method_idw = {
     .apply = ffd_rig_apply_idw,
     .load = ffd_sess_idw_load,
     .create_keys = idw_create_keys,
+    .create_body = ffd_sess_idw_create_body,
     .release = ffd_rig_release_idw,
     .prm_section = "Inverse Distance Weighting",
     .parse_prm = ffd_rig_parse_prm_idw,

@@ -48,6 +48,8 @@ double *ffd_rig_idw_moved(const ffd_rig_idw *section);
 
 ffd_status ffd_rig_apply_idw(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report *report,
                              ffd_budget *budget, ffd_error *err);
+/* The editor's defaults for a "create" body (idw_session.c). */
+ffd_status ffd_sess_idw_create_body(const sess_ctx *ctx, cJSON *body, const ffd_rig_parser *p);
 ffd_status ffd_sess_idw_load(const sess_ctx *ctx, const ffd_rig *rig, sess_method **out,
                              ffd_error *err);
 

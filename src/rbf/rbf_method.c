@@ -14,6 +14,7 @@ const ffd_method ffd_method_rbf = {
     .apply = ffd_rig_apply_rbf,
     .load = ffd_sess_rbf_load,
     .create_keys = rbf_create_keys,
+    .create_body = ffd_sess_rbf_create_body,
     .release = ffd_rig_release_rbf,
     .prm_section = "Radial Basis Functions",
     .parse_prm = ffd_rig_parse_prm_rbf,

@@ -325,3 +325,28 @@ ffd_status ffd_sess_rbf_load(const sess_ctx *ctx, const ffd_rig *rig, sess_metho
     *out = &r->base;
     return FFD_OK;
 }
+
+/* The editor's defaults (ffd_method.create_body): without "control_points",
+ * the 27 points of a 3 x 3 x 3 grid over the mesh's bounding box grown by a
+ * tenth of its diagonal, and a radius of half the diagonal (PyGeM's 0.5 is in
+ * model units, too small for most meshes). */
+ffd_status ffd_sess_rbf_create_body(const sess_ctx *ctx, cJSON *body, const ffd_rig_parser *p)
+{
+    if (!cJSON_GetObjectItemCaseSensitive(body, "radius") &&
+        !cJSON_AddNumberToObject(body, "radius", 0.5 * ctx->diag))
+        return ffd_fail(p->err, FFD_ERR_NOMEM, "%s: out of memory", p->name);
+    if (cJSON_GetObjectItemCaseSensitive(body, "control_points"))
+        return FFD_OK;
+    cJSON *points = cJSON_AddArrayToObject(body, "control_points");
+    int ok = points != NULL;
+    for (int i = 0; ok && i < 27; i++) {
+        double q[3];
+        for (int a = 0; a < 3; a++) {
+            int k = a == 0 ? i / 9 : a == 1 ? i / 3 % 3 : i % 3;
+            double lo = ctx->min[a] - 0.1 * ctx->diag, hi = ctx->max[a] + 0.1 * ctx->diag;
+            q[a] = lo + 0.5 * k * (hi - lo);
+        }
+        ok = ffd_sess_add_to_array(points, cJSON_CreateDoubleArray(q, 3));
+    }
+    return ok ? FFD_OK : ffd_fail(p->err, FFD_ERR_NOMEM, "%s: out of memory", p->name);
+}

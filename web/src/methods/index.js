@@ -7,8 +7,10 @@ import lattice from './lattice.js';
 import pbffd from './pbffd.js';
 import gffd from './gffd.js';
 import tspline from './tspline.js';
+import rbf from './rbf.js';
+import idw from './idw.js';
 
-export const METHODS = [lattice, pbffd, gffd, tspline];
+export const METHODS = [lattice, pbffd, gffd, tspline, rbf, idw];
 
 /** What a method module may leave out, and the page without a deformer. */
 const DEFAULTS = {
