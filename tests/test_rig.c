@@ -154,7 +154,7 @@ static void test_parse_bad_keys_and_types(void)
     parse_bad("\"lattice\"", FFD_ERR_PARSE, "expected a JSON object");
     parse_bad("{\"version\": 2}", FFD_ERR_PARSE, "rig.json: version: expected 1");
     parse_bad("{\"version\": \"1\"}", FFD_ERR_PARSE, "version: expected 1");
-    parse_bad("{\"deformer\": \"tsplines\"}", FFD_ERR_PARSE, "rig.json: deformer: expected \"lattice\", \"pbffd\", \"gffd\" or \"tspline\"");
+    parse_bad("{\"deformer\": \"tsplines\"}", FFD_ERR_PARSE, "rig.json: deformer: expected \"lattice\", \"pbffd\", \"gffd\", \"tspline\", \"rbf\" or \"idw\"");
     parse_bad("{\"deformer\": 1}", FFD_ERR_PARSE, "deformer: expected \"lattice\"");
     parse_bad("{\"basis\": \"nurbs\"}", FFD_ERR_PARSE,
               "rig.json: basis: expected \"bspline\" or \"bernstein\"");
@@ -801,6 +801,8 @@ static void test_registry_schemas(void)
         "{\"deformer\": \"gffd\", \"skeleton\": [{\"type\": \"point\", \"position\": [0, 0, 0], "
         "\"radius\": 1}]}",
         "{\"deformer\": \"tspline\", \"resolution\": [4, 4, 4]}",
+        "{\"deformer\": \"rbf\", \"control_points\": [[0, 0, 0]]}",
+        "{\"deformer\": \"idw\", \"control_points\": [[0, 0, 0]]}",
     };
     CHECK(ffd_method_count() == sizeof rigs / sizeof *rigs);
     for (size_t i = 0; i < ffd_method_count(); i++) {
@@ -931,7 +933,7 @@ static void test_registry_write_round_trip(void)
          "4, \"target\": [1, 2, 3]}], \"freeze\": [{\"points\": [7]}]}}]}",
          "\"only_target\":\ttrue"},
     };
-    CHECK(ffd_method_count() == 4);
+    CHECK(ffd_method_count() == 6);
     for (size_t i = 0; i < ffd_method_count(); i++)
         CHECK(ffd_method_at(i)->write != NULL);
     for (size_t r = 0; r < sizeof rigs / sizeof *rigs; r++) {

@@ -96,7 +96,7 @@ static void test_parse_bad(void)
 {
     parse_bad(PB "\"resolution\": [3,3,3]}", FFD_ERR_PARSE, "resolution: only for \"deformer\": \"lattice\"");
     parse_bad("{\"levels\": 2}", FFD_ERR_PARSE, "levels: only for \"deformer\": \"pbffd\"");
-    parse_bad("{\"deformer\": \"pb\"}", FFD_ERR_PARSE, "deformer: expected \"lattice\", \"pbffd\", \"gffd\" or \"tspline\"");
+    parse_bad("{\"deformer\": \"pb\"}", FFD_ERR_PARSE, "deformer: expected \"lattice\", \"pbffd\", \"gffd\", \"tspline\", \"rbf\" or \"idw\"");
     parse_bad(PB "\"controls\": []}", FFD_ERR_PARSE, "controls: expected at least one");
     parse_bad(PB "\"controls\": \"some\"}", FFD_ERR_PARSE, "controls: expected \"auto\"");
     parse_bad(PB "\"controls\": [{\"center\": [0,0,0], \"radius\": 0}]}", FFD_ERR_INVALID,
