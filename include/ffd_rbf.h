@@ -55,18 +55,29 @@ FFD_API const char *ffd_rbf_kernel_name(ffd_rbf_kernel kernel);
  * control points moves every point by the same affine map. */
 typedef struct ffd_rbf_morph ffd_rbf_morph;
 
+/* How the system is solved. DENSE: LAPACK's dsytrf on the (N+4)^2 matrix.
+ * SPARSE (WENDLAND_C2 only, whose Phi is sparse and positive definite):
+ * CHOLMOD's Cholesky factor of Phi and the 4 x 4 Schur complement of the
+ * polynomial block, S = P^T Phi^-1 P (P = [1 C]); the same map to rounding.
+ * AUTO: SPARSE for WENDLAND_C2 with more than 2000 control points. */
+typedef enum ffd_rbf_solver { FFD_RBF_SOLVER_AUTO = 0, FFD_RBF_SOLVER_DENSE, FFD_RBF_SOLVER_SPARSE } ffd_rbf_solver;
+
 /* Zero means default for every field. */
 typedef struct ffd_rbf_options {
     ffd_rbf_kernel kernel; /* default FFD_RBF_GAUSSIAN (PyGeM's default) */
     double radius;         /* r > 0; 0: PyGeM's default 0.5 */
     unsigned power;        /* k of THIN_PLATE and POLYHARMONIC; 0: 2 */
+    ffd_rbf_solver solver; /* default AUTO */
 } ffd_rbf_options;
 
 /* An RBF at rest on control_points (count by 3, copied; count >= 1).
  * FFD_ERR_INVALID: two control points coincide (named), a radius <= 0 or not
- * finite, or the system is singular (its reciprocal condition number below
- * 1e-15, e.g. every control point in one plane: the linear part needs four
- * affinely independent points); FFD_ERR_NONFINITE; FFD_ERR_NOMEM. */
+ * finite, the sparse solver for a kernel other than WENDLAND_C2, or the
+ * system is singular (its reciprocal condition number below 1e-15, e.g.
+ * every control point in one plane: the linear part needs four affinely
+ * independent points); FFD_ERR_NONFINITE; FFD_ERR_NOMEM. With WENDLAND_C2
+ * the evaluation visits only the control points within the radius (a grid
+ * of cells of the radius's size). */
 FFD_API ffd_status ffd_rbf_morph_create(const double *control_points, size_t count,
                                   const ffd_rbf_options *options, ffd_rbf_morph **out, ffd_error *err);
 FFD_API void ffd_rbf_morph_destroy(ffd_rbf_morph *rbf);

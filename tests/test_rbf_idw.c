@@ -12,6 +12,7 @@
 #include "rig/rig_json.h" /* ffd_rig_write_json: the rig as JSON text */
 
 #include <omp.h>
+#include <stdint.h>
 
 #define EX FFD_SOURCE_DIR "/examples/"
 
@@ -117,7 +118,7 @@ static void pygem_rbf(ffd_rbf_kernel k, double r, unsigned p, const double P[NC]
 static ffd_rbf_morph *make_rbf(ffd_rbf_kernel k, double r, unsigned p)
 {
     ffd_rbf_morph *rbf = NULL;
-    ffd_rbf_options o = {k, r, p};
+    ffd_rbf_options o = {k, r, p, FFD_RBF_SOLVER_AUTO};
     ffd_error err = {{0}};
     if (ffd_rbf_morph_create(&C[0][0], NC, &o, &rbf, &err))
         fprintf(stderr, "%s\n", err.message);
@@ -297,6 +298,59 @@ static void test_jacobians(void)
             jacobian_fd(idw_eval_v, idw_jac_v, idw, w ? "idw shepard" : "idw pygem");
             ffd_idw_destroy(idw);
         }
+}
+
+/* The sparse solver (CHOLMOD and the Schur complement of the polynomial
+ * block) gives the dense solver's map, cardinal functions and sensitivity
+ * products for the Wendland kernel; the grid-limited evaluation matches an
+ * evaluation over every control point (the dense Gaussian path of
+ * PyGeM's formula in test_rbf_against_pygem covers Wendland too). */
+static void test_rbf_sparse_matches_dense(void)
+{
+    enum { N = 600, NP = 400 };
+    uint64_t st = 12345;
+    double *cp = malloc(3 * N * sizeof *cp), *moved = malloc(3 * N * sizeof *moved);
+    double *pts = malloc(3 * NP * sizeof *pts), *a = malloc(3 * N * sizeof *a), *b = malloc(3 * NP * sizeof *b);
+    for (int i = 0; i < 3 * N; i++) {
+        st = st * 6364136223846793005ull + 1442695040888963407ull;
+        cp[i] = (double)(st >> 11) / 9007199254740992.0;
+        moved[i] = cp[i] + 0.01 * sin(i);
+    }
+    for (int i = 0; i < 3 * NP; i++)
+        pts[i] = fmod(i * 0.7548776662466927, 1.2) - 0.1;
+    ffd_rbf_morph *dense = NULL, *sparse = NULL;
+    ffd_rbf_options od = {FFD_RBF_WENDLAND_C2, 0.25, 2, FFD_RBF_SOLVER_DENSE};
+    ffd_rbf_options os = {FFD_RBF_WENDLAND_C2, 0.25, 2, FFD_RBF_SOLVER_SPARSE};
+    ffd_error err = {{0}};
+    CHECK_OK(ffd_rbf_morph_create(cp, N, &od, &dense, &err));
+    CHECK_OK(ffd_rbf_morph_create(cp, N, &os, &sparse, &err));
+    if (dense && sparse) {
+        CHECK_OK(ffd_rbf_morph_set_control_points(dense, moved, NULL));
+        CHECK_OK(ffd_rbf_morph_set_control_points(sparse, moved, NULL));
+        CHECK_OK(ffd_rbf_morph_eval(dense, pts, NP, a, NULL));
+        CHECK_OK(ffd_rbf_morph_eval(sparse, pts, NP, b, NULL));
+        CHECK(rel(a, b, 3 * NP) <= 1e-10);
+        CHECK_OK(ffd_rbf_morph_eval(sparse, cp, N, a, NULL)); /* interpolation */
+        CHECK(rel(a, moved, 3 * N) <= 1e-10);
+        double *wd = malloc((N + 4) * sizeof *wd), *ws = malloc((N + 4) * sizeof *ws);
+        ffd_rbf_morph_cardinal(dense, pts + 30, wd);
+        ffd_rbf_morph_cardinal(sparse, pts + 30, ws);
+        CHECK(rel(wd, ws, N) <= 1e-10);
+        free(wd);
+        free(ws);
+    }
+    /* the sparse solver is for the Wendland kernel only */
+    ffd_rbf_morph *bad = NULL;
+    ffd_rbf_options og = {FFD_RBF_GAUSSIAN, 0.25, 2, FFD_RBF_SOLVER_SPARSE};
+    CHECK(ffd_rbf_morph_create(cp, N, &og, &bad, &err) == FFD_ERR_INVALID && !bad);
+    CHECK(strstr(err.message, "beckert_wendland_c2_basis") != NULL);
+    ffd_rbf_morph_destroy(dense);
+    ffd_rbf_morph_destroy(sparse);
+    free(cp);
+    free(moved);
+    free(pts);
+    free(a);
+    free(b);
 }
 
 /* ---- IDW ---- */
@@ -557,6 +611,7 @@ int main(int argc, char **argv)
         {"rbf_against_pygem", test_rbf_against_pygem},
         {"rbf_identity_and_interpolation", test_rbf_identity_and_interpolation},
         {"rbf_affine_and_rigid", test_rbf_affine_and_rigid},
+        {"rbf_sparse_matches_dense", test_rbf_sparse_matches_dense},
         {"jacobians", test_jacobians},
         {"idw_against_pygem", test_idw_against_pygem},
         {"idw_translation", test_idw_translation},

@@ -59,7 +59,16 @@ void ffd_rbf_morph_destroy(ffd_rbf_morph *rbf)
     ffd_free(rbf->factor);
     ffd_free(rbf->ipiv);
     ffd_free(rbf->coef);
+    ffd_rbf_grid_destroy(rbf->grid);
+    ffd_rbf_sparse_destroy(rbf->sparse);
     ffd_free(rbf);
+}
+
+/* H X = B for nrhs columns ((N+4) by nrhs column-major, in place). */
+static ffd_status system_solve(const ffd_rbf_morph *rbf, size_t nrhs, double *B, ffd_error *err)
+{
+    return rbf->sparse ? ffd_rbf_sparse_solve(rbf, nrhs, B, err)
+                       : ffd_dense_sym_solve(rbf->count + 4, nrhs, rbf->factor, rbf->ipiv, B, err);
 }
 
 ffd_status ffd_rbf_morph_create(const double *control_points, size_t count,
@@ -78,13 +87,27 @@ ffd_status ffd_rbf_morph_create(const double *control_points, size_t count,
                         o.radius);
     if (o.power == 0)
         o.power = 2;
+    if ((unsigned)o.solver > FFD_RBF_SOLVER_SPARSE)
+        return ffd_fail(err, FFD_ERR_INVALID, "rbf: unknown solver %d", (int)o.solver);
+    if (o.solver == FFD_RBF_SOLVER_SPARSE && o.kernel != FFD_RBF_WENDLAND_C2)
+        return ffd_fail(err, FFD_ERR_INVALID,
+                        "rbf: the sparse solver needs the compactly supported kernel "
+                        "beckert_wendland_c2_basis (this rig's kernel is %s)",
+                        ffd_rbf_kernel_name(o.kernel));
+    const int sparse = o.solver == FFD_RBF_SOLVER_SPARSE ||
+                       (o.solver == FFD_RBF_SOLVER_AUTO && o.kernel == FFD_RBF_WENDLAND_C2 &&
+                        count > 2000);
     ffd_status s = check_points(control_points, count, "control_points", err);
     if (s || (s = ffd_rbf_check_distinct(control_points, count, "rbf", err)))
         return s;
     const size_t M = count + 4;
-    if (M > 46340) /* (N+4)^2 doubles and LAPACK's int sizes */
+    if (!sparse && M > 46340) /* (N+4)^2 doubles and LAPACK's int sizes */
         return ffd_fail(err, FFD_ERR_INVALID,
-                        "rbf: %zu control points: the dense system is limited to 46336", count);
+                        "rbf: %zu control points: the dense system is limited to 46336 (the "
+                        "sparse solver, with beckert_wendland_c2_basis, is not)",
+                        count);
+    if (M > 0x7fffffff)
+        return ffd_fail(err, FFD_ERR_INVALID, "rbf: %zu control points are too many", count);
     ffd_rbf_morph *rbf = ffd_calloc(1, sizeof *rbf);
     if (!rbf)
         return ffd_fail(err, FFD_ERR_NOMEM, "rbf: out of memory");
@@ -94,15 +117,26 @@ ffd_status ffd_rbf_morph_create(const double *control_points, size_t count,
     rbf->power = o.power;
     rbf->rest = ffd_malloc_array(count, 3 * sizeof(double));
     rbf->points = ffd_malloc_array(count, 3 * sizeof(double));
-    rbf->factor = ffd_calloc(M * M, sizeof(double));
-    rbf->ipiv = ffd_malloc_array(M, sizeof(int));
+    rbf->factor = sparse ? NULL : ffd_calloc(M * M, sizeof(double));
+    rbf->ipiv = sparse ? NULL : ffd_malloc_array(M, sizeof(int));
     rbf->coef = ffd_calloc(M * 3, sizeof(double));
-    if (!rbf->rest || !rbf->points || !rbf->factor || !rbf->ipiv || !rbf->coef) {
+    if (!rbf->rest || !rbf->points || (!sparse && (!rbf->factor || !rbf->ipiv)) || !rbf->coef) {
         ffd_rbf_morph_destroy(rbf);
         return ffd_fail(err, FFD_ERR_NOMEM, "rbf: out of memory for %zu control points", count);
     }
     memcpy(rbf->rest, control_points, count * 3 * sizeof(double));
     memcpy(rbf->points, control_points, count * 3 * sizeof(double));
+    if (o.kernel == FFD_RBF_WENDLAND_C2)
+        s = ffd_rbf_grid_create(rbf, err);
+    if (!s && sparse)
+        s = ffd_rbf_sparse_factor(rbf, err);
+    if (s || sparse) {
+        if (s)
+            ffd_rbf_morph_destroy(rbf);
+        else
+            *out = rbf;
+        return s;
+    }
     /* H (PyGeM's _get_weights): column j of the lower triangle is r(c_j) below the diagonal */
     double *H = rbf->factor;
     for (size_t j = 0; j < count; j++)
@@ -157,7 +191,7 @@ static ffd_status solve_coef(const ffd_rbf_morph *rbf, const double *v, double *
     for (size_t j = 0; j < N; j++)
         for (int a = 0; a < 3; a++)
             coef[a * M + j] = v[3 * j + a];
-    return ffd_dense_sym_solve(M, 3, rbf->factor, rbf->ipiv, coef, err);
+    return system_solve(rbf, 3, coef, err);
 }
 
 ffd_status ffd_rbf_morph_set_control_points(ffd_rbf_morph *rbf, const double *points, ffd_error *err)
@@ -200,7 +234,26 @@ static void displacement(const ffd_rbf_morph *rbf, const double *coef, const dou
     double s[3] = {0, 0, 0};
     if (g)
         memset(g, 0, 9 * sizeof(double));
-    for (size_t j = 0; j < N; j++) {
+    /* Wendland: only the control points of the 27 cells around x can be
+     * within the radius (the others' terms are 0); else every one */
+    const rbf_grid *grid = rbf->grid;
+    size_t lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0}, cells = 0;
+    if (grid && ffd_rbf_grid_range(grid, x, lo, hi))
+        cells = (hi[0] - lo[0] + 1) * (hi[1] - lo[1] + 1) * (hi[2] - lo[2] + 1);
+    for (size_t cell = 0, q = 0, end = grid ? 0 : N;;) {
+        if (q == end) { /* the next cell */
+            if (!grid || cell == cells)
+                break;
+            size_t dz = hi[2] - lo[2] + 1, dy = hi[1] - lo[1] + 1;
+            size_t a = lo[0] + cell / (dy * dz), b = lo[1] + cell / dz % dy, c = lo[2] + cell % dz;
+            size_t id = (a * grid->dim[1] + b) * grid->dim[2] + c;
+            q = grid->start[id];
+            end = grid->start[id + 1];
+            cell++;
+            continue;
+        }
+        const size_t j = grid ? grid->points[q] : q;
+        q++;
         const double *c = rbf->rest + 3 * j;
         double e[3] = {x[0] - c[0], x[1] - c[1], x[2] - c[2]};
         double r = sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2]), dphi;
@@ -261,7 +314,7 @@ void ffd_rbf_morph_cardinal(const ffd_rbf_morph *rbf, const double x[3], double 
 {
     const size_t M = rbf->count + 4;
     basis_row(rbf, x, weights);
-    if (ffd_dense_sym_solve(M, 1, rbf->factor, rbf->ipiv, weights, NULL))
+    if (system_solve(rbf, 1, weights, NULL))
         memset(weights, 0, M * sizeof *weights); /* sizes were checked at creation */
 }
 
@@ -300,7 +353,7 @@ ffd_status ffd_rbf_morph_transpose_product(const ffd_rbf_morph *rbf, const doubl
             for (size_t j = 0; j < M; j++)
                 g[a * M + j] += row[j] * w[3 * i + a];
     }
-    if ((s = ffd_dense_sym_solve(M, 3, rbf->factor, rbf->ipiv, g, err)))
+    if ((s = system_solve(rbf, 3, g, err)))
         goto done;
     for (size_t j = 0; j < N; j++)
         for (int a = 0; a < 3; a++)

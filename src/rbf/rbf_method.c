@@ -3,7 +3,7 @@
 #include "rbf/rbf_method.h"
 
 /* The rig keys of the editor's "create" body (docs/editor.md). */
-static const char *const rbf_create_keys[] = {"control_points", "kernel", "radius", "power", NULL};
+static const char *const rbf_create_keys[] = {"control_points", "kernel", "radius", "power", "solver", NULL};
 
 const ffd_method ffd_method_rbf = {
     .name = "rbf",

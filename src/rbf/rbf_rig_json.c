@@ -11,7 +11,7 @@
 #include <string.h>
 
 const char *const ffd_rig_keys_rbf[] = {"control_points", "deformed_control_points", "moves",
-                                        "kernel", "radius", "power", NULL};
+                                        "kernel", "radius", "power", "solver", NULL};
 
 static ffd_status read_move(const ffd_rig_parser *p, const cJSON *m, const char *path,
                             void *element, void *ctx)
@@ -101,6 +101,18 @@ ffd_status ffd_rig_parse_rbf(const ffd_rig_parser *p, const cJSON *root, ffd_rig
             return ffd_rig_expected(p, "power", "an integer from 1 to 64");
         r->options.power = k;
     }
+    if ((item = cJSON_GetObjectItemCaseSensitive(root, "solver"))) {
+        static const char *const solvers[] = {"auto", "dense", "sparse", NULL};
+        int sv = 0;
+        if ((s = ffd_rig_read_enum(p, item, "solver", solvers, "\"auto\", \"dense\" or \"sparse\"", &sv)))
+            return s;
+        r->options.solver = (ffd_rbf_solver)sv;
+        if (r->options.solver == FFD_RBF_SOLVER_SPARSE && r->options.kernel != FFD_RBF_WENDLAND_C2)
+            return ffd_fail(p->err, FFD_ERR_INVALID,
+                            "%s: solver: \"sparse\" needs \"kernel\": \"beckert_wendland_c2_basis\" "
+                            "(the compactly supported kernel)",
+                            p->name);
+    }
     return FFD_OK;
 }
 
@@ -135,6 +147,9 @@ int ffd_rig_write_rbf(const ffd_rig *rig, cJSON *root)
              cJSON_AddStringToObject(root, "kernel", ffd_rbf_kernel_name(r->options.kernel)) &&
              ffd_sess_add_item(root, "radius", ffd_sess_number(r->options.radius)) &&
              cJSON_AddNumberToObject(root, "power", r->options.power) &&
+             (r->options.solver == FFD_RBF_SOLVER_AUTO ||
+              cJSON_AddStringToObject(root, "solver",
+                                      r->options.solver == FFD_RBF_SOLVER_SPARSE ? "sparse" : "dense")) &&
              (!r->deformed || ffd_sess_add_item(root, "deformed_control_points",
                                                 points_json(r->deformed, r->count))) &&
              (moves = cJSON_AddArrayToObject(root, "moves"));
