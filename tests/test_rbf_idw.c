@@ -588,6 +588,14 @@ static void prm_refused(const char *text, const char *want)
 
 static void test_prm_refusals(void)
 {
+    /* a lattice rig has no PyGeM writer of ours */
+    ffd_rig *lattice = NULL;
+    char *text = NULL;
+    ffd_error err = {{0}};
+    CHECK_OK(ffd_rig_read(EX "lattice/ears.json", &lattice, &err));
+    CHECK(ffd_rig_write_prm(lattice, &text, &err) == FFD_ERR_UNSUPPORTED && !text);
+    CHECK(strstr(err.message, "written for \"rbf\", \"idw\" rigs only") != NULL);
+    ffd_rig_destroy(lattice);
     prm_refused("[Radial Basis Functions]\nbasis function: cubic\nradius: 1\n",
                 "bad.prm:2: basis function: unknown kernel 'cubic'");
     prm_refused("[Radial Basis Functions]\nbasis function: gaussian_spline\nradius: 0\n",

@@ -1,6 +1,7 @@
-/* rig_prm — PyGeM parameter files (.prm) of the RBF and IDW methods: the
- * configparser syntax (rig_prm.h), the dispatch on section names, and the
- * writer's entry point ffd_rig_write_prm. */
+/* rig_prm — PyGeM parameter files (.prm) of the methods other than the
+ * lattice: the configparser syntax (rig_prm.h), the dispatch on section
+ * names (ffd_method.prm_section), and the writer's entry point
+ * ffd_rig_write_prm (ffd_method.write_prm). */
 #include "rig/rig_prm.h"
 #include "deformer/method.h"
 
@@ -282,10 +283,19 @@ ffd_status ffd_rig_write_prm(const ffd_rig *rig, char **text, ffd_error *err)
     if (!text)
         return ffd_fail(err, FFD_ERR_INVALID, "ffd_rig_write_prm: NULL text");
     *text = NULL;
-    if (!rig || !rig->method || !rig->method->write_prm)
+    if (!rig || !rig->method || !rig->method->write_prm) {
+        char names[256] = "";
+        size_t used = 0;
+        for (size_t i = 0; i < ffd_method_count() && used < sizeof names; i++)
+            if (ffd_method_at(i)->write_prm) {
+                int w = snprintf(names + used, sizeof names - used, "%s\"%s\"", used ? ", " : "",
+                                 ffd_method_at(i)->name);
+                used += w > 0 ? (size_t)w : 0;
+            }
         return ffd_fail(err, FFD_ERR_UNSUPPORTED,
-                        "%s: PyGeM parameter files are written for \"rbf\" and \"idw\" rigs only",
-                        rig && rig->name ? rig->name : "rig");
+                        "%s: PyGeM parameter files are written for %s rigs only",
+                        rig && rig->name ? rig->name : "rig", names);
+    }
     if (rig->constraint_count)
         return ffd_fail(err, FFD_ERR_UNSUPPORTED,
                         "%s: a PyGeM parameter file cannot hold constraints (apply the rig, or "
