@@ -138,6 +138,8 @@ int ffd_rig_write_idw(const ffd_rig *rig, cJSON *root)
 void ffd_rig_release_idw(ffd_rig *rig)
 {
     ffd_rig_idw *r = ffd_rig_idw_of(rig);
+    if (!r) /* the section's allocation failed */
+        return;
     ffd_free(r->control_points);
     ffd_free(r->deformed);
     ffd_free(r->moves);

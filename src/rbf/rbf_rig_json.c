@@ -165,6 +165,8 @@ int ffd_rig_write_rbf(const ffd_rig *rig, cJSON *root)
 void ffd_rig_release_rbf(ffd_rig *rig)
 {
     ffd_rig_rbf *r = ffd_rig_rbf_of(rig);
+    if (!r) /* the section's allocation failed */
+        return;
     ffd_free(r->control_points);
     ffd_free(r->deformed);
     ffd_free(r->moves);
