@@ -455,6 +455,12 @@ FFD_API ffd_status ffd_rig_parse_json(const char *text, size_t size, const char 
                                       ffd_rig **out, ffd_error *err);
 FFD_API ffd_status ffd_rig_parse_prm(const char *text, size_t size, const char *name,
                                      ffd_rig **out, ffd_error *err);
+/* PyGeM parameter files of RBF and IDW rigs (sections [Radial Basis
+ * Functions] or [Inverse Distance Weighting] and [Control points]; read by
+ * ffd_rig_parse_prm, which dispatches on those names) written back in
+ * PyGeM's layout (*text ffd_free'd): FFD_ERR_UNSUPPORTED for other methods
+ * and for rigs with constraints; FFD_ERR_NOMEM. */
+FFD_API ffd_status ffd_rig_write_prm(const ffd_rig *rig, char **text, ffd_error *err);
 FFD_API void ffd_rig_destroy(ffd_rig *rig);
 /* The files a rig read besides itself (files its method section names), each as
  * resolved against the rig's directory, for tools that must never write over

@@ -17,5 +17,7 @@
 #include "ffd_tspline.h"
 #include "ffd_cage.h"
 #include "ffd_kelvinlet.h"
+#include "ffd_rbf.h"
+#include "ffd_idw.h"
 
 #endif /* FFD_METHODS_H */

@@ -54,6 +54,11 @@ static const rig_case cases[] = {
     {"kelvinlet", EX "lattice/bunny.obj", EX "kelvinlet/bunny-brushes.json"},
     {"kelvinlet", EX "lattice/bunny.obj", EX "kelvinlet/bunny-stroke.json"},
     {"kelvinlet", EX "lattice/bunny.obj", EX "kelvinlet/bunny-pins.json"},
+    /* RBF and IDW (docs/rbf-idw.md): moves, and constraints solved by direct manipulation */
+    {"rbf", EX "lattice/bunny.obj", EX "rbf/bunny-ears.json"},
+    {"rbf", EX "lattice/bunny.obj", EX "rbf/bunny-pins.json"},
+    {"idw", EX "lattice/bunny.obj", EX "idw/bunny-ears.json"},
+    {"idw", EX "lattice/bunny.obj", EX "idw/bunny-pins.json"},
 };
 #define ALL_CASES (sizeof cases / sizeof *cases)
 

@@ -786,6 +786,10 @@ static rig_fixture rigs[] = {
     {EXAMPLES "pbffd/cow-head.json", EXAMPLES "pbffd/cow.off", FFD_FORMAT_OFF, NULL, 0},
     {EXAMPLES "gffd/twist.json", EXAMPLES "gffd/bunny.obj", FFD_FORMAT_OBJ, NULL, 0},
     {EXAMPLES "tspline/bunny-ears.json", EXAMPLES "tspline/bunny.obj", FFD_FORMAT_OBJ, NULL, 0},
+    {EXAMPLES "rbf/bunny-pins.json", EXAMPLES "lattice/bunny.obj", FFD_FORMAT_OBJ, NULL, 0},
+    {EXAMPLES "idw/bunny-pins.json", EXAMPLES "lattice/bunny.obj", FFD_FORMAT_OBJ, NULL, 0},
+    {EXAMPLES "rbf/cube.prm", EXAMPLES "lattice/bunny.obj", FFD_FORMAT_OBJ, NULL, 0},
+    {EXAMPLES "idw/cube.prm", EXAMPLES "lattice/bunny.obj", FFD_FORMAT_OBJ, NULL, 0},
 };
 
 /* Reads the rig file and applies it; on failure the mesh is unchanged. */
@@ -854,6 +858,29 @@ static const char *const session_tspline_ops[][2] = {
     {"drag", "{\"delta\":[0.1,0.2,0]}"},
     {"drag_end", "{}"},
     {"undo", NULL},
+    {"undo", NULL},
+    {"redo", NULL},
+    {NULL, NULL},
+};
+
+static const char *const session_rbf_ops[][2] = {
+    {"create", "{\"method\":\"rbf\",\"kernel\":\"thin_plate_spline\"}"},
+    {"move", "{\"points\":[5],\"delta\":[0,0.2,0]}"},
+    {"pin", "{\"vertex\":4}"},
+    {"drag_begin", "{\"vertex\":12}"},
+    {"drag", "{\"target\":[0.5,0.5,0.5]}"},
+    {"drag_end", "{}"},
+    {"undo", NULL},
+    {"redo", NULL},
+    {NULL, NULL},
+};
+
+static const char *const session_idw_ops[][2] = {
+    {"create", "{\"method\":\"idw\",\"power\":3}"},
+    {"drag_begin", "{\"points\":[13]}"},
+    {"drag", "{\"delta\":[0.1,0.2,0]}"},
+    {"drag_end", "{}"},
+    {"pin", "{\"vertex\":4}"},
     {"undo", NULL},
     {"redo", NULL},
     {NULL, NULL},
@@ -1033,7 +1060,7 @@ static void test_tspline(void)
 
 static void test_rigs(void)
 {
-    static const long caps[] = {0, 400, 0, 600};
+    static const long caps[] = {0, 400, 0, 600, 0, 0, 0, 0};
     for (size_t i = 0; i < sizeof rigs / sizeof rigs[0]; i++) {
         const char *base = strstr(rigs[i].rig, "examples/");
         scenario sc = {base ? base + 9 : rigs[i].rig, sc_rig, &rigs[i], 0, caps[i]};
@@ -1047,6 +1074,10 @@ static void test_session(void)
     sweep(&a);
     scenario b = {"session tspline", sc_session, session_tspline_ops, 0, 0};
     sweep(&b);
+    scenario c = {"session rbf", sc_session, session_rbf_ops, 0, 0};
+    sweep(&c);
+    scenario d = {"session idw", sc_session, session_idw_ops, 0, 0};
+    sweep(&d);
 }
 
 int main(int argc, char **argv)

@@ -803,6 +803,8 @@ static void test_registry_schemas(void)
         "{\"deformer\": \"tspline\", \"resolution\": [4, 4, 4]}",
         "{\"deformer\": \"cage\", \"cage\": \"auto\"}",
         "{\"deformer\": \"kelvinlet\", \"brushes\": []}",
+        "{\"deformer\": \"rbf\", \"control_points\": [[0, 0, 0]]}",
+        "{\"deformer\": \"idw\", \"control_points\": [[0, 0, 0]]}",
     };
     CHECK(ffd_method_count() == sizeof rigs / sizeof *rigs);
     for (size_t i = 0; i < ffd_method_count(); i++) {
@@ -947,7 +949,7 @@ static void test_registry_write_round_trip(void)
          "\"pinch\": [[1, 0, 0], [0, -1, 0], [0, 0, 0]]}]}",
          "\"ratio\":\t1.5"},
     };
-    CHECK(ffd_method_count() == 6);
+    CHECK(ffd_method_count() == 8);
     for (size_t i = 0; i < ffd_method_count(); i++)
         CHECK(ffd_method_at(i)->write != NULL);
     for (size_t r = 0; r < sizeof rigs / sizeof *rigs; r++) {

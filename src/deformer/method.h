@@ -48,6 +48,14 @@ typedef struct ffd_method {
     void (*release)(ffd_rig *rig);
     /* The editor operations of the method's own (sess_vtable.op), NULL-terminated. */
     const char *const *ops;
+    /* PyGeM parameter files (.prm) of the method, other than the lattice's
+     * (rig/rig_prm.c): the section whose header marks them, their reader
+     * (ffd_rig_parse_prm dispatches here) and writer (ffd_rig_write_prm);
+     * NULL for none. */
+    const char *prm_section;
+    ffd_status (*parse_prm)(const char *text, size_t size, const char *name, ffd_rig **out,
+                            ffd_error *err);
+    ffd_status (*write_prm)(const ffd_rig *rig, char **text, ffd_error *err);
 } ffd_method;
 
 /* The method a "create" body names by "deformer" or by "method" (the old
@@ -70,6 +78,9 @@ const ffd_method *ffd_method_default(void);
 const ffd_method *ffd_method_find(const char *name);
 /* The method of a parsed rig (never NULL for a rig the parser made). */
 const ffd_method *ffd_method_of_rig(const ffd_rig *rig);
+/* The method whose prm_section is a section of the .prm text (rig_prm.c);
+ * NULL: none (a lattice file). */
+const ffd_method *ffd_method_of_prm(const char *text, size_t size);
 /* 1 when op is one of some registered method's own editor operations. */
 int ffd_method_op_known(const char *op);
 /* Writes the names quoted, as a list for messages ("\"a\", \"b\" or

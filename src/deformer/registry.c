@@ -11,6 +11,8 @@ extern const ffd_method ffd_method_gffd;
 extern const ffd_method ffd_method_tspline;
 extern const ffd_method ffd_method_cage;
 extern const ffd_method ffd_method_kelvinlet;
+extern const ffd_method ffd_method_rbf;
+extern const ffd_method ffd_method_idw;
 
 static const ffd_method *const registry[] = {
     &ffd_method_lattice,
@@ -19,6 +21,8 @@ static const ffd_method *const registry[] = {
     &ffd_method_tspline,
     &ffd_method_cage,
     &ffd_method_kelvinlet,
+    &ffd_method_rbf,
+    &ffd_method_idw,
 };
 
 size_t ffd_method_count(void)

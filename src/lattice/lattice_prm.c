@@ -652,6 +652,10 @@ ffd_status ffd_rig_parse_prm(const char *text, size_t size, const char *name, ff
     if (!out || (!text && size))
         return ffd_fail(err, FFD_ERR_INVALID, "%s: ffd_rig_parse_prm: NULL %s", name,
                         out ? "text" : "out");
+    /* PyGeM's files of other methods: their method's reader (by section name) */
+    const ffd_method *other = ffd_method_of_prm(text, size);
+    if (other)
+        return other->parse_prm(text, size, name, out, err);
     prm_doc d;
     memset(&d, 0, sizeof d);
     d.name = name;

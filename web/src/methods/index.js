@@ -9,8 +9,10 @@ import gffd from './gffd.js';
 import tspline from './tspline.js';
 import cage from './cage.js';
 import kelvinlet from './kelvinlet.js';
+import rbf from './rbf.js';
+import idw from './idw.js';
 
-export const METHODS = [lattice, pbffd, gffd, tspline, cage, kelvinlet];
+export const METHODS = [lattice, pbffd, gffd, tspline, cage, kelvinlet, rbf, idw];
 
 /** What a method module may leave out, and the page without a deformer. */
 const DEFAULTS = {

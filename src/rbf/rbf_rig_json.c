@@ -1,0 +1,173 @@
+/* rbf_rig_json — "deformer": "rbf" rigs (docs/rbf-idw.md): PyGeM's RBF
+ * (pygem/rbf.py) as a rig: the control points, the kernel, its radius and
+ * power, where the control points went ("deformed_control_points" and/or
+ * "moves"), and the constraints of direct manipulation shared by the linear
+ * methods. The method's section reader and writer (ffd_method_rbf). */
+#include "rbf/rbf_method.h"
+#include "rig/rig_json.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+const char *const ffd_rig_keys_rbf[] = {"control_points", "deformed_control_points", "moves",
+                                        "kernel", "radius", "power", "solver", NULL};
+
+static ffd_status read_move(const ffd_rig_parser *p, const cJSON *m, const char *path,
+                            void *element, void *ctx)
+{
+    static const char *const keys[] = {"index", "delta", NULL};
+    ffd_rig_rbf_move *move = element;
+    char sub[RIG_PATH_MAX + 80];
+    (void)ctx;
+    if (!cJSON_IsObject(m))
+        return ffd_rig_expected(p, path, "an object {\"index\": i, \"delta\": [dx,dy,dz]}");
+    ffd_status s = ffd_rig_check_keys(p, m, path, keys, "\"index\", \"delta\"");
+    if (s)
+        return s;
+    const cJSON *index = cJSON_GetObjectItemCaseSensitive(m, "index");
+    const cJSON *delta = cJSON_GetObjectItemCaseSensitive(m, "delta");
+    snprintf(sub, sizeof sub, "%s.index", path);
+    if (!index)
+        return ffd_rig_expected(p, sub, "a control point index (missing)");
+    if ((s = ffd_rig_read_index(p, index, sub, "a control point index (an integer >= 0)",
+                                &move->index)))
+        return s;
+    snprintf(sub, sizeof sub, "%s.delta", path);
+    if (!delta)
+        return ffd_rig_expected(p, sub, "an array of 3 finite numbers (missing)");
+    return ffd_rig_read_vec3(p, delta, sub, move->delta);
+}
+
+static const char *const kernel_list =
+    "\"gaussian_spline\", \"multi_quadratic_biharmonic_spline\", "
+    "\"inv_multi_quadratic_biharmonic_spline\", \"thin_plate_spline\", "
+    "\"beckert_wendland_c2_basis\" or \"polyharmonic_spline\"";
+
+ffd_status ffd_rig_parse_rbf(const ffd_rig_parser *p, const cJSON *root, ffd_rig *rig)
+{
+    static const char *const kernels[] = {
+        "gaussian_spline",   "multi_quadratic_biharmonic_spline", "inv_multi_quadratic_biharmonic_spline",
+        "thin_plate_spline", "beckert_wendland_c2_basis",         "polyharmonic_spline", NULL};
+    ffd_rig_rbf *r = ffd_rig_rbf_of(rig);
+    const cJSON *item;
+    ffd_status s = ffd_rig_read_linear_root(p, root, rig);
+    if (s)
+        return s;
+    if (!(item = cJSON_GetObjectItemCaseSensitive(root, "control_points")))
+        return ffd_rig_expected(p, "control_points", "an array of points [x,y,z] (missing)");
+    if ((s = ffd_rig_read_points(p, item, "control_points", 1, &r->control_points, &r->count)))
+        return s;
+    if ((item = cJSON_GetObjectItemCaseSensitive(root, "deformed_control_points"))) {
+        size_t count = 0;
+        if ((s = ffd_rig_read_points(p, item, "deformed_control_points", 1, &r->deformed, &count)))
+            return s;
+        if (count != r->count)
+            return ffd_fail(p->err, FFD_ERR_INVALID,
+                            "%s: deformed_control_points: %zu points for %zu control_points "
+                            "(expected one per control point)",
+                            p->name, count, r->count);
+    }
+    if ((item = cJSON_GetObjectItemCaseSensitive(root, "moves"))) {
+        void *moves;
+        s = ffd_rig_read_array(p, item, "moves", "an array of {\"index\": i, \"delta\": [dx,dy,dz]}",
+                               sizeof *r->moves, read_move, NULL, NULL, &moves, &r->move_count);
+        r->moves = moves;
+        if (s)
+            return s;
+        for (size_t i = 0; i < r->move_count; i++)
+            if (r->moves[i].index >= r->count)
+                return ffd_fail(p->err, FFD_ERR_RANGE,
+                                "%s: moves[%zu].index: %u out of range (%zu control points, "
+                                "indices start at 0)",
+                                p->name, i, r->moves[i].index, r->count);
+    }
+    if ((item = cJSON_GetObjectItemCaseSensitive(root, "kernel"))) {
+        int k = 0;
+        if ((s = ffd_rig_read_enum(p, item, "kernel", kernels, kernel_list, &k)))
+            return s;
+        r->options.kernel = (ffd_rbf_kernel)k;
+    }
+    r->options.radius = 0.5;
+    if ((item = cJSON_GetObjectItemCaseSensitive(root, "radius")) &&
+        (s = ffd_rig_read_positive(p, item, "radius", &r->options.radius)))
+        return s;
+    r->options.power = 2;
+    if ((item = cJSON_GetObjectItemCaseSensitive(root, "power"))) {
+        uint32_t k = 0;
+        if ((s = ffd_rig_read_index(p, item, "power", "an integer >= 1", &k)))
+            return s;
+        if (k < 1 || k > 64)
+            return ffd_rig_expected(p, "power", "an integer from 1 to 64");
+        r->options.power = k;
+    }
+    if ((item = cJSON_GetObjectItemCaseSensitive(root, "solver"))) {
+        static const char *const solvers[] = {"auto", "dense", "sparse", NULL};
+        int sv = 0;
+        if ((s = ffd_rig_read_enum(p, item, "solver", solvers, "\"auto\", \"dense\" or \"sparse\"", &sv)))
+            return s;
+        r->options.solver = (ffd_rbf_solver)sv;
+        if (r->options.solver == FFD_RBF_SOLVER_SPARSE && r->options.kernel != FFD_RBF_WENDLAND_C2)
+            return ffd_fail(p->err, FFD_ERR_INVALID,
+                            "%s: solver: \"sparse\" needs \"kernel\": \"beckert_wendland_c2_basis\" "
+                            "(the compactly supported kernel)",
+                            p->name);
+    }
+    return FFD_OK;
+}
+
+double *ffd_rig_rbf_moved(const ffd_rig_rbf *r)
+{
+    double *p = ffd_malloc_array(r->count, 3 * sizeof *p);
+    if (!p)
+        return NULL;
+    memcpy(p, r->deformed ? r->deformed : r->control_points, r->count * 3 * sizeof *p);
+    for (size_t i = 0; i < r->move_count; i++)
+        for (int a = 0; a < 3; a++)
+            p[3 * r->moves[i].index + a] += r->moves[i].delta[a];
+    return p;
+}
+
+static cJSON *points_json(const double *p, size_t n)
+{
+    cJSON *a = cJSON_CreateArray();
+    for (size_t i = 0; a && i < n; i++)
+        if (!ffd_sess_add_to_array(a, ffd_sess_vec3(p + 3 * i))) {
+            cJSON_Delete(a);
+            return NULL;
+        }
+    return a;
+}
+
+int ffd_rig_write_rbf(const ffd_rig *rig, cJSON *root)
+{
+    const ffd_rig_rbf *r = ffd_rig_rbf_of(rig);
+    cJSON *moves = NULL;
+    int ok = ffd_sess_add_item(root, "control_points", points_json(r->control_points, r->count)) &&
+             cJSON_AddStringToObject(root, "kernel", ffd_rbf_kernel_name(r->options.kernel)) &&
+             ffd_sess_add_item(root, "radius", ffd_sess_number(r->options.radius)) &&
+             cJSON_AddNumberToObject(root, "power", r->options.power) &&
+             (r->options.solver == FFD_RBF_SOLVER_AUTO ||
+              cJSON_AddStringToObject(root, "solver",
+                                      r->options.solver == FFD_RBF_SOLVER_SPARSE ? "sparse" : "dense")) &&
+             (!r->deformed || ffd_sess_add_item(root, "deformed_control_points",
+                                                points_json(r->deformed, r->count))) &&
+             (moves = cJSON_AddArrayToObject(root, "moves"));
+    for (size_t i = 0; ok && i < r->move_count; i++) {
+        cJSON *move = cJSON_CreateObject();
+        ok = ffd_sess_add_to_array(moves, move) &&
+             cJSON_AddNumberToObject(move, "index", r->moves[i].index) &&
+             ffd_sess_add_item(move, "delta", ffd_sess_vec3(r->moves[i].delta));
+    }
+    return ok;
+}
+
+void ffd_rig_release_rbf(ffd_rig *rig)
+{
+    ffd_rig_rbf *r = ffd_rig_rbf_of(rig);
+    if (!r) /* the section's allocation failed */
+        return;
+    ffd_free(r->control_points);
+    ffd_free(r->deformed);
+    ffd_free(r->moves);
+}
