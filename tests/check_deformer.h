@@ -43,6 +43,10 @@ static const rig_case cases[] = {
     {"pbffd", EX "pbffd/cow.off", FFD_SOURCE_DIR "/tests/data/deformer/cow-frames.json"},
     {"pbffd", EX "pbffd/cow.off", FFD_SOURCE_DIR "/tests/data/deformer/cow-coarse-frame.json"},
     {"pbffd", EX "pbffd/elephant.off", EX "pbffd/elephant-trunk.json"},
+    /* nested lattices (three levels, one Bernstein) and the falloff outside
+     * the lattice (docs/lattice-variants.md) */
+    {"lattice", EX "lattice/bunny.obj", EX "lattice/nested.json"},
+    {"lattice", EX "lattice/bunny.obj", EX "lattice/falloff.json"},
 };
 #define ALL_CASES (sizeof cases / sizeof *cases)
 
