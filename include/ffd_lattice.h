@@ -141,7 +141,19 @@ FFD_API void ffd_lattice_linear_map(const ffd_lattice *lattice, const ffd_lattic
  * (ffd_rig_report): outside_count counts the vertices outside the lattice;
  * control_points are the lattice's points, index (i*m + j)*n + k, with
  * resolution l, m, n (ffd_rig_report_write_lattice draws the grid's lines);
- * no control mesh. */
+ * no control mesh.
+ * A rig with "children" (nested lattices, docs/lattice-variants.md): the
+ * controls are the root lattice's points, then each child's depth-first
+ * (a child before its children, siblings in rig order); a child's points
+ * sit at its parent's map of their rest positions plus its own
+ * displacement. The linear map's variables (ffd_deformer_linear_map,
+ * sensitivities, ffd_deformer_move_controls) are the root's positions and
+ * the children's own displacements: rows compose, W_child = B_child (I +
+ * W_parent at the child's rest points). Setting a child control's position
+ * (ffd_deformer_set_controls) sets its own displacement to the position
+ * minus its parent's map. The report's control_points are all of them and
+ * control_edges every lattice's grid lines; the handle is the root
+ * ffd_lattice. */
 
 #ifdef __cplusplus
 }

@@ -341,6 +341,7 @@ static const sess_vtable nested_vtable = {
     .set_controls = nm_set_controls,
     .linear_map = nm_linear_map,
     .set_variables = nm_set_variables,
+    .move_by_variables = 1,
     .end = nm_end,
     .snapshot = nm_snapshot,
     .restore = nm_restore,
