@@ -206,31 +206,37 @@ static void test_direct_manipulation(void)
     free(pts);
 }
 
-/* Nothing moved: every point keeps its bits, every Jacobian is I exactly. */
+/* Nothing moved: every point keeps its bits, every Jacobian is I exactly
+ * (outside the root: "clamp", and "falloff"). */
 static void test_identity_bitwise(void)
 {
-    size_t n;
-    double *pts = cloud(&n);
-    pts[0] = -0.0;
-    ffd_mesh *mesh = NULL;
-    ffd_deformer *d = make(nested_rig("bspline", ", \"outside\": \"clamp\"", ""), pts, n, &mesh);
-    if (!d)
-        return;
-    double *out = malloc(3 * n * sizeof *out), *J = malloc(9 * n * sizeof *J);
-    ffd_error err = {{0}};
-    CHECK_OK(ffd_deformer_eval(d, out, &err));
-    CHECK(memcmp(out, pts, 3 * n * sizeof *out) == 0);
-    CHECK_OK(ffd_deformer_jacobian(d, J, &err));
-    int ident = 1;
-    for (size_t i = 0; i < n; i++)
-        for (int e = 0; e < 9; e++)
-            ident &= J[9 * i + e] == (e % 4 == 0 ? 1.0 : 0.0);
-    CHECK(ident);
-    free(out);
-    free(J);
-    ffd_deformer_destroy(d);
-    ffd_mesh_destroy(mesh);
-    free(pts);
+    for (int f = 0; f < 2; f++) {
+        size_t n;
+        double *pts = cloud(&n);
+        pts[0] = -0.0;
+        ffd_mesh *mesh = NULL;
+        ffd_deformer *d = make(nested_rig("bspline", f ? ", \"outside\": \"falloff\", \"falloff\": 0.4"
+                                                       : ", \"outside\": \"clamp\"",
+                                          ""),
+                               pts, n, &mesh);
+        if (!d)
+            continue;
+        double *out = malloc(3 * n * sizeof *out), *J = malloc(9 * n * sizeof *J);
+        ffd_error err = {{0}};
+        CHECK_OK(ffd_deformer_eval(d, out, &err));
+        CHECK(memcmp(out, pts, 3 * n * sizeof *out) == 0);
+        CHECK_OK(ffd_deformer_jacobian(d, J, &err));
+        int ident = 1;
+        for (size_t i = 0; i < n; i++)
+            for (int e = 0; e < 9; e++)
+                ident &= J[9 * i + e] == (e % 4 == 0 ? 1.0 : 0.0);
+        CHECK(ident);
+        free(out);
+        free(J);
+        ffd_deformer_destroy(d);
+        ffd_mesh_destroy(mesh);
+        free(pts);
+    }
 }
 
 /* Every control (root and children) moved by one rigid motion: every

@@ -9,14 +9,40 @@
 #include <stdio.h>
 #include <string.h>
 
-/* Bind and evaluate n points under the tree: every lattice's basis terms. */
-static ffd_status charge(const ffd_rig *rig, const ffd_nested *nest, size_t n, ffd_budget *budget,
-                         ffd_error *err)
+/* Terms of one row of a lattice (its basis's support). */
+static double row_terms(ffd_basis basis, const uint32_t r[3])
 {
-    double controls = (double)nest->control_count;
-    double terms = (double)nest->max_row;
-    double bytes = 200.0 * (double)n + 48.0 * controls + 12.0 * terms * (double)nest->node_count;
-    double work = 30.0 * terms * (double)n * (1 + (rig->constraint_count > 0)) + 10 * controls;
+    return basis == FFD_BASIS_BERNSTEIN ? (double)r[0] * r[1] * r[2] : 64.0;
+}
+
+/* The rows of the tree before it is built: each child's control points
+ * composed through its parent (their row length, its ancestors' terms). */
+static void estimate_tree(const ffd_rig_lattice_child *c, size_t k, double above, double *controls,
+                          double *terms, double *row)
+{
+    for (size_t i = 0; i < k; i++) {
+        double count = (double)c[i].resolution[0] * c[i].resolution[1] * c[i].resolution[2];
+        double mine = above + row_terms(c[i].basis, c[i].resolution);
+        *controls += count;
+        *terms += count * above;
+        if (2 * above + mine > *row)
+            *row = 2 * above + mine;
+        estimate_tree(c[i].children, c[i].child_count, mine, controls, terms, row);
+    }
+}
+
+/* Bind and evaluate n points under the tree, before it is built: the
+ * children's composed rows (their control points through their parents)
+ * and every point's row. */
+static ffd_status charge(const ffd_rig *rig, size_t n, ffd_budget *budget, ffd_error *err)
+{
+    const ffd_rig_lattice *section = ffd_rig_lattice_of(rig);
+    double root = row_terms(rig->basis, rig->resolution);
+    double controls = (double)rig->resolution[0] * rig->resolution[1] * rig->resolution[2];
+    double terms = 0, row = root;
+    estimate_tree(section->children, section->child_count, root, &controls, &terms, &row);
+    double bytes = 200.0 * (double)n + 48.0 * controls + 12.0 * terms;
+    double work = 30.0 * row * (double)n * (1 + (rig->constraint_count > 0)) + 30.0 * terms;
     char ns[32], cs[32];
     return ffd_budget_charge(budget, bytes, work, err,
                              "children: %s vertices under nested lattices of %s control points",
@@ -100,12 +126,12 @@ ffd_status ffd_rig_apply_lattice_nested(const ffd_rig *rig, ffd_mesh *mesh, ffd_
     ffd_error inner = {{0}};
     ffd_status s;
 
-    if ((s = ffd_nested_create(rig, positions, n, &nest, err)))
-        goto fail;
-    if ((s = charge(rig, nest, n, budget, &inner))) {
+    if ((s = charge(rig, n, budget, &inner))) {
         s = ffd_fail(err, s, "%s: %s", name, inner.message);
         goto fail;
     }
+    if ((s = ffd_nested_create(rig, positions, n, &nest, err)))
+        goto fail;
     double t0 = ffd_now();
     if ((s = ffd_nested_bind(nest, positions, n, &binding, &inner))) {
         s = ffd_rig_wrap(err, s, name, "binding the mesh", &inner);

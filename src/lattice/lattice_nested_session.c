@@ -373,14 +373,17 @@ ffd_status ffd_sess_lattice_nested_load(const sess_ctx *ctx, const ffd_rig *rig,
     ffd_rig_report report = {0};
     uint32_t *ids = NULL;
     ffd_error inner = {{0}};
-    ffd_status st = ffd_nested_create(rig, ctx->rest, ctx->n, &l->nest, err);
+    /* the replay first (it charges the limits before anything large is
+     * built); always: besides the root's moves and constraints, any child
+     * may hold moves */
+    ffd_status st = ffd_sess_apply_rig(ctx, rig, &report, err);
     if (!st)
-        st = ffd_sess_check_controls(ctx, (double)l->nest->control_count, rig->name, err);
+        st = ffd_sess_check_controls(ctx, (double)report.control_count, rig->name, err);
+    if (!st)
+        st = ffd_nested_create(rig, ctx->rest, ctx->n, &l->nest, err);
     if (!st && (st = ffd_nested_bind(l->nest, ctx->rest, ctx->n, &l->binding, &inner)))
         st = ffd_fail(err, st, "%s: %s", rig->name, inner.message);
-    const int replay = !st && (rig->move_count || rig->constraint_count ||
-                               l->nest->control_count); /* children may hold moves */
-    if (replay && !(st = ffd_sess_apply_rig(ctx, rig, &report, err))) {
+    if (!st) {
         size_t c = l->nest->control_count;
         if (report.control_count != c)
             st = ffd_fail(err, FFD_ERR_INVALID, "%s: the rig's lattices do not match", rig->name);
