@@ -624,7 +624,11 @@ FFD_API ffd_status ffd_deformer_linear_map(ffd_deformer *d, ffd_linear_map *map,
  * set (ids NULL: all count, in order) or moved by deltas (k by 3), and every
  * control back at rest. Setting goes through the method's own edit (with
  * whatever else that edit does, e.g. re-tracking: the method's header).
- * FFD_ERR_RANGE for an id, FFD_ERR_NONFINITE; on error nothing changed. */
+ * Moving adds the deltas to the linear map's variables: the controls'
+ * positions, except a nested lattice's children, whose variables are their
+ * own displacements (a root move in the same call carries them along as
+ * well; ffd_lattice.h). FFD_ERR_RANGE for an id, FFD_ERR_NONFINITE; on
+ * error nothing changed. */
 FFD_API size_t ffd_deformer_control_count(const ffd_deformer *d);
 FFD_API void ffd_deformer_controls(const ffd_deformer *d, double *out);
 FFD_API ffd_status ffd_deformer_set_controls(ffd_deformer *d, const uint32_t *ids, size_t k,

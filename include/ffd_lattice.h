@@ -29,9 +29,22 @@ typedef enum ffd_basis {
 typedef enum ffd_outside {
     FFD_OUTSIDE_FIXED = 0,   /* keep their position (default) */
     FFD_OUTSIDE_CLAMP,       /* move with the nearest boundary point: continuous across the boundary */
-    FFD_OUTSIDE_EXTRAPOLATE  /* Bernstein: evaluate the polynomials outside [0,1];
+    FFD_OUTSIDE_EXTRAPOLATE, /* Bernstein: evaluate the polynomials outside [0,1];
                                 B-spline: same as CLAMP. (PyGeM keeps outside points FIXED.) */
+    FFD_OUTSIDE_FALLOFF      /* CLAMP's displacement times a falloff curve of the distance to
+                                the box, 0 beyond the falloff distance (Blender, Maya): bind
+                                with ffd_lattice_bind_falloff, which gives the distance */
 } ffd_outside;
+
+/* The falloff curve f(r), r = d / D: d the point's distance to the box (to
+ * its clamped point: origin + A clamp(local)), D the falloff distance; f = 0
+ * for r >= 1. Blender's proportional-editing curves (t = 1 - r). */
+typedef enum ffd_falloff_curve {
+    FFD_FALLOFF_SMOOTH = 0, /* 1 - (10 r^3 - 15 r^4 + 6 r^5): C2 smootherstep (default) */
+    FFD_FALLOFF_LINEAR,     /* 1 - r */
+    FFD_FALLOFF_SPHERE,     /* sqrt(1 - r^2) */
+    FFD_FALLOFF_SHARP       /* (1 - r)^2 */
+} ffd_falloff_curve;
 
 /* Parallelepiped: x = origin + s*axes[0] + t*axes[1] + u*axes[2], (s,t,u) in [0,1]^3. */
 typedef struct ffd_box {
@@ -82,6 +95,19 @@ FFD_API void ffd_lattice_reset(ffd_lattice *lattice);
  * basis; moving control points never re-binds. FFD_ERR_NONFINITE. */
 FFD_API ffd_status ffd_lattice_bind(const ffd_lattice *lattice, const double *points, size_t n,
                                     ffd_outside outside, ffd_lattice_binding **out, ffd_error *err);
+/* Binds as ffd_lattice_bind with FFD_OUTSIDE_FALLOFF: an outside point
+ * moves by the displacement of its clamped point times curve(d / distance)
+ * (ffd_falloff_curve): continuous across the boundary (f(0) = 1) and
+ * bitwise unchanged from d >= distance on. The Jacobian, the linear map's
+ * rows and the sensitivity products carry the factor (rows scaled by f; the
+ * Jacobian adds the displacement times grad f). distance > 0 and finite
+ * (world units). FFD_ERR_INVALID (distance, curve), FFD_ERR_NONFINITE,
+ * FFD_ERR_NOMEM. (lattice_falloff.c) */
+FFD_API ffd_status ffd_lattice_bind_falloff(const ffd_lattice *lattice, const double *points,
+                                            size_t n, double distance, ffd_falloff_curve curve,
+                                            ffd_lattice_binding **out, ffd_error *err);
+/* The falloff factor of curve at r (>= 0), and its derivative df/dr when dfdr != NULL. */
+FFD_API double ffd_falloff_value(ffd_falloff_curve curve, double r, double *dfdr);
 FFD_API void ffd_lattice_binding_destroy(ffd_lattice_binding *binding);
 FFD_API size_t ffd_lattice_binding_count(const ffd_lattice_binding *binding);
 FFD_API size_t ffd_lattice_binding_inside_count(const ffd_lattice_binding *binding);
@@ -115,7 +141,19 @@ FFD_API void ffd_lattice_linear_map(const ffd_lattice *lattice, const ffd_lattic
  * (ffd_rig_report): outside_count counts the vertices outside the lattice;
  * control_points are the lattice's points, index (i*m + j)*n + k, with
  * resolution l, m, n (ffd_rig_report_write_lattice draws the grid's lines);
- * no control mesh. */
+ * no control mesh.
+ * A rig with "children" (nested lattices, docs/lattice-variants.md): the
+ * controls are the root lattice's points, then each child's depth-first
+ * (a child before its children, siblings in rig order); a child's points
+ * sit at its parent's map of their rest positions plus its own
+ * displacement. The linear map's variables (ffd_deformer_linear_map,
+ * sensitivities, ffd_deformer_move_controls) are the root's positions and
+ * the children's own displacements: rows compose, W_child = B_child (I +
+ * W_parent at the child's rest points). Setting a child control's position
+ * (ffd_deformer_set_controls) sets its own displacement to the position
+ * minus its parent's map. The report's control_points are all of them and
+ * control_edges every lattice's grid lines; the handle is the root
+ * ffd_lattice. */
 
 #ifdef __cplusplus
 }

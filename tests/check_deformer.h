@@ -59,6 +59,10 @@ static const rig_case cases[] = {
     {"rbf", EX "lattice/bunny.obj", EX "rbf/bunny-pins.json"},
     {"idw", EX "lattice/bunny.obj", EX "idw/bunny-ears.json"},
     {"idw", EX "lattice/bunny.obj", EX "idw/bunny-pins.json"},
+    /* nested lattices (three levels, one Bernstein) and the falloff outside
+     * the lattice (docs/lattice-variants.md) */
+    {"lattice", EX "lattice/bunny.obj", EX "lattice/nested.json"},
+    {"lattice", EX "lattice/bunny.obj", EX "lattice/falloff.json"},
 };
 #define ALL_CASES (sizeof cases / sizeof *cases)
 

@@ -180,7 +180,7 @@ static void test_parse_bad_keys_and_types(void)
     parse_bad("{\"margin\": \"0.1\"}", FFD_ERR_PARSE, "rig.json: margin: expected a number");
     parse_bad("{\"margin\": -0.1}", FFD_ERR_PARSE, "margin: expected a number >= 0");
     parse_bad("{\"outside\": \"wrap\"}", FFD_ERR_PARSE,
-              "outside: expected \"fixed\", \"clamp\" or \"extrapolate\"");
+              "outside: expected \"fixed\", \"clamp\", \"extrapolate\" or \"falloff\"");
     parse_bad("{\"rcond\": 2}", FFD_ERR_PARSE, "rcond: expected a number in [0, 1)");
     parse_bad("{\"rcond\": true}", FFD_ERR_PARSE, "rcond: expected a number");
     parse_bad("{\"moves\": {}}", FFD_ERR_PARSE, "rig.json: moves: expected an array");

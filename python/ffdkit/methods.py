@@ -94,9 +94,21 @@ class LatticeDeformer(Deformer):
         return (int(i) * m + int(j)) * n + int(k)
 
     def control_grid(self) -> np.ndarray:
-        """The controls as an ``(l, m, n, 3)`` array (a copy)."""
+        """The (root) lattice's controls as an ``(l, m, n, 3)`` array (a copy)."""
         l, m, n = self.resolution
-        return np.array(self.controls, dtype=np.float64).reshape(l, m, n, 3)
+        return np.array(self.controls[: l * m * n], dtype=np.float64).reshape(l, m, n, 3)
+
+    @property
+    def lattices(self) -> list:
+        """A nested rig's lattices (``"children"``, docs/lattice-variants.md),
+        root first, then depth-first: dicts ``{"first", "count", "depth",
+        "parent", "resolution"}`` (controls ``first .. first+count-1``); a
+        rig without children has the root alone."""
+        lat = self.report()["controls"].get("lattices")
+        if lat is None:
+            l, m, n = self.resolution
+            return [{"first": 0, "count": l * m * n, "depth": 0, "parent": -1, "resolution": [l, m, n]}]
+        return lat
 
 
 # ---------------------------------------------------------------------------

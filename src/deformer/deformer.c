@@ -187,6 +187,18 @@ static ffd_status place_controls(ffd_deformer *d, const uint32_t *ids, size_t k,
                 st = ffd_fail(err, FFD_ERR_INVALID, "%s: control %u given twice", what, ids[c]);
                 goto done;
             }
+    if (relative && d->m->vt->move_by_variables) {
+        /* the deltas on the variables, zero elsewhere (a whole-count
+         * buffer: current is reused for it) */
+        memset(current, 0, count * 3 * sizeof *current);
+        for (size_t c = 0; c < k; c++)
+            memcpy(current + 3 * (size_t)use[c], positions + 3 * c, 3 * sizeof *current);
+        if ((st = d->m->vt->begin(d->m, use, k, 0, err)))
+            goto done;
+        st = d->m->vt->set_variables(d->m, current, err);
+        d->m->vt->end(d->m, st == FFD_OK);
+        goto done;
+    }
     ffd_deformer_controls(d, current);
     for (size_t c = 0; c < k; c++)
         for (int a = 0; a < 3; a++)

@@ -53,6 +53,10 @@ struct ffd_lattice_binding {
     uint32_t *out_index;   /* n - inside_count original indices */
     double *out_params;    /* 3 per outside point: parameters evaluated (clamped or raw) */
     double *out_point;     /* 3 per outside point: the point itself */
+    /* FFD_OUTSIDE_FALLOFF (lattice_falloff.c): the factor f of every point
+     * (1 inside), and grad f (3 per outside point, in out_index order) */
+    double *falloff;
+    double *falloff_grad;
 };
 
 /* ---- uniform cubic B-spline (bspline_basis.c) ---- */
@@ -141,6 +145,11 @@ ffd_status ffd_lattice_sensitivity_transpose(const ffd_lattice *lat, const ffd_l
 /* The fold-over check (ffd_deformer_fold_check, ffd.h): det J of the map
  * on a 5x5x5 grid in every lattice cell (lattice_map.c). */
 ffd_status ffd_lattice_fold_check(const ffd_lattice *lat, ffd_fold_report *out, ffd_error *err);
+
+/* FFD_OUTSIDE_FALLOFF's Jacobian (lattice_falloff.c): J of the clamped
+ * displacement turned into J = I + f (J - I) + d grad f^T at the outside points. */
+void ffd_lattice_falloff_jacobian(const ffd_lattice *lat, const ffd_lattice_binding *bind,
+                                  double *out);
 
 /* Rebuilds P_ext from P (B-spline). */
 void ffd_lattice_sync(ffd_lattice *lat);

@@ -24,6 +24,8 @@ void ffd_lattice_binding_destroy(ffd_lattice_binding *b)
     ffd_free(b->out_index);
     ffd_free(b->out_params);
     ffd_free(b->out_point);
+    ffd_free(b->falloff);
+    ffd_free(b->falloff_grad);
     ffd_free(b);
 }
 
@@ -221,7 +223,11 @@ ffd_status ffd_lattice_bind(const ffd_lattice *lat, const double *points, size_t
     *out = NULL;
     if (outside != FFD_OUTSIDE_FIXED && outside != FFD_OUTSIDE_CLAMP &&
         outside != FFD_OUTSIDE_EXTRAPOLATE)
-        return ffd_fail(err, FFD_ERR_INVALID, "unknown outside policy %d", (int)outside);
+        return ffd_fail(err, FFD_ERR_INVALID,
+                        outside == FFD_OUTSIDE_FALLOFF
+                            ? "outside policy %d (falloff) needs a distance: ffd_lattice_bind_falloff"
+                            : "unknown outside policy %d",
+                        (int)outside);
     if (n > UINT32_MAX)
         return ffd_fail(err, FFD_ERR_INVALID, "cannot bind %zu points (at most 2^32-1)", n);
     bind_ctx x = {.lat = lat, .points = points, .bspline = lat->basis == FFD_BASIS_BSPLINE};

@@ -260,6 +260,9 @@ static ffd_status eval_blocks(const ffd_lattice *lat, const ffd_lattice_binding 
          * extrapolation: of the polynomials at the raw parameters */
         double d[3];
         eval_net(lat, net, bind->out_params + 3 * o, d, NULL);
+        if (bind->falloff) /* FFD_OUTSIDE_FALLOFF: the clamped displacement times f */
+            for (int c = 0; c < 3; c++)
+                d[c] *= bind->falloff[bind->out_index[o]];
         for (int c = 0; c < 3; c++)
             dst[c] = !points ? d[c] : d[c] != 0.0 ? x[c] + d[c] : x[c];
     }

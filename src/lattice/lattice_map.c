@@ -33,7 +33,7 @@ ffd_status ffd_lattice_jacobian(const ffd_lattice *lat, const ffd_lattice_bindin
         /* an outside point clamped (CLAMP, or EXTRAPOLATE on the B-spline) has
          * its parameters held at the boundary along the clamped axes: the
          * deformation does not vary along them (dS/d(local) = 0) */
-        const int clamped = !bind->inside[i] && (bspline || bind->outside == FFD_OUTSIDE_CLAMP);
+        const int clamped = !bind->inside[i] && (bspline || bind->outside != FFD_OUTSIDE_EXTRAPOLATE);
         for (int c = 0; c < 3; c++) {
             g[c] = 1.0; /* dS/d(local) */
             const double top = bspline ? (double)lat->res[c] + 1.0 : 1.0;
@@ -63,6 +63,8 @@ ffd_status ffd_lattice_jacobian(const ffd_lattice *lat, const ffd_lattice_bindin
                                                        dd[1][r] * g[1] * lat->dual[1][c] +
                                                        dd[2][r] * g[2] * lat->dual[2][c]);
     }
+    if (bind->falloff)
+        ffd_lattice_falloff_jacobian(lat, bind, out);
     return FFD_OK;
 }
 
@@ -189,6 +191,12 @@ static size_t lattice_row(const void *self, size_t i, uint32_t *cols, double *w)
                 w[k] = bb[0][a] * bb[1][bj] * bb[2][c];
                 k++;
             }
+    if (b->falloff) { /* FFD_OUTSIDE_FALLOFF: the row scaled by the point's factor */
+        if (b->falloff[i] == 0.0)
+            return 0;
+        for (size_t e = 0; e < k; e++)
+            w[e] *= b->falloff[i];
+    }
     return k;
 }
 

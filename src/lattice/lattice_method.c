@@ -4,11 +4,13 @@
 #include "lattice/lattice_method.h"
 
 /* The rig keys of the editor's "create" body (docs/editor.md). */
-static const char *const lattice_create_keys[] = {"resolution", "basis", "box", "margin", "outside", NULL};
+static const char *const lattice_create_keys[] = {"resolution", "basis", "box", "margin", "outside",
+                                                  "falloff", "falloff_curve", NULL};
 
 const ffd_method ffd_method_lattice = {
     .name = "lattice",
     .rig_keys = ffd_rig_keys_lattice,
+    .section_size = sizeof(ffd_rig_lattice),
     .parse = ffd_rig_parse_lattice,
     .apply = ffd_rig_apply_lattice,
     .load = ffd_sess_lattice_load,

@@ -182,6 +182,8 @@ ffd_status ffd_rig_apply_lattice(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_rep
     ffd_manip_result result = {0};
     ffd_timings timings = {0};
 
+    if (ffd_rig_lattice_of(rig)->child_count) /* nested lattices: lattice_nested_rig.c */
+        return ffd_rig_apply_lattice_nested(rig, mesh, report, budget, err);
     ffd_error inner0 = {{0}};
     if ((s = charge_lattice(rig, n, budget, &inner0))) {
         s = ffd_fail(err, s, "%s: %s", name, inner0.message);
@@ -211,11 +213,11 @@ ffd_status ffd_rig_apply_lattice(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_rep
     }
 
     double t0 = ffd_now();
-    if ((s = ffd_lattice_bind(lattice, positions, n, rig->outside, &binding, &inner))) {
+    if ((s = ffd_lattice_bind_rig(lattice, positions, n, rig, &binding, &inner))) {
         s = ffd_rig_wrap(err, s, name, "binding the mesh", &inner);
         goto fail;
     }
-    if (k && (s = ffd_lattice_bind(lattice, rest, k, rig->outside, &pins, &inner))) {
+    if (k && (s = ffd_lattice_bind_rig(lattice, rest, k, rig, &pins, &inner))) {
         s = ffd_rig_wrap(err, s, name, "binding the constraints", &inner);
         goto fail;
     }

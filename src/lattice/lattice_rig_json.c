@@ -51,8 +51,8 @@ static ffd_status read_box(const ffd_rig_parser *p, const cJSON *item, ffd_rig *
     return FFD_OK;
 }
 
-static ffd_status read_move(const ffd_rig_parser *p, const cJSON *m, const char *path,
-                            void *element, void *ctx)
+ffd_status ffd_rig_read_lattice_move(const ffd_rig_parser *p, const cJSON *m, const char *path,
+                                     void *element, void *ctx)
 {
     static const char *const keys[] = {"index", "delta", NULL};
     ffd_rig_move *move = element;
@@ -81,7 +81,7 @@ static ffd_status read_moves(const ffd_rig_parser *p, const cJSON *item, ffd_rig
     void *moves;
     ffd_status s = ffd_rig_read_array(p, item, "moves",
                                       "an array of {\"index\": [i,j,k], \"delta\": [dx,dy,dz]}",
-                                      sizeof *rig->moves, read_move, NULL, NULL, &moves,
+                                      sizeof *rig->moves, ffd_rig_read_lattice_move, NULL, NULL, &moves,
                                       &rig->move_count);
     rig->moves = moves;
     return s;
@@ -118,12 +118,58 @@ static ffd_status validate(const ffd_rig_parser *p, const ffd_rig *rig)
 }
 
 
-const char *const ffd_rig_keys_lattice[] = {"basis", "resolution", "box", "margin", "outside", "moves", NULL};
+const char *const ffd_rig_keys_lattice[] = {"basis", "resolution", "box", "margin", "outside", "moves",
+                                            "falloff", "falloff_curve", "children", NULL};
+
+static const char *const falloff_curves[] = {"smooth", "linear", "sphere", "sharp", NULL};
+
+const ffd_rig_lattice *ffd_rig_lattice_of(const ffd_rig *rig)
+{
+    static const ffd_rig_lattice defaults = {0};
+    return rig->section && rig->method == &ffd_method_lattice ? rig->section : &defaults;
+}
+
+/* "outside": "falloff" with "falloff": D and "falloff_curve" (lattice_falloff.c). */
+static ffd_status read_falloff(const ffd_rig_parser *p, const cJSON *root, const ffd_rig *rig,
+                               ffd_rig_lattice *section)
+{
+    const cJSON *distance = cJSON_GetObjectItemCaseSensitive(root, "falloff");
+    const cJSON *curve = cJSON_GetObjectItemCaseSensitive(root, "falloff_curve");
+    ffd_status s;
+    if (rig->outside != FFD_OUTSIDE_FALLOFF) {
+        if (distance || curve)
+            return ffd_rig_expected(p, distance ? "falloff" : "falloff_curve",
+                                    "no such key unless \"outside\" is \"falloff\"");
+        return FFD_OK;
+    }
+    if (!distance)
+        return ffd_rig_expected(p, "falloff", "a distance > 0 in world units (missing: \"outside\" "
+                                              "is \"falloff\")");
+    if ((s = ffd_rig_read_positive(p, distance, "falloff", &section->falloff)))
+        return s;
+    int c = 0;
+    if (curve && (s = ffd_rig_read_enum(p, curve, "falloff_curve", falloff_curves,
+                                        "\"smooth\", \"linear\", \"sphere\" or \"sharp\"", &c)))
+        return s;
+    section->falloff_curve = (ffd_falloff_curve)c;
+    return FFD_OK;
+}
+
+ffd_status ffd_lattice_bind_rig(const ffd_lattice *lattice, const double *points, size_t n,
+                                const ffd_rig *rig, ffd_lattice_binding **out, ffd_error *err)
+{
+    const ffd_rig_lattice *section = ffd_rig_lattice_of(rig);
+    if (rig->outside == FFD_OUTSIDE_FALLOFF)
+        return ffd_lattice_bind_falloff(lattice, points, n, section->falloff,
+                                        section->falloff_curve, out, err);
+    return ffd_lattice_bind(lattice, points, n, rig->outside, out, err);
+}
 
 ffd_status ffd_rig_parse_lattice(const ffd_rig_parser *p, const cJSON *root, ffd_rig *rig)
 {
     static const char *const bases[] = {"bspline", "bernstein", NULL};
-    static const char *const outsides[] = {"fixed", "clamp", "extrapolate", NULL};
+    static const char *const outsides[] = {"fixed", "clamp", "extrapolate", "falloff", NULL};
+    ffd_rig_lattice *section = rig->section;
     const cJSON *item;
     ffd_status s = ffd_rig_read_linear_root(p, root, rig);
     if (s)
@@ -151,16 +197,25 @@ ffd_status ffd_rig_parse_lattice(const ffd_rig_parser *p, const cJSON *root, ffd
     if ((item = cJSON_GetObjectItemCaseSensitive(root, "outside"))) {
         int o = 0;
         if ((s = ffd_rig_read_enum(p, item, "outside", outsides,
-                           "\"fixed\", \"clamp\" or \"extrapolate\"", &o)))
+                           "\"fixed\", \"clamp\", \"extrapolate\" or \"falloff\"", &o)))
             return s;
-        rig->outside = o == 0 ? FFD_OUTSIDE_FIXED : o == 1 ? FFD_OUTSIDE_CLAMP
-                                                           : FFD_OUTSIDE_EXTRAPOLATE;
+        rig->outside = (ffd_outside)o; /* the names in ffd_outside's order */
     }
+    if ((s = read_falloff(p, root, rig, section)))
+        return s;
     if ((item = cJSON_GetObjectItemCaseSensitive(root, "moves"))) {
         if ((s = read_moves(p, item, rig)))
             return s;
     }
-    return validate(p, rig);
+    if ((s = validate(p, rig)))
+        return s;
+    if ((item = cJSON_GetObjectItemCaseSensitive(root, "children"))) {
+        if (rig->limit_step)
+            return ffd_rig_expected(p, "limit_step", "false with \"children\" (step limiting "
+                                                     "checks one lattice)");
+        return ffd_rig_parse_lattice_children(p, item, rig, section);
+    }
+    return FFD_OK;
 }
 
 /* The writer (ffd_method.write): the lattice keys as the reader above reads
@@ -168,7 +223,8 @@ ffd_status ffd_rig_parse_lattice(const ffd_rig_parser *p, const cJSON *root, ffd
 int ffd_rig_write_lattice(const ffd_rig *rig, cJSON *root)
 {
     static const char *const bases[] = {"bspline", "bernstein"};
-    static const char *const outsides[] = {"fixed", "clamp", "extrapolate"};
+    static const char *const outsides[] = {"fixed", "clamp", "extrapolate", "falloff"};
+    const ffd_rig_lattice *section = ffd_rig_lattice_of(rig);
     cJSON *box = NULL, *moves = NULL;
     int ok = rig->box_auto ? ffd_sess_add_item(root, "margin", ffd_sess_number(rig->margin))
                            : (box = cJSON_AddObjectToObject(root, "box")) &&
@@ -185,10 +241,18 @@ int ffd_rig_write_lattice(const ffd_rig *rig, cJSON *root)
              ffd_sess_add_item(move, "index", ffd_sess_uint_array(rig->moves[i].index, 3)) &&
              ffd_sess_add_item(move, "delta", ffd_sess_vec3(rig->moves[i].delta));
     }
+    if (ok && rig->outside == FFD_OUTSIDE_FALLOFF)
+        ok = ffd_sess_add_item(root, "falloff", ffd_sess_number(section->falloff)) &&
+             cJSON_AddStringToObject(root, "falloff_curve", falloff_curves[section->falloff_curve]);
+    if (ok && section->child_count)
+        ok = ffd_rig_write_lattice_children(section->children, section->child_count, root);
     return ok;
 }
 
 void ffd_rig_release_lattice(ffd_rig *rig)
 {
     ffd_free(rig->moves);
+    ffd_rig_lattice *section = rig->section;
+    if (section)
+        ffd_rig_release_lattice_children(section->children, section->child_count);
 }

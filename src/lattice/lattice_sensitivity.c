@@ -237,6 +237,8 @@ ffd_status ffd_lattice_sensitivity_transpose(const ffd_lattice *lat, const ffd_l
                     size_t e = (((size_t)(first[0] + a)) * lat->ext[1] + first[1] + b) * lat->ext[2]
                                + first[2] + c;
                     double wt = bb[0][a] * bb[1][b] * bb[2][c];
+                    if (bind->falloff) /* FFD_OUTSIDE_FALLOFF: W's row scaled by f */
+                        wt *= bind->falloff[bind->out_index[o]];
                     double *dst = out + 3 * (size_t)(bspline ? lat->tie[e] : e);
                     dst[0] += wt * wi[0];
                     dst[1] += wt * wi[1];

@@ -14,12 +14,24 @@ typedef struct lattice_method {
     ffd_lattice *lattice;
     ffd_lattice_binding *binding;
     ffd_outside outside;
+    double falloff;                  /* outside "falloff": the distance and curve */
+    ffd_falloff_curve falloff_curve;
     double margin;
     double *begin;   /* control points at the start of a drag */
 } lattice_method;
 
 static const char *const basis_names[] = {"bspline", "bernstein", NULL};
-static const char *const outside_names[] = {"fixed", "clamp", "extrapolate", NULL};
+static const char *const outside_names[] = {"fixed", "clamp", "extrapolate", "falloff", NULL};
+
+/* Binds points with the lattice's outside rule (and its falloff). */
+static ffd_status bind_points(const lattice_method *l, const double *points, size_t n,
+                              ffd_lattice_binding **out, ffd_error *err)
+{
+    if (l->outside == FFD_OUTSIDE_FALLOFF)
+        return ffd_lattice_bind_falloff(l->lattice, points, n, l->falloff, l->falloff_curve, out,
+                                        err);
+    return ffd_lattice_bind(l->lattice, points, n, l->outside, out, err);
+}
 
 static lattice_method *as_lattice(const sess_method *m)
 {
@@ -75,6 +87,8 @@ static ffd_status lat_describe(const sess_method *m, cJSON *params, cJSON *contr
          cJSON_AddStringToObject(params, "basis", basis) &&
          cJSON_AddNumberToObject(params, "margin", l->margin) &&
          cJSON_AddStringToObject(params, "outside", outside_names[l->outside]) &&
+         (l->outside != FFD_OUTSIDE_FALLOFF ||
+          cJSON_AddNumberToObject(params, "falloff", l->falloff)) &&
          ffd_sess_add_item(controls, "resolution", ffd_sess_uint_array(r, 3)) &&
          cJSON_AddStringToObject(controls, "basis", basis);
     return ok ? FFD_OK : ffd_fail(err, FFD_ERR_NOMEM, "state: out of memory");
@@ -187,7 +201,10 @@ static ffd_status lat_rig(const sess_method *m, cJSON *root, ffd_error *err)
 {
     const lattice_method *l = as_lattice(m);
     ffd_rig rig;
-    ffd_rig_view(&rig, &ffd_method_lattice, NULL, 0);
+    ffd_rig_lattice section;
+    ffd_rig_view(&rig, &ffd_method_lattice, &section, sizeof section);
+    section.falloff = l->falloff;
+    section.falloff_curve = l->falloff_curve;
     rig.basis = ffd_lattice_basis(l->lattice);
     rig.outside = l->outside;
     ffd_lattice_resolution(l->lattice, rig.resolution);
@@ -284,7 +301,7 @@ static const sess_vtable lattice_vtable = {
 
 /* Builds the lattice and binds the rest mesh. */
 static ffd_status lattice_build(const sess_ctx *ctx, ffd_basis basis, const uint32_t res[3],
-                                const ffd_box *box, ffd_outside outside, double margin,
+                                const ffd_box *box, const ffd_rig *rig, double margin,
                                 const char *what, sess_method **out, ffd_error *err)
 {
     ffd_status st = ffd_sess_check_controls(ctx, (double)res[0] * res[1] * res[2], what, err);
@@ -295,12 +312,14 @@ static ffd_status lattice_build(const sess_ctx *ctx, ffd_basis basis, const uint
         return ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory", what);
     l->base.vt = &lattice_vtable;
     l->base.ctx = ctx;
-    l->outside = outside;
+    l->outside = rig->outside;
+    l->falloff = ffd_rig_lattice_of(rig)->falloff;
+    l->falloff_curve = ffd_rig_lattice_of(rig)->falloff_curve;
     l->margin = margin;
     ffd_error inner = {{0}};
     st = ffd_lattice_create(basis, box, res, &l->lattice, &inner);
     if (!st)
-        st = ffd_lattice_bind(l->lattice, ctx->rest, ctx->n, outside, &l->binding, &inner);
+        st = bind_points(l, ctx->rest, ctx->n, &l->binding, &inner);
     if (st) {
         lat_destroy(&l->base);
         return ffd_fail(err, st, "%s: %s", what, inner.message);
@@ -320,6 +339,8 @@ ffd_status ffd_sess_lattice_create(const sess_ctx *ctx, const cJSON *body, sess_
 ffd_status ffd_sess_lattice_load(const sess_ctx *ctx, const ffd_rig *rig, sess_method **out,
                              ffd_error *err)
 {
+    if (ffd_rig_lattice_of(rig)->child_count) /* nested lattices: lattice_nested_session.c */
+        return ffd_sess_lattice_nested_load(ctx, rig, out, err);
     ffd_box box = rig->box;
     ffd_error inner = {{0}};
     ffd_status st;
@@ -335,7 +356,7 @@ ffd_status ffd_sess_lattice_load(const sess_ctx *ctx, const ffd_rig *rig, sess_m
     if (replay && (st = ffd_sess_apply_rig(ctx, rig, &report, err)))
         return st;
     sess_method *m = NULL;
-    st = lattice_build(ctx, rig->basis, rig->resolution, &box, rig->outside, rig->margin,
+    st = lattice_build(ctx, rig->basis, rig->resolution, &box, rig, rig->margin,
                        rig->name, &m, err);
     if (!st && replay && report.control_count != lat_count(m))
         st = ffd_fail(err, FFD_ERR_INVALID, "%s: the rig's lattice does not match", rig->name);
@@ -369,7 +390,7 @@ static ffd_status lat_bind(sess_method *m, const double *points, size_t n, sess_
     if (!b)
         return ffd_fail(err, FFD_ERR_NOMEM, "bind: out of memory for %zu points", n);
     ffd_error inner = {{0}};
-    ffd_status st = ffd_lattice_bind(l->lattice, points, n, l->outside, &b->lattice, &inner);
+    ffd_status st = bind_points(l, points, n, &b->lattice, &inner);
     if (st) {
         ffd_free(b);
         return ffd_fail(err, st, "bind: %s", inner.message);

@@ -77,6 +77,12 @@ struct sess_vtable {
                                const double *targets, ffd_error *err);
     ffd_status (*linear_map)(sess_method *m, ffd_linear_map *map, ffd_error *err);
     ffd_status (*set_variables)(sess_method *m, const double *dv, ffd_error *err);
+    /* 1: ffd_deformer_move_controls adds its deltas to the variables
+     * (set_variables) instead of placing the controls at their positions
+     * plus the deltas: where a variable is not a position (a nested
+     * lattice's child variables are its own displacements, lattice_nested.h),
+     * so that a solve's delta over the linear map moves what the map says. */
+    int move_by_variables;
     void (*end)(sess_method *m, int commit);
     /* Optional (NULL: set_controls): a translate or rotate drag step given
      * as its rigid motion as well, x -> center + R(axis, angle) (x - center)

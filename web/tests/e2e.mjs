@@ -302,6 +302,7 @@ async function main() {
   TMP = await mkdtemp(path.join(tmpdir(), 'ffd-e2e-'));
   await copyFile(path.join(REPO, 'examples/lattice/bunny.obj'), path.join(TMP, 'bunny.obj'));
   await copyFile(path.join(REPO, 'examples/tspline/cow.off'), path.join(TMP, 'cow.off'));
+  await copyFile(path.join(REPO, 'examples/lattice/nested.json'), path.join(TMP, 'nested.json'));
   must(existsSync(FFD), `ffd binary ${FFD}`);
   must(existsSync(path.join(WEB, 'index.html')), `built page ${WEB} (cd web && npm run build)`);
   await startServer(path.join(TMP, 'bunny.obj'), TMP);
@@ -337,6 +338,7 @@ async function main() {
   if (METHODS.includes('gffd')) await guarded('gffd', gffdStage);
   if (METHODS.includes('cage')) await guarded('cage', cageStage);
   if (METHODS.includes('kelvinlet')) await guarded('kelvinlet', kelvinletStage);
+  if (METHODS.includes('lattice')) await guarded('nested', nestedStage);
   await uiStage();
 }
 
@@ -603,6 +605,8 @@ async function cageStage() {
   check(maxDisplacement(r.f1.positions, rest) > 1e-3, `(f) the cage moved the mesh (max ${maxDisplacement(r.f1.positions, rest).toFixed(4)})`);
   await replay('bunny.obj', 1e-4, '(f) cage');
   await shot('13-cage-dragged');
+}
+
 async function kelvinletStage() {
   // Kelvinlet brushes: created without brushes, a grab placed by clicking the
   // mesh (the panel's tool), its handle dragged, the rig replayed by ffd deform
@@ -625,6 +629,32 @@ async function kelvinletStage() {
   check(maxDisplacement(r.f1.positions, rest) > 1e-3, `(k) the brush moved the mesh (max ${maxDisplacement(r.f1.positions, rest).toFixed(4)})`);
   await replay('bunny.obj', 1e-6 * diag, '(k) Kelvinlet (float32 frame)');
   await shot('k2-kelvinlet-dragged');
+}
+
+async function nestedStage() {
+  // (h) nested lattices: a rig with children loaded from the root, a child's
+  // point dragged; the root's points stay, the rig replays
+  await openBunny();
+  await page.selectOption('select[name=rig-file]', 'nested.json');
+  await page.click('#panel button:text-is("Load")');
+  await page.waitForFunction(() => { const s = window.ffdEditor.state; return s && s.method === 'lattice' && (s.controls.lattices || []).length === 3; }, null, { timeout: 20000 });
+  await settle();
+  const st = await state();
+  const L = st.controls.lattices;
+  check(st.controls.count === 155 && L[1].first === 64 && L[2].depth === 2, `(h) nested rig loaded: ${L.map((l) => `${l.count}@${l.depth}`).join(', ')} controls`);
+  await shot('12a-nested');
+  const child = [...Array(L[1].count).keys()].map((k) => L[1].first + k);
+  const ids = await pickableControls(child);
+  must(ids.length > 0, `(h) a pickable child control (${ids.length})`);
+  ids.sort((p, q) => Math.hypot(p.x - 640, p.y - 400) - Math.hypot(q.x - 640, q.y - 400));
+  const r = await dragControl(ids[0].id, 40, -30);
+  must(!!r, '(h) child control drag');
+  let rootMoved = 0;
+  for (let c = 0; c < L[1].first; c++) if (pointDist(r.f1.controls, c, r.f0.controls) > 0) rootMoved++;
+  check(r.s1.undo === r.s0.undo + 1 && pointDist(r.f1.controls, ids[0].id, r.f0.controls) > 1e-3 && rootMoved === 0,
+    `(h) child control ${ids[0].id} dragged, the root's ${L[1].first} points unchanged (undo ${r.s1.undo})`);
+  await replay('bunny.obj', 1e-4, '(h) nested lattices');
+  await shot('12b-nested-dragged');
 }
 
 async function uiStage() {
