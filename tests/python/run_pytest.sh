@@ -3,13 +3,18 @@
 # in BUILD_DIR/python. In a sanitizer build the module carries ASan+UBSan,
 # whose runtime must be loaded first (LD_PRELOAD of the compiler's libasan;
 # leak detection off: CPython keeps its own allocations to exit).
-# usage: bash run_pytest.sh PYTHON BUILD_DIR SOURCE_DIR [SANITIZER_FLAGS]
+# usage: bash run_pytest.sh PYTHON BUILD_DIR SOURCE_DIR [SANITIZER_FLAGS] [PYTEST_ARGS...]
+# PYTEST_ARGS (default python/tests) selects the files: CMake runs the suite as
+# three tests (python_tests, python_tests_methods, python_tests_volume) so that
+# ctest -j spreads it over the cores.
 # exit 77 (skipped) when pytest or numpy is missing.
 set -u
 PY=$1
 BUILD=$(cd "$2" && pwd)
 SRC=$(cd "$3" && pwd)
 SAN=${4:-}
+shift $(( $# < 4 ? $# : 4 ))
+[ $# -gt 0 ] || set -- python/tests
 if ! "$PY" -c "import pytest, numpy" 2>/dev/null; then
     echo "SKIP: $PY lacks pytest or numpy (Debian: python3-pytest python3-numpy; bash scripts/setup.sh --test)"
     exit 77
@@ -30,4 +35,4 @@ if [ -n "$SAN" ]; then
     export FFDKIT_TEST_SANITIZED=1
 fi
 cd "$SRC"
-exec "$PY" -m pytest -q -p no:cacheprovider python/tests
+exec "$PY" -m pytest -q -p no:cacheprovider "$@"
