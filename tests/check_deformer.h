@@ -43,6 +43,9 @@ static const rig_case cases[] = {
     {"pbffd", EX "pbffd/cow.off", FFD_SOURCE_DIR "/tests/data/deformer/cow-frames.json"},
     {"pbffd", EX "pbffd/cow.off", FFD_SOURCE_DIR "/tests/data/deformer/cow-coarse-frame.json"},
     {"pbffd", EX "pbffd/elephant.off", EX "pbffd/elephant-trunk.json"},
+    /* the generic layers around a method (docs/constraints.md): strength and
+     * fold policy on the lattice */
+    {"lattice", EX "lattice/bunny.obj", FFD_SOURCE_DIR "/tests/data/deformer/bunny-layers.json"},
 };
 #define ALL_CASES (sizeof cases / sizeof *cases)
 

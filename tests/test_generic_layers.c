@@ -777,6 +777,79 @@ static void test_fold_policy(void)
     ffd_mesh_destroy(mesh);
 }
 
+/* The editor's drags go through the same policy: a folding drag step is
+ * refused (a conflict) and the controls stay at the last step; shortened,
+ * the step is made in part and nothing folds. */
+static void test_session_drag_fold_policy(void)
+{
+    const char *policies[] = {"refuse", "shorten"};
+    for (int p = 0; p < 2; p++) {
+        ffd_mesh *mesh = read_mesh(BUNNY);
+        if (!mesh)
+            return;
+        double diag = diagonal(ffd_mesh_positions(mesh), ffd_mesh_vertex_count(mesh));
+        ffd_session *s = NULL;
+        ffd_error err = {{0}};
+        CHECK_OK(ffd_session_create(mesh, "bunny.obj", NULL, &s, &err));
+        if (!s) {
+            ffd_mesh_destroy(mesh);
+            continue;
+        }
+        char rig[256];
+        snprintf(rig, sizeof rig,
+                 "{\"deformer\": \"lattice\", \"resolution\": [4, 4, 4], \"fold_policy\": \"%s\"}",
+                 policies[p]);
+        CHECK_OK(ffd_session_load_rig(s, rig, strlen(rig), "rig.json", NULL, &err));
+        void *reply = NULL;
+        size_t size = 0;
+        int binary = 0;
+        const char *begin = "{\"points\": [21]}";
+        CHECK_OK(ffd_session_command(s, "drag_begin", begin, strlen(begin), &reply, &size, &binary,
+                                     &err));
+        ffd_free(reply);
+        char step[128];
+        snprintf(step, sizeof step, "{\"delta\": [%.17g, 0, 0]}", 0.01 * diag);
+        CHECK_OK(ffd_session_command(s, "drag", step, strlen(step), &reply, &size, &binary, &err));
+        ffd_free(reply);
+        reply = NULL;
+        snprintf(step, sizeof step, "{\"delta\": [%.17g, 0, 0]}", 0.9 * diag);
+        ffd_status st = ffd_session_command(s, "drag", step, strlen(step), &reply, &size, &binary,
+                                            &err);
+        ffd_free(reply);
+        reply = NULL;
+        if (p == 0) {
+            CHECK(st == FFD_ERR_INVALID && strstr(err.message, "conflict: fold_policy"));
+        } else {
+            CHECK(st == FFD_OK);
+        }
+        CHECK_OK(ffd_session_command(s, "drag_end", "{}", 2, &reply, &size, &binary, &err));
+        ffd_free(reply);
+        /* the session's rig replays without a fold and names the policy */
+        char *json = NULL;
+        CHECK_OK(ffd_session_rig(s, &json, &size, &err));
+        CHECK(json && strstr(json, policies[p]));
+        ffd_mesh *copy = read_mesh(BUNNY);
+        ffd_deformer *d = NULL;
+        CHECK_OK(ffd_deformer_create_json(json, size, "session", copy, NULL, &d, &err));
+        if (d) {
+            CHECK(folded_cells(d) == 0);
+            double p21[3 * 64], p0[3 * 64];
+            ffd_deformer_controls(d, p21);
+            CHECK_OK(ffd_deformer_reset(d, &err));
+            ffd_deformer_controls(d, p0);
+            double moved = p21[3 * 21] - p0[3 * 21];
+            if (p == 0)
+                CHECK_NEAR(moved, 0.01 * diag, 1e-12 * diag);
+            else
+                CHECK(moved > 0.01 * diag && moved < 0.9 * diag);
+        }
+        ffd_deformer_destroy(d);
+        ffd_mesh_destroy(copy);
+        ffd_free(json);
+        ffd_session_destroy(s);
+    }
+}
+
 /* ---- rig apply, deformer and session agree ---- */
 
 static void test_rig_apply_and_session_agree(void)
@@ -895,6 +968,7 @@ int main(int argc, char **argv)
         {"linear_constraint_closed_form", test_linear_constraint_closed_form},
         {"control_constraint_and_mask", test_control_constraint_and_mask},
         {"fold_policy", test_fold_policy},
+        {"session_drag_fold_policy", test_session_drag_fold_policy},
         {"rig_apply_and_session_agree", test_rig_apply_and_session_agree},
         {"bad_keys", test_bad_keys},
     };
