@@ -16,6 +16,7 @@
 #include <string.h>
 
 #define CFFD_TOL 1e-13       /* relative constraint residual reached */
+#define CFFD_TOL_ROUNDING 1e-12 /* accepted when a Newton step no longer halves it */
 #define CFFD_MAX_ITERATIONS 30
 
 double ffd_cffd_volume(const double *x, const uint32_t *off, const uint32_t *idx, size_t nf)
@@ -230,9 +231,11 @@ ffd_status ffd_cffd_solve(const ffd_cffd_problem *pb, double *p_out, double *x_o
         double worst = 0;
         for (size_t c = 0; c < m; c++)
             worst = fmax(worst, fabs(g[c]) / cscale[c]);
+        /* quadratic convergence ends in rounding: stop there */
+        int stalled = it > 0 && worst <= CFFD_TOL_ROUNDING && worst > 0.5 * res.max_residual;
         res.max_residual = worst;
         res.iterations = it;
-        if (worst <= CFFD_TOL)
+        if (worst <= CFFD_TOL || stalled)
             break;
         if (it == CFFD_MAX_ITERATIONS) {
             st = ffd_fail(err, FFD_ERR_NUMERIC,
