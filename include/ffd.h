@@ -651,7 +651,8 @@ FFD_API ffd_status ffd_deformer_rig(const ffd_deformer *d, char **json, size_t *
 
 /* The method's report as JSON (ffd_free the text): {"method", "points",
  * "controls": {"count", ...the method's structure...}, "params": {...}};
- * the keys under "controls" and "params" are the method's (docs/api.md). */
+ * the keys under "controls" and "params" are the method's (docs/api.md).
+ * A rig with the generic layers adds "layers" (docs/constraints.md). */
 FFD_API ffd_status ffd_deformer_report(const ffd_deformer *d, char **json, size_t *size, ffd_error *err);
 
 /* The fold-over check of the deformer's map (docs/volume.md "Inverted

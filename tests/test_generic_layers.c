@@ -575,6 +575,16 @@ static void test_preserve_volume_and_barycentre(void)
                 b[a] += x[3 * i + a] / (double)n;
         for (int a = 0; a < 3; a++)
             CHECK_NEAR(b[a], b0[a], 1e-12 * diag);
+        /* the report names the constraints' residual and the change */
+        char *rep = NULL;
+        CHECK_OK(ffd_deformer_report(d, &rep, NULL, &err));
+        cJSON *r = rep ? cJSON_Parse(rep) : NULL;
+        cJSON *c = cJSON_GetObjectItem(cJSON_GetObjectItem(r, "layers"), "constraints");
+        CHECK(cJSON_GetNumberValue(cJSON_GetObjectItem(c, "count")) == 4);
+        CHECK(cJSON_GetNumberValue(cJSON_GetObjectItem(c, "max_residual")) <= 1e-12);
+        CHECK(cJSON_GetNumberValue(cJSON_GetObjectItem(c, "change_norm")) > 0);
+        cJSON_Delete(r);
+        ffd_free(rep);
         /* the rig of the deformer replays to the same positions */
         char *json = NULL;
         size_t size = 0;

@@ -232,6 +232,9 @@ ffd_status ffd_deformer_report(const ffd_deformer *d, char **json, size_t *size,
                               ffd_sess_number((double)ffd_deformer_control_count(d)));
     ffd_status st = ok ? d->m->vt->describe(d->m, params, controls, err)
                        : ffd_fail(err, FFD_ERR_NOMEM, "report: out of memory");
+    /* the generic layers' outcome (constraints' residuals, fold fraction) */
+    if (!st && ffd_layers_outcome(d->m, root))
+        st = ffd_fail(err, FFD_ERR_NOMEM, "report: out of memory");
     if (!st) {
         int added = ffd_sess_add_item(root, "controls", controls); /* takes controls, even on failure */
         controls = NULL;
