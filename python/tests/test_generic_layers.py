@@ -61,7 +61,10 @@ def test_preserve_volume_and_barycentre():
     v0 = volume(rest, faces)
     plain = ffdkit.Rig.load(EARS).deformer(mesh).evaluate()
     assert abs(volume(plain, faces) - v0) > 1e-3 * abs(v0)
-    got = rig_with(EARS, preserve=["volume", "barycentre"]).deformer(mesh).evaluate()
+    d = rig_with(EARS, preserve=["volume", "barycentre"]).deformer(mesh)
+    got = d.evaluate()
+    layers = d.report()["layers"]["constraints"]
+    assert layers["count"] == 4 and layers["max_residual"] <= 1e-12 and layers["change_norm"] > 0
     assert abs(volume(got, faces) - v0) <= 1e-12 * abs(v0)
     np.testing.assert_allclose(got.mean(axis=0), rest.mean(axis=0), rtol=0, atol=1e-12)
 
