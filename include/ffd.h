@@ -610,7 +610,13 @@ FFD_API size_t ffd_deformer_point_count(const ffd_deformer *d);
 /* Deformed positions of the bound points, point_count by 3. */
 FFD_API ffd_status ffd_deformer_eval(ffd_deformer *d, double *out, ffd_error *err);
 /* Jacobians d(x')/d(x) of the map at the bound points, point_count by 9
- * row-major. FFD_ERR_UNSUPPORTED for a method without one. */
+ * row-major. FFD_ERR_UNSUPPORTED for a method without one. With the rig's
+ * "weights" w_i and "strength" s (docs/constraints.md: x' = x + s w_i
+ * (f(x) - x), for every method) it is I + s w_i (J_f - I) per point, and
+ * linear-map rows and sensitivities are s w_i times the method's; a rig
+ * with weights binds only point sets of the mesh's vertex count
+ * (FFD_ERR_INVALID). "preserve"/"linear_constraints" and "fold_policy"
+ * act on every control move of ffd_deformer_set_controls/_move_controls. */
 FFD_API ffd_status ffd_deformer_jacobian(ffd_deformer *d, double *out, ffd_error *err);
 /* The bound points' deformed positions as a linear map of the control
  * variables: rows are the bound points, and the tie maps every column to
@@ -655,7 +661,8 @@ FFD_API ffd_status ffd_deformer_rig(const ffd_deformer *d, char **json, size_t *
 
 /* The method's report as JSON (ffd_free the text): {"method", "points",
  * "controls": {"count", ...the method's structure...}, "params": {...}};
- * the keys under "controls" and "params" are the method's (docs/api.md). */
+ * the keys under "controls" and "params" are the method's (docs/api.md).
+ * A rig with the generic layers adds "layers" (docs/constraints.md). */
 FFD_API ffd_status ffd_deformer_report(const ffd_deformer *d, char **json, size_t *size, ffd_error *err);
 
 /* The fold-over check of the deformer's map (docs/volume.md "Inverted

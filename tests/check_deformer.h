@@ -63,6 +63,9 @@ static const rig_case cases[] = {
      * the lattice (docs/lattice-variants.md) */
     {"lattice", EX "lattice/bunny.obj", EX "lattice/nested.json"},
     {"lattice", EX "lattice/bunny.obj", EX "lattice/falloff.json"},
+    /* the generic layers around a method (docs/constraints.md): strength and
+     * fold policy on the lattice */
+    {"lattice", EX "lattice/bunny.obj", FFD_SOURCE_DIR "/tests/data/deformer/bunny-layers.json"},
 };
 #define ALL_CASES (sizeof cases / sizeof *cases)
 

@@ -43,7 +43,7 @@ ffd_status ffd_deformer_create(const ffd_rig *rig, const ffd_mesh *mesh, const f
     ffd_status st = ffd_sess_clone_mesh(mesh, &d->mesh, err);
     if (!st) {
         ffd_sess_ctx_init(&d->ctx, d->mesh, 0, limits);
-        st = method->load(&d->ctx, rig, &d->m, err);
+        st = ffd_method_load(method, &d->ctx, rig, &d->m, err);
     }
     if (!st)
         st = ffd_deformer_bind(d, d->ctx.rest, d->ctx.n, err);
@@ -86,7 +86,7 @@ const char *ffd_deformer_method(const ffd_deformer *d)
 
 void *ffd_deformer_handle(ffd_deformer *d, const char *method)
 {
-    if (!d || !method || strcmp(method, d->method->name) || !d->m->vt->handle)
+    if (!d || !method || strcmp(method, d->method->name) || !ffd_sess_caps(d->m)->handle)
         return NULL;
     return d->m->vt->handle(d->m);
 }
@@ -95,7 +95,7 @@ ffd_status ffd_deformer_bind(ffd_deformer *d, const double *points, size_t n, ff
 {
     if (!d || (!points && n))
         return ffd_fail(err, FFD_ERR_INVALID, "ffd_deformer_bind: NULL argument");
-    if (!d->m->vt->bind)
+    if (!ffd_sess_caps(d->m)->bind)
         return unsupported(d, "binding of other points", err);
     for (size_t i = 0; i < 3 * n; i++)
         if (!isfinite(points[i]))
@@ -124,14 +124,14 @@ ffd_status ffd_deformer_eval(ffd_deformer *d, double *out, ffd_error *err)
 
 ffd_status ffd_deformer_jacobian(ffd_deformer *d, double *out, ffd_error *err)
 {
-    if (!d->m->vt->jacobian_points)
+    if (!ffd_sess_caps(d->m)->jacobian_points)
         return unsupported(d, "Jacobian", err);
     return d->m->vt->jacobian_points(d->m, d->binding, out, err);
 }
 
 ffd_status ffd_deformer_linear_map(ffd_deformer *d, ffd_linear_map *map, ffd_error *err)
 {
-    if (!d->m->vt->map_points)
+    if (!ffd_sess_caps(d->m)->map_points)
         return unsupported(d, "linear map", err);
     return d->m->vt->map_points(d->m, d->binding, map, err);
 }
@@ -244,6 +244,9 @@ ffd_status ffd_deformer_report(const ffd_deformer *d, char **json, size_t *size,
                               ffd_sess_number((double)ffd_deformer_control_count(d)));
     ffd_status st = ok ? d->m->vt->describe(d->m, params, controls, err)
                        : ffd_fail(err, FFD_ERR_NOMEM, "report: out of memory");
+    /* the generic layers' outcome (constraints' residuals, fold fraction) */
+    if (!st && ffd_layers_outcome(d->m, root))
+        st = ffd_fail(err, FFD_ERR_NOMEM, "report: out of memory");
     if (!st) {
         int added = ffd_sess_add_item(root, "controls", controls); /* takes controls, even on failure */
         controls = NULL;
@@ -319,7 +322,7 @@ ffd_status ffd_deformer_fold_check(ffd_deformer *d, ffd_fold_report *out, ffd_er
         return ffd_fail(err, FFD_ERR_INVALID, "ffd_deformer_fold_check: NULL argument");
     memset(out, 0, sizeof *out);
     out->min_det = NAN;
-    if (!d->m->vt->fold_check)
+    if (!ffd_sess_caps(d->m)->fold_check)
         return unsupported(d, "fold check", err);
     return d->m->vt->fold_check(d->m, out, err);
 }

@@ -87,6 +87,16 @@ int ffd_method_op_known(const char *op);
  * \"c\"", registry order) into buf (truncated to size); returns buf. */
 const char *ffd_method_names(char *buf, size_t size);
 
+/* The method's deformer from a rig (method->load), wrapped in the generic
+ * layers when the rig has any (layers.c: weights, strength, constraints,
+ * fold policy; docs/constraints.md): every load goes through it. */
+ffd_status ffd_method_load(const ffd_method *method, const sess_ctx *ctx, const ffd_rig *rig,
+                           sess_method **out, ffd_error *err);
+/* Adds "layers" (strength, weights, the constraints' residual and change,
+ * the fold policy's fraction) to details when m is wrapped (layers.c);
+ * FFD_ERR_NOMEM. */
+ffd_status ffd_layers_outcome(const sess_method *m, cJSON *details);
+
 /* The method behind a public deformer and its binding of the bound points
  * (deformer.c; for the generic operations in other files: sensitivities.c). */
 sess_method *ffd_deformer_session_method(ffd_deformer *d, const sess_binding **binding);

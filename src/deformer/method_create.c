@@ -119,7 +119,7 @@ ffd_status ffd_method_create(const ffd_method *method, const sess_ctx *ctx, cons
     if ((s = check_creation_keys(&p, method, copy)) ||
         (s = ffd_rig_parse_tree(copy, "create", &no_files, &rig, err)))
         goto done;
-    s = method->load(ctx, rig, out, err);
+    s = ffd_method_load(method, ctx, rig, out, err);
 done:
     ffd_rig_destroy(rig);
     cJSON_Delete(copy);

@@ -119,13 +119,13 @@ static ffd_status deformer_map(ffd_deformer *d, const char *what, ffd_linear_map
 {
     const sess_binding *b = NULL;
     sess_method *m = ffd_deformer_session_method(d, &b);
-    if (!m->vt->map_points)
-        return no_linear_map(what, m->vt->name, err);
+    if (!ffd_sess_caps(m)->map_points)
+        return no_linear_map(what, ffd_sess_caps(m)->name, err);
     ffd_error inner = {{0}};
     ffd_status st = m->vt->map_points(m, b, map, &inner);
     if (st == FFD_ERR_UNSUPPORTED) /* e.g. PB-FFD with a frame at a coarser level */
         return ffd_fail(err, st, "%s: the %s method has no sensitivities here: %s", what,
-                        m->vt->name, inner.message);
+                        ffd_sess_caps(m)->name, inner.message);
     if (st)
         return ffd_fail(err, st, "%s: %s", what, inner.message);
     if (map->point_count != ffd_deformer_point_count(d)
@@ -133,7 +133,7 @@ static ffd_status deformer_map(ffd_deformer *d, const char *what, ffd_linear_map
         return ffd_fail(err, FFD_ERR_INVALID,
                         "%s: the %s method's linear map has %zu rows and %zu variables for %zu "
                         "points and %zu controls",
-                        what, m->vt->name, map->point_count, map->variable_count,
+                        what, ffd_sess_caps(m)->name, map->point_count, map->variable_count,
                         ffd_deformer_point_count(d), ffd_deformer_control_count(d));
     return FFD_OK;
 }
@@ -260,16 +260,16 @@ ffd_status ffd_deformer_sensitivities(ffd_deformer *d, ffd_sparse *out, ffd_erro
     const sess_binding *b = NULL;
     sess_method *m = ffd_deformer_session_method(d, &b);
     ffd_status st;
-    if (m->vt->map_points) {
+    if (ffd_sess_caps(m)->map_points) {
         ffd_linear_map map;
         st = deformer_map(d, "sensitivities", &map, err);
         if (!st)
             st = form_from_map(&map, out, err);
-    } else if (m->vt->sensitivity_product) {
+    } else if (ffd_sess_caps(m)->sensitivity_product) {
         st = form_from_products(m, b, ffd_deformer_point_count(d), ffd_deformer_control_count(d),
                                 out, err);
     } else {
-        st = no_linear_map("sensitivities", m->vt->name, err);
+        st = no_linear_map("sensitivities", ffd_sess_caps(m)->name, err);
     }
     if (st)
         ffd_sparse_free(out);
@@ -318,7 +318,7 @@ ffd_status ffd_deformer_sensitivity_product(ffd_deformer *d, const double *v, do
         return ffd_fail(err, FFD_ERR_INVALID, "ffd_deformer_sensitivity_product: NULL argument");
     const sess_binding *b = NULL;
     sess_method *m = ffd_deformer_session_method(d, &b);
-    if (m->vt->sensitivity_product)
+    if (ffd_sess_caps(m)->sensitivity_product)
         return m->vt->sensitivity_product(m, b, v, out, err);
     ffd_linear_map map;
     ffd_status st = deformer_map(d, what, &map, err);
@@ -334,7 +334,7 @@ ffd_status ffd_deformer_sensitivity_transpose_product(ffd_deformer *d, const dou
                         "ffd_deformer_sensitivity_transpose_product: NULL argument");
     const sess_binding *b = NULL;
     sess_method *m = ffd_deformer_session_method(d, &b);
-    if (m->vt->sensitivity_transpose_product)
+    if (ffd_sess_caps(m)->sensitivity_transpose_product)
         return m->vt->sensitivity_transpose_product(m, b, w, out, err);
     ffd_linear_map map;
     ffd_status st = deformer_map(d, what, &map, err);

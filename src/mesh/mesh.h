@@ -108,6 +108,22 @@ bool ffd_mesh_push_tangent(ffd_mesh *m, const double t[4], uint32_t anchor);
 bool ffd_mesh_push_index(ffd_mesh *m, uint32_t index);
 bool ffd_mesh_end_face(ffd_mesh *m); /* closes the face made of the indices pushed since the last */
 
+/* ---- vertex attributes (mesh_attribute.c; the rig's "weights") ---------- */
+
+/* The per-vertex scalar attribute name of the mesh, *out vertex_count values
+ * (ffd_free): a point field of one component (volume formats), a scalar
+ * vertex property of a PLY file, or the "#NAME value" lines of an OBJ file
+ * (one per vertex, in vertex order; docs/mesh-formats.md). FFD_ERR_INVALID
+ * when the mesh has no such attribute, FFD_ERR_PARSE naming the line of an
+ * OBJ value that is not a number or a count that differs from the vertex
+ * count, FFD_ERR_NONFINITE for NaN or infinite values. */
+ffd_status ffd_mesh_vertex_attribute(const ffd_mesh *m, const char *name, double **out,
+                                     ffd_error *err);
+/* The PLY part: *found 0 when the vertex element has no scalar property of
+ * that name (mesh_ply.c). */
+ffd_status ffd_ply_vertex_property(const ffd_mesh *m, const char *property, double **out,
+                                   int *found, ffd_error *err);
+
 /* ---- text and binary scalars (mesh.c) ----------------------------------- */
 
 /* Blank within a line: space, tab, CR, VT, FF (not LF). */

@@ -252,6 +252,8 @@ typedef struct {
     ffd_buf *out;
     ffd_encoding out_enc;
     bool first_on_line;
+    const char *collect; /* ffd_ply_vertex_property: the vertex property to copy */
+    double *collected;   /* one value per vertex */
 } walker;
 
 /* A property's name in messages (at most 60 characters): "%.*s" arguments. */
@@ -538,7 +540,7 @@ static ffd_status walk(walker *w, const ply_header *h, ffd_mesh *m, ffd_error *e
          * general loop below takes over at the first record that is not (and
          * reports it), so messages and results are the same either way. */
         uint64_t first = 0;
-        if (w->enc != FFD_ENCODING_ASCII && !w->out && is_vert)
+        if (w->enc != FFD_ENCODING_ASCII && !w->out && is_vert && !w->collect)
             first = read_binary_vertices(w, el, role, has_normal, m);
         else if (w->enc != FFD_ENCODING_ASCII && !w->out && is_face && el->nprops == 1 &&
                  role[0] == ROLE_FACE_LIST && is_int_type(el->props[0].type)) {
@@ -558,6 +560,8 @@ static ffd_status walk(walker *w, const ply_header *h, ffd_mesh *m, ffd_error *e
                     size_t at = w->pos;
                     if ((st = read_value(w, pr->type, pr, i, &v, &span, err)) != FFD_OK)
                         return st;
+                    if (is_vert && w->collect && name_is(pr->name, pr->name_len, w->collect))
+                        w->collected[i] = v;
                     if (r >= ROLE_X && r <= ROLE_NZ) {
                         if (!isfinite(v)) {
                             w->pos = at;
@@ -659,9 +663,46 @@ static ffd_status ply_read(ffd_mesh *m, const char *name, ffd_error *err)
     ffd_status st = ply_parse_header(m->src, m->src_size, name, &h, err);
     if (st == FFD_OK) {
         m->encoding = h.enc;
-        walker w = {name, m->src, m->src_size, h.data, h.lines, h.enc, NULL, NULL, 0, true};
+        walker w = {name, m->src, m->src_size, h.data, h.lines, h.enc, NULL, NULL, 0, true, NULL, NULL};
         w.line = h.lines + 1; /* data starts on the line after end_header */
         st = walk(&w, &h, m, err);
+    }
+    ply_header_free(&h);
+    return st;
+}
+
+ffd_status ffd_ply_vertex_property(const ffd_mesh *m, const char *property, double **out,
+                                   int *found, ffd_error *err)
+{
+    *out = NULL;
+    *found = 0;
+    ply_header h;
+    ffd_status st = ply_parse_header(m->src, m->src_size, "mesh", &h, err);
+    if (st)
+        return st;
+    const ply_elem *vert = NULL;
+    for (size_t i = 0; i < h.n; i++)
+        if (name_is(h.elems[i].name, h.elems[i].name_len, "vertex"))
+            vert = &h.elems[i];
+    for (size_t k = 0; vert && k < vert->nprops; k++)
+        if (!vert->props[k].count_type && name_is(vert->props[k].name, vert->props[k].name_len, property))
+            *found = 1;
+    if (*found) {
+        ffd_mesh *scratch = ffd_mesh_alloc(FFD_FORMAT_PLY);
+        double *v = ffd_malloc_array(vert->count ? (size_t)vert->count : 1, sizeof *v);
+        if (!scratch || !v) {
+            st = ffd_fail(err, FFD_ERR_NOMEM, "out of memory");
+        } else {
+            walker w = {"mesh", m->src, m->src_size, h.data, h.lines, h.enc, NULL, NULL, 0, true,
+                        property, v};
+            w.line = h.lines + 1;
+            st = walk(&w, &h, scratch, err);
+        }
+        ffd_mesh_destroy(scratch);
+        if (st)
+            ffd_free(v);
+        else
+            *out = v;
     }
     ply_header_free(&h);
     return st;
@@ -688,7 +729,7 @@ static ffd_status ply_transcode(const ffd_mesh *m, ffd_encoding enc, ffd_buf *b,
             ply_header_free(&h);
             return ffd_fail(err, FFD_ERR_NOMEM, "out of memory");
         }
-        walker w = {"<source>", m->src, m->src_size, h.data, h.lines + 1, h.enc, m, b, enc, true};
+        walker w = {"<source>", m->src, m->src_size, h.data, h.lines + 1, h.enc, m, b, enc, true, NULL, NULL};
         st = walk(&w, &h, scratch, &inner);
         ffd_mesh_destroy(scratch);
     }
@@ -718,7 +759,7 @@ static ffd_status ply_write(const ffd_mesh *m, ffd_encoding enc, ffd_buf *b, ffd
         ffd_buf_puts(b, "property double nx\nproperty double ny\nproperty double nz\n");
     ffd_buf_printf(b, "element face %zu\nproperty list %s int vertex_indices\nend_header\n",
                    m->face_count, type_name(count_type));
-    walker w = {"", NULL, 0, 0, 0, FFD_ENCODING_ASCII, NULL, b, enc, true};
+    walker w = {"", NULL, 0, 0, 0, FFD_ENCODING_ASCII, NULL, b, enc, true, NULL, NULL};
     for (size_t i = 0; i < m->vertex_count && !b->oom; i++) {
         for (int d = 0; d < 3; d++)
             emit(&w, FFD_SPAN_F64, m->positions[3 * i + (size_t)d]);

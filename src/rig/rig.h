@@ -39,6 +39,9 @@ struct ffd_rig {
     size_t move_count;
     ffd_rig_constraint *constraints;
     size_t constraint_count;
+    struct ffd_rig_layers *layers; /* the generic layers every method shares: weights,
+                                      strength, constraints, fold policy (rig_layers.c);
+                                      NULL when the rig has none */
     char **input_files;      /* the files the rig read besides itself (ffd_rig_input_path) */
     size_t input_file_count;
 };
@@ -72,6 +75,50 @@ ffd_status ffd_rig_report_note(ffd_rig_report *report, const char *name, ffd_err
  * direct-manipulation solve of k constraints through map (rig_apply.c). */
 ffd_status ffd_rig_charge_manip(const ffd_linear_map *map, size_t k, ffd_budget *budget,
                                 ffd_error *err);
+
+/* ======================================================================
+ * The generic layers (rig_layers.c, docs/constraints.md): keys every
+ * method's rig may hold, read before the method's own reader sees the rig
+ * and applied around every method's deformer (deformer/layers.c).
+ * ====================================================================== */
+enum { FFD_WEIGHTS_NONE = 0, FFD_WEIGHTS_ATTRIBUTE, FFD_WEIGHTS_FILE, FFD_WEIGHTS_VALUES };
+enum { FFD_PRESERVE_VOLUME = 1, FFD_PRESERVE_BARYCENTRE = 2 };
+enum { FFD_FOLD_ALLOW = 0, FFD_FOLD_REFUSE, FFD_FOLD_SHORTEN };
+enum { FFD_LINEAR_OVER_POINTS = 0, FFD_LINEAR_OVER_CONTROLS };
+
+/* sum_t coef[t] * X[index[t]][axis[t]] = value, X the deformed points or the controls. */
+typedef struct ffd_rig_linear_constraint {
+    int over;            /* FFD_LINEAR_OVER_* */
+    size_t term_count;
+    uint32_t *index;
+    uint8_t *axis;
+    double *coef;
+    double value;
+} ffd_rig_linear_constraint;
+
+typedef struct ffd_rig_layers {
+    double strength;          /* "strength" (default 1) */
+    int weights_kind;         /* FFD_WEIGHTS_* */
+    char *weights_name;       /* the attribute, or the file as written */
+    char *weights_path;       /* the file resolved against the rig's directory */
+    double *weights;          /* FILE, VALUES: weight_count values; ATTRIBUTE: NULL */
+    size_t weight_count;
+    unsigned preserve;        /* FFD_PRESERVE_* bits */
+    ffd_rig_linear_constraint *linear;
+    size_t linear_count;
+    int mask_axes[3];         /* "constraint_mask": which coordinates may change (default all) */
+    uint32_t *mask_controls;  /* which controls may change (NULL: all) */
+    size_t mask_control_count;
+    int fold_policy;          /* FFD_FOLD_* */
+} ffd_rig_layers;
+
+/* The generic keys, NULL-terminated (a method's reader never sees them). */
+extern const char *const ffd_rig_layer_keys[];
+/* 1 when the layers change nothing (NULL, or strength 1 and nothing else). */
+int ffd_rig_layers_trivial(const ffd_rig_layers *layers);
+void ffd_rig_layers_free(ffd_rig_layers *layers);
+/* A deep copy (NULL when out of memory; NULL for NULL). */
+ffd_rig_layers *ffd_rig_layers_copy(const ffd_rig_layers *layers);
 
 /* A zeroed rig of the registry's default method with its defaults (bspline,
  * 5x5x5, auto box, margin 0.05). NULL on OOM. */

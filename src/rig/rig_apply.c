@@ -130,6 +130,96 @@ ffd_status ffd_rig_charge_manip(const ffd_linear_map *map, size_t k, ffd_budget 
 }
 
 
+/* ======================================================================
+ * A rig with the generic layers (deformer/layers.c, docs/constraints.md):
+ * the method applies the rig to a copy, for its report; the positions come
+ * from the method's deformer wrapped in the layers, as in ffd_deformer and
+ * the editor, so the three agree.
+ * ====================================================================== */
+
+static ffd_status layered_positions(const ffd_method *method, const ffd_rig *rig, ffd_mesh *mesh,
+                                    const ffd_limits *limits, ffd_rig_report *report,
+                                    ffd_error *err)
+{
+    sess_ctx ctx;
+    ffd_sess_ctx_init(&ctx, mesh, 0, limits);
+    size_t n = ctx.n, nc = 0;
+    sess_method *m = NULL;
+    sess_binding *b = NULL;
+    double *x = ffd_malloc_array(n ? n : 1, 3 * sizeof *x), *jac = NULL;
+    ffd_status st = x ? FFD_OK : ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory", rig->name);
+    if (!st)
+        st = ffd_method_load(method, &ctx, rig, &m, err);
+    if (!st)
+        st = m->vt->eval(m, x, err);
+    if (!st && ffd_sess_caps(m)->jacobian_points) {
+        if (!(jac = ffd_malloc_array(n ? n : 1, 9 * sizeof *jac)))
+            st = ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory", rig->name);
+        if (!st)
+            st = m->vt->bind(m, ctx.rest, n, &b, err);
+        if (!st)
+            st = m->vt->jacobian_points(m, b, jac, err);
+    }
+    if (!st && report) {
+        nc = m->vt->control_count(m);
+        if (nc == report->control_count && nc) {
+            /* the controls as the layers left them (constrained, shortened) */
+            m->vt->controls(m, report->control_points);
+        }
+        /* the constraints' points as the layers leave them */
+        for (size_t c = 0; c < rig->constraint_count && c < report->constraint_count; c++)
+            if (rig->constraints[c].kind == FFD_RIG_CONSTRAINT_VERTEX &&
+                rig->constraints[c].vertex < n)
+                memcpy(report->reached + 3 * c, x + 3 * (size_t)rig->constraints[c].vertex,
+                       3 * sizeof *x);
+        if (report->constraint_count == rig->constraint_count && report->residuals) {
+            double *targets = ffd_malloc_array(rig->constraint_count, 3 * sizeof *targets);
+            if (targets) {
+                for (size_t c = 0; c < rig->constraint_count; c++)
+                    memcpy(targets + 3 * c, rig->constraints[c].target, sizeof rig->constraints[c].target);
+                report->max_residual = ffd_rig_residuals(rig->constraint_count, report->reached,
+                                                         targets, report->residuals);
+                ffd_free(targets);
+            }
+        }
+        unsigned long mark = ffd_json_alloc_failures();
+        cJSON *details = report->details ? cJSON_Parse(report->details) : cJSON_CreateObject();
+        if (!details || ffd_layers_outcome(m, details))
+            st = ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory for the report", rig->name);
+        if (!st)
+            st = ffd_rig_report_set_details(report, details, mark, rig->name, err);
+        else
+            cJSON_Delete(details);
+    }
+    if (b)
+        m->vt->binding_free(b);
+    if (m)
+        m->vt->destroy(m);
+    /* the mesh's positions last: ctx.rest pointed at them */
+    if (!st) {
+        ffd_error inner = {{0}};
+        if ((st = ffd_mesh_set_positions(mesh, x, jac, &inner)))
+            st = ffd_fail(err, st, "%s: %s", rig->name, inner.message);
+    }
+    ffd_free(x);
+    ffd_free(jac);
+    return st;
+}
+
+static ffd_status apply_layered(const ffd_method *method, const ffd_rig *rig, ffd_mesh *mesh,
+                                const ffd_limits *limits, ffd_rig_report *report,
+                                ffd_budget *budget, ffd_error *err)
+{
+    ffd_mesh *copy = NULL;
+    ffd_status st = ffd_sess_clone_mesh(mesh, &copy, err);
+    if (!st)
+        st = method->apply(rig, copy, report, budget, err);
+    ffd_mesh_destroy(copy);
+    if (!st)
+        st = layered_positions(method, rig, mesh, limits, report, err);
+    return st;
+}
+
 ffd_status ffd_rig_apply(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report *report,
                          ffd_error *err)
 {
@@ -151,7 +241,9 @@ ffd_status ffd_rig_apply_limited(const ffd_rig *rig, ffd_mesh *mesh, const ffd_l
     /* read before apply: a method may replace the mesh's arrays */
     size_t cells = ffd_mesh_cell_count(mesh), faces = ffd_mesh_face_count(mesh);
     int volume = ffd_mesh_is_volume(mesh);
-    ffd_status s = method->apply(rig, mesh, report, &budget, err);
+    ffd_status s = ffd_rig_layers_trivial(rig->layers)
+                       ? method->apply(rig, mesh, report, &budget, err)
+                       : apply_layered(method, rig, mesh, limits, report, &budget, err);
     if (s == FFD_OK && report && volume)
         s = ffd_rig_report_note(report, rig->name, err,
                                 "note: volume mesh: all %zu nodes deformed; steps that need a "

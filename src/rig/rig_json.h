@@ -111,6 +111,14 @@ ffd_status ffd_rig_read_linear_root(const ffd_rig_parser *p, const cJSON *root, 
 ffd_status ffd_rig_parse_tree(const cJSON *root, const char *name, const ffd_rig_files *files,
                               ffd_rig **out, ffd_error *err);
 
+/* The generic layers' keys of root (rig_layers.c): read into rig->layers
+ * (left NULL when root has none); a file they name goes through
+ * ffd_rig_check_input. */
+ffd_status ffd_rig_read_layers(const ffd_rig_parser *p, const cJSON *root, ffd_rig *rig);
+/* Adds the layers' keys to root as ffd_rig_read_layers reads them; 0 when
+ * out of memory (1 for NULL layers). */
+int ffd_rig_write_layers(const ffd_rig_layers *layers, cJSON *root);
+
 /* The section reader of each method (ffd_method.parse, one file each): the
  * whole root object of a rig of that method, into rig (which it tags with
  * the method); what it read stays in rig for ffd_rig_destroy, on error too. */

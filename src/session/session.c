@@ -158,7 +158,7 @@ static ffd_status method_from_rig(const sess_ctx *ctx, const ffd_rig *rig, sess_
     const ffd_method *method = ffd_method_of_rig(rig);
     if (!method)
         return ffd_fail(err, FFD_ERR_INVALID, "rig: unknown deformer");
-    return method->load(ctx, rig, out, err);
+    return ffd_method_load(method, ctx, rig, out, err);
 }
 
 /* files: what the rig may read besides itself (NULL: anything). */
@@ -364,7 +364,7 @@ static ffd_status dm_setup(ffd_session *s, uint32_t vertex, const char *op, ffd_
 {
     drag_state *d = &s->drag;
     sess_method *m = s->method;
-    if (!m->vt->linear_map)
+    if (!ffd_sess_caps(m)->linear_map)
         return conflict(err, "this method has no direct manipulation of mesh points (drag its "
                              "skeleton instead)", op);
     ffd_status st = m->vt->linear_map(m, &d->map, err);
@@ -607,7 +607,7 @@ static ffd_status op_drag(ffd_session *s, const ffd_rig_parser *p, const cJSON *
             return ffd_fail(err, FFD_ERR_NOMEM, "drag: out of memory");
         double axis[3], angle, delta[3];
         st = control_targets(s, p, body, targets, axis, &angle, delta);
-        if (!st && d->mode != MODE_SCALE && s->method->vt->set_motion)
+        if (!st && d->mode != MODE_SCALE && ffd_sess_caps(s->method)->set_motion)
             st = s->method->vt->set_motion(s->method, d->ids, d->k, targets, axis, angle,
                                            d->center, delta, err);
         else if (!st)
@@ -671,7 +671,7 @@ static ffd_status op_pin(ffd_session *s, const ffd_rig_parser *p, const cJSON *b
     if (t && ((st = ffd_rig_read_vec3(p, t, "target", target)) ||
               (st = check_coords(target, 1, "pin", "target", err))))
         return st;
-    if (!s->method->vt->linear_map)
+    if (!ffd_sess_caps(s->method)->linear_map)
         return conflict(err, "this method has no direct manipulation of mesh points", "pin");
     undo_entry before;
     if ((st = capture(s, UNDO_STATE, "pin", &before, err)))
@@ -815,7 +815,7 @@ static ffd_status op_method(ffd_session *s, const char *op, const cJSON *body, f
     st = s->method->vt->op(s->method, op, body, &kind, err);
     if (st == FFD_ERR_UNSUPPORTED)
         st = ffd_fail(err, FFD_ERR_INVALID, SESS_CONFLICT "%s: not an operation of the %s method",
-                      op, s->method->vt->name);
+                      op, ffd_sess_caps(s->method)->name);
     if (!st && (st = refresh(s, err))) /* the op succeeded but evaluating failed: go back */
         roll_back(s, kind == SESS_UNDO_REBUILD ? &rebuild : &state, st);
     if (!st && kind == SESS_UNDO_STATE)
@@ -1054,7 +1054,7 @@ ffd_status ffd_session_state(const ffd_session *s, char **json, size_t *size, ff
         ok = ok && cJSON_AddItemToObject(root, "controls", controls);
         if (!ok)
             cJSON_Delete(controls);
-        ok = ok && cJSON_AddStringToObject(root, "method", s->method->vt->name) &&
+        ok = ok && cJSON_AddStringToObject(root, "method", ffd_sess_caps(s->method)->name) &&
              cJSON_AddNumberToObject(controls, "count",
                                      (double)s->method->vt->control_count(s->method));
         if (ok && (st = s->method->vt->describe(s->method, params, controls, err))) {

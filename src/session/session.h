@@ -152,6 +152,11 @@ struct sess_vtable {
     ffd_status (*fold_check)(sess_method *m, ffd_fold_report *out, ffd_error *err);
 };
 
+/* What the method offers (which entries are not NULL) and its name: its
+ * own vtable, also when the generic layers wrap it (deformer/layers.c).
+ * Test capabilities through it; call through m->vt. */
+const sess_vtable *ffd_sess_caps(const sess_method *m);
+
 /* Constructors. create: from the body of the "create" op, which is a rig's
  * creation part (ffd_method_create, deformer/method.h: the rig reader, the
  * method's create_body defaults, then load). load: from a parsed rig of this method
@@ -184,7 +189,8 @@ ffd_status ffd_sess_map_influence(const ffd_linear_map *map, int by_column, size
 
 /* A deep copy of a mesh (through its own format in memory). */
 ffd_status ffd_sess_clone_mesh(const ffd_mesh *mesh, ffd_mesh **out, ffd_error *err);
-/* Applies rig to a copy of the rest mesh (the report says what it did). */
+/* Applies rig, without its generic layers (rig->layers), to a copy of the
+ * rest mesh (the report says what it did): a method's load replays its part. */
 ffd_status ffd_sess_apply_rig(const sess_ctx *ctx, const ffd_rig *rig, ffd_rig_report *report,
                           ffd_error *err);
 /* The method's state as rig text (JSON, "version" and "deformer" first; ffd_free). */

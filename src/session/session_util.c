@@ -182,10 +182,14 @@ ffd_status ffd_sess_clone_mesh(const ffd_mesh *mesh, ffd_mesh **out, ffd_error *
 ffd_status ffd_sess_apply_rig(const sess_ctx *ctx, const ffd_rig *rig, ffd_rig_report *report,
                           ffd_error *err)
 {
+    /* the method's own part: the generic layers wrap the method's deformer
+     * built from it (deformer/layers.c), they are not applied twice */
+    ffd_rig own = *rig;
+    own.layers = NULL;
     ffd_mesh *copy = NULL;
     ffd_status st = ffd_sess_clone_mesh(ctx->mesh, &copy, err);
     if (!st)
-        st = ffd_rig_apply_limited(rig, copy, &ctx->limits, report, err);
+        st = ffd_rig_apply_limited(&own, copy, &ctx->limits, report, err);
     ffd_mesh_destroy(copy);
     return st;
 }
@@ -248,7 +252,7 @@ ffd_status ffd_sess_rig_text(const sess_method *m, char **text, ffd_error *err)
 {
     cJSON *root = cJSON_CreateObject();
     if (!root || !cJSON_AddNumberToObject(root, "version", 1) ||
-        !cJSON_AddStringToObject(root, "deformer", m->vt->name)) {
+        !cJSON_AddStringToObject(root, "deformer", ffd_sess_caps(m)->name)) {
         cJSON_Delete(root);
         return ffd_fail(err, FFD_ERR_NOMEM, "rig: out of memory");
     }
