@@ -212,7 +212,7 @@ static void test_weighted_blend(void)
                     }
                 CHECK(jworst <= 1e-13);
             } else {
-                CHECK(strcmp(rc[c].method, "gffd") == 0);
+                CHECK(st == FFD_ERR_UNSUPPORTED); /* a method without Jacobians (GFFD, cage) */
             }
             free(jf);
             free(jw);
@@ -275,8 +275,6 @@ static void test_scaled_rows_fd(void)
     const rig_case *rc;
     size_t k = method_cases(&rc);
     for (size_t c = 0; c < k; c++) {
-        if (strcmp(rc[c].method, "gffd") == 0)
-            continue; /* no linear map */
         ffd_mesh *mesh = read_mesh(rc[c].mesh);
         if (!mesh)
             continue;
@@ -292,7 +290,16 @@ static void test_scaled_rows_fd(void)
             uint32_t id = (uint32_t)(nc / 2);
             v[3 * id] = h;
             v[3 * id + 2] = -0.5 * h;
-            CHECK_OK(ffd_deformer_sensitivity_product(d, v, wv, &err));
+            ffd_status st = ffd_deformer_sensitivity_product(d, v, wv, &err);
+            if (st == FFD_ERR_UNSUPPORTED) { /* no linear map: GFFD, Kelvinlet */
+                free(v);
+                free(wv);
+                cJSON_free(extra);
+                ffd_deformer_destroy(d);
+                ffd_mesh_destroy(mesh);
+                continue;
+            }
+            CHECK_OK(st);
             ffd_sparse W = {0};
             CHECK_OK(ffd_deformer_sensitivities(d, &W, &err));
             double *before = eval_all(d);
