@@ -192,6 +192,7 @@ static ffd_status lat_rig(const sess_method *m, cJSON *root, ffd_error *err)
     rig.outside = l->outside;
     ffd_lattice_resolution(l->lattice, rig.resolution);
     ffd_lattice_box(l->lattice, &rig.box);
+    ffd_lattice_get_shape(l->lattice, &rig.shape);
     const uint32_t *r = rig.resolution;
     size_t moved = 0; /* the displaced control points: one move each */
     double d[3];
@@ -284,8 +285,9 @@ static const sess_vtable lattice_vtable = {
 
 /* Builds the lattice and binds the rest mesh. */
 static ffd_status lattice_build(const sess_ctx *ctx, ffd_basis basis, const uint32_t res[3],
-                                const ffd_box *box, ffd_outside outside, double margin,
-                                const char *what, sess_method **out, ffd_error *err)
+                                const ffd_box *box, const ffd_lattice_shape *shape,
+                                ffd_outside outside, double margin, const char *what,
+                                sess_method **out, ffd_error *err)
 {
     ffd_status st = ffd_sess_check_controls(ctx, (double)res[0] * res[1] * res[2], what, err);
     if (st)
@@ -298,7 +300,7 @@ static ffd_status lattice_build(const sess_ctx *ctx, ffd_basis basis, const uint
     l->outside = outside;
     l->margin = margin;
     ffd_error inner = {{0}};
-    st = ffd_lattice_create(basis, box, res, &l->lattice, &inner);
+    st = ffd_lattice_create_shaped(basis, box, res, shape, &l->lattice, &inner);
     if (!st)
         st = ffd_lattice_bind(l->lattice, ctx->rest, ctx->n, outside, &l->binding, &inner);
     if (st) {
@@ -325,6 +327,9 @@ ffd_status ffd_sess_lattice_load(const sess_ctx *ctx, const ffd_rig *rig, sess_m
     ffd_status st;
     if (rig->box_auto && (st = ffd_box_fit(ctx->rest, ctx->n, rig->margin, &box, &inner)))
         return ffd_fail(err, st, "%s: box \"auto\": %s", rig->name, inner.message);
+    ffd_lattice_shape shape;
+    if ((st = ffd_rig_lattice_shape(rig, ctx->rest, ctx->n, &shape, &inner)))
+        return ffd_fail(err, st, "%s: frame \"auto\": %s", rig->name, inner.message);
     const uint32_t *r = rig->resolution;
     if ((st = ffd_sess_check_controls(ctx, (double)r[0] * r[1] * r[2], rig->name, err)))
         return st;
@@ -335,7 +340,7 @@ ffd_status ffd_sess_lattice_load(const sess_ctx *ctx, const ffd_rig *rig, sess_m
     if (replay && (st = ffd_sess_apply_rig(ctx, rig, &report, err)))
         return st;
     sess_method *m = NULL;
-    st = lattice_build(ctx, rig->basis, rig->resolution, &box, rig->outside, rig->margin,
+    st = lattice_build(ctx, rig->basis, rig->resolution, &box, &shape, rig->outside, rig->margin,
                        rig->name, &m, err);
     if (!st && replay && report.control_count != lat_count(m))
         st = ffd_fail(err, FFD_ERR_INVALID, "%s: the rig's lattice does not match", rig->name);
