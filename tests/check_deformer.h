@@ -43,6 +43,10 @@ static const rig_case cases[] = {
     {"pbffd", EX "pbffd/cow.off", FFD_SOURCE_DIR "/tests/data/deformer/cow-frames.json"},
     {"pbffd", EX "pbffd/cow.off", FFD_SOURCE_DIR "/tests/data/deformer/cow-coarse-frame.json"},
     {"pbffd", EX "pbffd/elephant.off", EX "pbffd/elephant-trunk.json"},
+    /* lattice variants: mixed interpolation, cylindrical, spherical (L1) */
+    {"lattice", EX "lattice/bunny.obj", EX "lattice/mixed.json"},
+    {"lattice", EX "lattice/bunny.obj", EX "lattice/cylinder.json"},
+    {"lattice", EX "lattice/bunny.obj", EX "lattice/sphere.json"},
 };
 #define ALL_CASES (sizeof cases / sizeof *cases)
 

@@ -172,8 +172,10 @@ static int control_moved(const ffd_lattice *lattice, const uint32_t r[3], uint32
                          uint32_t k, double d[3])
 {
     double rest[3];
-    const double *q =
-        ffd_lattice_control_points(lattice) + 3 * ((size_t)(i * r[1] + j) * r[2] + k);
+    size_t e = (size_t)(i * r[1] + j) * r[2] + k;
+    if (lattice->gen && ffd_lattice_general_representative(lattice, e) != e)
+        return 0; /* a tied control point: its group's move is its representative's */
+    const double *q = ffd_lattice_control_points(lattice) + 3 * e;
     ffd_lattice_rest_point(lattice, i, j, k, rest);
     for (int a = 0; a < 3; a++)
         d[a] = q[a] - rest[a];
