@@ -192,6 +192,8 @@ void ffd_lattice_general_free(struct ffd_lattice_general *gen);
 void ffd_lattice_general_sync(ffd_lattice *lat);
 void ffd_lattice_general_rest_point(const ffd_lattice *lat, uint32_t i, uint32_t j, uint32_t k,
                                     double out[3]);
+/* Axis a (0..2) of a general lattice. */
+const ffd_lattice_axis *ffd_lattice_general_axis(const ffd_lattice *lat, int a);
 size_t ffd_lattice_general_representative(const ffd_lattice *lat, size_t index);
 ffd_status ffd_lattice_general_bind(const ffd_lattice *lat, const double *points, size_t n,
                                     ffd_outside outside, ffd_lattice_binding **out, ffd_error *err);

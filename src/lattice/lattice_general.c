@@ -469,6 +469,11 @@ void ffd_lattice_general_rest_point(const ffd_lattice *lat, uint32_t i, uint32_t
            3 * sizeof(double));
 }
 
+const ffd_lattice_axis *ffd_lattice_general_axis(const ffd_lattice *lat, int a)
+{
+    return &lat->gen->axis[a];
+}
+
 size_t ffd_lattice_general_representative(const ffd_lattice *lat, size_t index)
 {
     return lat->gen->tie ? lat->gen->tie[index] : index;
