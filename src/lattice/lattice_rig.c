@@ -223,7 +223,7 @@ ffd_status ffd_rig_apply_lattice(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_rep
     if ((s = ffd_lattice_create_shaped(rig->basis, &box, rig->resolution, &shape, &lattice,
                                        &inner))) {
         s = ffd_rig_wrap(err, s, name,
-                         shape.coordinates ? "frame" : rig->box_auto ? "box \"auto\"" : "box",
+                         shape.coordinates ? "lattice" : rig->box_auto ? "box \"auto\"" : "box",
                          &inner);
         goto fail;
     }
