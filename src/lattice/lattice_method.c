@@ -4,7 +4,9 @@
 #include "lattice/lattice_method.h"
 
 /* The rig keys of the editor's "create" body (docs/editor.md). */
-static const char *const lattice_create_keys[] = {"resolution", "basis", "box", "margin", "outside", NULL};
+static const char *const lattice_create_keys[] = {"resolution", "basis", "box", "margin", "outside",
+                                                  "tension", "continuity", "coordinates", "frame",
+                                                  NULL};
 
 const ffd_method ffd_method_lattice = {
     .name = "lattice",

@@ -63,14 +63,33 @@ static ffd_status lat_describe(const sess_method *m, cJSON *params, cJSON *contr
     int ok = edges && cJSON_AddItemToObject(controls, "edges", edges);
     if (!ok)
         cJSON_Delete(edges);
+    /* the variant (docs/lattice-variants.md): interpolation per axis, coordinates;
+     * a closed theta axis also joins its last ring to its first */
+    static const char *const interp_names[] = {"bspline", "linear", "cardinal", "catmull-rom",
+                                               "bspline", "bernstein"};
+    static const char *const coordinate_names[] = {"cartesian", "cylindrical", "spherical"};
+    ffd_lattice_shape shape;
+    ffd_lattice_get_shape(l->lattice, &shape);
+    const int closed = l->lattice->gen && ffd_lattice_general_axis(l->lattice, 1)->periodic;
     for (uint32_t i = 0; ok && i < r[0]; i++)
         for (uint32_t j = 0; ok && j < r[1]; j++)
             for (uint32_t k = 0; ok && k < r[2]; k++) {
                 uint32_t id = (i * r[1] + j) * r[2] + k;
                 ok = (i + 1 == r[0] || ffd_sess_add_edge(edges, id, id + r[1] * r[2])) &&
                      (j + 1 == r[1] || ffd_sess_add_edge(edges, id, id + r[2])) &&
-                     (k + 1 == r[2] || ffd_sess_add_edge(edges, id, id + 1));
+                     (k + 1 == r[2] || ffd_sess_add_edge(edges, id, id + 1)) &&
+                     (!closed || j + 1 != r[1] || ffd_sess_add_edge(edges, id, i * r[1] * r[2] + k));
             }
+    cJSON *interp = cJSON_CreateArray();
+    ok = ok && ffd_sess_add_item(params, "interpolation", interp);
+    for (int a = 0; ok && a < 3; a++) {
+        ffd_interp it = shape.interp[a];
+        const char *name = it == FFD_INTERP_DEFAULT ? basis : interp_names[it];
+        ok = ffd_sess_add_to_array(interp, cJSON_CreateString(name));
+    }
+    ok = ok && ffd_sess_add_item(params, "tension", ffd_sess_vec3(shape.tension)) &&
+         ffd_sess_add_item(params, "continuity", ffd_sess_vec3(shape.continuity)) &&
+         cJSON_AddStringToObject(params, "coordinates", coordinate_names[shape.coordinates]);
     ok = ok && ffd_sess_add_item(params, "resolution", ffd_sess_uint_array(r, 3)) &&
          cJSON_AddStringToObject(params, "basis", basis) &&
          cJSON_AddNumberToObject(params, "margin", l->margin) &&
