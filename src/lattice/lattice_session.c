@@ -80,7 +80,7 @@ static ffd_status lat_describe(const sess_method *m, cJSON *params, cJSON *contr
                      (k + 1 == r[2] || ffd_sess_add_edge(edges, id, id + 1)) &&
                      (!closed || j + 1 != r[1] || ffd_sess_add_edge(edges, id, i * r[1] * r[2] + k));
             }
-    cJSON *interp = cJSON_CreateArray();
+    cJSON *interp = ok ? cJSON_CreateArray() : NULL;
     ok = ok && ffd_sess_add_item(params, "interpolation", interp);
     for (int a = 0; ok && a < 3; a++) {
         ffd_interp it = shape.interp[a];
