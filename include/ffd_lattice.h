@@ -164,9 +164,10 @@ typedef struct ffd_lattice_shape {
  * lattice reproduces every point. Cylindrical/spherical: box is ignored; the
  * theta axis is periodic when it spans 2 pi; the control points of the axis
  * (r0 = 0) and of each pole (phi 0 or pi) are tied: one control point (the
- * linear map's tie names the lowest index of the group); a move of any member
- * (ffd_lattice_move, _set_control_points, _add) moves the group, the
- * representative first. On these lattices FFD_OUTSIDE_EXTRAPOLATE is CLAMP.
+ * lowest index of the group, its representative, which the linear map's tie
+ * names); ffd_lattice_move of any member moves the group, while
+ * _set_control_points and _add take the representative's value for the
+ * followers (the map has no variable for them). On these lattices FFD_OUTSIDE_EXTRAPOLATE is CLAMP.
  * docs/lattice-variants.md. Errors: FFD_ERR_INVALID naming the axis and the range
  * (resolution below 2, or 3 on a periodic axis; Bernstein above 64 or on a
  * periodic axis; tension outside [-1, 1), continuity outside [-1, 1]; a

@@ -595,6 +595,16 @@ static void test_tied_controls(void)
         for (int c = 0; c < 3; c++)
             CHECK(P[3 * ((size_t)j * 4 + 2) + c] == r[c] + d[c]);
     }
+    /* setting a follower alone changes nothing: it shows its representative */
+    size_t nc = ffd_lattice_control_count(lat);
+    double *Q = malloc(3 * nc * sizeof *Q);
+    memcpy(Q, P, 3 * nc * sizeof *Q);
+    double rep_x = P[3 * 2];
+    Q[3 * ((size_t)3 * 4 + 2)] += 1.0;
+    CHECK_OK(ffd_lattice_set_control_points(lat, Q, &err));
+    CHECK(P[3 * 2] == rep_x); /* the group did not move */
+    CHECK(P[3 * ((size_t)3 * 4 + 2)] == rep_x);
+    free(Q);
     ffd_lattice_destroy(lat);
 }
 

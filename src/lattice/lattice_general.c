@@ -38,7 +38,6 @@ struct ffd_lattice_general {
     double e[3][3];     /* e1, e2, e3 of the frame */
     double lo[3], w[3]; /* r, theta, z|phi ranges: lo and width */
     uint32_t *tie;      /* l*m*n -> representative, or NULL */
-    double *P_prev;     /* with tie: the control points at the last sync */
     size_t max_nnz;
 };
 
@@ -57,7 +56,6 @@ void ffd_lattice_general_free(struct ffd_lattice_general *g)
     for (int a = 0; a < 3; a++)
         ffd_lattice_axis_release(&g->axis[a]);
     ffd_free(g->tie);
-    ffd_free(g->P_prev);
     ffd_free(g);
 }
 
@@ -353,8 +351,7 @@ ffd_status ffd_lattice_general_create(ffd_basis basis, const ffd_box *box, const
             }
     if (tied) {
         g->tie = ffd_malloc_array(count, sizeof *g->tie);
-        g->P_prev = ffd_malloc_array(count, 3 * sizeof(double));
-        if (!g->tie || !g->P_prev)
+        if (!g->tie)
             goto oom;
         for (uint32_t i = 0; i < res[0]; i++)
             for (uint32_t j = 0; j < res[1]; j++)
@@ -381,8 +378,6 @@ ffd_status ffd_lattice_general_create(ffd_basis basis, const ffd_box *box, const
         }
     }
     memcpy(lat->P, lat->P_rest, count * 3 * sizeof(double));
-    if (g->P_prev)
-        memcpy(g->P_prev, lat->P_rest, count * 3 * sizeof(double));
     *out = lat;
     return FFD_OK;
 oom:
@@ -437,26 +432,17 @@ ffd_status ffd_lattice_frame_fit(ffd_coordinates coordinates, const double *poin
 
 /* ---- control points ---- */
 
-/* A tied group is one point: a member moved since the last sync (the
- * representative first, then the others in index order) moves the group. */
+/* A tied group is one point, its representative: the followers take its
+ * position (the linear map has no variable for them, so setting one alone
+ * changes nothing; ffd_lattice_move redirects to the representative). */
 void ffd_lattice_general_sync(ffd_lattice *lat)
 {
     size_t count = (size_t)lat->res[0] * lat->res[1] * lat->res[2];
     const uint32_t *tie = lat->gen->tie;
-    double *prev = lat->gen->P_prev;
-    if (tie) {
-        for (size_t e = 0; e < count; e++) {
-            size_t r = tie[e];
-            if (r == e || memcmp(lat->P + 3 * e, prev + 3 * e, 3 * sizeof(double)) == 0 ||
-                memcmp(lat->P + 3 * r, prev + 3 * r, 3 * sizeof(double)) != 0)
-                continue;
-            memcpy(lat->P + 3 * r, lat->P + 3 * e, 3 * sizeof(double)); /* a follower moved */
-        }
+    if (tie)
         for (size_t e = 0; e < count; e++)
             if (tie[e] != e)
                 memcpy(lat->P + 3 * e, lat->P + 3 * (size_t)tie[e], 3 * sizeof(double));
-        memcpy(prev, lat->P, count * 3 * sizeof(double));
-    }
     for (size_t e = 0; e < count; e++)
         for (int c = 0; c < 3; c++)
             lat->D_ext[3 * e + c] = lat->P[3 * e + c] - lat->P_rest[3 * e + c];
