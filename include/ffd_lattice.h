@@ -136,6 +136,81 @@ FFD_API void ffd_lattice_eval_params(const ffd_lattice *lattice, const double st
 FFD_API void ffd_lattice_linear_map(const ffd_lattice *lattice, const ffd_lattice_binding *binding,
                                     ffd_linear_map *map);
 
+/* --- Lattice variants: interpolation per axis, cylindrical and spherical
+ * lattices (docs/lattice-variants.md). A zeroed ffd_lattice_shape is the
+ * lattice of ffd_lattice_create. --- */
+
+/* Interpolation along one axis (Blender's U/V/W interpolation, 3ds Max's
+ * tension/continuity). DEFAULT: the basis given to ffd_lattice_create_shaped. */
+typedef enum ffd_interp {
+    FFD_INTERP_DEFAULT = 0,
+    FFD_INTERP_LINEAR,      /* piecewise linear between neighbouring control points */
+    FFD_INTERP_CARDINAL,    /* Kochanek-Bartels cubic Hermite: tension, continuity (bias 0) */
+    FFD_INTERP_CATMULL_ROM, /* cardinal with tension 0 and continuity 0 */
+    FFD_INTERP_BSPLINE,     /* uniform cubic B-spline (tripled border; periodic on a closed axis) */
+    FFD_INTERP_BERNSTEIN    /* Bernstein polynomials of degree res-1 (never periodic) */
+} ffd_interp;
+
+typedef enum ffd_coordinates {
+    FFD_COORDINATES_CARTESIAN = 0, /* the box (default) */
+    FFD_COORDINATES_CYLINDRICAL,   /* axes (r, theta, z) */
+    FFD_COORDINATES_SPHERICAL      /* axes (r, theta azimuth, phi polar from the axis) */
+} ffd_coordinates;
+
+/* Frame of a cylindrical or spherical lattice: a point is
+ * centre + r (cos theta e1 + sin theta e2) + z e3 (cylindrical) or
+ * centre + r (sin phi cos theta e1 + sin phi sin theta e2 + cos phi e3)
+ * (spherical), e3 = axis/|axis|, e1 = the reference direction made orthogonal
+ * to e3, e2 = e3 x e1. range[0] = [r0, r1] (0 <= r0 < r1), range[1] = theta
+ * [t0, t1] (t0 < t1 <= t0 + 2 pi; a span of 2 pi, within 1e-12, is a closed,
+ * periodic axis), range[2] = z [z0, z1] or phi [p0, p1] (0 <= p0 < p1 <= pi). */
+typedef struct ffd_lattice_frame {
+    double centre[3];
+    double axis[3];
+    double reference[3];
+    double range[3][2];
+} ffd_lattice_frame;
+
+typedef struct ffd_lattice_shape {
+    ffd_interp interp[3];  /* per axis; DEFAULT: the basis */
+    double tension[3];     /* CARDINAL: in [-1, 1) (0: Catmull-Rom) */
+    double continuity[3];  /* CARDINAL: in [-1, 1] */
+    ffd_coordinates coordinates;
+    ffd_lattice_frame frame; /* cylindrical and spherical lattices */
+} ffd_lattice_shape;
+
+/* A lattice with an interpolation per axis and/or cylindrical or spherical
+ * coordinates. shape NULL or zeroed (all axes DEFAULT, cartesian) is
+ * ffd_lattice_create(basis, box, res); so is a cartesian shape whose axes all
+ * use one of bspline/bernstein. Others take the general tensor-product path:
+ * the control points stay l*m*n Cartesian points with index (i*m + j)*n + k,
+ * displacements are Cartesian vectors, and each axis' rest map is inverted
+ * exactly. Interpolating axes (linear, cardinal) use linearly extrapolated
+ * phantom points at their ends (p_-1 = 2 p_0 - p_1), so a cartesian rest
+ * lattice reproduces every point. Cylindrical/spherical: box is ignored; the
+ * theta axis is periodic when it spans 2 pi; the control points of the axis
+ * (r0 = 0) and of each pole (phi 0 or pi) are tied: one control point (the
+ * lowest index of the group, its representative, which the linear map's tie
+ * names); ffd_lattice_move of any member moves the group, while
+ * _set_control_points and _add take the representative's value for the
+ * followers (the map has no variable for them). On these lattices FFD_OUTSIDE_EXTRAPOLATE is CLAMP.
+ * docs/lattice-variants.md. Errors: FFD_ERR_INVALID naming the axis and the range
+ * (resolution below 2, or 3 on a periodic axis; Bernstein above 64 or on a
+ * periodic axis; tension outside [-1, 1), continuity outside [-1, 1]; a
+ * degenerate frame or range), FFD_ERR_NONFINITE, FFD_ERR_NOMEM. */
+FFD_API ffd_status ffd_lattice_create_shaped(ffd_basis basis, const ffd_box *box, const uint32_t res[3],
+                                             const ffd_lattice_shape *shape, ffd_lattice **out,
+                                             ffd_error *err);
+/* The lattice's shape (zeroed for a lattice of ffd_lattice_create). */
+FFD_API void ffd_lattice_get_shape(const ffd_lattice *lattice, ffd_lattice_shape *shape);
+/* Fits a frame to n points: centre the bounding box's centre, axis +z,
+ * reference +x; r from 0 to the largest distance from the axis (cylindrical)
+ * or the centre (spherical), grown by margin times itself; theta a full turn; z the bounding box's
+ * extent along the axis grown by margin (cylindrical), phi [0, pi]
+ * (spherical). FFD_ERR_INVALID (n == 0, no extent), FFD_ERR_NONFINITE. */
+FFD_API ffd_status ffd_lattice_frame_fit(ffd_coordinates coordinates, const double *points, size_t n,
+                                         double margin, ffd_lattice_frame *frame, ffd_error *err);
+
 /* --- Behind the generic interfaces (ffd.h) ---
  * ffd_deformer_handle(d, "lattice") is the ffd_lattice. In a rig report
  * (ffd_rig_report): outside_count counts the vertices outside the lattice;

@@ -66,6 +66,10 @@ static const rig_case cases[] = {
     /* the generic layers around a method (docs/constraints.md): strength and
      * fold policy on the lattice */
     {"lattice", EX "lattice/bunny.obj", FFD_SOURCE_DIR "/tests/data/deformer/bunny-layers.json"},
+    /* lattice variants: mixed interpolation, cylindrical, spherical (L1) */
+    {"lattice", EX "lattice/bunny.obj", EX "lattice/mixed.json"},
+    {"lattice", EX "lattice/bunny.obj", EX "lattice/cylinder.json"},
+    {"lattice", EX "lattice/bunny.obj", EX "lattice/sphere.json"},
 };
 #define ALL_CASES (sizeof cases / sizeof *cases)
 

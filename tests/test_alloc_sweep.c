@@ -790,6 +790,9 @@ static rig_fixture rigs[] = {
     {EXAMPLES "idw/bunny-pins.json", EXAMPLES "lattice/bunny.obj", FFD_FORMAT_OBJ, NULL, 0},
     {EXAMPLES "rbf/cube.prm", EXAMPLES "lattice/bunny.obj", FFD_FORMAT_OBJ, NULL, 0},
     {EXAMPLES "idw/cube.prm", EXAMPLES "lattice/bunny.obj", FFD_FORMAT_OBJ, NULL, 0},
+    /* the general lattice path (lattice_general.c): a spherical lattice with
+     * an interpolation per axis, tied centre and poles, a constraint */
+    {EXAMPLES "lattice/sphere.json", EXAMPLES "lattice/bunny.obj", FFD_FORMAT_OBJ, NULL, 0},
 };
 
 /* Reads the rig file and applies it; on failure the mesh is unchanged. */
@@ -1060,7 +1063,7 @@ static void test_tspline(void)
 
 static void test_rigs(void)
 {
-    static const long caps[] = {0, 400, 0, 600, 0, 0, 0, 0};
+    static const long caps[] = {0, 400, 0, 600, 0, 0, 0, 0, 0};
     for (size_t i = 0; i < sizeof rigs / sizeof rigs[0]; i++) {
         const char *base = strstr(rigs[i].rig, "examples/");
         scenario sc = {base ? base + 9 : rigs[i].rig, sc_rig, &rigs[i], 0, caps[i]};

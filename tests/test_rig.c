@@ -157,7 +157,8 @@ static void test_parse_bad_keys_and_types(void)
     parse_bad("{\"deformer\": \"tsplines\"}", FFD_ERR_PARSE, "rig.json: deformer: expected \"lattice\", \"pbffd\", \"gffd\", \"tspline\"");
     parse_bad("{\"deformer\": 1}", FFD_ERR_PARSE, "deformer: expected \"lattice\"");
     parse_bad("{\"basis\": \"nurbs\"}", FFD_ERR_PARSE,
-              "rig.json: basis: expected \"bspline\" or \"bernstein\"");
+              "rig.json: basis: expected \"linear\", \"cardinal\", \"catmull-rom\", "
+              "\"bspline\" or \"bernstein\"");
     parse_bad("{\"basis\": null}", FFD_ERR_PARSE, "basis: expected");
     parse_bad("{\"resolution\": [5, 5]}", FFD_ERR_PARSE,
               "rig.json: resolution: expected an array of 3 non-negative integers");

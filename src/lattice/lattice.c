@@ -74,6 +74,10 @@ ffd_status ffd_box_fit(const double *points, size_t n, double margin, ffd_box *b
 
 void ffd_lattice_sync(ffd_lattice *lat)
 {
+    if (lat->gen) {
+        ffd_lattice_general_sync(lat);
+        return;
+    }
     size_t ne = (size_t)lat->ext[0] * lat->ext[1] * lat->ext[2];
     for (size_t e = 0; e < ne; e++) {
         size_t j = lat->basis == FFD_BASIS_BSPLINE ? (size_t)lat->tie[e] : e;
@@ -189,6 +193,7 @@ void ffd_lattice_destroy(ffd_lattice *lat)
 {
     if (!lat)
         return;
+    ffd_lattice_general_free(lat->gen);
     if (lat->P_ext != lat->P)
         ffd_free(lat->P_ext);
     ffd_free(lat->D_ext);
@@ -214,6 +219,10 @@ const double *ffd_lattice_control_points(const ffd_lattice *lat) { return lat->P
 
 void ffd_lattice_rest_point(const ffd_lattice *lat, uint32_t i, uint32_t j, uint32_t k, double out[3])
 {
+    if (lat->gen) {
+        ffd_lattice_general_rest_point(lat, i, j, k, out);
+        return;
+    }
     double s = (double)i / (double)(lat->res[0] - 1);
     double t = (double)j / (double)(lat->res[1] - 1);
     double u = (double)k / (double)(lat->res[2] - 1);
@@ -244,7 +253,10 @@ ffd_status ffd_lattice_move(ffd_lattice *lat, const uint32_t index[3], const dou
     for (int c = 0; c < 3; c++)
         if (!isfinite(delta[c]))
             return ffd_fail(err, FFD_ERR_NONFINITE, "control point move is not finite");
-    double *p = lat->P + 3 * (((size_t)index[0] * lat->res[1] + index[1]) * lat->res[2] + index[2]);
+    size_t e = ((size_t)index[0] * lat->res[1] + index[1]) * lat->res[2] + index[2];
+    if (lat->gen) /* a tied control point moves its group */
+        e = ffd_lattice_general_representative(lat, e);
+    double *p = lat->P + 3 * e;
     double np[3];
     for (int c = 0; c < 3; c++) {
         np[c] = p[c] + delta[c];

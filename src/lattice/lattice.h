@@ -27,6 +27,7 @@ struct ffd_lattice {
     /* B-spline rest map per axis: segment boundary values f(sigma), sigma = 0..res+1,
      * then segment coefficients and inversion tables (ffd_bspline_rest_knots) */
     double *knots_value[3];
+    struct ffd_lattice_general *gen; /* NULL: the fast path above; else lattice_general.c */
 };
 
 /* One block of bound points that share a cell, in sorted order. */
@@ -57,6 +58,9 @@ struct ffd_lattice_binding {
      * (1 inside), and grad f (3 per outside point, in out_index order) */
     double *falloff;
     double *falloff_grad;
+    /* made by ffd_lattice_general_bind for the lattice holding this (borrowed):
+     * params (clamped) and out_point (every point, n by 3) only, no blocks */
+    const struct ffd_lattice_general *general;
 };
 
 /* ---- uniform cubic B-spline (bspline_basis.c) ---- */
@@ -150,6 +154,72 @@ ffd_status ffd_lattice_fold_check(const ffd_lattice *lat, ffd_fold_report *out, 
  * displacement turned into J = I + f (J - I) + d grad f^T at the outside points. */
 void ffd_lattice_falloff_jacobian(const ffd_lattice *lat, const ffd_lattice_binding *bind,
                                   double *out);
+/* ---- per-axis interpolation (lattice_axis.c) and the general path
+ * (lattice_general.c): mixed interpolation, cylindrical and spherical
+ * lattices. Every public lattice function hands a lattice with gen != NULL
+ * to its ffd_lattice_general_* counterpart. ---- */
+
+#define FFD_AXIS_MAX_SUPPORT FFD_BERNSTEIN_MAX_RES
+
+/* One axis of a general lattice: its interpolation and parameter domain. */
+typedef struct ffd_lattice_axis {
+    ffd_interp interp;      /* never DEFAULT; CATMULL_ROM is CARDINAL with tension 0 */
+    double tension, continuity;
+    uint32_t res;
+    int periodic;           /* closed axis (a full turn of theta) */
+    double *knots;          /* B-spline, not periodic: ffd_bspline_rest_knots */
+} ffd_lattice_axis;
+
+/* Checks and sets up an axis (knots); name is "axis 0" etc. for messages. */
+ffd_status ffd_lattice_axis_init(ffd_lattice_axis *ax, ffd_interp interp, double tension,
+                                 double continuity, uint32_t res, int periodic, const char *name,
+                                 ffd_error *err);
+void ffd_lattice_axis_release(ffd_lattice_axis *ax);
+/* The parameter domain [0, top] of the axis. */
+double ffd_lattice_axis_top(const ffd_lattice_axis *ax);
+/* Normalised rest coordinate f(S) in [0,1] of control index j (its node). */
+double ffd_lattice_axis_node(const ffd_lattice_axis *ax, uint32_t j);
+/* The rest map f(S) (normalised coordinate in [0,1]) and df/dS when dfdS. */
+double ffd_lattice_axis_rest(const ffd_lattice_axis *ax, double S, double *dfdS);
+/* Its exact inverse: S with f(S) = x, x in [0,1]. */
+double ffd_lattice_axis_invert(const ffd_lattice_axis *ax, double x);
+/* The nonzero-support weights of the axis at S over control indices (unique,
+ * phantoms and tripled border folded in, periodic indices wrapped) and their
+ * derivatives d/dS when dw != NULL. Returns the count (<= FFD_AXIS_MAX_SUPPORT). */
+uint32_t ffd_lattice_axis_weights(const ffd_lattice_axis *ax, double S, uint32_t *idx, double *w,
+                                  double *dw);
+/* The cardinal rest map of one segment, g(t) = (1-T) t + T (3t^2 - 2t^3), and
+ * its inverse on [0,1] (bracketed Newton, monotone for T in (-2, 1)). */
+double ffd_cardinal_rest(double tension, double t, double *dg);
+double ffd_cardinal_invert(double tension, double y);
+
+/* 1 when ffd_lattice_create_shaped builds a general lattice for this shape
+ * (cylindrical or spherical, or an interpolation other than one fast-path
+ * basis on every axis): falloff and nested children are refused there. */
+int ffd_lattice_shape_is_general(ffd_basis basis, const ffd_lattice_shape *shape);
+ffd_status ffd_lattice_general_create(ffd_basis basis, const ffd_box *box, const uint32_t res[3],
+                                      const ffd_lattice_shape *shape, ffd_lattice **out,
+                                      ffd_error *err);
+void ffd_lattice_general_free(struct ffd_lattice_general *gen);
+void ffd_lattice_general_sync(ffd_lattice *lat);
+void ffd_lattice_general_rest_point(const ffd_lattice *lat, uint32_t i, uint32_t j, uint32_t k,
+                                    double out[3]);
+/* Axis a (0..2) of a general lattice. */
+const ffd_lattice_axis *ffd_lattice_general_axis(const ffd_lattice *lat, int a);
+size_t ffd_lattice_general_representative(const ffd_lattice *lat, size_t index);
+ffd_status ffd_lattice_general_bind(const ffd_lattice *lat, const double *points, size_t n,
+                                    ffd_outside outside, ffd_lattice_binding **out, ffd_error *err);
+ffd_status ffd_lattice_general_eval(const ffd_lattice *lat, const ffd_lattice_binding *bind,
+                                    const double *v, double *out, ffd_error *err);
+void ffd_lattice_general_eval_params(const ffd_lattice *lat, const double stu[3], double out[3]);
+ffd_status ffd_lattice_general_jacobian(const ffd_lattice *lat, const ffd_lattice_binding *bind,
+                                        double *out, ffd_error *err);
+void ffd_lattice_general_linear_map(const ffd_lattice *lat, const ffd_lattice_binding *bind,
+                                    ffd_linear_map *map);
+ffd_status ffd_lattice_general_transpose(const ffd_lattice *lat, const ffd_lattice_binding *bind,
+                                         const double *w, double *out, ffd_error *err);
+ffd_status ffd_lattice_general_fold_check(const ffd_lattice *lat, ffd_fold_report *out,
+                                          ffd_error *err);
 
 /* Rebuilds P_ext from P (B-spline). */
 void ffd_lattice_sync(ffd_lattice *lat);

@@ -230,6 +230,8 @@ ffd_status ffd_lattice_bind(const ffd_lattice *lat, const double *points, size_t
                         (int)outside);
     if (n > UINT32_MAX)
         return ffd_fail(err, FFD_ERR_INVALID, "cannot bind %zu points (at most 2^32-1)", n);
+    if (lat->gen)
+        return ffd_lattice_general_bind(lat, points, n, outside, out, err);
     bind_ctx x = {.lat = lat, .points = points, .bspline = lat->basis == FFD_BASIS_BSPLINE};
     for (int c = 0; c < 3; c++)
         x.nseg[c] = x.bspline ? lat->res[c] + 1 : 1;

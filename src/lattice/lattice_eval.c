@@ -73,6 +73,10 @@ void ffd_lattice_displacement_at(const ffd_lattice *lat, const double stu[3], do
 
 void ffd_lattice_eval_params(const ffd_lattice *lat, const double stu[3], double out[3])
 {
+    if (lat->gen) {
+        ffd_lattice_general_eval_params(lat, stu, out);
+        return;
+    }
     ffd_lattice_eval_at(lat, stu, out, NULL);
 }
 
@@ -185,7 +189,8 @@ static void gather_cell(const ffd_lattice *lat, const double *net, const uint32_
 ffd_status ffd_lattice_check_binding(const ffd_lattice *lat, const ffd_lattice_binding *b,
                                      ffd_error *err)
 {
-    if (b->basis != lat->basis || memcmp(b->res, lat->res, sizeof b->res) != 0)
+    if (b->basis != lat->basis || memcmp(b->res, lat->res, sizeof b->res) != 0 ||
+        b->general != lat->gen)
         return ffd_fail(err, FFD_ERR_INVALID,
                         "binding was made for another lattice basis or resolution");
     return FFD_OK;
@@ -275,6 +280,8 @@ ffd_status ffd_lattice_eval(const ffd_lattice *lat, const ffd_lattice_binding *b
     ffd_status st = ffd_lattice_check_binding(lat, bind, err);
     if (st != FFD_OK)
         return st;
+    if (lat->gen)
+        return ffd_lattice_general_eval(lat, bind, NULL, out, err);
     return eval_blocks(lat, bind, lat->D_ext, 1, out, err);
 }
 
@@ -287,6 +294,8 @@ ffd_status ffd_lattice_sensitivity_product(const ffd_lattice *lat, const ffd_lat
     ffd_status st = ffd_lattice_check_binding(lat, bind, err);
     if (st != FFD_OK)
         return st;
+    if (lat->gen)
+        return ffd_lattice_general_eval(lat, bind, v, out, err);
     if (lat->basis != FFD_BASIS_BSPLINE)
         return eval_blocks(lat, bind, v, 0, out, err);
     size_t slots = (size_t)lat->ext[0] * lat->ext[1] * lat->ext[2];

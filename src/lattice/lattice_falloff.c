@@ -72,6 +72,9 @@ ffd_status ffd_lattice_bind_falloff(const ffd_lattice *lat, const double *points
                         distance);
     if (curve < FFD_FALLOFF_SMOOTH || curve > FFD_FALLOFF_SHARP)
         return ffd_fail(err, FFD_ERR_INVALID, "unknown falloff curve %d", (int)curve);
+    if (lat->gen)
+        return ffd_fail(err, FFD_ERR_UNSUPPORTED, "falloff: only on a box lattice with one "
+                                                  "B-spline or Bernstein basis on every axis");
     ffd_lattice_binding *b = NULL;
     ffd_status st = ffd_lattice_bind(lat, points, n, FFD_OUTSIDE_CLAMP, &b, err);
     if (st)

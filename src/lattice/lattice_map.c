@@ -17,6 +17,8 @@ ffd_status ffd_lattice_jacobian(const ffd_lattice *lat, const ffd_lattice_bindin
     ffd_status st = ffd_lattice_check_binding(lat, bind, err);
     if (st != FFD_OK)
         return st;
+    if (lat->gen)
+        return ffd_lattice_general_jacobian(lat, bind, out, err);
     const long long nn = (long long)bind->n;
     const int bspline = lat->basis == FFD_BASIS_BSPLINE;
 #pragma omp parallel for schedule(static)
@@ -107,6 +109,8 @@ static double det3(const double m[9])
 
 ffd_status ffd_lattice_fold_check(const ffd_lattice *lat, ffd_fold_report *out, ffd_error *err)
 {
+    if (lat->gen)
+        return ffd_lattice_general_fold_check(lat, out, err);
     const int bspline = lat->basis == FFD_BASIS_BSPLINE;
     memset(out, 0, sizeof *out);
     out->cells = "lattice cell";
@@ -203,6 +207,10 @@ static size_t lattice_row(const void *self, size_t i, uint32_t *cols, double *w)
 void ffd_lattice_linear_map(const ffd_lattice *lat, const ffd_lattice_binding *bind,
                             ffd_linear_map *map)
 {
+    if (lat->gen) {
+        ffd_lattice_general_linear_map(lat, bind, map);
+        return;
+    }
     memset(map, 0, sizeof *map);
     map->self = bind;
     map->point_count = bind->n;

@@ -5,6 +5,7 @@
 
 /* The rig keys of the editor's "create" body (docs/editor.md). */
 static const char *const lattice_create_keys[] = {"resolution", "basis", "box", "margin", "outside",
+                                                  "tension", "continuity", "coordinates", "frame",
                                                   "falloff", "falloff_curve", NULL};
 
 const ffd_method ffd_method_lattice = {

@@ -83,6 +83,11 @@ ffd_status ffd_sess_lattice_load(const sess_ctx *ctx, const ffd_rig *rig, sess_m
 ffd_status ffd_rig_apply_lattice(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report *report,
                                  ffd_budget *budget, ffd_error *err);
 
+/* The lattice shape of a rig (lattice_rig.c): rig->shape, its frame fitted
+ * to the n points when the rig's frame is "auto". */
+ffd_status ffd_rig_lattice_shape(const ffd_rig *rig, const double *points, size_t n,
+                                 ffd_lattice_shape *shape, ffd_error *err);
+
 ffd_status ffd_rig_parse_lattice(const ffd_rig_parser *p, const cJSON *root, ffd_rig *rig);
 
 #endif

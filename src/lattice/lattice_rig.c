@@ -38,6 +38,16 @@ static ffd_status constraint_points(const ffd_rig *rig, const double *positions,
 /* A constrained point the deformation cannot move is an error, not a residual:
  * point constraints must lie in the box; vertices too unless the outside
  * policy moves outside points. */
+ffd_status ffd_rig_lattice_shape(const ffd_rig *rig, const double *points, size_t n,
+                                 ffd_lattice_shape *shape, ffd_error *err)
+{
+    *shape = rig->shape;
+    if (rig->shape.coordinates == FFD_COORDINATES_CARTESIAN || !rig->frame_auto)
+        return FFD_OK;
+    return ffd_lattice_frame_fit(rig->shape.coordinates, points, n, rig->margin, &shape->frame,
+                                 err);
+}
+
 static ffd_status check_inside(const ffd_rig *rig, const ffd_lattice_binding *binding,
                                ffd_error *err)
 {
@@ -207,8 +217,16 @@ ffd_status ffd_rig_apply_lattice(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_rep
         s = ffd_rig_wrap(err, s, name, "box \"auto\"", &inner);
         goto fail;
     }
-    if ((s = ffd_lattice_create(rig->basis, &box, rig->resolution, &lattice, &inner))) {
-        s = ffd_rig_wrap(err, s, name, rig->box_auto ? "box \"auto\"" : "box", &inner);
+    ffd_lattice_shape shape;
+    if ((s = ffd_rig_lattice_shape(rig, positions, n, &shape, &inner))) {
+        s = ffd_rig_wrap(err, s, name, "frame \"auto\"", &inner);
+        goto fail;
+    }
+    if ((s = ffd_lattice_create_shaped(rig->basis, &box, rig->resolution, &shape, &lattice,
+                                       &inner))) {
+        s = ffd_rig_wrap(err, s, name,
+                         shape.coordinates ? "lattice" : rig->box_auto ? "box \"auto\"" : "box",
+                         &inner);
         goto fail;
     }
 

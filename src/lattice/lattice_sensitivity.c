@@ -143,6 +143,8 @@ ffd_status ffd_lattice_sensitivity_transpose(const ffd_lattice *lat, const ffd_l
     ffd_status st = ffd_lattice_check_binding(lat, bind, err);
     if (st != FFD_OK)
         return st;
+    if (lat->gen)
+        return ffd_lattice_general_transpose(lat, bind, w, out, err);
     const size_t controls = (size_t)lat->res[0] * lat->res[1] * lat->res[2];
     const size_t nin = bind->inside_count, nb = bind->block_count;
     const double *S = bind->local, *T = bind->local + nin, *U = bind->local + 2 * nin;

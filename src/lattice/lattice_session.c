@@ -75,14 +75,33 @@ static ffd_status lat_describe(const sess_method *m, cJSON *params, cJSON *contr
     int ok = edges && cJSON_AddItemToObject(controls, "edges", edges);
     if (!ok)
         cJSON_Delete(edges);
+    /* the variant (docs/lattice-variants.md): interpolation per axis, coordinates;
+     * a closed theta axis also joins its last ring to its first */
+    static const char *const interp_names[] = {"bspline", "linear", "cardinal", "catmull-rom",
+                                               "bspline", "bernstein"};
+    static const char *const coordinate_names[] = {"cartesian", "cylindrical", "spherical"};
+    ffd_lattice_shape shape;
+    ffd_lattice_get_shape(l->lattice, &shape);
+    const int closed = l->lattice->gen && ffd_lattice_general_axis(l->lattice, 1)->periodic;
     for (uint32_t i = 0; ok && i < r[0]; i++)
         for (uint32_t j = 0; ok && j < r[1]; j++)
             for (uint32_t k = 0; ok && k < r[2]; k++) {
                 uint32_t id = (i * r[1] + j) * r[2] + k;
                 ok = (i + 1 == r[0] || ffd_sess_add_edge(edges, id, id + r[1] * r[2])) &&
                      (j + 1 == r[1] || ffd_sess_add_edge(edges, id, id + r[2])) &&
-                     (k + 1 == r[2] || ffd_sess_add_edge(edges, id, id + 1));
+                     (k + 1 == r[2] || ffd_sess_add_edge(edges, id, id + 1)) &&
+                     (!closed || j + 1 != r[1] || ffd_sess_add_edge(edges, id, i * r[1] * r[2] + k));
             }
+    cJSON *interp = ok ? cJSON_CreateArray() : NULL;
+    ok = ok && ffd_sess_add_item(params, "interpolation", interp);
+    for (int a = 0; ok && a < 3; a++) {
+        ffd_interp it = shape.interp[a];
+        const char *name = it == FFD_INTERP_DEFAULT ? basis : interp_names[it];
+        ok = ffd_sess_add_to_array(interp, cJSON_CreateString(name));
+    }
+    ok = ok && ffd_sess_add_item(params, "tension", ffd_sess_vec3(shape.tension)) &&
+         ffd_sess_add_item(params, "continuity", ffd_sess_vec3(shape.continuity)) &&
+         cJSON_AddStringToObject(params, "coordinates", coordinate_names[shape.coordinates]);
     ok = ok && ffd_sess_add_item(params, "resolution", ffd_sess_uint_array(r, 3)) &&
          cJSON_AddStringToObject(params, "basis", basis) &&
          cJSON_AddNumberToObject(params, "margin", l->margin) &&
@@ -186,8 +205,10 @@ static int control_moved(const ffd_lattice *lattice, const uint32_t r[3], uint32
                          uint32_t k, double d[3])
 {
     double rest[3];
-    const double *q =
-        ffd_lattice_control_points(lattice) + 3 * ((size_t)(i * r[1] + j) * r[2] + k);
+    size_t e = (size_t)(i * r[1] + j) * r[2] + k;
+    if (lattice->gen && ffd_lattice_general_representative(lattice, e) != e)
+        return 0; /* a tied control point: its group's move is its representative's */
+    const double *q = ffd_lattice_control_points(lattice) + 3 * e;
     ffd_lattice_rest_point(lattice, i, j, k, rest);
     for (int a = 0; a < 3; a++)
         d[a] = q[a] - rest[a];
@@ -209,6 +230,7 @@ static ffd_status lat_rig(const sess_method *m, cJSON *root, ffd_error *err)
     rig.outside = l->outside;
     ffd_lattice_resolution(l->lattice, rig.resolution);
     ffd_lattice_box(l->lattice, &rig.box);
+    ffd_lattice_get_shape(l->lattice, &rig.shape);
     const uint32_t *r = rig.resolution;
     size_t moved = 0; /* the displaced control points: one move each */
     double d[3];
@@ -301,8 +323,9 @@ static const sess_vtable lattice_vtable = {
 
 /* Builds the lattice and binds the rest mesh. */
 static ffd_status lattice_build(const sess_ctx *ctx, ffd_basis basis, const uint32_t res[3],
-                                const ffd_box *box, const ffd_rig *rig, double margin,
-                                const char *what, sess_method **out, ffd_error *err)
+                                const ffd_box *box, const ffd_lattice_shape *shape,
+                                const ffd_rig *rig, double margin, const char *what,
+                                sess_method **out, ffd_error *err)
 {
     ffd_status st = ffd_sess_check_controls(ctx, (double)res[0] * res[1] * res[2], what, err);
     if (st)
@@ -317,7 +340,7 @@ static ffd_status lattice_build(const sess_ctx *ctx, ffd_basis basis, const uint
     l->falloff_curve = ffd_rig_lattice_of(rig)->falloff_curve;
     l->margin = margin;
     ffd_error inner = {{0}};
-    st = ffd_lattice_create(basis, box, res, &l->lattice, &inner);
+    st = ffd_lattice_create_shaped(basis, box, res, shape, &l->lattice, &inner);
     if (!st)
         st = bind_points(l, ctx->rest, ctx->n, &l->binding, &inner);
     if (st) {
@@ -346,6 +369,9 @@ ffd_status ffd_sess_lattice_load(const sess_ctx *ctx, const ffd_rig *rig, sess_m
     ffd_status st;
     if (rig->box_auto && (st = ffd_box_fit(ctx->rest, ctx->n, rig->margin, &box, &inner)))
         return ffd_fail(err, st, "%s: box \"auto\": %s", rig->name, inner.message);
+    ffd_lattice_shape shape;
+    if ((st = ffd_rig_lattice_shape(rig, ctx->rest, ctx->n, &shape, &inner)))
+        return ffd_fail(err, st, "%s: frame \"auto\": %s", rig->name, inner.message);
     const uint32_t *r = rig->resolution;
     if ((st = ffd_sess_check_controls(ctx, (double)r[0] * r[1] * r[2], rig->name, err)))
         return st;
@@ -356,7 +382,7 @@ ffd_status ffd_sess_lattice_load(const sess_ctx *ctx, const ffd_rig *rig, sess_m
     if (replay && (st = ffd_sess_apply_rig(ctx, rig, &report, err)))
         return st;
     sess_method *m = NULL;
-    st = lattice_build(ctx, rig->basis, rig->resolution, &box, rig, rig->margin,
+    st = lattice_build(ctx, rig->basis, rig->resolution, &box, &shape, rig, rig->margin,
                        rig->name, &m, err);
     if (!st && replay && report.control_count != lat_count(m))
         st = ffd_fail(err, FFD_ERR_INVALID, "%s: the rig's lattice does not match", rig->name);

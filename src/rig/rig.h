@@ -32,6 +32,9 @@ struct ffd_rig {
     double margin;           /* default 0.05 */
     ffd_box box;             /* when box_auto == 0 */
     ffd_outside outside;     /* default FFD_OUTSIDE_FIXED */
+    ffd_lattice_shape shape; /* lattice: "basis" per axis, "tension", "continuity",
+                                "coordinates", "frame" (zeroed: the basis, cartesian) */
+    int frame_auto;          /* lattice "frame": "auto": fitted to the mesh (margin) */
     double rcond;            /* 0: solver default */
     int limit_step;          /* "limit_step": shrink the constraint solve's step by bisection
                                 until no cell inverts and the map does not fold (lattice) */

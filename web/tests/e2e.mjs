@@ -333,6 +333,7 @@ async function main() {
   await shot('01-start');
 
   if (METHODS.includes('lattice')) await latticeStages(rest, diag);
+  if (METHODS.includes('lattice')) await guarded('lattice-cylinder', latticeVariantStage);
   if (METHODS.includes('tspline')) await tsplineStage();
   if (METHODS.includes('pbffd')) await guarded('pbffd', pbffdStage);
   if (METHODS.includes('gffd')) await guarded('gffd', gffdStage);
@@ -539,6 +540,37 @@ async function openBunny() {
   await page.click('#panel button:text-is("Open")');
   await page.waitForFunction(() => window.ffdEditor.state && window.ffdEditor.state.mesh.name === 'bunny.obj', null, { timeout: 20000 });
   await settle();
+}
+
+/** (a2) A cylindrical lattice with an interpolation per axis (docs/lattice-variants.md)
+ * through the panel: its parameters, its closed theta rings drawn, a control dragged, replayed. */
+async function latticeVariantStage() {
+  await openBunny();
+  await page.selectOption('select[name=method]', 'lattice');
+  await page.selectOption('select[name="coordinates"]', 'cylindrical');
+  await page.selectOption('select[name="interp-0"]', 'linear');
+  await page.selectOption('select[name="interp-1"]', 'cardinal');
+  await page.selectOption('select[name="interp-2"]', 'bspline');
+  const st = await createViaPanel('lattice', { 'res-lattice-0': 3, 'res-lattice-1': 6, 'res-lattice-2': 4, 'lattice-tension': 0.2 });
+  const p = st.params || {};
+  check(p.coordinates === 'cylindrical' && (p.interpolation || []).join() === 'linear,cardinal,bspline' && p.tension[1] === 0.2
+    && st.controls.count === 72, `(a2) cylindrical lattice ${p.coordinates} ${(p.interpolation || []).join('/')} T ${(p.tension || []).join()} (${st.controls.count} controls)`);
+  // 3 x 6 x 4 grid: r and z edges, plus 6 theta edges per (i, k) ring, closed
+  const edges = (st.controls.edges || []).length;
+  check(edges === 2 * 6 * 4 + 3 * 6 * 4 + 3 * 6 * 3, `(a2) the lattice's edges, theta rings closed (${edges})`);
+  const rest = (await frame()).positions.slice();
+  await shot('02b-lattice-cylinder');
+  const outer = [];
+  for (const j of [0, 1, 2, 3, 4, 5]) for (const k of [1, 2]) outer.push((2 * 6 + j) * 4 + k);
+  const ids = await pickableControls(outer);
+  must(ids.length > 0, `(a2) a pickable outer control (${ids.length})`);
+  const r = await dragControl(ids[0].id, 40, -30);
+  must(!!r, '(a2) control drag');
+  check(r.s1.undo === r.s0.undo + 1 && pointDist(r.f1.controls, ids[0].id, r.f0.controls) > 1e-3, `(a2) control ${ids[0].id} dragged`);
+  check(maxDisplacement(r.f1.positions, rest) > 1e-3, `(a2) the cylindrical lattice moved the mesh (max ${maxDisplacement(r.f1.positions, rest).toFixed(4)})`);
+  await replay('bunny.obj', 1e-4, '(a2) cylindrical lattice');
+  await page.selectOption('select[name="coordinates"]', 'cartesian');
+  await page.selectOption('select[name="basis"]', 'bspline');
 }
 
 /** Drags control `id` by pressing on it and moving the mouse; returns frames before/after. */

@@ -1,4 +1,6 @@
-// Lattice FFD (Sederberg-Parry / B-spline, Hsu et al.) in the editor.
+// Lattice FFD (Sederberg-Parry / B-spline, Hsu et al.) in the editor, with
+// its variants (docs/lattice-variants.md): an interpolation per axis with
+// tension and continuity, and cylindrical / spherical lattices.
 
 import * as THREE from 'three';
 import { h } from '../dom.js';
@@ -13,29 +15,71 @@ function latticeOf(i, c) {
   while (k + 1 < l.length && l[k + 1].first <= i) k++;
   return l[k];
 }
+const INTERPOLATIONS = [
+  ['bspline', 'Cubic B-spline'], ['bernstein', 'Bernstein (Bézier)'], ['linear', 'Linear'],
+  ['catmull-rom', 'Catmull-Rom'], ['cardinal', 'Cardinal (tension, continuity)'],
+];
+const COORDINATES = [['cartesian', 'Box (cartesian)'], ['cylindrical', 'Cylinder (r, θ, z)'], ['spherical', 'Sphere (r, θ, φ)']];
+const AXES = { cartesian: ['x', 'y', 'z'], cylindrical: ['r', 'θ', 'z'], spherical: ['r', 'θ', 'φ'] };
+const labelOf = (list, v) => (list.find(([k]) => k === v) || [v, v])[1];
+
+/** The rig's "basis": one string when the axes agree, else an array of three. */
+export const basisOf = (interp) => (interp.every((b) => b === interp[0]) ? interp[0] : [...interp]);
 
 export default {
   name: 'lattice',
-  label: 'Lattice (B-spline / Bernstein)',
-  form: { resolution: [5, 5, 5], basis: 'bspline', margin: 0.05 },
+  label: 'Lattice (B-spline / Bernstein / linear / cardinal; box, cylinder, sphere)',
+  form: {
+    resolution: [5, 5, 5], basis: 'bspline', margin: 0.05,
+    interp: ['bspline', 'bspline', 'bspline'], tension: 0, continuity: 0, coordinates: 'cartesian',
+  },
 
   createFields(p) {
+    if (!p.interp) p.interp = [p.basis, p.basis, p.basis];
+    const axes = AXES[p.coordinates || 'cartesian'];
     return [resolutionRow('lattice', p),
-      h('div', { class: 'row' }, h('label', {}, 'Basis'),
-        h('select', { name: 'basis', onchange: (e) => { p.basis = e.target.value; } },
-          h('option', { value: 'bspline', selected: p.basis === 'bspline' }, 'Cubic B-spline'),
-          h('option', { value: 'bernstein', selected: p.basis === 'bernstein' }, 'Bernstein (Bézier)'))),
+      h('div', { class: 'row' }, h('label', {}, 'Lattice'),
+        h('select', { name: 'coordinates', onchange: (e) => { p.coordinates = e.target.value; } },
+          COORDINATES.map(([v, t]) => h('option', { value: v, selected: p.coordinates === v }, t)))),
+      h('div', { class: 'row' }, h('label', {}, 'Basis (all axes)'),
+        h('select', {
+          name: 'basis',
+          onchange: (e) => {
+            p.basis = e.target.value;
+            p.interp = [p.basis, p.basis, p.basis];
+            const form = e.target.closest('section');
+            if (form) form.querySelectorAll('select[name^="interp-"]').forEach((sel) => { sel.value = p.basis; });
+          },
+        }, INTERPOLATIONS.map(([v, t]) => h('option', { value: v, selected: basisOf(p.interp) === v }, t)))),
+      ...[0, 1, 2].map((a) => h('div', { class: 'row' }, h('label', {}, `Interpolation ${axes[a]}`),
+        h('select', {
+          name: `interp-${a}`,
+          onchange: (e) => { p.interp[a] = e.target.value; p.basis = p.interp[0]; },
+        }, INTERPOLATIONS.map(([v, t]) => h('option', { value: v, selected: p.interp[a] === v }, t))))),
+      numberRow('lattice', 'Tension', p, 'tension', { min: -1, max: 0.99, step: 0.05, title: 'cardinal axes: [-1, 1)' }),
+      numberRow('lattice', 'Continuity', p, 'continuity', { min: -1, max: 1, step: 0.05, title: 'cardinal axes: [-1, 1]' }),
       numberRow('lattice', 'Margin', p, 'margin', { min: 0, step: 0.01 })];
   },
 
-  createBody(p) { return { resolution: p.resolution, basis: p.basis, margin: p.margin }; },
+  createBody(p) {
+    const interp = p.interp || [p.basis, p.basis, p.basis];
+    const body = { resolution: p.resolution, basis: basisOf(interp), margin: p.margin };
+    if (interp.includes('cardinal')) Object.assign(body, { tension: p.tension, continuity: p.continuity });
+    if (p.coordinates && p.coordinates !== 'cartesian') Object.assign(body, { coordinates: p.coordinates, frame: 'auto' });
+    return body;
+  },
 
   section(panel, s, c) {
     const ed = panel.ed;
     const kids = (c.lattices || []).slice(1);
+    const params = s.params || {};
+    const coords = params.coordinates || 'cartesian';
+    const interp = params.interpolation || [c.basis, c.basis, c.basis];
+    const axes = AXES[coords] || AXES.cartesian;
+    const perAxis = interp.map((b, a) => `${axes[a]}: ${labelOf(INTERPOLATIONS, b)}`).join(', ');
     return h('section', {}, h('h3', {}, 'Lattice'),
-      h('div', { class: 'hint-text' }, `${(c.resolution || []).join(' × ')} control points, ${c.basis === 'bernstein' ? 'Bernstein (Bézier)' : 'cubic B-spline'} basis. `,
-        'Change the resolution or basis above and press Re-create.'),
+      h('div', { class: 'hint-text' }, `${(c.resolution || []).join(' × ')} control points, ${labelOf(COORDINATES, coords)}; ${perAxis}. `,
+        'Change the resolution, lattice or interpolation above and press Re-create.'),
       kids.length ? h('div', { class: 'hint-text' }, `${kids.length} child lattice${kids.length > 1 ? 's' : ''} (drawn by depth in their own colour; a child's points follow its parent, dragging one moves that child only): `,
         ...kids.map((l, k) => h('a', { href: '#', style: 'color:inherit', onclick: (e) => { e.preventDefault(); ed.setSelection(Array.from({ length: l.count }, (_, j) => l.first + j)); } },
           ` #${k + 1} ${l.resolution.join('×')} (depth ${l.depth})`))) : null,
