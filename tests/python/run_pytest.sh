@@ -3,7 +3,7 @@
 # in BUILD_DIR/python. In a sanitizer build the module carries ASan+UBSan,
 # whose runtime must be loaded first (LD_PRELOAD of the compiler's libasan;
 # leak detection off: CPython keeps its own allocations to exit).
-# usage: bash run_pytest.sh PYTHON BUILD_DIR SOURCE_DIR [SANITIZER_FLAGS] [PYTEST_ARGS...]
+# usage: bash run_pytest.sh PYTHON BUILD_DIR SOURCE_DIR [SANITIZER_FLAGS|none] [PYTEST_ARGS...]
 # PYTEST_ARGS (default python/tests) selects the files: CMake runs the suite as
 # three tests (python_tests, python_tests_methods, python_tests_volume) so that
 # ctest -j spreads it over the cores.
@@ -13,6 +13,7 @@ PY=$1
 BUILD=$(cd "$2" && pwd)
 SRC=$(cd "$3" && pwd)
 SAN=${4:-}
+[ "$SAN" = none ] && SAN= # CMake's placeholder for no sanitizer flags
 shift $(( $# < 4 ? $# : 4 ))
 [ $# -gt 0 ] || set -- python/tests
 if ! "$PY" -c "import pytest, numpy" 2>/dev/null; then
