@@ -15,10 +15,7 @@ extern const ffd_method ffd_method_rbf;
 extern const char *const ffd_rig_keys_rbf[];
 
 /* One control point displaced (delta = moved - rest). */
-typedef struct ffd_rig_rbf_move {
-    uint32_t index;
-    double delta[3];
-} ffd_rig_rbf_move;
+typedef ffd_rig_point_move ffd_rig_rbf_move; /* rig_json.h */
 
 /* The rig section (docs/rbf-idw.md). */
 typedef struct ffd_rig_rbf {

@@ -13,32 +13,6 @@
 const char *const ffd_rig_keys_rbf[] = {"control_points", "deformed_control_points", "moves",
                                         "kernel", "radius", "power", "solver", NULL};
 
-static ffd_status read_move(const ffd_rig_parser *p, const cJSON *m, const char *path,
-                            void *element, void *ctx)
-{
-    static const char *const keys[] = {"index", "delta", NULL};
-    ffd_rig_rbf_move *move = element;
-    char sub[RIG_PATH_MAX + 80];
-    (void)ctx;
-    if (!cJSON_IsObject(m))
-        return ffd_rig_expected(p, path, "an object {\"index\": i, \"delta\": [dx,dy,dz]}");
-    ffd_status s = ffd_rig_check_keys(p, m, path, keys, "\"index\", \"delta\"");
-    if (s)
-        return s;
-    const cJSON *index = cJSON_GetObjectItemCaseSensitive(m, "index");
-    const cJSON *delta = cJSON_GetObjectItemCaseSensitive(m, "delta");
-    snprintf(sub, sizeof sub, "%s.index", path);
-    if (!index)
-        return ffd_rig_expected(p, sub, "a control point index (missing)");
-    if ((s = ffd_rig_read_index(p, index, sub, "a control point index (an integer >= 0)",
-                                &move->index)))
-        return s;
-    snprintf(sub, sizeof sub, "%s.delta", path);
-    if (!delta)
-        return ffd_rig_expected(p, sub, "an array of 3 finite numbers (missing)");
-    return ffd_rig_read_vec3(p, delta, sub, move->delta);
-}
-
 static const char *const kernel_list =
     "\"gaussian_spline\", \"multi_quadratic_biharmonic_spline\", "
     "\"inv_multi_quadratic_biharmonic_spline\", \"thin_plate_spline\", "
@@ -54,34 +28,9 @@ ffd_status ffd_rig_parse_rbf(const ffd_rig_parser *p, const cJSON *root, ffd_rig
     ffd_status s = ffd_rig_read_linear_root(p, root, rig);
     if (s)
         return s;
-    if (!(item = cJSON_GetObjectItemCaseSensitive(root, "control_points")))
-        return ffd_rig_expected(p, "control_points", "an array of points [x,y,z] (missing)");
-    if ((s = ffd_rig_read_points(p, item, "control_points", 1, &r->control_points, &r->count)))
+    if ((s = ffd_rig_read_control_points(p, root, &r->control_points, &r->count, &r->deformed,
+                                         &r->moves, &r->move_count)))
         return s;
-    if ((item = cJSON_GetObjectItemCaseSensitive(root, "deformed_control_points"))) {
-        size_t count = 0;
-        if ((s = ffd_rig_read_points(p, item, "deformed_control_points", 1, &r->deformed, &count)))
-            return s;
-        if (count != r->count)
-            return ffd_fail(p->err, FFD_ERR_INVALID,
-                            "%s: deformed_control_points: %zu points for %zu control_points "
-                            "(expected one per control point)",
-                            p->name, count, r->count);
-    }
-    if ((item = cJSON_GetObjectItemCaseSensitive(root, "moves"))) {
-        void *moves;
-        s = ffd_rig_read_array(p, item, "moves", "an array of {\"index\": i, \"delta\": [dx,dy,dz]}",
-                               sizeof *r->moves, read_move, NULL, NULL, &moves, &r->move_count);
-        r->moves = moves;
-        if (s)
-            return s;
-        for (size_t i = 0; i < r->move_count; i++)
-            if (r->moves[i].index >= r->count)
-                return ffd_fail(p->err, FFD_ERR_RANGE,
-                                "%s: moves[%zu].index: %u out of range (%zu control points, "
-                                "indices start at 0)",
-                                p->name, i, r->moves[i].index, r->count);
-    }
     if ((item = cJSON_GetObjectItemCaseSensitive(root, "kernel"))) {
         int k = 0;
         if ((s = ffd_rig_read_enum(p, item, "kernel", kernels, kernel_list, &k)))

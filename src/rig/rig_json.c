@@ -746,3 +746,70 @@ ffd_status ffd_rig_read(const char *path, ffd_rig **out, ffd_error *err)
     ffd_free(data);
     return s;
 }
+
+static ffd_status read_point_move(const ffd_rig_parser *p, const cJSON *m, const char *path,
+                            void *element, void *ctx)
+{
+    static const char *const keys[] = {"index", "delta", NULL};
+    ffd_rig_point_move *move = element;
+    char sub[RIG_PATH_MAX + 80];
+    (void)ctx;
+    if (!cJSON_IsObject(m))
+        return ffd_rig_expected(p, path, "an object {\"index\": i, \"delta\": [dx,dy,dz]}");
+    ffd_status s = ffd_rig_check_keys(p, m, path, keys, "\"index\", \"delta\"");
+    if (s)
+        return s;
+    const cJSON *index = cJSON_GetObjectItemCaseSensitive(m, "index");
+    const cJSON *delta = cJSON_GetObjectItemCaseSensitive(m, "delta");
+    snprintf(sub, sizeof sub, "%s.index", path);
+    if (!index)
+        return ffd_rig_expected(p, sub, "a control point index (missing)");
+    if ((s = ffd_rig_read_index(p, index, sub, "a control point index (an integer >= 0)",
+                                &move->index)))
+        return s;
+    snprintf(sub, sizeof sub, "%s.delta", path);
+    if (!delta)
+        return ffd_rig_expected(p, sub, "an array of 3 finite numbers (missing)");
+    return ffd_rig_read_vec3(p, delta, sub, move->delta);
+}
+
+/* The control points of a scattered-point method (RBF, IDW; docs/rbf-idw.md):
+ * "control_points" (required), "deformed_control_points" (one per control
+ * point) and "moves" (indices in range). */
+ffd_status ffd_rig_read_control_points(const ffd_rig_parser *p, const cJSON *root, double **points,
+                                       size_t *count, double **deformed,
+                                       ffd_rig_point_move **moves, size_t *move_count)
+{
+    const cJSON *item;
+    ffd_status s;
+    if (!(item = cJSON_GetObjectItemCaseSensitive(root, "control_points")))
+        return ffd_rig_expected(p, "control_points", "an array of points [x,y,z] (missing)");
+    if ((s = ffd_rig_read_points(p, item, "control_points", 1, points, count)))
+        return s;
+    if ((item = cJSON_GetObjectItemCaseSensitive(root, "deformed_control_points"))) {
+        size_t deformed_count = 0;
+        if ((s = ffd_rig_read_points(p, item, "deformed_control_points", 1, deformed,
+                                     &deformed_count)))
+            return s;
+        if (deformed_count != *count)
+            return ffd_fail(p->err, FFD_ERR_INVALID,
+                            "%s: deformed_control_points: %zu points for %zu control_points "
+                            "(expected one per control point)",
+                            p->name, deformed_count, *count);
+    }
+    if ((item = cJSON_GetObjectItemCaseSensitive(root, "moves"))) {
+        void *read;
+        s = ffd_rig_read_array(p, item, "moves", "an array of {\"index\": i, \"delta\": [dx,dy,dz]}",
+                               sizeof **moves, read_point_move, NULL, NULL, &read, move_count);
+        *moves = read;
+        if (s)
+            return s;
+        for (size_t i = 0; i < *move_count; i++)
+            if ((*moves)[i].index >= *count)
+                return ffd_fail(p->err, FFD_ERR_RANGE,
+                                "%s: moves[%zu].index: %u out of range (%zu control points, "
+                                "indices start at 0)",
+                                p->name, i, (*moves)[i].index, *count);
+    }
+    return FFD_OK;
+}

@@ -81,6 +81,18 @@ typedef void (*ffd_rig_element_free)(void *element);
 ffd_status ffd_rig_read_array(const ffd_rig_parser *p, const cJSON *item, const char *key,
                               const char *what, size_t size, ffd_rig_element_reader read,
                               ffd_rig_element_free release, void *ctx, void **out, size_t *count);
+/* A move of one control point of a scattered-point method (RBF, IDW):
+ * {"index": i, "delta": [dx,dy,dz]}. */
+typedef struct ffd_rig_point_move {
+    uint32_t index;
+    double delta[3];
+} ffd_rig_point_move;
+/* Reads root's "control_points" (required, at least one), its
+ * "deformed_control_points" (one per control point, or *deformed NULL) and
+ * its "moves" (indices below *count) (rig_json.c). */
+ffd_status ffd_rig_read_control_points(const ffd_rig_parser *p, const cJSON *root, double **points,
+                                       size_t *count, double **deformed,
+                                       ffd_rig_point_move **moves, size_t *move_count);
 /* An array of at least min points [x,y,z] (*count by 3). */
 ffd_status ffd_rig_read_points(const ffd_rig_parser *p, const cJSON *item, const char *path,
                                size_t min, double **out, size_t *count);
