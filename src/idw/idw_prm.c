@@ -13,36 +13,17 @@
 #define SEC_IDW "Inverse Distance Weighting"
 #define SEC_POINTS "Control points"
 
-static ffd_status required(const ffd_prm *prm, const char *section, const char *key,
-                           const ffd_prm_entry **out, ffd_error *err)
-{
-    *out = ffd_prm_get(prm, section, key);
-    return *out ? FFD_OK
-                : ffd_fail(err, FFD_ERR_PARSE, "%s: [%s] has no key '%s'", prm->name, section, key);
-}
-
 static ffd_status read_idw(const ffd_prm *prm, ffd_rig_idw *r, ffd_error *err)
 {
-    const ffd_prm_entry *e, *orig, *moved;
-    size_t count;
-    ffd_status s = required(prm, SEC_IDW, "power", &e, err);
+    const ffd_prm_entry *e;
+    ffd_status s = ffd_prm_required(prm, SEC_IDW, "power", &e, err);
     if (s || (s = ffd_prm_number(prm, e, &r->options.power, err)))
         return s;
     if (r->options.power != floor(r->options.power) || r->options.power < 1)
         return ffd_fail(err, FFD_ERR_INVALID, "%s:%zu: power: %g: expected an integer >= 1",
                         prm->name, e->line, r->options.power);
     r->options.weighting = FFD_IDW_PYGEM;
-    if ((s = required(prm, SEC_POINTS, "original control points", &orig, err)) ||
-        (s = required(prm, SEC_POINTS, "deformed control points", &moved, err)) ||
-        (s = ffd_prm_points(prm, orig, &r->control_points, &r->count, err)) ||
-        (s = ffd_prm_points(prm, moved, &r->deformed, &count, err)))
-        return s;
-    if (count != r->count)
-        return ffd_fail(err, FFD_ERR_INVALID,
-                        "%s:%zu: deformed control points: %zu points for %zu original control "
-                        "points (expected one per control point)",
-                        prm->name, moved->line, count, r->count);
-    return FFD_OK;
+    return ffd_prm_control_points(prm, &r->control_points, &r->count, &r->deformed, err);
 }
 
 ffd_status ffd_rig_parse_prm_idw(const char *text, size_t size, const char *name, ffd_rig **out,

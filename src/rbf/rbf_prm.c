@@ -13,18 +13,10 @@
 #define SEC_RBF "Radial Basis Functions"
 #define SEC_POINTS "Control points"
 
-static ffd_status required(const ffd_prm *prm, const char *section, const char *key,
-                           const ffd_prm_entry **out, ffd_error *err)
-{
-    *out = ffd_prm_get(prm, section, key);
-    return *out ? FFD_OK
-                : ffd_fail(err, FFD_ERR_PARSE, "%s: [%s] has no key '%s'", prm->name, section, key);
-}
-
 static ffd_status read_rbf(const ffd_prm *prm, ffd_rig_rbf *r, ffd_error *err)
 {
     const ffd_prm_entry *e;
-    ffd_status s = required(prm, SEC_RBF, "basis function", &e, err);
+    ffd_status s = ffd_prm_required(prm, SEC_RBF, "basis function", &e, err);
     if (s)
         return s;
     int kernel = -1;
@@ -42,7 +34,7 @@ static ffd_status read_rbf(const ffd_prm *prm, ffd_rig_rbf *r, ffd_error *err)
                         prm->name, e->line, e->count ? (int)prm->lines[e->first].size : 0,
                         e->count ? prm->lines[e->first].text : "");
     r->options.kernel = (ffd_rbf_kernel)kernel;
-    if ((s = required(prm, SEC_RBF, "radius", &e, err)) ||
+    if ((s = ffd_prm_required(prm, SEC_RBF, "radius", &e, err)) ||
         (s = ffd_prm_number(prm, e, &r->options.radius, err)))
         return s;
     if (!(r->options.radius > 0))
@@ -70,19 +62,7 @@ static ffd_status read_rbf(const ffd_prm *prm, ffd_rig_rbf *r, ffd_error *err)
                             prm->name, e->line, k);
         r->options.power = (unsigned)k;
     }
-    const ffd_prm_entry *orig, *moved;
-    size_t count;
-    if ((s = required(prm, SEC_POINTS, "original control points", &orig, err)) ||
-        (s = required(prm, SEC_POINTS, "deformed control points", &moved, err)) ||
-        (s = ffd_prm_points(prm, orig, &r->control_points, &r->count, err)) ||
-        (s = ffd_prm_points(prm, moved, &r->deformed, &count, err)))
-        return s;
-    if (count != r->count)
-        return ffd_fail(err, FFD_ERR_INVALID,
-                        "%s:%zu: deformed control points: %zu points for %zu original control "
-                        "points (expected one per control point)",
-                        prm->name, moved->line, count, r->count);
-    return FFD_OK;
+    return ffd_prm_control_points(prm, &r->control_points, &r->count, &r->deformed, err);
 }
 
 ffd_status ffd_rig_parse_prm_rbf(const char *text, size_t size, const char *name, ffd_rig **out,

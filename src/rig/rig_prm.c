@@ -196,6 +196,34 @@ ffd_status ffd_prm_number(const ffd_prm *prm, const ffd_prm_entry *e, double *ou
     return number(prm, l->text, l->size, l->line, what, out, err);
 }
 
+ffd_status ffd_prm_required(const ffd_prm *prm, const char *section, const char *key,
+                            const ffd_prm_entry **out, ffd_error *err)
+{
+    *out = ffd_prm_get(prm, section, key);
+    return *out ? FFD_OK
+                : ffd_fail(err, FFD_ERR_PARSE, "%s: [%s] has no key '%s'", prm->name, section, key);
+}
+
+ffd_status ffd_prm_control_points(const ffd_prm *prm, double **points, size_t *count,
+                                  double **deformed, ffd_error *err)
+{
+    static const char section[] = "Control points";
+    const ffd_prm_entry *orig, *moved;
+    size_t deformed_count;
+    ffd_status s;
+    if ((s = ffd_prm_required(prm, section, "original control points", &orig, err)) ||
+        (s = ffd_prm_required(prm, section, "deformed control points", &moved, err)) ||
+        (s = ffd_prm_points(prm, orig, points, count, err)) ||
+        (s = ffd_prm_points(prm, moved, deformed, &deformed_count, err)))
+        return s;
+    if (deformed_count != *count)
+        return ffd_fail(err, FFD_ERR_INVALID,
+                        "%s:%zu: deformed control points: %zu points for %zu original control "
+                        "points (expected one per control point)",
+                        prm->name, moved->line, deformed_count, *count);
+    return FFD_OK;
+}
+
 ffd_status ffd_prm_points(const ffd_prm *prm, const ffd_prm_entry *e, double **points,
                           size_t *count, ffd_error *err)
 {

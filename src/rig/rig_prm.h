@@ -43,6 +43,15 @@ void ffd_prm_free(ffd_prm *prm);
 const ffd_prm_entry *ffd_prm_get(const ffd_prm *prm, const char *section, const char *key);
 /* 1 when text has a header line "[section]" (the dispatch's test). */
 int ffd_prm_has_section(const char *text, size_t size, const char *section);
+/* The entry key of [section], or FFD_ERR_PARSE "[section] has no key 'key'". */
+ffd_status ffd_prm_required(const ffd_prm *prm, const char *section, const char *key,
+                            const ffd_prm_entry **out, ffd_error *err);
+/* PyGeM's [Control points] section of the RBF and IDW files: "original
+ * control points" into *points and "deformed control points" into
+ * *deformed (*count by 3 each; FFD_ERR_INVALID naming the line when their
+ * counts differ). */
+ffd_status ffd_prm_control_points(const ffd_prm *prm, double **points, size_t *count,
+                                  double **deformed, ffd_error *err);
 /* Reads an entry's lines as points "x y z" (blank-separated finite
  * numbers, three a line) into *points (ffd_malloc'd, *count by 3).
  * FFD_ERR_PARSE / FFD_ERR_NONFINITE naming the line; FFD_ERR_NOMEM. */
