@@ -17,6 +17,8 @@ export class Panel {
       method: METHODS[0].name,
       ...Object.fromEntries(METHODS.map((m) => [m.name, structuredClone(m.form)])),
       export: { format: '', encoding: 'binary' },
+      meshFile: '',
+      rigFile: '',
     };
     this.files = { meshes: [], rigs: [], root: '' };
     this.key = '';
@@ -82,15 +84,17 @@ export class Panel {
         e.target.value = '';
       },
     });
-    const sel = h('select', { name: 'mesh-file', style: 'flex:1' },
+    // the choice lives in the form, not in the element: a re-render (a state
+    // update arriving between choosing and clicking Open) keeps it
+    const sel = h('select', { name: 'mesh-file', style: 'flex:1', onchange: (e) => { this.form.meshFile = e.target.value; } },
       h('option', { value: '' }, this.files.meshes.length ? 'Mesh on the server…' : 'No meshes under the root'),
-      this.files.meshes.map((f) => h('option', { value: f }, f)));
+      this.files.meshes.map((f) => h('option', { value: f, selected: f === this.form.meshFile }, f)));
     return h('section', {},
       h('h3', {}, 'Mesh'),
       h('div', { class: 'row' }, h('b', {}, m.name || '—'),
         h('span', { class: 'hint-text' }, m.vertices !== undefined ? `${fmtInt(m.vertices)} vertices · ${fmtInt(m.faces)} faces` : '')),
       h('div', { class: 'row' }, sel,
-        h('button', { onclick: () => sel.value && this.ed.openPath(sel.value), title: 'Open the chosen mesh (a new session)' }, 'Open'),
+        h('button', { onclick: () => this.form.meshFile && this.ed.openPath(this.form.meshFile), title: 'Open the chosen mesh (a new session)' }, 'Open'),
         h('button', { onclick: () => this.loadFiles(), title: 'Refresh the file list' }, '⟲')),
       h('div', { class: 'row buttons' },
         h('button', { onclick: () => fileInput.click(), title: 'Upload a mesh from this computer' }, '⇪ Upload mesh…'), fileInput),
@@ -184,9 +188,9 @@ export class Panel {
         e.target.value = '';
       },
     });
-    const rigSel = h('select', { name: 'rig-file', style: 'flex:1' },
+    const rigSel = h('select', { name: 'rig-file', style: 'flex:1', onchange: (e) => { f.rigFile = e.target.value; } },
       h('option', { value: '' }, this.files.rigs.length ? 'Rig on the server…' : 'No rigs under the root'),
-      this.files.rigs.map((r) => h('option', { value: r }, r)));
+      this.files.rigs.map((r) => h('option', { value: r, selected: r === f.rigFile }, r)));
     const fmtSel = h('select', { name: 'export-format', onchange: (e) => { f.export.format = e.target.value; } },
       h('option', { value: '' }, `as read (${ext})`), ['obj', 'ply', 'off', 'stl', 'gltf'].map((x) => h('option', { value: x, selected: f.export.format === x }, x.toUpperCase())));
     const encSel = h('select', { name: 'export-encoding', onchange: (e) => { f.export.encoding = e.target.value; } },
@@ -208,7 +212,7 @@ export class Panel {
           },
         }, '💾 Save on server…')),
       h('div', { class: 'row' }, rigSel,
-        h('button', { onclick: () => rigSel.value && ed.loadRigPath(rigSel.value) }, 'Load')),
+        h('button', { onclick: () => f.rigFile && ed.loadRigPath(f.rigFile) }, 'Load')),
       h('div', { class: 'row buttons' }, h('button', { onclick: () => rigInput.click() }, '⇪ Upload rig…'), rigInput),
       h('h3', { style: 'margin-top:12px' }, 'Export'),
       h('div', { class: 'row' }, fmtSel, encSel),
