@@ -30,6 +30,9 @@ class Editor {
     this.dragTimes = [];     // timestamps of drag frames (updates / s)
     this.activeDrag = null;
     this.ready = false;
+    // modules with keys of their own (modal transforms, view presets, ...) see
+    // each key first: fn(ev) returns true when it handled the key
+    this.keyHandlers = [];
 
     this.controlsView = new ControlsView(this.vp);
     this.gizmo = new Gizmo(this); // before OrbitControls' listeners matter: see pointerDown
@@ -382,6 +385,7 @@ class Editor {
         if (ev.key === 'Escape') t.blur();
         return;
       }
+      for (const fn of this.keyHandlers) if (fn(ev)) { ev.preventDefault(); return; }
       const k = ev.key;
       const ctrl = ev.ctrlKey || ev.metaKey;
       const help = $('help');
