@@ -273,7 +273,9 @@ static void check_controls_and_reset(const rig_case *rc, const ffd_mesh *mesh, f
     CHECK_NEAR(moved[3 * id] - ctl[3 * id], delta[0], 1e-12 * diag);
     CHECK_OK(ffd_deformer_move_controls(d, &id, 1, back, &err));
     CHECK_OK(ffd_deformer_eval(d, after, &err));
-    CHECK(max_diff(before, after, 3 * n) <= 1e-9 * diag);
+    /* to rounding of the nonlinear methods: GFFD's gradient field comes back
+     * to 1.3e-9 of the diagonal with some BLAS kernels */
+    CHECK(max_diff(before, after, 3 * n) <= 1e-8 * diag);
 
     CHECK_OK(ffd_deformer_reset(d, &err));
     CHECK_OK(ffd_deformer_eval(d, after, &err));

@@ -563,7 +563,8 @@ static void test_prm_round_trip(void)
             CHECK_NEAR(x[0], 1.5, 1e-12);
             CHECK_NEAR(x[1], 1.6, 1e-12);
             CHECK_NEAR(x[2], 1.7, 1e-12);
-            CHECK(x[3] == 0 && x[4] == 0 && x[5] == 0);
+            /* the unmoved corner stays, to rounding (the solve's last bits depend on the BLAS) */
+            CHECK(fabs(x[3]) <= 1e-12 && fabs(x[4]) <= 1e-12 && fabs(x[5]) <= 1e-12);
         }
         ffd_mesh_destroy(mesh);
         ffd_free(prm);

@@ -102,25 +102,6 @@ ffd_status ffd_rig_cage_charge(const ffd_rig *rig, size_t n, size_t nv, size_t n
                              ffd_format_count(dv, vs, sizeof vs));
 }
 
-/* Rest positions of the constrained points (k by 3); vertex ids checked. */
-static ffd_status constraint_points(const ffd_rig *rig, const double *positions, size_t n,
-                                    double *points, ffd_error *err)
-{
-    for (size_t c = 0; c < rig->constraint_count; c++) {
-        const ffd_rig_constraint *con = &rig->constraints[c];
-        const double *src = con->point;
-        if (con->kind == FFD_RIG_CONSTRAINT_VERTEX) {
-            if (con->vertex >= n)
-                return ffd_fail(err, FFD_ERR_RANGE,
-                                "%s: constraints[%zu].vertex: %u out of range (mesh has %zu "
-                                "vertices)", rig->name, c, con->vertex, n);
-            src = positions + 3 * (size_t)con->vertex;
-        }
-        memcpy(points + 3 * c, src, 3 * sizeof *points);
-    }
-    return FFD_OK;
-}
-
 /* The report's control structure: the deformed cage as points, its edges
  * and its triangles (the control mesh). */
 static ffd_status report_cage(const ffd_cage *cage, ffd_rig_report *report, const char *name,
@@ -193,7 +174,7 @@ ffd_status ffd_rig_apply_cage(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report
             s = ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory for %zu constraints", name, k);
             goto fail;
         }
-        if ((s = constraint_points(rig, positions, n, rest, err)))
+        if ((s = ffd_rig_constraint_points(rig, positions, n, rest, err)))
             goto fail;
     }
     double t0 = ffd_now();

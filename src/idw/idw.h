@@ -3,6 +3,7 @@
 #define FFD_IDW_H
 
 #include "core/core.h"
+#include "rig/rig_points.h"
 
 struct ffd_idw {
     size_t count;
@@ -13,12 +14,8 @@ struct ffd_idw {
     int moved;               /* 0: every p_j == c_j bitwise, x' = x exactly */
 };
 
-/* The linear map of points (borrowed, n by 3): dense rows a_j(x) over the
- * control points (no tie); rows must outlive map. */
-typedef struct ffd_idw_rows {
-    const ffd_idw *idw;
-    const double *points;
-} ffd_idw_rows;
-void ffd_idw_linear_map(const ffd_idw_rows *rows, size_t n, ffd_linear_map *map);
+/* The linear map of rows->points (n by 3) under the IDW rows->morph: dense
+ * rows a_j(x) over the control points (no tie). */
+void ffd_idw_linear_map(const ffd_point_rows *rows, size_t n, ffd_linear_map *map);
 
 #endif

@@ -6,7 +6,7 @@
 #define FFD_IDW_METHOD_H
 
 #include "deformer/method.h"
-#include "rig/rig_json.h"
+#include "rig/rig_points.h"
 
 /* The method's descriptor (idw_method.c; listed in deformer/registry.c). */
 extern const ffd_method ffd_method_idw;
@@ -14,17 +14,10 @@ extern const ffd_method ffd_method_idw;
 /* The method's top-level rig keys (ffd_method.rig_keys; idw_rig_json.c). */
 extern const char *const ffd_rig_keys_idw[];
 
-/* One control point displaced (delta = moved - rest). */
-typedef ffd_rig_point_move ffd_rig_idw_move; /* rig_json.h */
-
 /* The rig section (docs/idw-idw.md). */
 typedef struct ffd_rig_idw {
     ffd_idw_options options; /* power, weighting */
-    double *control_points;  /* count by 3: the rest control points */
-    size_t count;
-    double *deformed;        /* count by 3, or NULL: "deformed_control_points" */
-    ffd_rig_idw_move *moves; /* applied after deformed */
-    size_t move_count;
+    ffd_rig_points points; /* the control points and their moves (rig_points.h) */
 } ffd_rig_idw;
 
 static inline ffd_rig_idw *ffd_rig_idw_of(const ffd_rig *rig)
@@ -38,10 +31,6 @@ const char *ffd_rig_idw_weighting_name(ffd_idw_weighting w);
 ffd_status ffd_rig_parse_idw(const ffd_rig_parser *p, const cJSON *root, ffd_rig *rig);
 int ffd_rig_write_idw(const ffd_rig *rig, cJSON *root);
 void ffd_rig_release_idw(ffd_rig *rig);
-
-/* The moved control points of the section (count by 3, ffd_malloc'd):
- * deformed (or the rest points), then the moves. */
-double *ffd_rig_idw_moved(const ffd_rig_idw *section);
 
 ffd_status ffd_rig_apply_idw(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report *report,
                              ffd_budget *budget, ffd_error *err);

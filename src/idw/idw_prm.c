@@ -23,7 +23,8 @@ static ffd_status read_idw(const ffd_prm *prm, ffd_rig_idw *r, ffd_error *err)
         return ffd_fail(err, FFD_ERR_INVALID, "%s:%zu: power: %g: expected an integer >= 1",
                         prm->name, e->line, r->options.power);
     r->options.weighting = FFD_IDW_PYGEM;
-    return ffd_prm_control_points(prm, &r->control_points, &r->count, &r->deformed, err);
+    return ffd_prm_control_points(prm, &r->points.control_points, &r->points.count,
+                                  &r->points.deformed, err);
 }
 
 ffd_status ffd_rig_parse_prm_idw(const char *text, size_t size, const char *name, ffd_rig **out,
@@ -60,7 +61,7 @@ ffd_status ffd_rig_write_prm_idw(const ffd_rig *rig, char **text, ffd_error *err
                         "%s: a PyGeM IDW file holds an integer power with PyGeM's weighting "
                         "(this rig has \"weighting\": \"%s\", \"power\": %g)",
                         rig->name, ffd_rig_idw_weighting_name(r->options.weighting), r->options.power);
-    double *moved = ffd_rig_idw_moved(r);
+    double *moved = ffd_rig_points_moved(&r->points);
     char *t = NULL;
     size_t size = 0, cap = 0;
     int ok = moved &&
@@ -73,12 +74,12 @@ ffd_status ffd_rig_write_prm_idw(const ffd_rig *rig, char **text, ffd_error *err
                             "# original control points collects the coordinates\n"
                             "# of the interpolation control points before the\n# deformation.\n",
                             r->options.power) &&
-             ffd_prm_append_points(&t, &size, &cap, "original control points", r->control_points,
-                                   r->count) &&
+             ffd_prm_append_points(&t, &size, &cap, "original control points", r->points.control_points,
+                                   r->points.count) &&
              ffd_prm_append(&t, &size, &cap,
                             "\n# deformed control points collects the coordinates\n"
                             "# of the interpolation control points after the\n# deformation.\n") &&
-             ffd_prm_append_points(&t, &size, &cap, "deformed control points", moved, r->count);
+             ffd_prm_append_points(&t, &size, &cap, "deformed control points", moved, r->points.count);
     ffd_free(moved);
     if (!ok) {
         ffd_free(t);

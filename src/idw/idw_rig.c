@@ -1,19 +1,16 @@
-/* idw_rig — applying an IDW rig to a mesh (ffd_method_idw.apply): the IDW
- * on the rig's control points (idw_map.c), its control points moved by
- * "deformed_control_points" and "moves", then direct manipulation of the
- * constrained points over the normalised weights (Hsu et al. 1992, eq. 2-7,
- * through ffd_manip_solve), then the mesh's positions and normals in one
- * ffd_mesh_set_positions (all or nothing). */
+/* idw_rig — applying an IDW rig to a mesh (ffd_method_idw.apply): the IDW's
+ * operations for the scattered-control-point rig application (rig_points.c):
+ * the IDW on the rig's control points (idw_weights.c), moved, then direct
+ * manipulation over the normalised weights. */
 #include "idw/idw.h"
 #include "idw/idw_method.h"
 
 #include <cjson/cJSON.h>
-#include <string.h>
 
 /* Bytes and operations: N weights per point. */
 static ffd_status charge(const ffd_rig *rig, size_t n, ffd_budget *budget, ffd_error *err)
 {
-    const double N = (double)ffd_rig_idw_of(rig)->count;
+    const double N = (double)ffd_rig_idw_of(rig)->points.count;
     char ns[32], cs[32];
     return ffd_budget_charge(budget, 24.0 * N + 100.0 * (double)n, 60.0 * N * (double)n,
                              err, "idw: %s vertices under %s control points",
@@ -21,158 +18,65 @@ static ffd_status charge(const ffd_rig *rig, size_t n, ffd_budget *budget, ffd_e
                              ffd_format_count(N, cs, sizeof cs));
 }
 
-/* Rest positions of the constrained points (k by 3). */
-static ffd_status constraint_points(const ffd_rig *rig, const double *positions, size_t n,
-                                    double *points, ffd_error *err)
+static void details(const ffd_rig *rig, const void *morph, cJSON *d)
 {
-    for (size_t c = 0; c < rig->constraint_count; c++) {
-        const ffd_rig_constraint *con = &rig->constraints[c];
-        const double *src = con->point;
-        if (con->kind == FFD_RIG_CONSTRAINT_VERTEX) {
-            if (con->vertex >= n)
-                return ffd_fail(err, FFD_ERR_RANGE,
-                                "%s: constraints[%zu].vertex: %u out of range (mesh has %zu "
-                                "vertices)",
-                                rig->name, c, con->vertex, n);
-            src = positions + 3 * (size_t)con->vertex;
-        }
-        memcpy(points + 3 * c, src, 3 * sizeof *points);
-    }
-    return FFD_OK;
+    const ffd_idw_options *o = &ffd_rig_idw_of(rig)->options;
+    (void)morph;
+    cJSON_AddNumberToObject(d, "power", o->power);
+    cJSON_AddStringToObject(d, "weighting", ffd_rig_idw_weighting_name(o->weighting));
 }
+
+static const ffd_rig_points *points_of(const ffd_rig *rig)
+{
+    return &ffd_rig_idw_of(rig)->points;
+}
+
+static ffd_status create(const ffd_rig *rig, void **morph, ffd_error *err)
+{
+    const ffd_rig_idw *r = ffd_rig_idw_of(rig);
+    ffd_idw *idw = NULL;
+    ffd_status s = ffd_idw_create(r->points.control_points, r->points.count, &r->options, &idw, err);
+    *morph = idw;
+    return s;
+}
+
+/* The IDW behind the ops' void pointers. */
+static void destroy(void *m) { ffd_idw_destroy(m); }
+static size_t count(const void *m) { return ffd_idw_control_count(m); }
+static const double *points(const void *m) { return ffd_idw_control_points(m); }
+static const double *rest(const void *m) { return ffd_idw_rest_points(m); }
+static ffd_status set_points(void *m, const double *p, ffd_error *err)
+{
+    return ffd_idw_set_control_points(m, p, err);
+}
+static ffd_status eval(const void *m, const double *x, size_t n, double *out, ffd_error *err)
+{
+    return ffd_idw_eval(m, x, n, out, err);
+}
+static ffd_status jacobian(const void *m, const double *x, size_t n, double *out, ffd_error *err)
+{
+    return ffd_idw_jacobian(m, x, n, out, err);
+}
+
+const ffd_point_morph_ops ffd_idw_point_ops = {
+    .label = "IDW",
+    .control_label = "IDW control points",
+    .points_of = points_of,
+    .create = create,
+    .destroy = destroy,
+    .count = count,
+    .points = points,
+    .rest = rest,
+    .set_points = set_points,
+    .eval = eval,
+    .jacobian = jacobian,
+    .linear_map = ffd_idw_linear_map,
+    .charge = charge,
+    .details = details,
+};
 
 ffd_status ffd_rig_apply_idw(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report *report,
                              ffd_budget *budget, ffd_error *err)
 {
-    const ffd_rig_idw *r = ffd_rig_idw_of(rig);
-    const char *name = rig->name;
-    const size_t n = ffd_mesh_vertex_count(mesh), k = rig->constraint_count, N = r->count;
-    const double *positions = ffd_mesh_positions(mesh);
-    ffd_error inner = {{0}};
-    ffd_idw *idw = NULL;
-    double *moved = NULL, *rest = NULL, *current = NULL, *targets = NULL, *delta = NULL;
-    double *residuals = NULL, *deformed = NULL, *jacobians = NULL;
-    size_t *rows = NULL;
-    ffd_manip_result result = {0};
-    ffd_timings timings = {0};
-    ffd_status s = charge(rig, n, budget, &inner);
-    if (s)
-        return ffd_fail(err, s, "%s: %s", name, inner.message);
-
-    double t0 = ffd_now();
-    if ((s = ffd_idw_create(r->control_points, N, &r->options, &idw, &inner))) {
-        s = ffd_rig_wrap(err, s, name, "control_points", &inner);
-        goto fail;
-    }
-    if (!(moved = ffd_rig_idw_moved(r))) {
-        s = ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory", name);
-        goto fail;
-    }
-    if ((s = ffd_idw_set_control_points(idw, moved, &inner))) {
-        s = ffd_rig_wrap(err, s, name, "moves", &inner);
-        goto fail;
-    }
-    double t1 = ffd_now();
-    timings.bind = t1 - t0;
-
-    if (k) {
-        rest = ffd_malloc_array(k, 3 * sizeof *rest);
-        current = ffd_malloc_array(k, 3 * sizeof *current);
-        targets = ffd_malloc_array(k, 3 * sizeof *targets);
-        residuals = ffd_malloc_array(k, sizeof *residuals);
-        rows = ffd_malloc_array(k, sizeof *rows);
-        delta = ffd_calloc(N, 3 * sizeof *delta);
-        if (!rest || !current || !targets || !residuals || !rows || !delta) {
-            s = ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory for %zu constraints", name, k);
-            goto fail;
-        }
-        if ((s = constraint_points(rig, positions, n, rest, err)))
-            goto fail;
-        for (size_t c = 0; c < k; c++) {
-            rows[c] = c;
-            memcpy(targets + 3 * c, rig->constraints[c].target, 3 * sizeof *targets);
-        }
-        ffd_idw_rows pins = {idw, rest};
-        ffd_linear_map map;
-        ffd_idw_linear_map(&pins, k, &map);
-        ffd_manip_options options = {rig->rcond};
-        if ((s = ffd_rig_charge_manip(&map, k, budget, &inner)) ||
-            (s = ffd_idw_eval(idw, rest, k, current, &inner)) ||
-            (s = ffd_manip_solve(&map, rows, k, current, targets, &options, delta, NULL, &result,
-                                 &inner))) {
-            s = ffd_rig_wrap(err, s, name, "constraints", &inner);
-            goto fail;
-        }
-        for (size_t i = 0; i < 3 * N; i++)
-            moved[i] += delta[i];
-        if ((s = ffd_idw_set_control_points(idw, moved, &inner)) ||
-            (s = ffd_idw_eval(idw, rest, k, current, &inner))) {
-            s = ffd_rig_wrap(err, s, name, "constraints", &inner);
-            goto fail;
-        }
-        result.max_residual = ffd_rig_residuals(k, current, targets, residuals);
-    }
-    double t2 = ffd_now();
-    timings.solve = t2 - t1;
-
-    deformed = ffd_malloc_array(n ? n : 1, 3 * sizeof *deformed);
-    if (!deformed) {
-        s = ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory for %zu vertices", name, n);
-        goto fail;
-    }
-    if ((s = ffd_idw_eval(idw, positions, n, deformed, &inner))) {
-        s = ffd_rig_wrap(err, s, name, "evaluating", &inner);
-        goto fail;
-    }
-    if (ffd_mesh_normal_count(mesh) > 0) {
-        jacobians = ffd_malloc_array(n ? n : 1, 9 * sizeof *jacobians);
-        if (!jacobians) {
-            s = ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory for %zu Jacobians", name, n);
-            goto fail;
-        }
-        if ((s = ffd_idw_jacobian(idw, positions, n, jacobians, &inner))) {
-            s = ffd_rig_wrap(err, s, name, "Jacobians", &inner);
-            goto fail;
-        }
-    }
-    if (report) {
-        unsigned long mark;
-        cJSON *details = ffd_rig_details_create(&mark);
-        if (details) {
-            cJSON_AddNumberToObject(details, "power", r->options.power);
-            cJSON_AddStringToObject(details, "weighting", ffd_rig_idw_weighting_name(r->options.weighting));
-        }
-        if ((s = ffd_rig_report_set_details(report, details, mark, name, err)))
-            goto fail;
-    }
-    if ((s = ffd_mesh_set_positions(mesh, deformed, jacobians, &inner))) {
-        s = ffd_rig_wrap(err, s, name, "deformed positions", &inner);
-        goto fail;
-    }
-    timings.evaluate = ffd_now() - t2;
-    if (report) {
-        report->constraint_count = k;
-        report->residuals = residuals;
-        report->reached = current;
-        residuals = current = NULL;
-        report->rank = result.rank;
-        report->max_residual = result.max_residual;
-        report->timings = timings;
-        report->control_count = N;
-        report->control_points = moved;
-        report->control_label = "IDW control points";
-        moved = NULL;
-    }
-fail:
-    ffd_idw_destroy(idw);
-    ffd_free(moved);
-    ffd_free(rest);
-    ffd_free(current);
-    ffd_free(targets);
-    ffd_free(delta);
-    ffd_free(residuals);
-    ffd_free(rows);
-    ffd_free(deformed);
-    ffd_free(jacobians);
-    return s;
+    return ffd_rig_apply_points(&ffd_idw_point_ops, rig, mesh, report, budget, err);
 }

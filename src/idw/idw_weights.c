@@ -259,20 +259,22 @@ ffd_status ffd_idw_jacobian(const ffd_idw *idw, const double *points, size_t n, 
 
 static size_t weight_row(const void *self, size_t i, uint32_t *columns, double *weights)
 {
-    const ffd_idw_rows *rows = self;
-    weights_at(rows->idw, rows->points + 3 * i, weights);
-    for (size_t j = 0; j < rows->idw->count; j++)
+    const ffd_point_rows *rows = self;
+    const ffd_idw *idw = rows->morph;
+    weights_at(idw, rows->points + 3 * i, weights);
+    for (size_t j = 0; j < idw->count; j++)
         columns[j] = (uint32_t)j;
-    return rows->idw->count;
+    return idw->count;
 }
 
-void ffd_idw_linear_map(const ffd_idw_rows *rows, size_t n, ffd_linear_map *map)
+void ffd_idw_linear_map(const ffd_point_rows *rows, size_t n, ffd_linear_map *map)
 {
+    const ffd_idw *idw = rows->morph;
     memset(map, 0, sizeof *map);
     map->self = rows;
     map->point_count = n;
-    map->column_count = rows->idw->count;
-    map->variable_count = rows->idw->count;
-    map->max_row_nnz = rows->idw->count;
+    map->column_count = idw->count;
+    map->variable_count = idw->count;
+    map->max_row_nnz = idw->count;
     map->row = weight_row;
 }

@@ -18,26 +18,6 @@
 #include <stdio.h>
 #include <string.h>
 
-/* Rest positions of the constrained points (k by 3); vertex ids checked. */
-static ffd_status constraint_points(const ffd_rig *rig, const double *points, size_t n,
-                                    double *out, ffd_error *err)
-{
-    for (size_t c = 0; c < rig->constraint_count; c++) {
-        const ffd_rig_constraint *con = &rig->constraints[c];
-        const double *src = con->point;
-        if (con->kind == FFD_RIG_CONSTRAINT_VERTEX) {
-            if (con->vertex >= n)
-                return ffd_fail(err, FFD_ERR_RANGE,
-                                "%s: constraints[%zu].vertex: %u out of range (mesh has %zu "
-                                "vertices)",
-                                rig->name, c, con->vertex, n);
-            src = points + 3 * (size_t)con->vertex;
-        }
-        memcpy(out + 3 * c, src, 3 * sizeof *out);
-    }
-    return FFD_OK;
-}
-
 /* The solve: k constraints at rest positions pts, over the G grabs. */
 static ffd_status solve(const ffd_rig *rig, ffd_kelvinlet *kel, const double *pts,
                         ffd_budget *budget, ffd_manip_result *result, double *residuals,
@@ -155,7 +135,7 @@ ffd_status ffd_kelvinlet_from_rig(const ffd_rig *rig, const double *points, size
             st = ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory for %zu constraints", rig->name,
                           k);
         if (!st)
-            st = constraint_points(rig, points, n, pts, err);
+            st = ffd_rig_constraint_points(rig, points, n, pts, err);
         if (!st)
             st = solve(rig, kel, pts, budget, result ? result : &none, residuals, reached, err);
     }

@@ -15,26 +15,6 @@
 #include <stdio.h>
 #include <string.h>
 
-/* Rest positions of the constrained points (k by 3). Vertex ids are checked here. */
-static ffd_status constraint_points(const ffd_rig *rig, const double *positions, size_t n,
-                                    double *points, ffd_error *err)
-{
-    for (size_t c = 0; c < rig->constraint_count; c++) {
-        const ffd_rig_constraint *con = &rig->constraints[c];
-        const double *src = con->point;
-        if (con->kind == FFD_RIG_CONSTRAINT_VERTEX) {
-            if (con->vertex >= n)
-                return ffd_fail(err, FFD_ERR_RANGE,
-                                "%s: constraints[%zu].vertex: %u out of range (mesh has %zu "
-                                "vertices)",
-                                rig->name, c, con->vertex, n);
-            src = positions + 3 * (size_t)con->vertex;
-        }
-        memcpy(points + 3 * c, src, 3 * sizeof *points);
-    }
-    return FFD_OK;
-}
-
 /* A constrained point the deformation cannot move is an error, not a residual:
  * point constraints must lie in the box; vertices too unless the outside
  * policy moves outside points. */
@@ -208,7 +188,7 @@ ffd_status ffd_rig_apply_lattice(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_rep
             s = ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory for %zu constraints", name, k);
             goto fail;
         }
-        if ((s = constraint_points(rig, positions, n, rest, err)))
+        if ((s = ffd_rig_constraint_points(rig, positions, n, rest, err)))
             goto fail;
     }
 

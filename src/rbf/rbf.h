@@ -6,6 +6,7 @@
 #define FFD_RBF_H
 
 #include "core/core.h"
+#include "rig/rig_points.h"
 
 struct ffd_rbf_morph {
     size_t count;            /* N control points */
@@ -58,13 +59,8 @@ ffd_status ffd_rbf_morph_product(const ffd_rbf_morph *rbf, const double *points,
 ffd_status ffd_rbf_morph_transpose_product(const ffd_rbf_morph *rbf, const double *points, size_t n,
                                      const double *w, double *out, ffd_error *err);
 
-/* The linear map of points (borrowed, n by 3) under rbf: dense rows, the
- * cardinal functions a_j(x) over the N control points (no tie); rows must
- * outlive map. */
-typedef struct ffd_rbf_morph_rows {
-    const ffd_rbf_morph *rbf;
-    const double *points;
-} ffd_rbf_morph_rows;
-void ffd_rbf_morph_linear_map(const ffd_rbf_morph_rows *rows, size_t n, ffd_linear_map *map);
+/* The linear map of rows->points (n by 3) under the RBF rows->morph: dense
+ * rows, the cardinal functions a_j(x) over the N control points (no tie). */
+void ffd_rbf_morph_linear_map(const ffd_point_rows *rows, size_t n, ffd_linear_map *map);
 
 #endif

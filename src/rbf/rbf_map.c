@@ -368,21 +368,23 @@ done:
  * the caller's weights (max_row_nnz = N + 4 doubles: the solve's room). */
 static size_t cardinal_row(const void *self, size_t i, uint32_t *columns, double *weights)
 {
-    const ffd_rbf_morph_rows *rows = self;
-    const size_t N = rows->rbf->count;
-    ffd_rbf_morph_cardinal(rows->rbf, rows->points + 3 * i, weights);
+    const ffd_point_rows *rows = self;
+    const ffd_rbf_morph *rbf = rows->morph;
+    const size_t N = rbf->count;
+    ffd_rbf_morph_cardinal(rbf, rows->points + 3 * i, weights);
     for (size_t j = 0; j < N; j++)
         columns[j] = (uint32_t)j;
     return N;
 }
 
-void ffd_rbf_morph_linear_map(const ffd_rbf_morph_rows *rows, size_t n, ffd_linear_map *map)
+void ffd_rbf_morph_linear_map(const ffd_point_rows *rows, size_t n, ffd_linear_map *map)
 {
+    const ffd_rbf_morph *rbf = rows->morph;
     memset(map, 0, sizeof *map);
     map->self = rows;
     map->point_count = n;
-    map->column_count = rows->rbf->count;
-    map->variable_count = rows->rbf->count;
-    map->max_row_nnz = rows->rbf->count + 4;
+    map->column_count = rbf->count;
+    map->variable_count = rbf->count;
+    map->max_row_nnz = rbf->count + 4;
     map->row = cardinal_row;
 }

@@ -6,7 +6,7 @@
 #define FFD_RBF_METHOD_H
 
 #include "deformer/method.h"
-#include "rig/rig_json.h"
+#include "rig/rig_points.h"
 
 /* The method's descriptor (rbf_method.c; listed in deformer/registry.c). */
 extern const ffd_method ffd_method_rbf;
@@ -14,17 +14,10 @@ extern const ffd_method ffd_method_rbf;
 /* The method's top-level rig keys (ffd_method.rig_keys; rbf_rig_json.c). */
 extern const char *const ffd_rig_keys_rbf[];
 
-/* One control point displaced (delta = moved - rest). */
-typedef ffd_rig_point_move ffd_rig_rbf_move; /* rig_json.h */
-
 /* The rig section (docs/rbf-idw.md). */
 typedef struct ffd_rig_rbf {
     ffd_rbf_options options;
-    double *control_points;  /* count by 3: the rest control points */
-    size_t count;
-    double *deformed;        /* count by 3, or NULL: "deformed_control_points" */
-    ffd_rig_rbf_move *moves; /* applied after deformed */
-    size_t move_count;
+    ffd_rig_points points; /* the control points and their moves (rig_points.h) */
 } ffd_rig_rbf;
 
 static inline ffd_rig_rbf *ffd_rig_rbf_of(const ffd_rig *rig)
@@ -35,10 +28,6 @@ static inline ffd_rig_rbf *ffd_rig_rbf_of(const ffd_rig *rig)
 ffd_status ffd_rig_parse_rbf(const ffd_rig_parser *p, const cJSON *root, ffd_rig *rig);
 int ffd_rig_write_rbf(const ffd_rig *rig, cJSON *root);
 void ffd_rig_release_rbf(ffd_rig *rig);
-
-/* The moved control points of the section (count by 3, ffd_malloc'd):
- * deformed (or the rest points), then the moves. */
-double *ffd_rig_rbf_moved(const ffd_rig_rbf *section);
 
 ffd_status ffd_rig_apply_rbf(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report *report,
                              ffd_budget *budget, ffd_error *err);

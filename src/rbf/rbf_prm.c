@@ -62,7 +62,8 @@ static ffd_status read_rbf(const ffd_prm *prm, ffd_rig_rbf *r, ffd_error *err)
                             prm->name, e->line, k);
         r->options.power = (unsigned)k;
     }
-    return ffd_prm_control_points(prm, &r->control_points, &r->count, &r->deformed, err);
+    return ffd_prm_control_points(prm, &r->points.control_points, &r->points.count,
+                                  &r->points.deformed, err);
 }
 
 ffd_status ffd_rig_parse_prm_rbf(const char *text, size_t size, const char *name, ffd_rig **out,
@@ -94,7 +95,7 @@ ffd_status ffd_rig_parse_prm_rbf(const char *text, size_t size, const char *name
 ffd_status ffd_rig_write_prm_rbf(const ffd_rig *rig, char **text, ffd_error *err)
 {
     const ffd_rig_rbf *r = ffd_rig_rbf_of(rig);
-    double *moved = ffd_rig_rbf_moved(r);
+    double *moved = ffd_rig_points_moved(&r->points);
     char *t = NULL;
     size_t size = 0, cap = 0;
     int ok = moved &&
@@ -116,12 +117,12 @@ ffd_status ffd_rig_write_prm_rbf(const ffd_rig *rig, char **text, ffd_error *err
                             "# This section describes the RBF control points.\n\n"
                             "# original control points collects the coordinates of the "
                             "interpolation control points before the deformation.\n") &&
-             ffd_prm_append_points(&t, &size, &cap, "original control points", r->control_points,
-                                   r->count) &&
+             ffd_prm_append_points(&t, &size, &cap, "original control points", r->points.control_points,
+                                   r->points.count) &&
              ffd_prm_append(&t, &size, &cap,
                             "\n# deformed control points collects the coordinates of the "
                             "interpolation control points after the deformation.\n") &&
-             ffd_prm_append_points(&t, &size, &cap, "deformed control points", moved, r->count);
+             ffd_prm_append_points(&t, &size, &cap, "deformed control points", moved, r->points.count);
     ffd_free(moved);
     if (!ok) {
         ffd_free(t);

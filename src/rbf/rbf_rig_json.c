@@ -28,8 +28,7 @@ ffd_status ffd_rig_parse_rbf(const ffd_rig_parser *p, const cJSON *root, ffd_rig
     ffd_status s = ffd_rig_read_linear_root(p, root, rig);
     if (s)
         return s;
-    if ((s = ffd_rig_read_control_points(p, root, &r->control_points, &r->count, &r->deformed,
-                                         &r->moves, &r->move_count)))
+    if ((s = ffd_rig_read_control_points(p, root, &r->points)))
         return s;
     if ((item = cJSON_GetObjectItemCaseSensitive(root, "kernel"))) {
         int k = 0;
@@ -65,50 +64,17 @@ ffd_status ffd_rig_parse_rbf(const ffd_rig_parser *p, const cJSON *root, ffd_rig
     return FFD_OK;
 }
 
-double *ffd_rig_rbf_moved(const ffd_rig_rbf *r)
-{
-    double *p = ffd_malloc_array(r->count, 3 * sizeof *p);
-    if (!p)
-        return NULL;
-    memcpy(p, r->deformed ? r->deformed : r->control_points, r->count * 3 * sizeof *p);
-    for (size_t i = 0; i < r->move_count; i++)
-        for (int a = 0; a < 3; a++)
-            p[3 * r->moves[i].index + a] += r->moves[i].delta[a];
-    return p;
-}
-
-static cJSON *points_json(const double *p, size_t n)
-{
-    cJSON *a = cJSON_CreateArray();
-    for (size_t i = 0; a && i < n; i++)
-        if (!ffd_sess_add_to_array(a, ffd_sess_vec3(p + 3 * i))) {
-            cJSON_Delete(a);
-            return NULL;
-        }
-    return a;
-}
-
 int ffd_rig_write_rbf(const ffd_rig *rig, cJSON *root)
 {
     const ffd_rig_rbf *r = ffd_rig_rbf_of(rig);
-    cJSON *moves = NULL;
-    int ok = ffd_sess_add_item(root, "control_points", points_json(r->control_points, r->count)) &&
-             cJSON_AddStringToObject(root, "kernel", ffd_rbf_kernel_name(r->options.kernel)) &&
-             ffd_sess_add_item(root, "radius", ffd_sess_number(r->options.radius)) &&
-             cJSON_AddNumberToObject(root, "power", r->options.power) &&
-             (r->options.solver == FFD_RBF_SOLVER_AUTO ||
-              cJSON_AddStringToObject(root, "solver",
-                                      r->options.solver == FFD_RBF_SOLVER_SPARSE ? "sparse" : "dense")) &&
-             (!r->deformed || ffd_sess_add_item(root, "deformed_control_points",
-                                                points_json(r->deformed, r->count))) &&
-             (moves = cJSON_AddArrayToObject(root, "moves"));
-    for (size_t i = 0; ok && i < r->move_count; i++) {
-        cJSON *move = cJSON_CreateObject();
-        ok = ffd_sess_add_to_array(moves, move) &&
-             cJSON_AddNumberToObject(move, "index", r->moves[i].index) &&
-             ffd_sess_add_item(move, "delta", ffd_sess_vec3(r->moves[i].delta));
-    }
-    return ok;
+    return ffd_rig_points_write_rest(&r->points, root) &&
+           cJSON_AddStringToObject(root, "kernel", ffd_rbf_kernel_name(r->options.kernel)) &&
+           ffd_sess_add_item(root, "radius", ffd_sess_number(r->options.radius)) &&
+           cJSON_AddNumberToObject(root, "power", r->options.power) &&
+           (r->options.solver == FFD_RBF_SOLVER_AUTO ||
+            cJSON_AddStringToObject(root, "solver",
+                                    r->options.solver == FFD_RBF_SOLVER_SPARSE ? "sparse" : "dense")) &&
+           ffd_rig_points_write_moves(&r->points, root);
 }
 
 void ffd_rig_release_rbf(ffd_rig *rig)
@@ -116,7 +82,5 @@ void ffd_rig_release_rbf(ffd_rig *rig)
     ffd_rig_rbf *r = ffd_rig_rbf_of(rig);
     if (!r) /* the section's allocation failed */
         return;
-    ffd_free(r->control_points);
-    ffd_free(r->deformed);
-    ffd_free(r->moves);
+    ffd_rig_points_release(&r->points);
 }

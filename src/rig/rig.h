@@ -56,6 +56,10 @@ ffd_status ffd_rig_wrap(ffd_error *err, ffd_status status, const char *name, con
 /* Rodrigues: v rotated by angle (radians) about the unit axis k (rig_apply.c). */
 void ffd_rig_rotate(const double k[3], double angle, const double v[3], double out[3]);
 
+/* Rest positions of the constrained points (k by 3): vertex ids checked
+ * against n (FFD_ERR_RANGE, named). */
+ffd_status ffd_rig_constraint_points(const ffd_rig *rig, const double *positions, size_t n,
+                                     double *points, ffd_error *err);
 /* residuals[c] = |reached_c - target_c| for k constraints (k by 3 each);
  * returns the largest (0 when k == 0). */
 double ffd_rig_residuals(size_t k, const double *reached, const double *targets,

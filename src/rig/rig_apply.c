@@ -95,6 +95,28 @@ ffd_status ffd_rig_wrap(ffd_error *err, ffd_status status, const char *name, con
     return ffd_fail(err, status, "%s: %s: %s", name, context, inner->message);
 }
 
+/* Rest positions of the constrained points (k by 3): a vertex constraint
+ * takes its vertex of positions (n by 3; the id checked), a point
+ * constraint its point. */
+ffd_status ffd_rig_constraint_points(const ffd_rig *rig, const double *positions, size_t n,
+                                     double *points, ffd_error *err)
+{
+    for (size_t c = 0; c < rig->constraint_count; c++) {
+        const ffd_rig_constraint *con = &rig->constraints[c];
+        const double *src = con->point;
+        if (con->kind == FFD_RIG_CONSTRAINT_VERTEX) {
+            if (con->vertex >= n)
+                return ffd_fail(err, FFD_ERR_RANGE,
+                                "%s: constraints[%zu].vertex: %u out of range (mesh has %zu "
+                                "vertices)",
+                                rig->name, c, con->vertex, n);
+            src = positions + 3 * (size_t)con->vertex;
+        }
+        memcpy(points + 3 * c, src, 3 * sizeof *points);
+    }
+    return FFD_OK;
+}
+
 double ffd_rig_residuals(size_t k, const double *reached, const double *targets,
                          double *residuals)
 {

@@ -87,12 +87,6 @@ typedef struct ffd_rig_point_move {
     uint32_t index;
     double delta[3];
 } ffd_rig_point_move;
-/* Reads root's "control_points" (required, at least one), its
- * "deformed_control_points" (one per control point, or *deformed NULL) and
- * its "moves" (indices below *count) (rig_json.c). */
-ffd_status ffd_rig_read_control_points(const ffd_rig_parser *p, const cJSON *root, double **points,
-                                       size_t *count, double **deformed,
-                                       ffd_rig_point_move **moves, size_t *move_count);
 /* An array of at least min points [x,y,z] (*count by 3). */
 ffd_status ffd_rig_read_points(const ffd_rig_parser *p, const cJSON *item, const char *path,
                                size_t min, double **out, size_t *count);

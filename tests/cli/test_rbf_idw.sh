@@ -26,7 +26,8 @@ for m in rbf idw; do
     cmp -s "$T/rest.obj" "$BUNNY" || fail "$m: a rig that moves nothing changed the bunny's bytes"
     # PyGeM's parameter file
     ok deform "$SRC/tests/data/rig/cube.obj" -o "$T/cube-$m.obj" --rig "$EX/$m/cube.prm"
-    grep -q '^v 1.5 1.6 1.7' "$T/cube-$m.obj" || grep -q '^v 1.5 1.6000000000000001 1.7' "$T/cube-$m.obj" ||
+    # to rounding: the solve's last bits depend on the BLAS kernels of the CPU
+    awk '$1 == "v" { d = ($2 - 1.5)^2 + ($3 - 1.6)^2 + ($4 - 1.7)^2; if (d < 1e-24) hit = 1 } END { exit !hit }' "$T/cube-$m.obj" ||
         fail "$m cube.prm: the corner (1,1,1) did not reach (1.5,1.6,1.7): $(grep '^v' "$T/cube-$m.obj")"
 done
 
