@@ -5,22 +5,36 @@ import * as THREE from 'three';
 import { COL } from './palette.js';
 import { methodOf } from './methods/index.js';
 
-function discTexture() {
+/** Handle sprites: a white shape with a dark outline, tinted by the point colour. */
+function spriteTexture(shape) {
   const s = 64;
   const c = document.createElement('canvas');
   c.width = c.height = s;
   const g = c.getContext('2d');
   g.beginPath();
-  g.arc(s / 2, s / 2, s / 2 - 5, 0, Math.PI * 2);
-  g.fillStyle = '#ffffff';
-  g.fill();
-  g.lineWidth = 5;
-  g.strokeStyle = 'rgba(20,20,20,0.9)';
-  g.stroke();
+  if (shape === 'square') g.rect(9, 9, s - 18, s - 18);
+  else if (shape === 'diamond') { g.moveTo(s / 2, 4); g.lineTo(s - 4, s / 2); g.lineTo(s / 2, s - 4); g.lineTo(4, s / 2); g.closePath(); } else g.arc(s / 2, s / 2, s / 2 - 5, 0, Math.PI * 2);
+  if (shape === 'ring') {
+    g.lineWidth = 7;
+    g.strokeStyle = '#ffffff';
+    g.stroke();
+  } else {
+    g.fillStyle = '#ffffff';
+    g.fill();
+    g.lineWidth = 5;
+    g.strokeStyle = 'rgba(20,20,20,0.9)';
+    g.stroke();
+  }
   const t = new THREE.CanvasTexture(c);
   t.colorSpace = THREE.NoColorSpace;
   return t;
 }
+
+// Depth cue: handles and lattice lines in front of the mesh are drawn bright
+// (depth-tested), the hidden ones faint (a second pass without the depth test);
+// X-ray draws both at full strength.
+const HIDDEN_POINT_OPACITY = 0.3;
+const HIDDEN_EDGE_OPACITY = 0.1;
 
 export class ControlsView {
   constructor(viewport) {
@@ -28,7 +42,13 @@ export class ControlsView {
     this.group = new THREE.Group();
     this.group.renderOrder = 10;
     viewport.overlays.add(this.group);
-    this.tex = discTexture();
+    this.tex = { disc: spriteTexture('disc'), square: spriteTexture('square'), diamond: spriteTexture('diamond') };
+    this.ringTex = spriteTexture('ring');
+    this.xray = false;
+    this.hover = -1;           // the handle under the pointer
+    this.selection = new Set();
+    this.allRois = false;      // PB-FFD: every ROI, not only the selected / hovered handles'
+    this.occlusionCache = null;
     this.count = 0;
     this.method = null;
     this.positions = null; // BufferAttribute, C*3
@@ -57,6 +77,12 @@ export class ControlsView {
       this.group.remove(o);
       o.traverse((x) => { if (x.geometry) x.geometry.dispose(); if (x.material && x.material !== this.pointMat) x.material.dispose(); });
     }
+    this.pointSets = [];
+    this.hiddenPasses = [];
+    this.edgesHidden = null;
+    this.hoverMarker = null;
+    this.hover = -1;
+    this.occlusionCache = null;
     this.rois = null;
     this.proxy = null;
   }
@@ -85,26 +111,58 @@ export class ControlsView {
       g.setAttribute('position', this.positions);
       g.setIndex(new THREE.BufferAttribute(idx, 1));
       this.edges = new THREE.LineSegments(g, new THREE.LineBasicMaterial({
-        color: edgeColor, transparent: true, opacity: view.edgeOpacity ?? 0.45, depthTest: false,
+        color: edgeColor, transparent: true, opacity: view.edgeOpacity ?? 0.55, depthTest: true, depthWrite: false,
       }));
       this.edges.frustumCulled = false;
       this.edges.renderOrder = 11;
-      this.group.add(this.edges);
+      const hidden = new THREE.LineSegments(g, new THREE.LineBasicMaterial({
+        color: edgeColor, transparent: true, opacity: HIDDEN_EDGE_OPACITY, depthTest: false, depthWrite: false,
+      }));
+      hidden.frustumCulled = false;
+      hidden.renderOrder = 10;
+      hidden.userData.fullOpacity = view.edgeOpacity ?? 0.55;
+      hidden.userData.hiddenOpacity = HIDDEN_EDGE_OPACITY;
+      this.edgesHidden = hidden;
+      this.hiddenPasses.push(hidden);
+      this.group.add(hidden, this.edges);
     } else this.edges = null;
 
     if (view.build) view.build(this, c);
 
-    const pg = new THREE.BufferGeometry();
-    pg.setAttribute('position', this.positions);
-    pg.setAttribute('color', this.colors);
-    this.pointGeom = pg;
-    this.points = new THREE.Points(pg, new THREE.PointsMaterial({
-      size: 11, sizeAttenuation: false, map: this.tex, vertexColors: true,
-      transparent: true, alphaTest: 0.4, depthTest: false,
+    // one Points per handle shape (methods/*.js view.pointShape), each in two
+    // passes: hidden (faint, no depth test) under visible (depth-tested)
+    for (const shape of ['disc', 'square', 'diamond']) {
+      const pg = new THREE.BufferGeometry();
+      pg.setAttribute('position', this.positions);
+      pg.setAttribute('color', this.colors);
+      const mat = (hidden) => new THREE.PointsMaterial({
+        size: 11, sizeAttenuation: false, map: this.tex[shape], vertexColors: true,
+        transparent: true, alphaTest: 0.4, depthTest: !hidden, depthWrite: false, opacity: hidden ? HIDDEN_POINT_OPACITY : 1,
+      });
+      const pts = new THREE.Points(pg, mat(false));
+      pts.frustumCulled = false;
+      pts.renderOrder = 20;
+      const hid = new THREE.Points(pg, mat(true));
+      hid.frustumCulled = false;
+      hid.renderOrder = 19;
+      hid.userData.fullOpacity = 1;
+      hid.userData.hiddenOpacity = HIDDEN_POINT_OPACITY;
+      this.hiddenPasses.push(hid);
+      this.pointSets.push({ shape, geom: pg, points: pts, hidden: hid });
+      this.group.add(hid, pts);
+    }
+    this.points = this.pointSets[0].points;
+    this.pointGeom = this.pointSets[0].geom;
+    const hg = new THREE.BufferGeometry();
+    hg.setAttribute('position', new THREE.BufferAttribute(new Float32Array(3), 3));
+    this.hoverMarker = new THREE.Points(hg, new THREE.PointsMaterial({
+      size: 21, sizeAttenuation: false, map: this.ringTex, color: COL.hover, transparent: true, alphaTest: 0.3, depthTest: false, depthWrite: false,
     }));
-    this.points.frustumCulled = false;
-    this.points.renderOrder = 20;
-    this.group.add(this.points);
+    this.hoverMarker.frustumCulled = false;
+    this.hoverMarker.renderOrder = 21;
+    this.hoverMarker.visible = false;
+    this.group.add(this.hoverMarker);
+    this.setXray(this.xray);
     this.updateVisibility();
     this.vp.requestRender();
   }
@@ -127,11 +185,17 @@ export class ControlsView {
     this.visibleMask = mask;
     this.visibleIds = [];
     for (let i = 0; i < C; i++) if (mask[i]) this.visibleIds.push(i);
-    if (this.points) {
-      const all = this.visibleIds.length === C;
-      this.pointGeom.setIndex(all ? null : this.visibleIds);
+    if (this.pointSets && this.pointSets.length) {
+      const shapeOf = view.pointShape;
+      for (const ps of this.pointSets) {
+        const ids = shapeOf ? this.visibleIds.filter((i) => (shapeOf(i, c) || 'disc') === ps.shape) : (ps.shape === 'disc' ? this.visibleIds : []);
+        ps.geom.setIndex(ids.length === C && ps.shape === 'disc' ? null : ids);
+        ps.points.visible = ps.hidden.visible = ids.length > 0;
+      }
     }
+    if (this.hover >= 0 && !mask[this.hover]) this.setHover(-1);
     if (this.edges) this.edges.visible = true;
+    if (this.edgesHidden) this.edgesHidden.visible = true;
     if (this.rois) this.rois.visible = this.showRois;
     if (view.updateVisibility) view.updateVisibility(this);
     this.vp.requestRender();
@@ -143,13 +207,19 @@ export class ControlsView {
     const frozen = new Set(c.frozen || []);
     const col = this.colors.array;
     const pointColor = this.view.pointColor;
+    if (selection) this.selection = selection;
+    const sel = this.selection;
+    // the active point: the last one picked (a Set keeps insertion order)
+    let active = -1;
+    for (const id of sel) active = id;
     for (let i = 0; i < this.count; i++) {
       let k = (pointColor && pointColor(i, c)) || COL.point;
       if (frozen.has(i)) k = COL.frozen;
-      if (selection && selection.has(i)) k = COL.selected;
+      if (sel.has(i)) k = i === active ? COL.active : COL.selected;
       col[3 * i] = k.r; col[3 * i + 1] = k.g; col[3 * i + 2] = k.b;
     }
     this.colors.needsUpdate = true;
+    this.updateInstances();
     this.vp.requestRender();
   }
 
@@ -179,4 +249,122 @@ export class ControlsView {
   }
 
   setVisible(on) { this.group.visible = on; this.vp.requestRender(); }
+
+  /** X-ray: hidden handles and lines at full strength (and selectable: select.js). */
+  setXray(on) {
+    this.xray = !!on;
+    for (const o of this.hiddenPasses || []) {
+      o.material.opacity = this.xray ? o.userData.fullOpacity : o.userData.hiddenOpacity;
+    }
+    this.vp.requestRender();
+  }
+
+  /** The handle under the pointer (-1: none): a white ring, and its ROI shown. */
+  setHover(id) {
+    if (!(id >= 0 && id < this.count)) id = -1;
+    if (id === this.hover) return;
+    this.hover = id;
+    if (this.hoverMarker) {
+      this.hoverMarker.visible = id >= 0;
+      if (id >= 0) {
+        const a = this.hoverMarker.geometry.attributes.position;
+        this.position(id, new THREE.Vector3()).toArray(a.array);
+        a.needsUpdate = true;
+      }
+    }
+    this.updateInstances();
+    this.vp.requestRender();
+  }
+
+  /** The handles whose ROI / radius is drawn: all, or the selection and the hovered handle. */
+  roiIds(n) {
+    if (this.allRois) return Array.from({ length: n }, (_, i) => i);
+    const ids = [...this.selection].filter((i) => i < n);
+    if (this.hover >= 0 && this.hover < n && !this.selection.has(this.hover)) ids.push(this.hover);
+    return ids;
+  }
+
+  setAllRois(on) { this.allRois = !!on; this.updateInstances(); this.vp.requestRender(); }
+
+  /**
+   * Which handles are hidden behind the mesh from the current camera:
+   * Uint8Array(count), 1 = occluded. The mesh's view depth is rendered once
+   * into an offscreen target (a 24-bit linear depth in RGB) and read back, and
+   * each handle's depth is compared with the mesh's at its pixel. Cached until
+   * the camera, the mesh or the handles move.
+   */
+  occlusion() {
+    const vp = this.vp;
+    const C = this.count;
+    if (!C || !vp.mesh) return new Uint8Array(C);
+    const cam = vp.camera;
+    cam.updateMatrixWorld();
+    const key = [...cam.matrixWorld.elements, ...cam.projectionMatrix.elements, C,
+      vp.geometry.attributes.position.version, this.positions.version, vp.geometry.id].join(',');
+    if (this.occlusionCache && this.occlusionCache.key === key) return this.occlusionCache.mask;
+    const rect = vp.renderer.domElement.getBoundingClientRect();
+    const w = Math.max(1, Math.round(rect.width)), h = Math.max(1, Math.round(rect.height));
+    const far = cam.far;
+    const depth = readMeshDepth(vp, w, h, far);
+    const mask = new Uint8Array(C);
+    const v = new THREE.Vector3(), e = new THREE.Vector3();
+    const tol = 0.01 * vp.diag;
+    for (let i = 0; i < C; i++) {
+      this.position(i, v);
+      e.copy(v).applyMatrix4(cam.matrixWorldInverse);
+      v.project(cam);
+      if (v.z < -1 || v.z > 1) continue;
+      const x = Math.floor((v.x + 1) / 2 * w), y = Math.floor((v.y + 1) / 2 * h); // GL rows: bottom up
+      if (x < 0 || y < 0 || x >= w || y >= h) continue;
+      const d = depth[y * w + x];
+      if (d >= 0 && d < -e.z - tol) mask[i] = 1;
+    }
+    this.occlusionCache = { key, mask };
+    return mask;
+  }
+}
+
+/** View-space distance (0 .. far) of the mesh at each pixel, -1 where there is none. */
+function readMeshDepth(vp, w, h, far) {
+  const r = vp.renderer;
+  if (!vp.depthTarget || vp.depthTarget.width !== w || vp.depthTarget.height !== h) {
+    if (vp.depthTarget) vp.depthTarget.dispose();
+    vp.depthTarget = new THREE.WebGLRenderTarget(w, h, { depthBuffer: true });
+  }
+  if (!vp.depthMaterial) {
+    vp.depthMaterial = new THREE.ShaderMaterial({
+      uniforms: { far: { value: 1 } },
+      side: THREE.DoubleSide,
+      vertexShader: 'varying float vz; void main() { vec4 mv = modelViewMatrix * vec4(position, 1.0); vz = -mv.z; gl_Position = projectionMatrix * mv; }',
+      fragmentShader: `uniform float far; varying float vz;
+        void main() {
+          float d = clamp(vz / far, 0.0, 1.0);
+          vec3 enc = fract(d * vec3(1.0, 255.0, 65025.0));
+          enc -= enc.yzz * vec3(1.0 / 255.0, 1.0 / 255.0, 0.0);
+          gl_FragColor = vec4(enc, 1.0);
+        }`,
+    });
+  }
+  vp.depthMaterial.uniforms.far.value = far;
+  const mesh = vp.mesh;
+  const mat = mesh.material;
+  const prevTarget = r.getRenderTarget();
+  const prevColor = r.getClearColor(new THREE.Color());
+  const prevAlpha = r.getClearAlpha();
+  mesh.material = vp.depthMaterial;
+  r.setRenderTarget(vp.depthTarget);
+  r.setClearColor(0x000000, 0);
+  r.clear(true, true, true);
+  r.render(mesh, vp.camera);
+  const buf = new Uint8Array(4 * w * h);
+  r.readRenderTargetPixels(vp.depthTarget, 0, 0, w, h, buf);
+  r.setRenderTarget(prevTarget);
+  r.setClearColor(prevColor, prevAlpha);
+  mesh.material = mat;
+  const out = new Float32Array(w * h);
+  for (let i = 0, n = w * h; i < n; i++) {
+    const o = 4 * i;
+    out[i] = buf[o + 3] < 128 ? -1 : (buf[o] / 255 + buf[o + 1] / 65025 + buf[o + 2] / 16581375) * far;
+  }
+  return out;
 }
