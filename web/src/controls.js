@@ -34,7 +34,26 @@ function spriteTexture(shape) {
 // (depth-tested), the hidden ones faint (a second pass without the depth test);
 // X-ray draws both at full strength.
 const HIDDEN_POINT_OPACITY = 0.3;
-const HIDDEN_EDGE_OPACITY = 0.1;
+const HIDDEN_EDGE_OPACITY = 0.12;
+// A handle within this fraction of the mesh size behind the surface still
+// counts as visible (points on the surface: PB-FFD curves, T-spline proxies),
+// for the drawing (the depth-tested pass is pulled towards the camera by it)
+// and for picking (occlusion()) alike.
+export const DEPTH_TOLERANCE = 0.006;
+
+/** Pulls a Points material's vertices towards the camera by bias.value (view units) along the view ray: same pixel, nearer depth. */
+function withDepthBias(mat, bias) {
+  mat.onBeforeCompile = (sh) => {
+    sh.uniforms.depthBias = bias;
+    sh.vertexShader = sh.vertexShader
+      .replace('void main() {', 'uniform float depthBias;\nvoid main() {')
+      .replace('#include <project_vertex>', `#include <project_vertex>
+  if (isPerspectiveMatrix(projectionMatrix)) mvPosition.xyz -= depthBias * normalize(mvPosition.xyz); else mvPosition.z += depthBias;
+  gl_Position = projectionMatrix * mvPosition;`);
+  };
+  mat.customProgramCacheKey = () => 'depth-bias';
+  return mat;
+}
 
 export class ControlsView {
   constructor(viewport) {
@@ -49,6 +68,7 @@ export class ControlsView {
     this.selection = new Set();
     this.allRois = false;      // PB-FFD: every ROI, not only the selected / hovered handles'
     this.occlusionCache = null;
+    this.depthBias = { value: 0 };
     this.count = 0;
     this.method = null;
     this.positions = null; // BufferAttribute, C*3
@@ -101,6 +121,7 @@ export class ControlsView {
     if (!C) { this.visibleIds = []; this.visibleMask = new Uint8Array(0); this.vp.requestRender(); return; }
 
     const view = this.view;
+    this.depthBias.value = DEPTH_TOLERANCE * this.vp.diag;
     const edges = c.edges || [];
     const edgeColor = view.edgeColor ?? COL.edge;
 
@@ -139,7 +160,7 @@ export class ControlsView {
         size: 11, sizeAttenuation: false, map: this.tex[shape], vertexColors: true,
         transparent: true, alphaTest: 0.4, depthTest: !hidden, depthWrite: false, opacity: hidden ? HIDDEN_POINT_OPACITY : 1,
       });
-      const pts = new THREE.Points(pg, mat(false));
+      const pts = new THREE.Points(pg, withDepthBias(mat(false), this.depthBias));
       pts.frustumCulled = false;
       pts.renderOrder = 20;
       const hid = new THREE.Points(pg, mat(true));
@@ -308,16 +329,18 @@ export class ControlsView {
     const depth = readMeshDepth(vp, w, h, far);
     const mask = new Uint8Array(C);
     const v = new THREE.Vector3(), e = new THREE.Vector3();
-    const tol = 0.01 * vp.diag;
+    const tol = DEPTH_TOLERANCE * vp.diag;
     for (let i = 0; i < C; i++) {
       this.position(i, v);
       e.copy(v).applyMatrix4(cam.matrixWorldInverse);
+      // the same pull towards the camera as the drawing's (withDepthBias)
+      if (cam.isPerspectiveCamera) e.addScaledVector(e.clone().normalize(), -tol); else e.z += tol;
       v.project(cam);
       if (v.z < -1 || v.z > 1) continue;
       const x = Math.floor((v.x + 1) / 2 * w), y = Math.floor((v.y + 1) / 2 * h); // GL rows: bottom up
       if (x < 0 || y < 0 || x >= w || y >= h) continue;
       const d = depth[y * w + x];
-      if (d >= 0 && d < -e.z - tol) mask[i] = 1;
+      if (d >= 0 && d < -e.z) mask[i] = 1;
     }
     this.occlusionCache = { key, mask };
     return mask;

@@ -9,6 +9,7 @@ import * as THREE from 'three';
 import { h } from './dom.js';
 
 const STORE = 'ffd.view.up:';
+const STORE_FRONT = 'ffd.view.front:';
 const ROW_OF = { 0: 'X', 1: 'Y', 2: 'Z' };
 
 /**
@@ -36,11 +37,11 @@ export function detectUp(name, min, max) {
   return { axis: 'y', reason: e ? `${e.toUpperCase()} is Y-up` : 'Y-up by default' };
 }
 
-function stored(name) {
-  try { const v = window.localStorage.getItem(STORE + name); return v === 'y' || v === 'z' ? v : null; } catch { return null; }
+function stored(name, prefix = STORE) {
+  try { return window.localStorage.getItem(prefix + name); } catch { return null; }
 }
-function store(name, axis) {
-  try { window.localStorage.setItem(STORE + name, axis); } catch { /* private mode: not remembered */ }
+function store(name, value, prefix = STORE) {
+  try { window.localStorage.setItem(prefix + name, value); } catch { /* private mode: not remembered */ }
 }
 
 export class ViewNav {
@@ -49,7 +50,7 @@ export class ViewNav {
     this.meshKey = '';
     this.upReason = '';
     this.upChosen = false;
-    Object.assign(editor.opts, { up: 'y', ortho: false, grid: true, xray: false, allRois: false });
+    Object.assign(editor.opts, { up: 'y', front: 1, ortho: false, grid: true, xray: false, allRois: false });
     editor.keyHandlers.push((ev) => this.key(ev));
     editor.on('state', (s) => this.onState(s));
     editor.vp.onCameraChange.push((cam) => { editor.gizmo.tc.camera = cam; });
@@ -63,8 +64,11 @@ export class ViewNav {
     if (key === this.meshKey || !m.name) return;
     this.meshKey = key;
     const det = detectUp(m.name, m.min, m.max);
-    const mine = stored(m.name);
+    let mine = stored(m.name);
+    if (mine !== 'y' && mine !== 'z') mine = null;
     this.upChosen = !!mine;
+    this.ed.vp.frontSign = stored(m.name, STORE_FRONT) === '-1' ? -1 : 1;
+    this.ed.opts.front = this.ed.vp.frontSign;
     this.upReason = mine ? 'your choice for this mesh' : `detected: ${det.reason}`;
     this.applyUp(mine || det.axis);
     this.preset('front');
@@ -86,6 +90,17 @@ export class ViewNav {
     this.applyUp(axis);
     this.preset('front');
     this.ed.frame();
+  }
+
+  /** The model faces the other way: its front view becomes the conventional back one (remembered per mesh). */
+  flipFront() {
+    const vp = this.ed.vp;
+    vp.frontSign = -vp.frontSign;
+    this.ed.opts.front = vp.frontSign;
+    const name = this.ed.state && this.ed.state.mesh && this.ed.state.mesh.name;
+    if (name) store(name, String(vp.frontSign), STORE_FRONT);
+    this.preset('front');
+    this.ed.panel.update();
   }
 
   preset(name) { this.ed.vp.viewFrom(name); this.ed.emit('view', name); }
@@ -156,6 +171,7 @@ export class ViewNav {
         h('span', { class: 'seg' },
           btn('Y', `Y is up (OBJ, glTF, scans)${o.up === 'y' ? ` — ${this.upReason}` : ''}`, () => this.chooseUp('y'), o.up === 'y', 'view-up-y'),
           btn('Z', `Z is up (CAD, STL)${o.up === 'z' ? ` — ${this.upReason}` : ''}`, () => this.chooseUp('z'), o.up === 'z', 'view-up-z')),
+        btn('⇄ Front', `The model faces the other way: turn the front view around (remembered for this mesh). Front view now looks from ${frontName(o.up, o.front)}`, () => this.flipFront(), o.front < 0, 'view-flip-front'),
         h('span', { class: 'hint-text', title: 'How the up axis was chosen; your choice is remembered for this mesh name in this browser' }, this.upReason)),
       h('div', { class: 'row buttons view-presets' },
         btn('Front', 'Front view (numpad 1 or 1; Ctrl: back)', () => this.preset('front'), false, 'view-front'),
@@ -200,6 +216,8 @@ export class ViewNav {
         }, ROW_OF[a]))));
   }
 }
+
+const frontName = (up, sign) => (up === 'z' ? (sign < 0 ? '+Y' : '-Y') : (sign < 0 ? '-Z' : '+Z'));
 
 /** The gizmo's centre handle (free move / uniform scale) is drawn faint so that it does not hide the selected point under it. */
 function dimGizmoCentre(tc) {

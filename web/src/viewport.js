@@ -22,6 +22,7 @@ export class Viewport {
     this.perspCamera = this.camera;
     this.orthoCamera = new THREE.OrthographicCamera(-1, 1, 1, -1, 0.01, 1000);
     this.ortho = false;
+    this.frontSign = 1;     // -1: the model faces the other way (its front view is the conventional back)
     this.up = 'y';          // the mesh's up axis ('y' | 'z'): camera up, ground grid, view presets
     this.onCameraChange = []; // fn(camera) after the ortho / perspective switch
 
@@ -234,8 +235,8 @@ export class Viewport {
   /** The up axis as a vector. */
   upVector() { return this.up === 'z' ? new THREE.Vector3(0, 0, 1) : new THREE.Vector3(0, 1, 0); }
 
-  /** The front axis: from the model towards a viewer in front of it (Y-up: +Z; Z-up: -Y, as in Blender). */
-  frontVector() { return this.up === 'z' ? new THREE.Vector3(0, -1, 0) : new THREE.Vector3(0, 0, 1); }
+  /** The front axis: from the model towards a viewer in front of it (Y-up: +Z; Z-up: -Y, as in Blender; frontSign -1 turns it). */
+  frontVector() { return (this.up === 'z' ? new THREE.Vector3(0, -1, 0) : new THREE.Vector3(0, 0, 1)).multiplyScalar(this.frontSign); }
 
   /** Sets the up axis ('y' | 'z'): camera up, orbit, ground grid. */
   setUp(axis) {

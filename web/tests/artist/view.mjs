@@ -65,7 +65,7 @@ const occludedByRay = (ids) => ed((list) => {
     const d = p.clone().sub(o);
     const len = d.length();
     ray.set(o, d.normalize());
-    ray.far = len - 0.01 * vp.diag;
+    ray.far = len - 0.006 * vp.diag; // the editor's DEPTH_TOLERANCE (controls.js)
     if (ray.intersectObject(vp.mesh, false).length) out.push(id);
   }
   return out;
@@ -148,6 +148,16 @@ export async function stage() {
   await page.click('#panel button[name="view-up-y"]');
   cam = await camera();
   check(cam.up === 'y' && near(cam.dir, [0, 0, 1]) && (await ed(() => window.localStorage.getItem('ffd.view.up:bunny.obj'))) === 'y', '(view) Up: Y again');
+
+  await page.click('#panel button[name="view-flip-front"]');
+  cam = await camera();
+  check(near(cam.dir, [0, 0, -1]) && (await ed(() => window.localStorage.getItem('ffd.view.front:bunny.obj'))) === '-1', '(view) ⇄ Front: the front view turned around (a model facing -Z), remembered');
+  await page.keyboard.press('Numpad3');
+  cam = await camera();
+  check(near(cam.dir, [-1, 0, 0], 1e-3), '(view) ... and the right view follows it (-X)');
+  await page.click('#panel button[name="view-flip-front"]');
+  cam = await camera();
+  check(near(cam.dir, [0, 0, 1]), '(view) ⇄ Front again: back to +Z');
 
   // (e) lattice 5x5x5: depth-aware box select around the top layer
   await ed(() => window.ffdEditor.editor.viewNav.setXray(false));
@@ -238,6 +248,7 @@ export async function stage() {
   await click(ebfCand[1], ['Shift']);
   await page.waitForTimeout(100);
   const two = await ed(() => window.ffdEditor.selection);
+  note(`clicked EBFs ${ebfCand[0].id} at (${ebfCand[0].x.toFixed(0)}, ${ebfCand[0].y.toFixed(0)}) and ${ebfCand[1].id} at (${ebfCand[1].x.toFixed(0)}, ${ebfCand[1].y.toFixed(0)}); selection ${two}; hidden ${await ed((ids) => { const m = window.ffdEditor.editor.controlsView.occlusion(); return ids.map((i) => m[i]); }, two)}`);
   check(two.length === 2 && (await rois()) === 2, `(view) two EBFs selected: their 2 ROIs drawn (${await rois()})`);
   await shot('artist-view-pbffd-rois-selected');
   await page.check('#panel input[name="view-allRois"]');
