@@ -271,6 +271,29 @@ export class ControlsView {
 
   setVisible(on) { this.group.visible = on; this.vp.requestRender(); }
 
+  /**
+   * Lines over the controls' positions with the depth cue: the part in front
+   * of the mesh at `opacity`, the hidden part faint (full with X-ray). Adds
+   * both to the group; returns the visible pass (its hidden twin: .userData.hidden).
+   */
+  addLines(geometry, color, opacity, renderOrder = 11) {
+    const vis = new THREE.LineSegments(geometry, new THREE.LineBasicMaterial({ color, transparent: true, opacity, depthTest: true, depthWrite: false }));
+    const hid = new THREE.LineSegments(geometry, new THREE.LineBasicMaterial({
+      color, transparent: true, opacity: this.xray ? opacity : HIDDEN_EDGE_OPACITY, depthTest: false, depthWrite: false,
+    }));
+    vis.frustumCulled = hid.frustumCulled = false;
+    vis.renderOrder = renderOrder;
+    hid.renderOrder = renderOrder - 1;
+    hid.userData.fullOpacity = opacity;
+    hid.userData.hiddenOpacity = HIDDEN_EDGE_OPACITY;
+    vis.userData.hidden = hid;
+    // the hidden twin follows the visible pass's visibility
+    Object.defineProperty(hid, 'visible', { get: () => vis.visible, set: () => {}, configurable: true });
+    this.hiddenPasses.push(hid);
+    this.group.add(hid, vis);
+    return vis;
+  }
+
   /** X-ray: hidden handles and lines at full strength (and selectable: select.js). */
   setXray(on) {
     this.xray = !!on;

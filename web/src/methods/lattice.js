@@ -142,12 +142,7 @@ export default {
         const g = new THREE.BufferGeometry();
         g.setAttribute('position', v.positions);
         g.setIndex(idx);
-        const lines = new THREE.LineSegments(g, new THREE.LineBasicMaterial({
-          color: levelColor(depth), transparent: true, opacity: 0.8, depthTest: false,
-        }));
-        lines.frustumCulled = false;
-        lines.renderOrder = 12;
-        v.group.add(lines);
+        v.addLines(g, levelColor(depth), 0.8, 12);
       }
     },
   },
