@@ -33,7 +33,7 @@ function spriteTexture(shape) {
 // Depth cue: handles and lattice lines in front of the mesh are drawn bright
 // (depth-tested), the hidden ones faint (a second pass without the depth test);
 // X-ray draws both at full strength.
-const HIDDEN_POINT_OPACITY = 0.3;
+const HIDDEN_POINT_OPACITY = 0.35;
 const HIDDEN_EDGE_OPACITY = 0.12;
 // A handle within this fraction of the mesh size behind the surface still
 // counts as visible (points on the surface: PB-FFD curves, T-spline proxies),
@@ -158,7 +158,7 @@ export class ControlsView {
       pg.setAttribute('color', this.colors);
       const mat = (hidden) => new THREE.PointsMaterial({
         size: 11, sizeAttenuation: false, map: this.tex[shape], vertexColors: true,
-        transparent: true, alphaTest: 0.4, depthTest: !hidden, depthWrite: false, opacity: hidden ? HIDDEN_POINT_OPACITY : 1,
+        transparent: true, alphaTest: hidden ? 0.1 : 0.4, depthTest: !hidden, // alphaTest applies after opacity depthWrite: false, opacity: hidden ? HIDDEN_POINT_OPACITY : 1,
       });
       const pts = new THREE.Points(pg, withDepthBias(mat(false), this.depthBias));
       pts.frustumCulled = false;

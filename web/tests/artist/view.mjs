@@ -5,9 +5,18 @@
 // against an independent ray cast), hover highlight, select layer / row, and
 // PB-FFD ROIs drawn for the selection only.
 
+import path from 'node:path';
 import {
-  page, ed, check, must, note, shot, settle, state, click, createViaPanel, pickableControls,
+  page, ed, check, must, note, shot, settle, state, click, createViaPanel, pickableControls, OUT,
 } from '../harness.mjs';
+
+/** A screenshot of the view only, around the model (the pictures of docs/editor.md). */
+async function viewShot(name, clip) {
+  const file = path.join(OUT, `${name}.png`);
+  await page.waitForTimeout(150);
+  await page.screenshot({ path: file, clip });
+  note(`screenshot ${file}`);
+}
 
 async function openMesh(name) {
   await page.click('#panel button[title="Refresh the file list"]');
@@ -109,6 +118,7 @@ export async function stage() {
   const grid = await ed(() => { const g = window.ffdEditor.editor.vp.grid; return { visible: g.visible, z: g.position.z, rx: g.rotation.x }; });
   check(grid.visible && Math.abs(grid.rx - Math.PI / 2) < 1e-6 && Math.abs(grid.z) < 1e-3, '(view) the grid lies on the plane z = 0 the hinge rests on');
   await shot('artist-view-hinge-zup');
+  await viewShot('artist-view-hinge-zup-view', { x: 100, y: 250, width: 760, height: 480 });
 
   // (b) bunny.obj (Y-up): opened from the front, whole
   await openMesh('bunny.obj');
@@ -187,6 +197,7 @@ export async function stage() {
   check(hiddenSel.length === 0 && visibleMissed.length <= 1 && topVisible.every((id) => selOff.includes(id)),
     `(view) X-ray off: box select took the ${selOff.length} visible handles (all ${topVisible.length} visible of the top layer, ${hiddenSel.length} hidden, ${visibleMissed.length} visible missed), not the ${hiddenInBox.length} hidden`);
   await shot('artist-view-lattice-boxselect');
+  await viewShot('artist-view-lattice-boxselect-view', { x: 170, y: 120, width: 620, height: 560 });
   await page.keyboard.press('Alt+KeyZ');
   check(await ed(() => window.ffdEditor.editor.opts.xray && window.ffdEditor.editor.controlsView.xray), '(view) Alt+Z: X-ray on');
   const selOn = await boxSelect(r);
@@ -251,6 +262,7 @@ export async function stage() {
   note(`clicked EBFs ${ebfCand[0].id} at (${ebfCand[0].x.toFixed(0)}, ${ebfCand[0].y.toFixed(0)}) and ${ebfCand[1].id} at (${ebfCand[1].x.toFixed(0)}, ${ebfCand[1].y.toFixed(0)}); selection ${two}; hidden ${await ed((ids) => { const m = window.ffdEditor.editor.controlsView.occlusion(); return ids.map((i) => m[i]); }, two)}`);
   check(two.length === 2 && (await rois()) === 2, `(view) two EBFs selected: their 2 ROIs drawn (${await rois()})`);
   await shot('artist-view-pbffd-rois-selected');
+  await viewShot('artist-view-pbffd-rois-selected-view', { x: 0, y: 190, width: 860, height: 560 });
   await page.check('#panel input[name="view-allRois"]');
   check((await rois()) === sp.controls.ebfs.length, `(view) All ROIs: every one drawn (${await rois()})`);
   await page.uncheck('#panel input[name="view-allRois"]');
