@@ -362,7 +362,7 @@ export class ControlsView {
       if (v.z < -1 || v.z > 1) continue;
       const x = Math.floor((v.x + 1) / 2 * w), y = Math.floor((v.y + 1) / 2 * h); // GL rows: bottom up
       if (x < 0 || y < 0 || x >= w || y >= h) continue;
-      const d = depth[y * w + x];
+      const d = depth(y * w + x);
       if (d >= 0 && d < -e.z) mask[i] = 1;
     }
     this.occlusionCache = { key, mask };
@@ -370,7 +370,7 @@ export class ControlsView {
   }
 }
 
-/** View-space distance (0 .. far) of the mesh at each pixel, -1 where there is none. */
+/** depthAt(pixel index, GL rows bottom up): view-space distance (0 .. far) of the mesh there, -1 where there is none. */
 function readMeshDepth(vp, w, h, far) {
   const r = vp.renderer;
   if (!vp.depthTarget || vp.depthTarget.width !== w || vp.depthTarget.height !== h) {
@@ -407,10 +407,9 @@ function readMeshDepth(vp, w, h, far) {
   r.setRenderTarget(prevTarget);
   r.setClearColor(prevColor, prevAlpha);
   mesh.material = mat;
-  const out = new Float32Array(w * h);
-  for (let i = 0, n = w * h; i < n; i++) {
+  // decoded on demand: only the handles' pixels are read
+  return (i) => {
     const o = 4 * i;
-    out[i] = buf[o + 3] < 128 ? -1 : (buf[o] / 255 + buf[o + 1] / 65025 + buf[o + 2] / 16581375) * far;
-  }
-  return out;
+    return buf[o + 3] < 128 ? -1 : (buf[o] / 255 + buf[o + 1] / 65025 + buf[o + 2] / 16581375) * far;
+  };
 }

@@ -300,8 +300,7 @@ export class Viewport {
     if (on) to.position.copy(from.position);
     to.quaternion.copy(from.quaternion);
     to.up.copy(from.up);
-    to.near = from.near;
-    to.far = from.far;
+    // near / far: each camera keeps its own (frameBox sets both; the ortho's near is -far)
     this.ortho = on;
     this.camera = to;
     to.add(this.keyLight);

@@ -147,7 +147,7 @@ export async function stage() {
   await shot('artist-view-bunny-top-ortho');
   await page.keyboard.press('Numpad5');
   cam = await camera();
-  check(!cam.ortho, '(view) Numpad5 again: perspective');
+  check(!cam.ortho && await wholeInView() && (await ed(() => window.ffdEditor.editor.vp.camera.near)) > 0, '(view) Numpad5 again: perspective, the whole bunny in view');
   await page.keyboard.press('Numpad1');
 
   // (d) up-axis override from the View section, remembered per mesh
@@ -271,4 +271,23 @@ export async function stage() {
   check(shapes.includes('square') && shapes.includes('disc'), '(view) handle shapes: EBFs discs, curve points squares');
   await ed(() => window.ffdEditor.select([]));
   await settle();
+
+  // (i) T-spline proxy: a layer by position (no grid indices on the proxy)
+  const ts = await createViaPanel('tspline', { 'res-tspline-0': 4, 'res-tspline-1': 4, 'res-tspline-2': 4 });
+  must(ts.method === 'tspline' && ts.controls.proxy.points.length > 0, `(view) T-spline 4x4x4 on the bunny (${ts.controls.proxy.points.length} proxy points)`);
+  await page.keyboard.press('Numpad1');
+  const tc = await pickableControls(ts.controls.proxy.points);
+  must(tc.length > 0, '(view) a proxy point to click');
+  await click(tc[0]);
+  await page.waitForTimeout(80);
+  await page.click('#panel button[name="select-layer-1"]');
+  const layer = await ed((id) => {
+    const e = window.ffdEditor.editor;
+    const y0 = e.controlsView.position(id).y;
+    const sel = window.ffdEditor.selection;
+    return { n: sel.length, flat: sel.every((i) => Math.abs(e.controlsView.position(i).y - y0) <= 0.02 * e.vp.diag), shown: sel.every((i) => e.controlsView.isVisible(i)) };
+  }, tc[0].id);
+  check(layer.n >= 4 && layer.flat && layer.shown, `(view) T-spline: Layer Y takes the ${layer.n} proxy points at the clicked point's height`);
+  await shot('artist-view-tspline-layer');
+  await ed(() => window.ffdEditor.select([]));
 }
