@@ -125,12 +125,15 @@ export class ViewNav {
     const v = new THREE.Vector3();
     for (const id of ed.selection) box.expandByPoint(ed.controlsView.position(id, v));
     // a single point: a view around it a tenth of the model across
-    const r = Math.max(box.getSize(v).length() / 2, 0.08 * ed.vp.diag);
+    const r = Math.max(box.getSize(v).length() / 2, 0.15 * ed.vp.diag);
     box.expandByScalar(r - box.getSize(v).length() / 2);
     ed.vp.frameBox(box);
   }
 
   frameAll() { this.ed.frame(); }
+
+  /** The detection rule (tests). */
+  static detectUp(name, min, max) { return detectUp(name, min, max); }
 
   /** Keys of the view (help overlay "View"); digits are left to a running transform. */
   key(ev) {

@@ -120,6 +120,15 @@ export async function stage() {
   await shot('artist-view-hinge-zup');
   await viewShot('artist-view-hinge-zup-view', { x: 100, y: 250, width: 760, height: 480 });
 
+  // the detection rule on boxes of each kind (docs/editor.md "Up axis")
+  const rule = await ed(() => {
+    const d = (n, min, max) => window.ffdEditor.editor.viewNav.constructor.detectUp(n, min, max).axis;
+    return [d('part.stl', [0, -5, 0], [50, 25, 10]), d('part.stl', [0, 0, -3], [5, 9, 3]), d('scan.ply', [-1, 0, -1], [1, 2, 1]),
+      d('part.ply', [-1, -1, 0], [1, 1, 3]), d('cow.off', [-0.5, -0.3, -0.16], [0.5, 0.3, 0.16]), d('model.glb', [-1, -1, 0], [1, 1, 3]),
+      d('bunny.obj', [-5, 0, -3.7], [5, 9.7, 3.8])].join('');
+  });
+  check(rule === 'zyyzyyy', `(view) up-axis rule: STL z unless resting on y = 0; PLY/OFF/OBJ y unless resting on z = 0; glTF y (${rule})`);
+
   // (b) bunny.obj (Y-up): opened from the front, whole
   await openMesh('bunny.obj');
   cam = await camera();
@@ -241,6 +250,7 @@ export async function stage() {
   const pos = await ed((id) => window.ffdEditor.editor.controlsView.position(id).toArray(), p.id);
   const diag = await ed(() => window.ffdEditor.editor.vp.diag);
   check(Math.hypot(...cam.target.map((x, i) => x - pos[i])) < 1e-6 * diag, '(view) numpad . frames the selected point (orbit target on it)');
+  await shot('artist-view-frame-selected');
   await page.keyboard.press('Home');
   check(await wholeInView(), '(view) Home frames the whole bunny again');
   await ed(() => window.ffdEditor.select([]));
