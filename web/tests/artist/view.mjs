@@ -154,7 +154,24 @@ export async function stage() {
   check(cam.ortho && near(cam.dir, [0, 1, 0], 1e-3), '(view) Numpad5: orthographic, same direction');
   check(await wholeInView(), '(view) orthographic top view: the whole bunny in view');
   await shot('artist-view-bunny-top-ortho');
+  // zoom in the parallel view (the wheel changes its zoom), then back to
+  // perspective: the zoom becomes a dolly, the model keeps its size on screen
+  // (the screen length of a segment of the model's size through the orbit target, along X)
+  const width = () => ed(() => {
+    const e = window.ffdEditor.editor;
+    const t = e.vp.orbit.target;
+    const d = e.vp.diag / 2;
+    return e.screenOf(t.clone().setX(t.x + d)).x - e.screenOf(t.clone().setX(t.x - d)).x;
+  });
+  await page.mouse.move(canvas.x, canvas.y);
+  const w0 = await width();
+  await page.mouse.wheel(0, -300);
+  await page.waitForTimeout(150);
+  const wOrtho = await width();
   await page.keyboard.press('Numpad5');
+  const wPersp = await width();
+  check(wOrtho > 1.1 * w0 && Math.abs(wPersp / wOrtho - 1) < 0.02, `(view) the ortho zoom carried into perspective: the model's size ${wOrtho.toFixed(0)} px at the target in both`);
+  await page.keyboard.press('Home');
   cam = await camera();
   check(!cam.ortho && await wholeInView() && (await ed(() => window.ffdEditor.editor.vp.camera.near)) > 0, '(view) Numpad5 again: perspective, the whole bunny in view');
   await page.keyboard.press('Numpad1');
@@ -164,6 +181,9 @@ export async function stage() {
   cam = await camera();
   const stored = await ed(() => window.localStorage.getItem('ffd.view.up:bunny.obj'));
   check(cam.up === 'z' && stored === 'z' && near(cam.dir, [0, -1, 0]), '(view) Up: Z chosen in the panel: camera up Z, front view -Y, remembered for bunny.obj');
+  await openMesh('bunny.obj');
+  cam = await camera();
+  check(cam.up === 'z' && /your choice/.test(await ed(() => window.ffdEditor.editor.viewNav.upReason)), '(view) bunny.obj opened again: Z-up, the remembered choice');
   await page.click('#panel button[name="view-up-y"]');
   cam = await camera();
   check(cam.up === 'y' && near(cam.dir, [0, 0, 1]) && (await ed(() => window.localStorage.getItem('ffd.view.up:bunny.obj'))) === 'y', '(view) Up: Y again');
@@ -177,6 +197,11 @@ export async function stage() {
   await page.click('#panel button[name="view-flip-front"]');
   cam = await camera();
   check(near(cam.dir, [0, 0, 1]), '(view) ⇄ Front again: back to +Z');
+
+  await page.uncheck('#panel input[name="view-grid"]');
+  check(!(await ed(() => window.ffdEditor.editor.vp.grid.visible)), '(view) Grid off hides the ground grid');
+  await page.check('#panel input[name="view-grid"]');
+  check(await ed(() => window.ffdEditor.editor.vp.grid.visible), '(view) Grid on');
 
   // (e) lattice 5x5x5: depth-aware box select around the top layer
   await ed(() => window.ffdEditor.editor.viewNav.setXray(false));
