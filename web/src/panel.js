@@ -171,7 +171,6 @@ export class Panel {
       h('div', { class: 'row' }, check('ROIs / radii', 'rois', (v) => ed.setRois(v), 'EBF ellipsoids, skeleton radii')),
       h('div', { class: 'row' }, check('Influence map (I)', 'influence', (v) => ed.setInfluence(v), 'How strongly each vertex follows the selection')),
       o.influence ? h('div', { class: 'legend', id: 'influence-legend' }, '0', h('span', { class: 'bar' }), h('span', { class: 'max' }, fmtW(ed.vp.influenceMax))) : null,
-      h('div', { class: 'row buttons' }, h('button', { onclick: () => ed.frame(), title: 'Frame the mesh and its deformer, keeping the view direction' }, '⌖ Frame mesh (F)')),
     );
   }
 

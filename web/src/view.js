@@ -141,7 +141,7 @@ export class ViewNav {
     const code = ev.code || '';
     const ctrl = ev.ctrlKey || ev.metaKey;
     if (ev.altKey && !ctrl && code === 'KeyZ') { this.setXray(!ed.opts.xray); return true; }
-    if (ed.activeDrag || ev.altKey) return false;
+    if (ed.activeDrag || ev.altKey || ev.shiftKey && !(ev.key === 'l' || ev.key === 'L')) return false;
     const digit = (code.match(/^(?:Numpad|Digit)([0-9])$/) || [])[1];
     if (digit === '1') { this.preset(ctrl ? 'back' : 'front'); return true; }
     if (digit === '3') { this.preset(ctrl ? 'left' : 'right'); return true; }
@@ -180,14 +180,14 @@ export class ViewNav {
         btn('Front', 'Front view (numpad 1 or 1; Ctrl: back)', () => this.preset('front'), false, 'view-front'),
         btn('Right', 'Right view (numpad 3 or 3; Ctrl: left)', () => this.preset('right'), false, 'view-right'),
         btn('Top', 'Top view (numpad 7 or 7; Ctrl: bottom)', () => this.preset('top'), false, 'view-top'),
-        btn(o.ortho ? 'Ortho' : 'Persp', 'Orthographic / perspective projection (numpad 5 or 5)', () => this.setOrtho(!o.ortho), o.ortho, 'view-ortho')),
+        btn('Ortho', `Orthographic (parallel) projection on / off (numpad 5 or 5); now ${o.ortho ? 'orthographic' : 'perspective'}`, () => this.setOrtho(!o.ortho), o.ortho, 'view-ortho')),
       h('div', { class: 'row buttons view-presets' },
         btn('Back', 'Back view (Ctrl+numpad 1)', () => this.preset('back'), false, 'view-back'),
         btn('Left', 'Left view (Ctrl+numpad 3)', () => this.preset('left'), false, 'view-left'),
         btn('Bottom', 'Bottom view (Ctrl+numpad 7)', () => this.preset('bottom'), false, 'view-bottom')),
       h('div', { class: 'row buttons' },
-        h('button', { 'data-need-sel': true, name: 'view-frame-selected', onclick: () => this.frameSelected(), title: 'Frame the selected control points (numpad . or F)' }, '⌖ Frame selected'),
-        h('button', { name: 'view-frame-all', onclick: () => this.frameAll(), title: 'Frame the whole mesh and its deformer (Home; F with nothing selected)' }, 'Frame all')),
+        h('button', { 'data-need-sel': true, name: 'view-frame-selected', onclick: () => this.frameSelected(), title: 'Frame the selected control points (numpad . or F)' }, 'Frame selected (.)'),
+        h('button', { name: 'view-frame-all', onclick: () => this.frameAll(), title: 'Frame the whole mesh and its deformer, keeping the view direction (Home; F with nothing selected)' }, 'Frame all (Home)')),
       h('div', { class: 'row' },
         check('Grid', 'grid', (v) => this.setGrid(v), 'The ground grid, on the plane the model rests on'),
         check('X-ray (Alt+Z)', 'xray', (v) => this.setXray(v), 'Show the control points and lines hidden behind the mesh at full strength, and let clicks and box select take them; off: hidden ones are faint and cannot be picked')),

@@ -244,8 +244,10 @@ export class Viewport {
     const up = this.upVector();
     for (const cam of [this.perspCamera, this.orthoCamera]) cam.up.copy(up);
     // OrbitControls turns about camera.up, captured at construction
-    this.orbit._quat.setFromUnitVectors(up, new THREE.Vector3(0, 1, 0));
-    this.orbit._quatInverse.copy(this.orbit._quat).invert();
+    if (this.orbit._quat) {
+      this.orbit._quat.setFromUnitVectors(up, new THREE.Vector3(0, 1, 0));
+      this.orbit._quatInverse.copy(this.orbit._quat).invert();
+    }
     this.buildGrid();
     this.orbit.update();
     this.requestRender();

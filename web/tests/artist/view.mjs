@@ -198,6 +198,8 @@ export async function stage() {
   cam = await camera();
   check(near(cam.dir, [0, 0, 1]), '(view) ⇄ Front again: back to +Z');
 
+  await page.locator('#panel button[name="view-front"]').scrollIntoViewIfNeeded();
+  await shot('artist-view-panel');
   await page.uncheck('#panel input[name="view-grid"]');
   check(!(await ed(() => window.ffdEditor.editor.vp.grid.visible)), '(view) Grid off hides the ground grid');
   await page.check('#panel input[name="view-grid"]');
