@@ -1,6 +1,7 @@
 // Orientation and navigation of the view (docs/editor.md "View"): the mesh's
 // up axis (detected on open, the user's choice remembered per mesh), the front
-// view on open, view presets (numpad 1 / 3 / 7, Ctrl for the opposite side),
+// view on open, view presets (numpad 1 / 3 / 7, Ctrl for the opposite side;
+// numpad 4 / 6 / 8 / 2 turn the view by 15°),
 // orthographic / perspective (5), frame selected (numpad . or F with a
 // selection) and all (Home), the ground grid, X-ray (Alt+Z), the PB-FFD "all
 // ROIs" switch, and selecting rows / layers through the selection (L, Shift+L).
@@ -147,6 +148,11 @@ export class ViewNav {
     if (digit === '3') { this.preset(ctrl ? 'left' : 'right'); return true; }
     if (digit === '7') { this.preset(ctrl ? 'bottom' : 'top'); return true; }
     if (ctrl) return false;
+    const step = Math.PI / 12; // Blender's 15° per numpad 4 / 6 / 8 / 2
+    if (code === 'Numpad4') { this.ed.vp.orbitBy(-step, 0); return true; }
+    if (code === 'Numpad6') { this.ed.vp.orbitBy(step, 0); return true; }
+    if (code === 'Numpad8') { this.ed.vp.orbitBy(0, step); return true; }
+    if (code === 'Numpad2') { this.ed.vp.orbitBy(0, -step); return true; }
     if (digit === '5') { this.setOrtho(!ed.opts.ortho); return true; }
     if (code === 'NumpadDecimal') { this.frameSelected(); return true; }
     if (code === 'Home') { this.frameAll(); return true; }

@@ -282,6 +282,28 @@ export class Viewport {
     this.requestRender();
   }
 
+  /**
+   * Turns the view about the orbit target (numpad 4 / 6 / 8 / 2): yaw about the
+   * up axis, pitch about the screen's horizontal axis, in radians (positive
+   * yaw: the camera moves to the right around the model; positive pitch: up).
+   */
+  orbitBy(yaw, pitch) {
+    const t = this.orbit.target;
+    const off = this.camera.position.clone().sub(t);
+    const up = this.upVector();
+    off.applyAxisAngle(up, yaw);
+    const right = new THREE.Vector3().crossVectors(up, off);
+    if (right.lengthSq() < 1e-12) right.set(1, 0, 0).applyQuaternion(this.camera.quaternion);
+    right.normalize();
+    // stop short of the poles (OrbitControls clamps there too)
+    const polar = off.angleTo(up);
+    const p = Math.min(Math.max(-pitch, 1e-4 - polar), Math.PI - 1e-4 - polar);
+    off.applyAxisAngle(right, p);
+    for (const cam of [this.perspCamera, this.orthoCamera]) cam.position.copy(t).add(off);
+    this.orbit.update();
+    this.requestRender();
+  }
+
   /** Orthographic (true) or perspective projection, keeping what is seen at the target's distance. */
   setOrtho(on) {
     on = !!on;

@@ -146,6 +146,12 @@ export async function stage() {
     cam = await camera();
     check(near(cam.dir, want, 1e-3), `(view) ${key}: ${what} view (dir ${cam.dir.map((x) => x.toFixed(3))})`);
   }
+  await page.keyboard.press('Numpad6');
+  cam = await camera();
+  check(Math.abs(dot(cam.dir, [0, 0, 1]) - Math.cos(Math.PI / 12)) < 1e-3 && cam.dir[0] > 0 && Math.abs(cam.dir[1]) < 1e-6, `(view) Numpad6: the view turned 15° about the up axis, to the right (dir ${cam.dir.map((x) => x.toFixed(3))})`);
+  await page.keyboard.press('Numpad8');
+  cam = await camera();
+  check(Math.abs(cam.dir[1] - Math.sin(Math.PI / 12)) < 1e-3, `(view) Numpad8: 15° up (dir ${cam.dir.map((x) => x.toFixed(3))})`);
   await page.keyboard.press('Numpad7');
   cam = await camera();
   check(near(cam.screenUp, [0, 0, -1], 1e-3), '(view) top view: the front (+Z) at the bottom of the screen');
