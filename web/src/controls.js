@@ -99,7 +99,6 @@ export class ControlsView {
     }
     this.pointSets = [];
     this.hiddenPasses = [];
-    this.edgesHidden = null;
     this.hoverMarker = null;
     this.hover = -1;
     this.occlusionCache = null;
@@ -131,21 +130,7 @@ export class ControlsView {
       const g = new THREE.BufferGeometry();
       g.setAttribute('position', this.positions);
       g.setIndex(new THREE.BufferAttribute(idx, 1));
-      this.edges = new THREE.LineSegments(g, new THREE.LineBasicMaterial({
-        color: edgeColor, transparent: true, opacity: view.edgeOpacity ?? 0.55, depthTest: true, depthWrite: false,
-      }));
-      this.edges.frustumCulled = false;
-      this.edges.renderOrder = 11;
-      const hidden = new THREE.LineSegments(g, new THREE.LineBasicMaterial({
-        color: edgeColor, transparent: true, opacity: HIDDEN_EDGE_OPACITY, depthTest: false, depthWrite: false,
-      }));
-      hidden.frustumCulled = false;
-      hidden.renderOrder = 10;
-      hidden.userData.fullOpacity = view.edgeOpacity ?? 0.55;
-      hidden.userData.hiddenOpacity = HIDDEN_EDGE_OPACITY;
-      this.edgesHidden = hidden;
-      this.hiddenPasses.push(hidden);
-      this.group.add(hidden, this.edges);
+      this.edges = this.addLines(g, edgeColor, view.edgeOpacity ?? 0.55, 11);
     } else this.edges = null;
 
     if (view.build) view.build(this, c);
@@ -158,7 +143,8 @@ export class ControlsView {
       pg.setAttribute('color', this.colors);
       const mat = (hidden) => new THREE.PointsMaterial({
         size: 11, sizeAttenuation: false, map: this.tex[shape], vertexColors: true,
-        transparent: true, alphaTest: hidden ? 0.1 : 0.4, depthTest: !hidden, // alphaTest applies after opacity depthWrite: false, opacity: hidden ? HIDDEN_POINT_OPACITY : 1,
+        // (alphaTest compares the alpha after opacity: the faint pass needs a lower one)
+        transparent: true, alphaTest: hidden ? 0.1 : 0.4, depthTest: !hidden, depthWrite: false, opacity: hidden ? HIDDEN_POINT_OPACITY : 1,
       });
       const pts = new THREE.Points(pg, withDepthBias(mat(false), this.depthBias));
       pts.frustumCulled = false;
@@ -216,7 +202,6 @@ export class ControlsView {
     }
     if (this.hover >= 0 && !mask[this.hover]) this.setHover(-1);
     if (this.edges) this.edges.visible = true;
-    if (this.edgesHidden) this.edgesHidden.visible = true;
     if (this.rois) this.rois.visible = this.showRois;
     if (view.updateVisibility) view.updateVisibility(this);
     this.vp.requestRender();
@@ -287,7 +272,7 @@ export class ControlsView {
     hid.userData.fullOpacity = opacity;
     hid.userData.hiddenOpacity = HIDDEN_EDGE_OPACITY;
     vis.userData.hidden = hid;
-    // the hidden twin follows the visible pass's visibility
+    // the hidden twin follows the visible pass's visibility (methods toggle that one)
     Object.defineProperty(hid, 'visible', { get: () => vis.visible, set: () => {}, configurable: true });
     this.hiddenPasses.push(hid);
     this.group.add(hid, vis);

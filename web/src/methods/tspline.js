@@ -107,7 +107,6 @@ export default {
     },
     updateVisibility(v) {
       if (v.edges) v.edges.visible = v.showLattice;
-      if (v.edgesHidden) v.edgesHidden.visible = v.showLattice;
       for (const o of v.proxy || []) o.visible = !v.showLattice;
     },
   },
