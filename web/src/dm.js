@@ -4,6 +4,7 @@
 import * as THREE from 'three';
 import { DragSession } from './drag.js';
 import { api } from './api.js';
+import { COL } from './palette.js';
 
 export class DirectManip {
   constructor(editor) {
@@ -14,9 +15,9 @@ export class DirectManip {
     this.labels.className = 'pin-labels';
     editor.container.appendChild(this.labels);
     this.sphereGeom = new THREE.SphereGeometry(1, 16, 12);
-    this.okMat = new THREE.MeshBasicMaterial({ color: 0x3fdc8a, depthTest: false, transparent: true });
-    this.badMat = new THREE.MeshBasicMaterial({ color: 0xff4d4d, depthTest: false, transparent: true });
-    this.selMat = new THREE.MeshBasicMaterial({ color: 0xffe14d, depthTest: false, transparent: true });
+    this.okMat = new THREE.MeshBasicMaterial({ color: COL.pin, depthTest: false, transparent: true });
+    this.badMat = new THREE.MeshBasicMaterial({ color: COL.pinMissed, depthTest: false, transparent: true });
+    this.selMat = new THREE.MeshBasicMaterial({ color: COL.pinSelected, depthTest: false, transparent: true });
     this.targetMat = new THREE.MeshBasicMaterial({ color: 0xffffff, wireframe: true, depthTest: false, transparent: true, opacity: 0.8 });
     this.pins = [];            // from the state: {vertex, target, residual}
     this.residuals = null;     // from the latest frame (pins, then the dragged vertex)

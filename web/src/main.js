@@ -8,6 +8,7 @@ import { Selector } from './select.js';
 import { Gizmo } from './gizmo.js';
 import { DirectManip } from './dm.js';
 import { DragSession } from './drag.js';
+import { ViewNav } from './view.js';
 import { Panel, fmtInt, h } from './panel.js';
 import { methodOf, PICK_TOOLS, BUSY } from './methods/index.js';
 
@@ -39,6 +40,7 @@ class Editor {
     this.selector = new Selector(this);
     this.dm = new DirectManip(this);
     this.panel = new Panel(this, $('panel'));
+    this.viewNav = new ViewNav(this); // up axis, view presets, ortho, grid, X-ray, rows / layers (view.js)
     this.sketchGroup = new THREE.Group();
     this.vp.overlays.add(this.sketchGroup);
 
@@ -608,5 +610,6 @@ window.ffdEditor = {
   gizmoCenter() { return editor.screenOf(editor.gizmo.pivot.position); },
   benchDrag(n, opts) { return benchDrag(n, opts); },
   editor,
+  THREE, // tests: independent checks (a ray cast) with the page's own three
 };
 editor.boot();

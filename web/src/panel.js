@@ -59,6 +59,7 @@ export class Panel {
       this.meshSection(s),
       this.createSection(s),
       this.methodSection(s),
+      this.ed.viewNav.selectSection(s),
       this.dmSection(s),
       this.editSection(s),
       this.viewSection(s),
@@ -164,12 +165,12 @@ export class Panel {
     const check = (label, key, fn, title) => h('label', { class: 'check', title },
       h('input', { type: 'checkbox', name: `view-${key}`, checked: o[key], onchange: (e) => fn(e.target.checked) }), label);
     return h('section', {}, h('h3', {}, 'View'),
+      ...ed.viewNav.panelRows(),
       h('div', { class: 'row' }, check('Wireframe (W)', 'wireframe', (v) => ed.setWireframe(v))),
       h('div', { class: 'row' }, check('Controls', 'controls', (v) => ed.setControlsVisible(v))),
       h('div', { class: 'row' }, check('ROIs / radii', 'rois', (v) => ed.setRois(v), 'EBF ellipsoids, skeleton radii')),
       h('div', { class: 'row' }, check('Influence map (I)', 'influence', (v) => ed.setInfluence(v), 'How strongly each vertex follows the selection')),
       o.influence ? h('div', { class: 'legend', id: 'influence-legend' }, '0', h('span', { class: 'bar' }), h('span', { class: 'max' }, fmtW(ed.vp.influenceMax))) : null,
-      h('div', { class: 'row buttons' }, h('button', { onclick: () => ed.frame() }, '⌖ Frame mesh (F)')),
     );
   }
 

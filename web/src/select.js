@@ -3,6 +3,7 @@
 
 import * as THREE from 'three';
 import { DragSession } from './drag.js';
+import { methodOf } from './methods/index.js';
 
 const PICK_PX = 10;
 
@@ -14,6 +15,62 @@ export class Selector {
     this.box.hidden = true;
     editor.container.appendChild(this.box);
     this.boxArmed = false; // key B
+    // hover highlight: the handle under the pointer (controls tool, no button held)
+    let queued = null;
+    editor.container.addEventListener('pointermove', (ev) => {
+      if (queued) { queued = ev; return; }
+      queued = ev;
+      requestAnimationFrame(() => { const e = queued; queued = null; this.hoverAt(e); });
+    });
+    editor.container.addEventListener('pointerleave', () => this.ed.controlsView.setHover(-1));
+  }
+
+  hoverAt(ev) {
+    const ed = this.ed;
+    const over = ev.target === ed.vp.renderer.domElement;
+    const id = over && !ev.buttons && ed.tool === 'controls' && !ed.activeDrag ? this.pick(ev) : -1;
+    ed.controlsView.setHover(id);
+  }
+
+  /** Handles that can be picked now: the visible ones, and with X-ray off only those in front of the mesh. */
+  candidates() {
+    const cv = this.ed.controlsView;
+    if (cv.xray) return cv.visibleIds;
+    const hidden = cv.occlusion();
+    return cv.visibleIds.filter((id) => !hidden[id]);
+  }
+
+  /** The method's rows / layers through the selection (lattice: by index), else by position. */
+  selectLayer(axis, { row = false } = {}) {
+    const ed = this.ed;
+    if (!ed.selection.length || !ed.state || !ed.state.method) return false;
+    const c = ed.state.controls || {};
+    const sel = methodOf(ed.state.method).select || {};
+    const fn = row ? sel.row : sel.layer;
+    const ids = fn ? fn(c, ed.selection, axis) : this.byPosition(axis, row);
+    const cv = ed.controlsView;
+    ed.setSelection(ids.filter((id) => cv.isVisible(id)));
+    return true;
+  }
+
+  /**
+   * Methods without a grid (T-spline proxy, cage, ...): the visible handles on
+   * the plane (layer: same coordinate along axis) or on the line (row: same
+   * other two coordinates) through each selected handle, within 2% of the mesh size.
+   */
+  byPosition(axis, row) {
+    const cv = this.ed.controlsView;
+    const tol = 0.02 * this.ed.vp.diag;
+    const a = new THREE.Vector3(), b = new THREE.Vector3();
+    const picks = this.ed.selection.map((id) => cv.position(id, new THREE.Vector3()));
+    return cv.visibleIds.filter((id) => {
+      cv.position(id, b);
+      return picks.some((p) => {
+        a.copy(p).sub(b);
+        const d = [Math.abs(a.x), Math.abs(a.y), Math.abs(a.z)];
+        return row ? d.every((x, t) => t === axis || x <= tol) : d[axis] <= tol;
+      });
+    });
   }
 
   /** Nearest visible control within PICK_PX of the pointer (ties: nearest the camera). */
@@ -25,7 +82,7 @@ export class Selector {
     const v = new THREE.Vector3();
     const cam = this.ed.vp.camera;
     let best = -1, bd = PICK_PX * PICK_PX, bz = Infinity;
-    for (const id of cv.visibleIds) {
+    for (const id of this.candidates()) {
       cv.position(id, v).project(cam);
       if (v.z < -1 || v.z > 1) continue;
       const x = (v.x + 1) / 2 * rect.width, y = (1 - v.y) / 2 * rect.height;
@@ -46,7 +103,9 @@ export class Selector {
         ed.setSelection([...sel]);
         return true;
       }
+      // a click on a selected point makes it the active one (the last)
       if (!sel.has(id)) ed.setSelection([id]);
+      else if (ed.selection[ed.selection.length - 1] !== id) ed.setSelection([...ed.selection.filter((x) => x !== id), id]);
       this.startPointDrag(ev, id);
       return true;
     }
@@ -91,7 +150,7 @@ export class Selector {
     window.addEventListener('pointerup', up);
   }
 
-  /** Visible controls inside a rectangle in container CSS pixels. */
+  /** Pickable controls (candidates()) inside a rectangle in container CSS pixels. */
   inRect(x0, y0, x1, y1) {
     const cv = this.ed.controlsView;
     const rect = this.ed.vp.renderer.domElement.getBoundingClientRect();
@@ -99,7 +158,7 @@ export class Selector {
     const ox = rect.left - crect.left, oy = rect.top - crect.top;
     const v = new THREE.Vector3();
     const out = [];
-    for (const id of cv.visibleIds) {
+    for (const id of this.candidates()) {
       cv.position(id, v).project(this.ed.vp.camera);
       if (v.z < -1 || v.z > 1) continue;
       const x = ox + (v.x + 1) / 2 * rect.width, y = oy + (1 - v.y) / 2 * rect.height;
@@ -144,6 +203,8 @@ export class Selector {
       window.removeEventListener('pointermove', move);
       window.removeEventListener('pointerup', up);
       if (session) await ed.endControlDrag(session);
+      // a click (no drag) on a point of a larger selection selects it alone, as in Blender
+      else if (!ev.shiftKey && ed.selection.length > 1 && ed.selection.includes(id)) ed.setSelection([id]);
     };
     window.addEventListener('pointermove', move);
     window.addEventListener('pointerup', up);

@@ -2,6 +2,9 @@
 
 import * as THREE from 'three';
 import { OrbitControls } from 'three/examples/jsm/controls/OrbitControls.js';
+import { COL } from './palette.js';
+
+const FOV = 40;
 
 export class Viewport {
   constructor(container) {
@@ -13,8 +16,15 @@ export class Viewport {
     container.appendChild(this.renderer.domElement);
 
     this.scene = new THREE.Scene();
-    this.camera = new THREE.PerspectiveCamera(40, 1, 0.01, 1000);
+    this.camera = new THREE.PerspectiveCamera(FOV, 1, 0.01, 1000);
     this.camera.position.set(3, 2, 5);
+    // orthographic twin (key 5): the same view with parallel projection
+    this.perspCamera = this.camera;
+    this.orthoCamera = new THREE.OrthographicCamera(-1, 1, 1, -1, 0.01, 1000);
+    this.ortho = false;
+    this.frontSign = 1;     // -1: the model faces the other way (its front view is the conventional back)
+    this.up = 'y';          // the mesh's up axis ('y' | 'z'): camera up, ground grid, view presets
+    this.onCameraChange = []; // fn(camera) after the ortho / perspective switch
 
     const hemi = new THREE.HemisphereLight(0xf2f4ff, 0x3a3630, 1.6);
     this.scene.add(hemi);
@@ -22,8 +32,12 @@ export class Viewport {
     this.keyLight.position.set(0.6, 1.0, 0.8);
     this.camera.add(this.keyLight); // the key light follows the camera
     this.scene.add(this.camera);
+    this.scene.add(this.orthoCamera);
 
     this.grid = null;
+    this.gridOn = true;
+    this.extentMin = new THREE.Vector3(-1, -1, -1);
+    this.extentMax = new THREE.Vector3(1, 1, 1);
     this.overlays = new THREE.Group(); // controls, pins, gizmo helper etc.
     this.scene.add(this.overlays);
 
@@ -50,8 +64,10 @@ export class Viewport {
     this.orbit.screenSpacePanning = true;
     this.orbit.addEventListener('change', () => this.requestRender());
 
+    this.buildAxesTriad();
     this.dirty = true;
     this.onBeforeRender = [];
+    (this.onAfterRender ||= []).push(() => this.renderAxesTriad());
     const ro = new ResizeObserver(() => this.resize());
     ro.observe(container);
     this.resize();
@@ -72,8 +88,9 @@ export class Viewport {
     const w = Math.max(1, this.container.clientWidth);
     const h = Math.max(1, this.container.clientHeight);
     this.renderer.setSize(w, h, false);
-    this.camera.aspect = w / h;
-    this.camera.updateProjectionMatrix();
+    this.perspCamera.aspect = w / h;
+    this.perspCamera.updateProjectionMatrix();
+    this.updateOrthoFrustum();
     this.requestRender();
   }
 
@@ -162,36 +179,239 @@ export class Viewport {
   /** Diagonal of the rest mesh's bounding box (set from the state). */
   setExtent(min, max) {
     const a = new THREE.Vector3(...min), b = new THREE.Vector3(...max);
+    this.extentMin.copy(a);
+    this.extentMax.copy(b);
     this.diag = Math.max(a.distanceTo(b), 1e-9);
     this.center.copy(a).add(b).multiplyScalar(0.5);
     this.camera.near = this.diag * 0.002;
     this.camera.far = this.diag * 200;
     this.camera.updateProjectionMatrix();
+    this.buildGrid();
   }
 
-  /** Points the camera at the mesh (key F). */
+  /** Points the camera at the mesh (key F; Home), keeping the view direction. */
   frameMesh(extra) {
     this.updateBounds();
+    let box = null;
+    if (this.geometry && this.geometry.boundingBox) {
+      box = this.geometry.boundingBox.clone();
+      if (extra && !extra.isEmpty()) box.union(extra);
+    }
+    this.frameBox(box);
+  }
+
+  /**
+   * Frames a box (null: the mesh's extent) from direction dir (the unit vector
+   * from the target to the camera; default: the current one), the whole box in view.
+   */
+  frameBox(box, dir = null) {
     let c = this.center.clone();
     let r = this.diag / 2;
-    if (this.geometry && this.geometry.boundingBox) {
-      const box = this.geometry.boundingBox.clone();
-      if (extra && !extra.isEmpty()) box.union(extra);
+    if (box && !box.isEmpty()) {
       const s = box.getBoundingSphere(new THREE.Sphere());
       c = s.center;
-      r = s.radius;
+      r = Math.max(s.radius, 1e-3 * this.diag);
     }
-    const dir = this.camera.position.clone().sub(this.orbit.target);
-    if (dir.lengthSq() < 1e-12) dir.set(0.5, 0.35, 1);
-    dir.normalize();
-    const dist = r / Math.sin(THREE.MathUtils.degToRad(this.camera.fov / 2)) * 1.05;
+    if (!dir) dir = this.camera.position.clone().sub(this.orbit.target);
+    if (dir.lengthSq() < 1e-12) dir = this.presetDirection('front');
+    dir = dir.clone().normalize();
+    const dist = r / Math.sin(THREE.MathUtils.degToRad(FOV / 2)) * 1.05;
     this.orbit.target.copy(c);
-    this.camera.position.copy(c).addScaledVector(dir, dist);
-    this.camera.near = Math.max(dist * 0.001, 1e-6);
-    this.camera.far = dist * 100;
-    this.camera.updateProjectionMatrix();
+    for (const cam of [this.perspCamera, this.orthoCamera]) {
+      cam.position.copy(c).addScaledVector(dir, dist);
+      cam.near = Math.max(dist * 0.001, 1e-6);
+      cam.far = dist * 100;
+      cam.zoom = 1;
+    }
+    this.orthoHalfHeight = r * 1.05;
+    this.perspCamera.updateProjectionMatrix();
+    this.updateOrthoFrustum();
     this.orbit.update();
     this.requestRender();
+  }
+
+  // --- camera: up axis, view presets, orthographic (web/src/view.js drives them) ---
+
+  /** The up axis as a vector. */
+  upVector() { return this.up === 'z' ? new THREE.Vector3(0, 0, 1) : new THREE.Vector3(0, 1, 0); }
+
+  /** The front axis: from the model towards a viewer in front of it (Y-up: +Z; Z-up: -Y, as in Blender; frontSign -1 turns it). */
+  frontVector() { return (this.up === 'z' ? new THREE.Vector3(0, -1, 0) : new THREE.Vector3(0, 0, 1)).multiplyScalar(this.frontSign); }
+
+  /** Sets the up axis ('y' | 'z'): camera up, orbit, ground grid. */
+  setUp(axis) {
+    this.up = axis === 'z' ? 'z' : 'y';
+    const up = this.upVector();
+    for (const cam of [this.perspCamera, this.orthoCamera]) cam.up.copy(up);
+    // OrbitControls turns about camera.up, captured at construction
+    if (this.orbit._quat) {
+      this.orbit._quat.setFromUnitVectors(up, new THREE.Vector3(0, 1, 0));
+      this.orbit._quatInverse.copy(this.orbit._quat).invert();
+    }
+    this.buildGrid();
+    this.orbit.update();
+    this.requestRender();
+  }
+
+  /**
+   * Unit vector from the target to the camera for a view preset: front, back,
+   * right, left, top, bottom (Blender's numpad 1 / 3 / 7, Ctrl for the opposite).
+   * Top and bottom lean by a hair towards the front so that the screen's up is
+   * defined (top view: the front at the bottom of the screen, as in Blender).
+   */
+  presetDirection(name) {
+    const up = this.upVector(), front = this.frontVector();
+    const right = new THREE.Vector3().crossVectors(up, front); // Y-up: +X; Z-up: +X
+    switch (name) {
+      case 'front': return front;
+      case 'back': return front.negate();
+      case 'right': return right;
+      case 'left': return right.negate();
+      case 'top': return up.addScaledVector(front, 1e-4).normalize();
+      case 'bottom': return up.negate().addScaledVector(front, 1e-4).normalize();
+      default: throw new Error(`unknown view preset ${name}`);
+    }
+  }
+
+  /** Turns the camera to a preset about the orbit target, keeping its distance. */
+  viewFrom(name) {
+    const dir = this.presetDirection(name);
+    const dist = this.camera.position.distanceTo(this.orbit.target) || this.diag * 2;
+    for (const cam of [this.perspCamera, this.orthoCamera]) cam.position.copy(this.orbit.target).addScaledVector(dir, dist);
+    this.orbit.update();
+    this.requestRender();
+  }
+
+  /**
+   * Turns the view about the orbit target (numpad 4 / 6 / 8 / 2): yaw about the
+   * up axis, pitch about the screen's horizontal axis, in radians (positive
+   * yaw: the camera moves to the right around the model; positive pitch: up).
+   */
+  orbitBy(yaw, pitch) {
+    const t = this.orbit.target;
+    const off = this.camera.position.clone().sub(t);
+    const up = this.upVector();
+    off.applyAxisAngle(up, yaw);
+    const right = new THREE.Vector3().crossVectors(up, off);
+    if (right.lengthSq() < 1e-12) right.set(1, 0, 0).applyQuaternion(this.camera.quaternion);
+    right.normalize();
+    // stop short of the poles (OrbitControls clamps there too)
+    const polar = off.angleTo(up);
+    const p = Math.min(Math.max(-pitch, 1e-4 - polar), Math.PI - 1e-4 - polar);
+    off.applyAxisAngle(right, p);
+    for (const cam of [this.perspCamera, this.orthoCamera]) cam.position.copy(t).add(off);
+    this.orbit.update();
+    this.requestRender();
+  }
+
+  /** Orthographic (true) or perspective projection, keeping what is seen at the target's distance. */
+  setOrtho(on) {
+    on = !!on;
+    if (on === this.ortho) return;
+    const from = this.camera;
+    const to = on ? this.orthoCamera : this.perspCamera;
+    const dist = from.position.distanceTo(this.orbit.target);
+    if (on) {
+      // the perspective view's height at the target, seen in parallel
+      this.orthoHalfHeight = dist * Math.tan(THREE.MathUtils.degToRad(FOV / 2));
+      to.zoom = 1;
+    } else if (from.zoom !== 1) {
+      // the ortho zoom becomes a dolly
+      const d = dist / from.zoom;
+      to.position.copy(this.orbit.target).addScaledVector(from.position.clone().sub(this.orbit.target).normalize(), d);
+      from.zoom = 1;
+    }
+    if (on) to.position.copy(from.position);
+    to.quaternion.copy(from.quaternion);
+    to.up.copy(from.up);
+    // near / far: each camera keeps its own (frameBox sets both; the ortho's near is -far)
+    this.ortho = on;
+    this.camera = to;
+    to.add(this.keyLight);
+    this.updateOrthoFrustum();
+    this.perspCamera.updateProjectionMatrix();
+    this.orbit.object = to;
+    this.orbit.update();
+    for (const fn of this.onCameraChange) fn(to);
+    this.requestRender();
+  }
+
+  updateOrthoFrustum() {
+    const cam = this.orthoCamera;
+    const hh = this.orthoHalfHeight || this.diag / 2;
+    const aspect = this.perspCamera.aspect || 1;
+    cam.top = hh; cam.bottom = -hh;
+    cam.left = -hh * aspect; cam.right = hh * aspect;
+    // a parallel view may look at parts behind the camera's spot
+    cam.near = -cam.far;
+    cam.updateProjectionMatrix();
+  }
+
+  /** The ground grid: on the plane through the mesh's lowest point, normal to the up axis. */
+  buildGrid() {
+    if (this.grid) { this.scene.remove(this.grid); this.grid.geometry.dispose(); this.grid.material.dispose(); }
+    const span = 2.5 * this.diag;
+    const step = 10 ** Math.floor(Math.log10(span / 10));     // a round cell size
+    const cells = Math.max(2, Math.min(60, Math.ceil(span / step / 2) * 2));
+    const g = new THREE.GridHelper(cells * step, cells, COL.gridMajor, COL.gridMinor);
+    g.material.transparent = true;
+    g.material.opacity = 0.75;
+    g.material.depthWrite = false;
+    const c = this.center;
+    if (this.up === 'z') {
+      g.rotation.x = Math.PI / 2;
+      g.position.set(snap(c.x, step), snap(c.y, step), this.extentMin.z);
+    } else g.position.set(snap(c.x, step), this.extentMin.y, snap(c.z, step));
+    g.renderOrder = -1;
+    g.visible = this.gridOn;
+    g.userData.step = step;
+    this.grid = g;
+    this.scene.add(g);
+    this.requestRender();
+  }
+
+  setGrid(on) { this.gridOn = !!on; if (this.grid) this.grid.visible = this.gridOn; this.requestRender(); }
+
+  /** The axes indicator: a small XYZ triad in the bottom-left corner turning with the view. */
+  buildAxesTriad() {
+    const s = new THREE.Scene();
+    const cols = [COL.axisX, COL.axisY, COL.axisZ];
+    for (let a = 0; a < 3; a++) {
+      const d = new THREE.Vector3().setComponent(a, 1);
+      const pos = new THREE.Float32BufferAttribute([0, 0, 0, ...d.clone().multiplyScalar(0.78).toArray()], 3);
+      const line = new THREE.Line(new THREE.BufferGeometry().setAttribute('position', pos),
+        new THREE.LineBasicMaterial({ color: cols[a], depthTest: false }));
+      const neg = new THREE.Line(new THREE.BufferGeometry().setAttribute('position',
+        new THREE.Float32BufferAttribute([0, 0, 0, ...d.clone().multiplyScalar(-0.5).toArray()], 3)),
+      new THREE.LineBasicMaterial({ color: cols[a], transparent: true, opacity: 0.3, depthTest: false }));
+      const label = new THREE.Sprite(new THREE.SpriteMaterial({ map: letterTexture('XYZ'[a], cols[a]), depthTest: false }));
+      label.position.copy(d);
+      label.scale.setScalar(0.42);
+      s.add(line, neg, label);
+    }
+    this.axesScene = s;
+    this.axesCamera = new THREE.OrthographicCamera(-1.25, 1.25, 1.25, -1.25, 0.1, 10);
+    this.axesSize = 84; // CSS pixels
+  }
+
+  renderAxesTriad() {
+    if (!this.axesScene) return;
+    const r = this.renderer;
+    const cam = this.axesCamera;
+    cam.quaternion.copy(this.camera.quaternion);
+    cam.position.set(0, 0, 4).applyQuaternion(cam.quaternion);
+    const size = this.axesSize;
+    const prev = r.autoClear;
+    r.autoClear = false;
+    r.setViewport(6, 30, size, size);
+    r.setScissor(6, 30, size, size);
+    r.setScissorTest(true);
+    r.clearDepth();
+    r.render(this.axesScene, cam);
+    r.setScissorTest(false);
+    const w = Math.max(1, this.container.clientWidth), h = Math.max(1, this.container.clientHeight);
+    r.setViewport(0, 0, w, h);
+    r.autoClear = prev;
   }
 
   setWireframe(on) {
@@ -278,6 +498,22 @@ export class Viewport {
     const p = this.geometry.attributes.position.array;
     return target.set(p[3 * v], p[3 * v + 1], p[3 * v + 2]);
   }
+}
+
+const snap = (x, step) => Math.round(x / step) * step;
+
+function letterTexture(ch, color) {
+  const c = document.createElement('canvas');
+  c.width = c.height = 64;
+  const g = c.getContext('2d');
+  g.font = 'bold 44px sans-serif';
+  g.textAlign = 'center';
+  g.textBaseline = 'middle';
+  g.fillStyle = `#${new THREE.Color(color).getHexString()}`;
+  g.fillText(ch, 32, 34);
+  const t = new THREE.CanvasTexture(c);
+  t.colorSpace = THREE.SRGBColorSpace;
+  return t;
 }
 
 /** Blue -> cyan -> green -> yellow -> red. */

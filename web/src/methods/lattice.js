@@ -26,6 +26,35 @@ const labelOf = (list, v) => (list.find(([k]) => k === v) || [v, v])[1];
 /** The rig's "basis": one string when the axes agree, else an array of three. */
 export const basisOf = (interp) => (interp.every((b) => b === interp[0]) ? interp[0] : [...interp]);
 
+/** The lattice indices (i, j, k) of control id, k fastest (lattice_session.c), in its own lattice. */
+function ijkOf(id, c) {
+  const l = latticeOf(id, c) || { first: 0, resolution: c.resolution };
+  const r = l.resolution || c.resolution;
+  const local = id - (l.first || 0);
+  return { l, r, i: Math.floor(local / (r[1] * r[2])), j: Math.floor(local / r[2]) % r[1], k: local % r[2] };
+}
+
+/** Every control of the lattices of `ids` whose indices satisfy keep(a, b) (a: a selected point's, b: the candidate's). */
+function gridSelect(c, ids, keep) {
+  const out = new Set();
+  const byLattice = new Map();
+  for (const id of ids) {
+    const a = ijkOf(id, c);
+    const key = a.l.first || 0;
+    if (!byLattice.has(key)) byLattice.set(key, { l: a.l, r: a.r, picks: [] });
+    byLattice.get(key).picks.push(a);
+  }
+  for (const { l, r, picks } of byLattice.values()) {
+    const first = l.first || 0, n = r[0] * r[1] * r[2];
+    for (let local = 0; local < n; local++) {
+      const b = { i: Math.floor(local / (r[1] * r[2])), j: Math.floor(local / r[2]) % r[1], k: local % r[2] };
+      if (picks.some((a) => keep(a, b))) out.add(first + local);
+    }
+  }
+  return [...out];
+}
+const IDX = ['i', 'j', 'k'];
+
 export default {
   name: 'lattice',
   label: 'Lattice (B-spline / Bernstein / linear / cardinal; box, cylinder, sphere)',
@@ -88,6 +117,14 @@ export default {
         h('button', { 'data-need-sel': true, onclick: () => ed.setSelection([]) }, 'Clear selection')));
   },
 
+  /** Selection helpers (select.js): axis 0, 1, 2 = the lattice's i, j, k (x, y, z for a box). */
+  select: {
+    /** The rows along `axis` through the selected points (the other two indices fixed). */
+    row: (c, ids, axis) => gridSelect(c, ids, (a, b) => IDX.every((x, t) => t === axis || a[x] === b[x])),
+    /** The layers of constant index `axis` through the selected points (a plane of the lattice). */
+    layer: (c, ids, axis) => gridSelect(c, ids, (a, b) => a[IDX[axis]] === b[IDX[axis]]),
+  },
+
   view: {
     /** Children's points in the colour of their depth (the root's: the default). */
     pointColor(i, c) {
@@ -105,12 +142,7 @@ export default {
         const g = new THREE.BufferGeometry();
         g.setAttribute('position', v.positions);
         g.setIndex(idx);
-        const lines = new THREE.LineSegments(g, new THREE.LineBasicMaterial({
-          color: levelColor(depth), transparent: true, opacity: 0.8, depthTest: false,
-        }));
-        lines.frustumCulled = false;
-        lines.renderOrder = 12;
-        v.group.add(lines);
+        v.addLines(g, levelColor(depth), 0.8, 12);
       }
     },
   },

@@ -8,6 +8,13 @@ import { num, numberRow } from './ui.js';
 
 const AXES = { x: [1, 0, 0], y: [0, 1, 0], z: [0, 0, 1] };
 
+/** Selection helpers (select.js): "all of this level" = every EBF drawn (the
+ * state lists the current level's EBFs, then the curve points). */
+const SELECT = {
+  level: (c) => Array.from({ length: (c.ebfs || []).length }, (_, i) => i),
+  curves: (c) => Array.from({ length: Math.max(0, (c.count || 0) - (c.ebfs || []).length) }, (_, k) => (c.ebfs || []).length + k),
+};
+
 export default {
   name: 'pbffd',
   label: 'PB-FFD (ellipsoidal basis)',
@@ -36,6 +43,9 @@ export default {
         }, Array.from({ length: levels }, (_, k) => h('option', { value: k, selected: k === (c.level || 0) }, `Level ${k}`))),
         h('span', { class: 'swatch', style: `background:#${levelColor(c.level || 0).toString(16).padStart(6, '0')}` }),
         h('span', { class: 'hint-text' }, `${(c.ebfs || []).length} EBFs`)),
+      h('div', { class: 'row buttons' },
+        h('button', { onclick: () => ed.setSelection(SELECT.level(c)), title: 'Select every EBF of the level shown (its ROIs are drawn)' }, 'Select level'),
+        h('button', { disabled: !(c.curves || []).length, onclick: () => ed.setSelection(SELECT.curves(c)), title: 'Select every curve point (the squares)' }, 'Select curve points')),
       h('div', { class: 'hint-text' }, 'Selected EBFs: rotate or stretch their ROI frames.'),
       h('div', { class: 'row' }, h('label', {}, 'Rotate'),
         h('select', { name: 'frame-axis', onchange: (e) => { f.frame.axis = e.target.value; } },
@@ -66,6 +76,8 @@ export default {
 
   busy: { curve: 'Binding curve…' },
 
+  select: SELECT,
+
   tools: {
     /** A Catmull-Rom curve through points clicked on the mesh (§3.5). */
     curve: {
@@ -88,22 +100,26 @@ export default {
       const nEbf = (c.ebfs || []).length;
       if (i >= nEbf) return COL.curve;
       if (c.ebfs[i] && c.ebfs[i].enabled === false) return COL.disabled;
-      return null;
+      return COL.ebf;
     },
+    /** EBFs are discs, curve points squares (a curve is not an EBF). */
+    pointShape: (i, c) => (i >= (c.ebfs || []).length ? 'square' : 'disc'),
     structureKey: (c) => [c.level, (c.ebfs || []).length, (c.curves || []).length],
-    /** One wireframe ellipsoid per EBF (its ROI), shown with "ROIs / radii". */
+    /** One wireframe ellipsoid per EBF (its ROI), shown with "ROIs / radii": by
+     * default only the selected and hovered EBFs' (120 ellipsoids bury the
+     * model), every one with "All ROIs". */
     build(v, c) {
       const ebfs = c.ebfs || [];
       if (!ebfs.length) return;
       const sg = new THREE.SphereGeometry(1, 16, 10);
       const mat = new THREE.MeshBasicMaterial({
-        wireframe: true, transparent: true, opacity: ebfs.length > 40 ? 0.07 : 0.11, depthWrite: false, color: 0xffffff,
+        wireframe: true, transparent: true, opacity: 0.16, depthWrite: false, color: 0xffffff,
       });
       const im = new THREE.InstancedMesh(sg, mat, ebfs.length);
       im.frustumCulled = false;
       im.renderOrder = 6;
-      const col = new THREE.Color(levelColor(c.level || 0));
-      ebfs.forEach((e, i) => im.setColorAt(i, e.enabled === false ? COL.disabled : col));
+      for (let i = 0; i < ebfs.length; i++) im.setColorAt(i, COL.disabled);
+      im.count = 0;
       v.rois = im;
       v.group.add(im);
     },
@@ -111,17 +127,23 @@ export default {
       if (!v.rois) return;
       const m = new THREE.Matrix4();
       const a = new THREE.Vector3(), b = new THREE.Vector3(), d = new THREE.Vector3();
-      (c.ebfs || []).forEach((e, i) => {
-        if (i >= v.rois.count) return;
+      const ebfs = c.ebfs || [];
+      const col = new THREE.Color(levelColor(c.level || 0));
+      const ids = v.roiIds(Math.min(ebfs.length, v.rois.instanceMatrix.count));
+      v.rois.count = ids.length;
+      ids.forEach((i, slot) => {
+        const e = ebfs[i];
         const r = e.radius || [1, 1, 1];
         const f = e.frame || [[1, 0, 0], [0, 1, 0], [0, 0, 1]];
         a.fromArray(f[0]).multiplyScalar(r[0]);
         b.fromArray(f[1]).multiplyScalar(r[1]);
         d.fromArray(f[2]).multiplyScalar(r[2]);
         m.makeBasis(a, b, d).setPosition(p[3 * i], p[3 * i + 1], p[3 * i + 2]);
-        v.rois.setMatrixAt(i, m);
+        v.rois.setMatrixAt(slot, m);
+        v.rois.setColorAt(slot, e.enabled === false ? COL.disabled : col);
       });
       v.rois.instanceMatrix.needsUpdate = true;
+      if (v.rois.instanceColor) v.rois.instanceColor.needsUpdate = true;
     },
   },
 };

@@ -95,13 +95,9 @@ export default {
       const eg = new THREE.BufferGeometry();
       eg.setAttribute('position', v.positions);
       eg.setIndex(pe);
-      const edges = new THREE.LineSegments(eg, new THREE.LineBasicMaterial({
-        color: 0x7fb0ff, transparent: true, opacity: 0.85, depthTest: false,
-      }));
-      edges.frustumCulled = false;
-      edges.renderOrder = 11;
+      v.group.add(mesh);
+      const edges = v.addLines(eg, 0x7fb0ff, 0.85, 11);
       v.proxy = [mesh, edges];
-      v.group.add(mesh, edges);
     },
     /** Only the proxy's points, unless the full T-lattice is shown. */
     visible(v, c, mask) {
