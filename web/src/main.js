@@ -8,6 +8,7 @@ import { Selector } from './select.js';
 import { Gizmo } from './gizmo.js';
 import { DirectManip } from './dm.js';
 import { DragSession } from './drag.js';
+import { TransformTool } from './transform.js';
 import { Panel, fmtInt, h } from './panel.js';
 import { methodOf, PICK_TOOLS, BUSY } from './methods/index.js';
 
@@ -38,6 +39,7 @@ class Editor {
     this.gizmo = new Gizmo(this); // before OrbitControls' listeners matter: see pointerDown
     this.selector = new Selector(this);
     this.dm = new DirectManip(this);
+    this.transform = new TransformTool(this); // modal G/R/S, pivot, mirror, snapping, proportional
     this.panel = new Panel(this, $('panel'));
     this.sketchGroup = new THREE.Group();
     this.vp.overlays.add(this.sketchGroup);

@@ -59,6 +59,7 @@ export class Panel {
       this.meshSection(s),
       this.createSection(s),
       this.methodSection(s),
+      this.ed.transform.numeric.section(),
       this.dmSection(s),
       this.editSection(s),
       this.viewSection(s),
