@@ -73,7 +73,7 @@ export class NumericPanel {
       out.push(h('div', { class: 'row tf-caption' },
         h('b', {}, single ? `Control ${sel[0]}` : `Median of ${sel.length}`),
         h('span', { class: 'hint-text' }, single ? 'exact position' : `active: ${sel[sel.length - 1]}`)));
-      out.push(h('div', { class: 'row tf-fields' }, AXES.map((ax, a) => h('label', { class: 'tf-field' }, h('span', { class: `ax ax-${ax}` }, ax),
+      out.push(...AXES.map((ax, a) => h('div', { class: 'row tf-fields' }, h('label', { class: 'tf-field' }, h('span', { class: 'tf-label' }, h('span', { class: `ax ax-${ax}` }, ax), ' location'),
         h('input', {
           type: 'number', step: 'any', name: `tf-loc-${ax.toLowerCase()}`, value: single ? f32Text(loc[a]) : String(+loc[a].toFixed(5)),
           title: `${single ? 'The control point\'s' : 'The selection\'s median'} ${ax} coordinate: type a value to move the selection there along ${ax} (one undo step)`,

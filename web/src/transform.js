@@ -114,6 +114,10 @@ export class TransformTool {
 
   buildOverlays() {
     const vp = this.ed.vp;
+    // drawn after the control structure (its group's order is 10): on top of the lattice lines
+    const layer = new THREE.Group();
+    layer.renderOrder = 40;
+    vp.overlays.add(layer);
     // the 3D cursor: a red and white ring with a crosshair, always in front
     const ring = [];
     for (let i = 0; i <= 32; i++) ring.push(new THREE.Vector3(Math.cos(i * Math.PI / 16), Math.sin(i * Math.PI / 16), 0));
@@ -131,7 +135,7 @@ export class TransformTool {
     this.cursorObj.renderOrder = 30;
     for (const o of this.cursorObj.children) o.renderOrder = 30;
     this.cursorObj.visible = false;
-    vp.overlays.add(this.cursorObj);
+    layer.add(this.cursorObj);
     // proportional editing's radius: a circle facing the camera about the pivot
     const circle = [];
     for (let i = 0; i <= 64; i++) circle.push(new THREE.Vector3(Math.cos(i * Math.PI / 32), Math.sin(i * Math.PI / 32), 0));
@@ -140,14 +144,14 @@ export class TransformTool {
     this.radiusObj.computeLineDistances();
     this.radiusObj.renderOrder = 30;
     this.radiusObj.visible = false;
-    vp.overlays.add(this.radiusObj);
+    layer.add(this.radiusObj);
     // the constraint: a line through the pivot along each constrained axis
     this.axisLines = AXIS_COLORS.map((color) => {
       const l = new THREE.Line(new THREE.BufferGeometry().setFromPoints([new THREE.Vector3(-1, 0, 0), new THREE.Vector3(1, 0, 0)]),
         new THREE.LineBasicMaterial({ color, depthTest: false, transparent: true, opacity: 0.9 }));
       l.renderOrder = 29;
       l.visible = false;
-      vp.overlays.add(l);
+      layer.add(l);
       return l;
     });
     vp.onBeforeRender.push(() => this.faceCamera());
@@ -443,6 +447,10 @@ export class TransformTool {
         down: (ev) => {
           if (!this.modal) return;
           ev.stopPropagation(); ev.preventDefault();
+          // the click that follows ends here too (a button under the pointer is not pressed)
+          const swallow = (e) => { e.stopPropagation(); e.preventDefault(); };
+          window.addEventListener('click', swallow, { capture: true, once: true });
+          setTimeout(() => window.removeEventListener('click', swallow, { capture: true }), 400);
           if (ev.button === 0) this.confirm(); else if (ev.button === 2) this.cancel();
         },
         up: (ev) => { if (this.modal) { ev.stopPropagation(); } },
@@ -642,7 +650,7 @@ export class TransformTool {
     main.className = 'transform-value';
     main.textContent = `${MODE_NAMES[mo.mode]}${label}: ${shown}`;
     const more = document.createElement('span');
-    more.textContent = `${extras ? `${extras} · ` : ''}Enter/click confirm · Esc/right click cancel · X Y Z axis (again: local, off; Shift: plane) · type a value · Ctrl snap`;
+    more.textContent = `${extras ? `${extras} · ` : ''}Enter/click: confirm · Esc/right click: cancel · X Y Z: axis (Shift: plane) · type a value · Ctrl: snap`;
     this.header.append(main, more);
     // constraint lines and the radius circle about the pivot
     const c = mo.snap.pivot.clone();
@@ -652,7 +660,7 @@ export class TransformTool {
       const on = mo.axis >= 0 && (mo.plane ? k !== mo.axis : k === mo.axis);
       l.visible = on;
       if (on) {
-        const L = 4 * this.diag;
+        const L = 1.5 * this.diag; // long enough to read, short of the camera
         const pos = l.geometry.attributes.position;
         const e = B[k];
         pos.setXYZ(0, c.x - e.x * L, c.y - e.y * L, c.z - e.z * L);

@@ -4,8 +4,9 @@
 // numeric panel, one undo step per operation.
 
 import {
-  page, ed, check, must, note, shot, settle, click, createViaPanel, pickableControls, state, frame, replay,
+  page, ed, check, must, note, shot, settle, click, createViaPanel, pickableControls, visibleVertices, state, frame, replay, OUT,
 } from '../harness.mjs';
+import path from 'node:path';
 
 const RES = 5;
 const idOf = (i, j, k) => (i * RES + j) * RES + k;
@@ -218,6 +219,8 @@ export async function stage() {
   await page.keyboard.type('0.5');
   await page.waitForTimeout(200);
   await shot('artist-transform-proportional');
+  // the view alone, for docs/editor.md (docs/img/editor-transform.png)
+  await page.screenshot({ path: path.join(OUT, 'artist-transform-proportional-view.png'), clip: { x: 0, y: 40, width: 960, height: 540 } });
   await keys('Enter');
   await settle();
   const fO1 = await frame();
@@ -239,6 +242,78 @@ export async function stage() {
   await undoCheck(fO0, 'proportional grab');
   await pointerToView();
   await keys('o');
+
+  // --- snapping: Ctrl held during a grab snaps it to increments of the step ------------------
+  await selectByClick(c1);
+  const step = await ed(() => window.ffdEditor.editor.transform.step);
+  const fG0 = await frame();
+  await keys('g', 'x');
+  await page.keyboard.down('Control');
+  await page.mouse.move(c1.x + 57, c1.y + 3, { steps: 5 });
+  await page.waitForTimeout(150);
+  const hs = await header();
+  await page.keyboard.up('Control');
+  await page.mouse.move(c1.x + 57, c1.y + 4); // Control released: free again...
+  await page.keyboard.down('Control');
+  await page.mouse.move(c1.x + 57, c1.y + 3); // ...and held again for the confirming click
+  await page.mouse.click(c1.x + 57, c1.y + 3);
+  await page.keyboard.up('Control');
+  await settle();
+  const fG1 = await frame();
+  const dxs = ctl(fG1, c1.id)[0] - ctl(fG0, c1.id)[0];
+  const k = Math.round(dxs / step);
+  check(k !== 0 && Math.abs(dxs - k * step) < 1e-5 && ctl(fG1, c1.id)[1] === ctl(fG0, c1.id)[1],
+    `Ctrl held during G X snaps the move to the increment ${step} (moved ${dxs.toFixed(6)} = ${k} steps; header "${hs}"); a left click confirms`);
+  await undoCheck(fG0, 'snapped grab');
+
+  // --- the 3D cursor (Shift+right click on the mesh) as the pivot ---------------------
+  const vis = await visibleVertices();
+  must(vis.length > 0, 'a visible mesh vertex for the 3D cursor');
+  const vtx = vis[Math.floor(vis.length / 2)];
+  await page.keyboard.down('Shift');
+  await page.mouse.click(vtx.x, vtx.y, { button: 'right' });
+  await page.keyboard.up('Shift');
+  await page.waitForTimeout(100);
+  const cur = await ed(() => window.ffdEditor.editor.transform.cursor && window.ffdEditor.editor.transform.cursor.toArray());
+  const vpos = await ed((v) => window.ffdEditor.editor.vp.vertex(v).toArray(), vtx.v);
+  check(!!cur && Math.hypot(...cur.map((x, i) => x - vpos[i])) < 0.05 * diag && (await ed(() => window.ffdEditor.editor.transform.cursorObj.visible)),
+    `Shift+right click on the mesh places the 3D cursor there (${cur && cur.map((x) => x.toFixed(3))}, vertex ${vtx.v} at ${vpos.map((x) => x.toFixed(3))}), drawn as a crosshair`);
+  await page.selectOption('[name=tf-pivot]', 'cursor');
+  await selectByClick(c1);
+  const fK0 = await frame();
+  await keys('s');
+  await page.keyboard.type('2');
+  await shot('artist-transform-cursor-pivot');
+  await keys('Enter');
+  await settle();
+  const fK1 = await frame();
+  const errK = Math.max(...[0, 1, 2].map((a) => Math.abs(cur[a] + 2 * (ctl(fK0, c1.id)[a] - cur[a]) - ctl(fK1, c1.id)[a])));
+  check(errK < 1e-5 * diag, `pivot 3D cursor: S 2 scales control ${c1.id} away from the cursor (error ${errK.toExponential(2)})`);
+  await undoCheck(fK0, 'scale about the 3D cursor');
+
+  // --- individual origins: two rows each turn about their own centre -------------------
+  await page.selectOption('[name=tf-pivot]', 'individual');
+  const rowA = [0, 1, 2, 3, 4].map((i) => idOf(i, RES - 1, 0)), rowB = [0, 1, 2, 3, 4].map((i) => idOf(i, RES - 1, RES - 1));
+  await ed((ids) => window.ffdEditor.select(ids), [...rowA, ...rowB]);
+  await pointerToView();
+  const fI0 = await frame();
+  await keys('r', 'y');
+  await page.keyboard.type('90');
+  await keys('Enter');
+  await settle();
+  const fI1 = await frame();
+  let errI = 0;
+  for (const row of [rowA, rowB]) {
+    const m = [0, 1, 2].map((a) => row.reduce((sum, id) => sum + fI0.controls[3 * id + a], 0) / row.length);
+    for (const id of row) {
+      const [x, y, z] = ctl(fI0, id), r = ctl(fI1, id);
+      const e = [m[0] + (z - m[2]), y, m[2] - (x - m[0])];
+      errI = Math.max(errI, ...e.map((v, j) => Math.abs(v - r[j])));
+    }
+  }
+  check(errI < 1e-5 * diag, `pivot individual origins: R Y 90 turns each of two lattice rows about its own centre (max error ${errI.toExponential(2)})`);
+  await undoCheck(fI0, 'individual origins');
+  await page.selectOption('[name=tf-pivot]', 'median');
 
   // --- the numeric panel: location (exact), rotate by ------------------------------
   await selectByClick(c1);
