@@ -192,12 +192,43 @@ static void test_bad_moves_change_nothing(void)
     ffd_session_destroy(s);
 }
 
+static void test_allocation_failures(void)
+{
+    /* every allocation of a moves step may fail: a clean error, no leak, and the drag goes on
+     * (a failure inside the method's evaluation may leave the frame between two steps, as for
+     * every drag step form; the next step or drag_cancel puts it right) */
+    ffd_session *s = lattice_session();
+    frame rest = take(s);
+    CHECK(run(s, "drag_begin", "{\"points\":[62,63,67]}", NULL) == FFD_OK);
+    for (size_t k = 0; k < 400; k++) {
+        fail_alloc fa = {k, 0};
+        ffd_allocator a = {fa_malloc, fa_realloc, fa_free, &fa};
+        ffd_error err;
+        ffd_set_allocator(&a);
+        ffd_status st = run(s, "drag", "{\"moves\":[[67,0,1,0],[62,0.5,0,0]]}", &err);
+        ffd_set_allocator(NULL);
+        CHECK(st == FFD_OK || st == FFD_ERR_NOMEM);
+        if (st == FFD_OK)
+            break;
+    }
+    frame moved = take(s);
+    CHECK(!same_bits(&rest, &moved));
+    CHECK(run(s, "drag_cancel", "{}", NULL) == FFD_OK);
+    frame back = take(s);
+    CHECK(same_bits(&rest, &back));
+    free(rest.bytes);
+    free(moved.bytes);
+    free(back.bytes);
+    ffd_session_destroy(s);
+}
+
 int main(int argc, char **argv)
 {
     static const check_test tests[] = {
         {"identity_keeps_bits", test_identity_keeps_bits},
         {"each_control_its_own_change", test_each_control_its_own_change},
         {"bad_moves_change_nothing", test_bad_moves_change_nothing},
+        {"allocation_failures", test_allocation_failures},
     };
     return check_run(tests, sizeof tests / sizeof *tests, argc, argv);
 }
