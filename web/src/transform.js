@@ -404,10 +404,24 @@ export class TransformTool {
     this.update();
   }
 
+  /**
+   * Individual origins on controls that carry frames (PB-FFD EBFs): a rotation
+   * or scale turns or stretches each one's frame about its own centre — the
+   * method's `frame` op at confirm (one undo step); the points stay put.
+   */
+  framesOnly(snap, mode) {
+    const c = (this.ed.state && this.ed.state.controls) || {};
+    return snap.pivotKind === 'individual' && mode !== 'translate' && Array.isArray(c.ebfs)
+      && snap.sel.every((id) => id < c.ebfs.length);
+  }
+
   begin() {
     const ed = this.ed;
     const mo = this.modal;
     mo.snap = this.snapshot();
+    mo.framesOnly = this.framesOnly(mo.snap, mo.mode);
+    mo.pivotScreen = ed.screenOf(mo.snap.median);
+    if (mo.framesOnly) { mo.session = null; return; }
     const body = { points: mo.snap.points, mode: mo.mode, center: mo.snap.pivot.toArray() };
     if (ed.state) methodOf(ed.state.method).dragBody(ed, body);
     const s = new DragSession(ed, body);
@@ -429,9 +443,11 @@ export class TransformTool {
     mo.restarting = (async () => {
       const ed = this.ed;
       const s = mo.session;
-      await s.cancel();
-      if (ed.activeDrag === s) ed.activeDrag = null;
-      ed.gizmo.session = null;
+      if (s) {
+        await s.cancel();
+        if (ed.activeDrag === s) ed.activeDrag = null;
+        ed.gizmo.session = null;
+      }
       if (this.modal !== mo) return;
       this.begin();
       mo.restarting = null;
@@ -629,8 +645,7 @@ export class TransformTool {
     if (!mo || !mo.snap || mo.restarting) return;
     const { xf, shown } = this.current();
     mo.xf = xf;
-    const { body } = this.plan(mo.snap, xf);
-    mo.session.update(body);
+    if (mo.session) mo.session.update(this.plan(mo.snap, xf).body);
     // the pivot follows a grab
     this.drawModal(xf, shown);
   }
@@ -643,6 +658,7 @@ export class TransformTool {
       snapping ? `snap ${this.opt.snapKind === 'grid' ? 'to grid' : 'increment'} ${xf.mode === 'translate' ? fmt(this.step) : xf.mode === 'rotate' ? '5°' : '0.1'}` : '',
       this.opt.proportional ? `proportional ${fmt(this.radius, 3)} (wheel)` : '',
       this.opt.mirror ? `mirror ${AXES[this.opt.mirrorAxis]}` : '',
+      mo.framesOnly ? 'each EBF\'s frame about its own centre (on confirm)' : '',
     ].filter(Boolean).join(' · ');
     this.header.hidden = false;
     this.header.replaceChildren();
@@ -689,8 +705,20 @@ export class TransformTool {
     if (!mo) return;
     if (mo.restarting) await mo.restarting;
     this.clearModal();
-    await this.ed.endControlDrag(mo.session);
+    if (mo.framesOnly) await this.applyFrames(mo);
+    else await this.ed.endControlDrag(mo.session);
     this.numeric.refresh(true);
+  }
+
+  /** The frames' turn or stretch of a frames-only transform (framesOnly). */
+  async applyFrames(mo) {
+    const xf = mo.xf;
+    const body = { points: [...mo.snap.sel] };
+    if (!xf || (xf.mode === 'rotate' && !xf.angle) || (xf.mode === 'scale' && xf.s.every((f) => f === 1))) { this.ed.gizmo.update(); return; }
+    if (xf.mode === 'rotate') Object.assign(body, { axis: xf.axis.toArray(), angle: xf.angle });
+    else body.scale = [...xf.s];
+    await this.ed.run('frame', body);
+    this.ed.gizmo.update();
   }
 
   async cancel() {
@@ -698,7 +726,8 @@ export class TransformTool {
     if (!mo) return;
     if (mo.restarting) await mo.restarting;
     this.clearModal();
-    await this.ed.cancelDrag();
+    if (mo.framesOnly) this.ed.gizmo.update();
+    else await this.ed.cancelDrag();
     this.numeric.refresh(true);
   }
 

@@ -345,5 +345,28 @@ export async function stage() {
   }
   check(errY < 1e-5 * diag, `the panel's Rotate Y 90 turns the layer about Y through its median (max error ${errY.toExponential(2)})`);
   await undoCheck(fN0, 'panel rotate');
+
+  // --- individual origins on PB-FFD EBFs: each frame turns about its own centre ------------
+  const sp = await createViaPanel('pbffd', {});
+  must(sp.controls.ebfs && sp.controls.ebfs.length >= 8, `PB-FFD on the bunny (${sp.controls.count} EBFs)`);
+  await ed(() => window.ffdEditor.select([3, 7]));
+  await page.selectOption('[name=tf-pivot]', 'individual');
+  await pointerToView();
+  const fE0 = await frame();
+  await keys('r', 'z');
+  await page.keyboard.type('45');
+  await keys('Enter');
+  await settle();
+  const sE1 = await state();
+  const fE1 = await frame();
+  const c45 = Math.SQRT1_2;
+  const turned = [3, 7].every((e) => {
+    const [r0] = sp.controls.ebfs[e].frame, [r1] = sE1.controls.ebfs[e].frame;
+    const want = [c45 * r0[0] - c45 * r0[1], c45 * r0[0] + c45 * r0[1], r0[2]]; // the first axis turned 45° about Z
+    return want.every((v, k) => Math.abs(v - r1[k]) < 1e-9);
+  });
+  check(turned && same(Array.from(fE1.controls), Array.from(fE0.controls)) && sE1.undo === sp.undo + 1,
+    `pivot individual origins on EBFs: R Z 45 turns each selected frame about its own centre, the centres stay (one undo step: ${sp.undo} -> ${sE1.undo})`);
+  await page.selectOption('[name=tf-pivot]', 'median');
   await ed(() => window.ffdEditor.select([]));
 }
