@@ -346,6 +346,29 @@ export async function stage() {
   check(errY < 1e-5 * diag, `the panel's Rotate Y 90 turns the layer about Y through its median (max error ${errY.toExponential(2)})`);
   await undoCheck(fN0, 'panel rotate');
 
+  // --- local orientation: X pressed twice follows the lattice's own (turned) X axis -------
+  await pointerToView();
+  const fL0 = await frame();
+  await keys('a', 'r', 'z');
+  await page.keyboard.type('30');
+  await keys('Enter');
+  await settle();
+  const fL1 = await frame();
+  await ed((id) => window.ffdEditor.select([id]), c1.id);
+  await pointerToView();
+  await keys('g', 'x', 'x');
+  await page.keyboard.type('0.5');
+  const hl = await header();
+  await keys('Enter');
+  await settle();
+  const fL2 = await frame();
+  const dl = ctl(fL2, c1.id).map((x, j) => x - ctl(fL1, c1.id)[j]);
+  const wantL = [0.5 * Math.cos(Math.PI / 6), 0.5 * Math.sin(Math.PI / 6), 0];
+  check(hl === 'Grab local X: 0.5' && dl.every((x, j) => Math.abs(x - wantL[j]) < 1e-5),
+    `after turning the lattice 30° about Z, G X X 0.5 ("${hl}") moves along its own X axis (${dl.map((x) => x.toFixed(4))})`);
+  await undoCheck(fL1, 'local grab');
+  await undoCheck(fL0, 'turning the whole lattice');
+
   // --- individual origins on PB-FFD EBFs: each frame turns about its own centre ------------
   const sp = await createViaPanel('pbffd', {});
   must(sp.controls.ebfs && sp.controls.ebfs.length >= 8, `PB-FFD on the bunny (${sp.controls.count} EBFs)`);
