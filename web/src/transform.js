@@ -424,7 +424,7 @@ export class TransformTool {
     if (mo.framesOnly) { mo.session = null; return; }
     const body = { points: mo.snap.points, mode: mo.mode, center: mo.snap.pivot.toArray() };
     if (ed.state) methodOf(ed.state.method).dragBody(ed, body);
-    const s = new DragSession(ed, body);
+    const s = new DragSession(ed, body, { planned: true });
     ed.gizmo.session = s;
     ed.gizmo.startPos.copy(ed.gizmo.pivot.position);
     ed.dragStarted(s);
@@ -729,6 +729,29 @@ export class TransformTool {
     if (mo.framesOnly) this.ed.gizmo.update();
     else await this.ed.cancelDrag();
     this.numeric.refresh(true);
+  }
+
+  /**
+   * A gizmo or point drag (DragSession) with mirror or proportional editing on:
+   * adds the counterparts and neighbours to begin.points and returns the map
+   * from a step body (delta, axis/angle, scale about begin.center along the
+   * world axes) to the step that moves them all; null when neither is on.
+   */
+  dragPlan(begin) {
+    if ((!this.opt.mirror && !this.opt.proportional) || this.modal) return null;
+    const ed = this.ed;
+    if (begin.points.length !== ed.selection.length || begin.points.some((id, i) => id !== ed.selection[i])) return null;
+    const snap = this.snapshot();
+    if (begin.center) snap.pivot = new THREE.Vector3(...begin.center);
+    snap.frame = [new THREE.Vector3(1, 0, 0), new THREE.Vector3(0, 1, 0), new THREE.Vector3(0, 0, 1)];
+    begin.points = snap.points;
+    return (body) => {
+      let xf = null;
+      if (body.delta) xf = { mode: 'translate', t: new THREE.Vector3(...body.delta) };
+      else if (body.axis) xf = { mode: 'rotate', axis: new THREE.Vector3(...body.axis).normalize(), angle: body.angle };
+      else if (body.scale) xf = { mode: 'scale', s: [...body.scale] };
+      return xf ? this.plan(snap, xf).body : body;
+    };
   }
 
   // --- one-shot transforms (the numeric panel) -----------------------------------

@@ -4,7 +4,7 @@
 // numeric panel, one undo step per operation.
 
 import {
-  page, ed, check, must, note, shot, settle, click, createViaPanel, pickableControls, visibleVertices, state, frame, replay, OUT,
+  page, ed, check, must, note, shot, settle, click, createViaPanel, pickableControls, visibleVertices, state, frame, replay, OUT, gizmoArrow, mouseDrag,
 } from '../harness.mjs';
 import path from 'node:path';
 
@@ -181,6 +181,16 @@ export async function stage() {
     `mirror X: control ${a.id} moved ${da.map((x) => x.toFixed(3))}, its counterpart ${partner} ${dp.map((x) => x.toFixed(3))} (mirrored)`);
   check(changed(fM0, fM1, new Set([a.id, partner])).length === 0, 'mirror: nothing else moved');
   await undoCheck(fM0, 'mirrored grab');
+  // the gizmo's arrow honours the mirror too
+  await page.waitForTimeout(200);
+  const arrow = await gizmoArrow('X');
+  must(!!arrow, 'the gizmo\'s X arrow on screen');
+  await mouseDrag(arrow.from, { x: arrow.from.x + arrow.dir.x * 60, y: arrow.from.y + arrow.dir.y * 60 }, 10);
+  const fM2 = await frame();
+  const ga = ctl(fM2, a.id)[0] - ctl(fM0, a.id)[0], gp = ctl(fM2, partner)[0] - ctl(fM0, partner)[0];
+  check(Math.abs(ga) > 1e-3 && Math.abs(ga + gp) < 1e-5 && changed(fM0, fM2, new Set([a.id, partner])).length === 0,
+    `mirror X with the gizmo: dragging control ${a.id}'s X arrow moves it ${ga.toFixed(4)} and its counterpart ${gp.toFixed(4)}`);
+  await undoCheck(fM0, 'mirrored gizmo drag');
   const mid = await pickableControls([idOf(2, 3, 2), idOf(2, 3, 3), idOf(2, 3, 1), idOf(2, 2, 2), idOf(2, 4, 2)]);
   if (mid.length) {
     await selectByClick(mid[0]);
