@@ -92,8 +92,17 @@ export class TransformTool {
   get step() { return this.opt.snapStep > 0 ? this.opt.snapStep : niceStep(this.diag / 50); }
   get radius() { return this.opt.radius > 0 ? this.opt.radius : +(this.diag / 5).toPrecision(2); }
 
+  /** Where the gizmo sits for a selection: the pivot (individual origins: the median). */
+  pivotPoint(ids) {
+    const cv = this.ed.controlsView;
+    if (this.opt.pivot === 'cursor') return this.cursorPosition();
+    if (this.opt.pivot === 'active' && ids.length) return cv.position(ids[ids.length - 1]);
+    return cv.centroid(ids);
+  }
+
   setOption(key, value) {
     this.opt[key] = value;
+    if (key === 'pivot' && !this.ed.activeDrag) this.ed.gizmo.update();
     if (this.modal) this.refreshModal(key === 'proportional' || key === 'mirror' || key === 'mirrorAxis');
     this.numeric.refresh(true);
   }
@@ -109,6 +118,7 @@ export class TransformTool {
   setCursor(p) {
     this.cursor = p ? p.clone() : null;
     this.drawCursor();
+    if (this.opt.pivot === 'cursor' && !this.ed.activeDrag) this.ed.gizmo.update();
     this.numeric.refresh(true);
   }
 
