@@ -742,13 +742,14 @@ export class TransformTool {
   }
 
   /**
-   * A gizmo or point drag (DragSession) with mirror or proportional editing on:
-   * adds the counterparts and neighbours to begin.points and returns the map
-   * from a step body (delta, axis/angle, scale about begin.center along the
-   * world axes) to the step that moves them all; null when neither is on.
+   * A gizmo or point drag (DragSession) with mirror or proportional editing on,
+   * or about individual origins: adds the counterparts and neighbours to
+   * begin.points and returns the map from a step body (delta, axis/angle,
+   * scale about begin.center along the world axes) to the step that moves
+   * them all; null when none of these is on.
    */
   dragPlan(begin) {
-    if ((!this.opt.mirror && !this.opt.proportional) || this.modal) return null;
+    if ((!this.opt.mirror && !this.opt.proportional && this.opt.pivot !== 'individual') || this.modal) return null;
     const ed = this.ed;
     if (begin.points.length !== ed.selection.length || begin.points.some((id, i) => id !== ed.selection[i])) return null;
     const snap = this.snapshot();
