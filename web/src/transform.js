@@ -558,8 +558,10 @@ export class TransformTool {
     const B = this.constraintFrame();
     const free = mo.axis < 0 ? [0, 1, 2] : mo.plane ? [0, 1, 2].filter((k) => k !== mo.axis) : [mo.axis];
     const snapping = this.opt.snap !== mo.ctrl;
-    const typed = mo.typed !== '' ? (mo.typed === '-' ? -1 : parseFloat(mo.typed)) : null;
-    const value = typed === null || Number.isNaN(typed) ? null : typed;
+    // a typed number sets the amount; '-' alone negates the mouse's
+    const neg = mo.typed === '-' ? -1 : 1;
+    const typed = mo.typed !== '' ? parseFloat(mo.typed) : NaN;
+    const value = Number.isNaN(typed) ? null : typed;
     const camDir = vp.camera.getWorldDirection(new THREE.Vector3());
     const c = mo.snap.pivot;
     if (mo.mode === 'translate') {
@@ -578,6 +580,7 @@ export class TransformTool {
           t.set(0, 0, 0);
           B.forEach((e, k) => t.addScaledVector(e, tb[k]));
         }
+        t.multiplyScalar(neg);
         shown = free.length === 1 ? fmt(t.dot(B[free[0]])) : free.map((k) => fmt(t.dot(B[k]))).join(', ');
       }
       return { xf: { mode: 'translate', t }, shown };
@@ -599,6 +602,7 @@ export class TransformTool {
         // turning the pointer counter-clockwise on screen turns counter-clockwise as seen
         angle = axis.dot(camDir) > 0 ? -d : d;
         if (snapping) angle = THREE.MathUtils.degToRad(Math.round(THREE.MathUtils.radToDeg(angle) / 5) * 5);
+        angle *= neg;
       }
       if (axis.lengthSq() < 1e-12) axis = new THREE.Vector3(0, 0, 1);
       const shown = value !== null ? `${mo.typed}°` : `${fmt(THREE.MathUtils.radToDeg(angle), 2)}°`;
@@ -611,6 +615,7 @@ export class TransformTool {
       const r = Math.hypot(mo.mouse.x - mo.pivotScreen.x, mo.mouse.y - mo.pivotScreen.y);
       f = r0 > 1 ? r / r0 : 1;
       if (snapping) f = Math.round(f * 10) / 10;
+      f *= neg;
     }
     const s = [1, 1, 1];
     for (const k of free) s[k] = f;
