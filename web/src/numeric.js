@@ -126,9 +126,10 @@ export class NumericPanel {
       number('tf-radius', tool.radius, 'Proportional radius: how far from the selection other control points follow it, in mesh units (wheel during a transform)', (v) => tool.setOption('radius', v))));
     const c = tool.cursorPosition();
     out.push(h('div', { class: 'row' }, h('span', { class: 'tf-label', title: 'The 3D cursor: Shift+right click on the mesh places it; a pivot choice' }, '3D cursor'),
-      h('span', { class: 'hint-text tf-cursor' }, `${+c.x.toFixed(3)}, ${+c.y.toFixed(3)}, ${+c.z.toFixed(3)}`),
-      h('button', { title: 'Put the 3D cursor at the selection\'s median', disabled: !sel.length, onclick: () => { const l = this.location(); if (l) tool.setCursor(new THREE.Vector3(...l)); } }, 'to selection'),
-      h('button', { title: 'Put the 3D cursor back at the mesh\'s centre', onclick: () => tool.setCursor(null) }, 'reset')));
+      h('span', { class: 'hint-text tf-cursor', title: 'The 3D cursor\'s position (Shift+right click on the mesh places it)' }, `${+c.x.toFixed(3)}, ${+c.y.toFixed(3)}, ${+c.z.toFixed(3)}`)));
+    out.push(h('div', { class: 'row buttons' },
+      h('button', { title: 'Put the 3D cursor at the selection\'s median', disabled: !sel.length, onclick: () => { const l = this.location(); if (l) tool.setCursor(new THREE.Vector3(...l)); } }, 'Cursor to selection'),
+      h('button', { title: 'Put the 3D cursor back at the mesh\'s centre', onclick: () => tool.setCursor(null) }, 'Cursor to centre')));
     return out;
   }
 
