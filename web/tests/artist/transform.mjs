@@ -119,8 +119,31 @@ export async function stage() {
   const layer = [];
   for (let i = 0; i < RES; i++) for (let k = 0; k < RES; k++) layer.push(idOf(i, RES - 1, k));
   await ed((ids) => window.ffdEditor.select(ids), layer);
+  // the mouse turning a quarter counter-clockwise round the pivot turns the layer so on screen
+  const pc = await ed(() => window.ffdEditor.gizmoCenter());
+  const onScreen = () => ed((ids) => ids.map((id) => window.ffdEditor.screenOfControl(id)), layer);
+  const s0 = await onScreen();
+  await page.mouse.move(pc.x + 150, pc.y);
+  await keys('r');
+  for (let deg = 10; deg <= 90; deg += 10) await page.mouse.move(pc.x + 150 * Math.cos(deg * Math.PI / 180), pc.y - 150 * Math.sin(deg * Math.PI / 180));
+  await page.waitForFunction(() => { const m = window.ffdEditor.editor.transform.modal; return m && m.session.steps >= 1; }, null, { timeout: 10000 });
+  await ed(() => window.ffdEditor.editor.activeDrag.idle());
+  await page.waitForTimeout(100);
+  const s1 = await onScreen();
+  const turn = s0.reduce((sum, p, i) => {
+    let d = Math.atan2(-(s1[i].y - pc.y), s1[i].x - pc.x) - Math.atan2(-(p.y - pc.y), p.x - pc.x);
+    while (d > Math.PI) d -= 2 * Math.PI;
+    while (d < -Math.PI) d += 2 * Math.PI;
+    return sum + d;
+  }, 0) / layer.length * 180 / Math.PI;
+  const hr = await header();
+  const hd = /^Rotate: (-?[\d.]+)°$/.exec(hr || '');
+  check(turn > 60 && turn < 110 && hd && Math.abs(+hd[1] - 90) < 2, `R and a quarter turn of the mouse round the pivot turn the layer ${turn.toFixed(1)}° on screen, live ("${hr}")`);
+  await keys('Escape');
+  await settle();
   await pointerToView();
   const fl = await frame();
+  check(same(Array.from(fl.controls), Array.from(fc.controls)), 'Esc cancels the rotation: every bit back');
   const med = [0, 1, 2].map((a) => layer.reduce((s, id) => s + fl.controls[3 * id + a], 0) / layer.length);
   await keys('r', 'z');
   await page.keyboard.type('90');
