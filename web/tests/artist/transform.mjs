@@ -299,6 +299,42 @@ export async function stage() {
     `Ctrl held during G X snaps the move to the increment ${step} (moved ${dxs.toFixed(6)} = ${k} steps; header "${hs}"); a left click confirms`);
   await undoCheck(fG0, 'snapped grab');
 
+  // --- grid snapping: the moved pivot lands on the grid ----------------------------------
+  await page.check('[name=tf-snap]');
+  await page.selectOption('[name=tf-snap-kind]', 'grid');
+  await selectByClick(c1);
+  await keys('g', 'x');
+  await page.mouse.move(c1.x + 43, c1.y, { steps: 4 });
+  await page.mouse.click(c1.x + 43, c1.y);
+  await settle();
+  const gx = ctl(await frame(), c1.id)[0];
+  check(Math.abs(gx / step - Math.round(gx / step)) < 1e-4 && gx !== ctl(fG0, c1.id)[0],
+    `grid snapping: control ${c1.id} lands on x = ${gx.toFixed(6)}, a multiple of ${step}`);
+  await undoCheck(fG0, 'grid-snapped grab');
+  await page.uncheck('[name=tf-snap]');
+
+  // --- active element: the last clicked control stays, the other scales away from it ------
+  const two = (await pickableControls([idOf(1, 3, 2), idOf(3, 3, 2), idOf(1, 3, 3), idOf(3, 3, 3)])).slice(0, 2);
+  if (two.length === 2) {
+    await page.selectOption('[name=tf-pivot]', 'active');
+    await selectByClick(two[0]);
+    await click(two[1], ['Shift']);
+    await settle();
+    const fA0 = await frame();
+    await keys('s');
+    await page.keyboard.type('2');
+    await keys('Enter');
+    await settle();
+    const fA1 = await frame();
+    const act = ctl(fA0, two[1].id), oth = ctl(fA0, two[0].id);
+    const errA = Math.max(...[0, 1, 2].map((j) => Math.abs(act[j] + 2 * (oth[j] - act[j]) - ctl(fA1, two[0].id)[j])));
+    const stay = Math.max(...[0, 1, 2].map((j) => Math.abs(ctl(fA1, two[1].id)[j] - act[j])));
+    check(stay < 1e-5 * diag && errA < 1e-5 * diag,
+      `pivot active element: S 2 keeps the last clicked control ${two[1].id} (moved ${stay.toExponential(1)}) and doubles control ${two[0].id}'s offset from it (error ${errA.toExponential(2)})`);
+    await undoCheck(fA0, 'scale about the active element');
+    await page.selectOption('[name=tf-pivot]', 'median');
+  } else note('active element: two pickable controls not found (skipped)');
+
   // --- the 3D cursor (Shift+right click on the mesh) as the pivot ---------------------
   const vis = await visibleVertices();
   must(vis.length > 0, 'a visible mesh vertex for the 3D cursor');
