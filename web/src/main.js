@@ -7,8 +7,8 @@ import { ControlsView } from './controls.js';
 import { Selector } from './select.js';
 import { Gizmo } from './gizmo.js';
 import { DirectManip } from './dm.js';
-import { DragSession } from './drag.js';
 import { TransformTool } from './transform.js';
+import { DragSession } from './drag.js';
 import { Panel, fmtInt, h } from './panel.js';
 import { methodOf, PICK_TOOLS, BUSY } from './methods/index.js';
 
