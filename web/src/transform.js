@@ -86,6 +86,19 @@ export class TransformTool {
     }, true);
     editor.container.addEventListener('contextmenu', (ev) => ev.preventDefault());
     editor.on('state', () => { this.drawCursor(); });
+    // the tool bar's switches
+    for (const [id, key] of [['btn-proportional', 'proportional'], ['btn-mirror', 'mirror'], ['btn-snap', 'snap']]) {
+      const b = document.getElementById(id);
+      if (b) b.addEventListener('click', () => this.setOption(key, !this.opt[key]));
+    }
+    this.syncToolbar();
+  }
+
+  syncToolbar() {
+    for (const [id, key] of [['btn-proportional', 'proportional'], ['btn-mirror', 'mirror'], ['btn-snap', 'snap']]) {
+      const b = document.getElementById(id);
+      if (b) b.classList.toggle('active', !!this.opt[key]);
+    }
   }
 
   get diag() { return this.ed.vp.diag || 1; }
@@ -102,6 +115,7 @@ export class TransformTool {
 
   setOption(key, value) {
     this.opt[key] = value;
+    this.syncToolbar();
     if (key === 'pivot' && !this.ed.activeDrag) this.ed.gizmo.update();
     if (this.modal) this.refreshModal(key === 'proportional' || key === 'mirror' || key === 'mirrorAxis');
     this.numeric.refresh(true);

@@ -233,7 +233,8 @@ export async function stage() {
   // --- proportional editing: O, the wheel resizes the radius, smooth falloff -------------
   await selectByClick(c1);
   await keys('o');
-  check(await ed(() => window.ffdEditor.editor.transform.opt.proportional), 'O turns proportional editing on');
+  check(await ed(() => window.ffdEditor.editor.transform.opt.proportional && document.getElementById('btn-proportional').classList.contains('active')),
+    'O turns proportional editing on (the tool bar\'s Prop switch lit)');
   const spacing = (st0.mesh.max[1] - st0.mesh.min[1]) / (RES - 1);
   await page.fill('[name=tf-radius]', String(+(1.6 * spacing).toFixed(3)));
   await page.dispatchEvent('[name=tf-radius]', 'change');
