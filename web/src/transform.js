@@ -419,7 +419,7 @@ export class TransformTool {
     const h = ed.hover;
     this.modal = {
       mode, axis: -1, plane: false, space: null, typed: '', ctrl: false,
-      mouse0: { x: h.clientX, y: h.clientY }, mouse: { x: h.clientX, y: h.clientY },
+      mouse0: { x: h.clientX, y: h.clientY }, mouse: { x: h.clientX, y: h.clientY }, last: { x: h.clientX, y: h.clientY },
       turn: 0, lastAngle: null, session: null, snap: null, restarting: null,
     };
     this.listen(true);
@@ -483,7 +483,16 @@ export class TransformTool {
     const f = on ? 'addEventListener' : 'removeEventListener';
     if (on) {
       this.handlers = {
-        move: (ev) => { const mo = this.modal; if (!mo) return; mo.mouse = { x: ev.clientX, y: ev.clientY }; mo.ctrl = ev.ctrlKey; this.update(); },
+        move: (ev) => {
+          const mo = this.modal;
+          if (!mo) return;
+          // the amount follows a virtual pointer: Shift held moves it a tenth as fast (precision)
+          const f = ev.shiftKey ? 0.1 : 1;
+          mo.mouse = { x: mo.mouse.x + f * (ev.clientX - mo.last.x), y: mo.mouse.y + f * (ev.clientY - mo.last.y) };
+          mo.last = { x: ev.clientX, y: ev.clientY };
+          mo.ctrl = ev.ctrlKey;
+          this.update();
+        },
         down: (ev) => {
           if (!this.modal) return;
           ev.stopPropagation(); ev.preventDefault();
@@ -695,7 +704,7 @@ export class TransformTool {
     main.className = 'transform-value';
     main.textContent = `${MODE_NAMES[mo.mode]}${label}: ${shown}`;
     const more = document.createElement('span');
-    more.textContent = `${extras ? `${extras} · ` : ''}Enter/click: confirm · Esc/right click: cancel · X Y Z: axis (Shift: plane) · type a value · Ctrl: snap`;
+    more.textContent = `${extras ? `${extras} · ` : ''}Enter/click: confirm · Esc/right click: cancel · X Y Z: axis (Shift: plane) · type a value · Ctrl: snap · Shift: precision`;
     this.header.append(main, more);
     // constraint lines and the radius circle about the pivot
     const c = mo.snap.pivot.clone();

@@ -4,7 +4,7 @@
 // numeric panel, one undo step per operation.
 
 import {
-  page, ed, check, must, note, shot, settle, click, createViaPanel, pickableControls, visibleVertices, state, frame, replay, OUT, gizmoArrow, mouseDrag,
+  page, ed, check, must, note, shot, settle, click, createViaPanel, pickableControls, visibleVertices, state, frame, replay, OUT, gizmoArrow, mouseDrag, pointDist,
 } from '../harness.mjs';
 import path from 'node:path';
 
@@ -100,6 +100,19 @@ export async function stage() {
   await ed(() => window.ffdEditor.editor.activeDrag.idle());
   const fm = await frame();
   check(!same(ctl(fm, c1.id), ctl(fc, c1.id)), `the grab follows the mouse live (control ${c1.id} at ${ctl(fm, c1.id).map((x) => x.toFixed(3))})`);
+  await keys('Escape');
+  await settle();
+  // Shift held: the same mouse move moves a tenth as far
+  await page.mouse.move(c1.x, c1.y);
+  await keys('g');
+  await page.keyboard.down('Shift');
+  await page.mouse.move(c1.x + 70, c1.y - 40, { steps: 6 });
+  await page.keyboard.up('Shift');
+  await page.waitForFunction(() => { const m = window.ffdEditor.editor.transform.modal; return m && m.session.steps >= 1; }, null, { timeout: 10000 });
+  await ed(() => window.ffdEditor.editor.activeDrag.idle());
+  const fsh = await frame();
+  const full = pointDist(fm.controls, c1.id, fc.controls), fine = pointDist(fsh.controls, c1.id, fc.controls);
+  check(Math.abs(fine / full - 0.1) < 0.02, `Shift held during a grab: a tenth of the move (${fine.toFixed(4)} vs ${full.toFixed(4)})`);
   await keys('Escape');
   await settle();
   const fe = await frame();
