@@ -534,6 +534,12 @@ static ffd_status control_targets(ffd_session *s, const ffd_rig_parser *p, const
     *angle = 0;
     t[0] = t[1] = t[2] = 0;
     ffd_status st;
+    if (cJSON_GetObjectItemCaseSensitive(body, "moves")) /* per control, any mode */
+        return (st = ffd_sess_moves_targets(p, body, d->ids, d->k,
+                                            s->method->vt->control_count(s->method), d->start,
+                                            targets))
+                   ? st
+                   : check_coords(targets, d->k, p->name, "the moved control points", p->err);
     if (d->mode == MODE_TRANSLATE) {
         static const char *const keys[] = {"delta", NULL};
         if ((st = ffd_rig_check_keys(p, body, "body", keys, "delta")))
@@ -607,7 +613,8 @@ static ffd_status op_drag(ffd_session *s, const ffd_rig_parser *p, const cJSON *
             return ffd_fail(err, FFD_ERR_NOMEM, "drag: out of memory");
         double axis[3], angle, delta[3];
         st = control_targets(s, p, body, targets, axis, &angle, delta);
-        if (!st && d->mode != MODE_SCALE && ffd_sess_caps(s->method)->set_motion)
+        int per_control = cJSON_GetObjectItemCaseSensitive(body, "moves") != NULL;
+        if (!st && !per_control && d->mode != MODE_SCALE && ffd_sess_caps(s->method)->set_motion)
             st = s->method->vt->set_motion(s->method, d->ids, d->k, targets, axis, angle,
                                            d->center, delta, err);
         else if (!st)

@@ -167,6 +167,14 @@ const sess_vtable *ffd_sess_caps(const sess_method *m);
  * ffd_malloc'd (NULL when k == 0). */
 ffd_status ffd_sess_read_ids(const ffd_rig_parser *p, const cJSON *item, const char *path, size_t count,
                          uint32_t **ids, size_t *k);
+/* A drag step's per-control form (session_moves.c): body {"moves": [[id,
+ * dx, dy, dz], ...]}, each id one of the drag's ids (k of them, of count
+ * controls) at most once, with its total change since drag_begin; targets
+ * (k by 3) = start + change, start for a control not named. FFD_ERR_PARSE
+ * (shape, key), FFD_ERR_NONFINITE, FFD_ERR_RANGE (id >= count),
+ * FFD_ERR_INVALID (a control not dragged, or named twice). */
+ffd_status ffd_sess_moves_targets(const ffd_rig_parser *p, const cJSON *body, const uint32_t *ids,
+                                  size_t k, size_t count, const double *start, double *targets);
 /* cJSON builders that report allocation failure (NULL). Numbers are exact
  * (17 digits, raw items: print them, do not read them back). */
 cJSON *ffd_sess_number(double v);

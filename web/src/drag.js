@@ -7,9 +7,14 @@ export class DragSession {
   /**
    * @param editor   the editor (applyFrame, applyState, error, stats)
    * @param begin    the drag_begin body
+   * @param planned  true: the steps are final (the modal transforms plan their own);
+   *                 else a control drag (gizmo, point) with mirror or proportional
+   *                 editing on also moves the counterparts and neighbours: its points
+   *                 grow and each step becomes their moves (transform.js dragPlan)
    */
-  constructor(editor, begin) {
+  constructor(editor, begin, { planned = false } = {}) {
     this.editor = editor;
+    this.plan = !planned && begin.points && editor.transform ? editor.transform.dragPlan(begin) : null;
     this.pending = null;     // latest step body not yet sent
     this.inflight = null;    // promise of the step being sent
     this.lastSent = null;
@@ -25,7 +30,7 @@ export class DragSession {
   /** Queues a step; only the latest queued body is sent when the wire is free. */
   update(body) {
     if (this.closed || this.failed) return;
-    this.pending = body;
+    this.pending = this.plan ? this.plan(body) : body;
     this.pump();
   }
 

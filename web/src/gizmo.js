@@ -1,5 +1,6 @@
 // Translate / rotate / scale gizmo (three's TransformControls) on a pivot at
-// the selection's centroid; drags are sent as totals relative to their start.
+// the transform pivot (transform.js: the selection's centroid by default);
+// drags are sent as totals relative to their start.
 
 import * as THREE from 'three';
 import { TransformControls } from 'three/examples/jsm/controls/TransformControls.js';
@@ -48,7 +49,8 @@ export class Gizmo {
       ed.vp.requestRender();
       return;
     }
-    this.pivot.position.copy(ed.controlsView.centroid(ids));
+    // at the transform pivot (panel: median, active element, 3D cursor)
+    this.pivot.position.copy(ed.transform ? ed.transform.pivotPoint(ids) : ed.controlsView.centroid(ids));
     this.pivot.quaternion.identity();
     this.pivot.scale.set(1, 1, 1);
     this.pivot.updateMatrixWorld();

@@ -7,6 +7,7 @@ import { ControlsView } from './controls.js';
 import { Selector } from './select.js';
 import { Gizmo } from './gizmo.js';
 import { DirectManip } from './dm.js';
+import { TransformTool } from './transform.js';
 import { DragSession } from './drag.js';
 import { ViewNav } from './view.js';
 import { Panel, fmtInt, h } from './panel.js';
@@ -39,6 +40,7 @@ class Editor {
     this.gizmo = new Gizmo(this); // before OrbitControls' listeners matter: see pointerDown
     this.selector = new Selector(this);
     this.dm = new DirectManip(this);
+    this.transform = new TransformTool(this); // modal G/R/S, pivot, mirror, snapping, proportional
     this.panel = new Panel(this, $('panel'));
     this.viewNav = new ViewNav(this); // up axis, view presets, ortho, grid, X-ray, rows / layers (view.js)
     this.sketchGroup = new THREE.Group();

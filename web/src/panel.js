@@ -60,6 +60,7 @@ export class Panel {
       this.createSection(s),
       this.methodSection(s),
       this.ed.viewNav.selectSection(s),
+      this.ed.transform.numeric.section(),
       this.dmSection(s),
       this.editSection(s),
       this.viewSection(s),

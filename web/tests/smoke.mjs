@@ -239,10 +239,11 @@ if (!only || only === 'pbffd') {
 if (!only || only === 'gffd') {
   await create('gffd');
   await ed(() => window.ffdEditor.select([4]));
-  await page.keyboard.press('r');
+  // the gizmo's modes from the tool bar (with a selection and the pointer over the view, R and G start Blender's modal transforms)
+  await page.click('[data-mode=rotate]');
   await shot('09-gffd');
   const p = await ed(() => window.ffdEditor.screenOfControl(4));
-  await page.keyboard.press('g');
+  await page.click('[data-mode=translate]');
   await drag(p, { x: p.x + 80, y: p.y + 20 });
   await shot('10-gffd-bent');
 }

@@ -11,6 +11,7 @@ const range = (o, n) => Array.from({ length: n }, (_, i) => o + i);
 export default {
   name: 'gffd',
   label: 'GFFD (skeleton)',
+  rigidDrags: true, // a moved primitive keeps its turn: the session's translate edit (docs/editor.md drag_begin)
   form: { unit: '', point: { radius: 0, offset: 0.05 } },
 
   createFields(p) {

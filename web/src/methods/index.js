@@ -24,6 +24,7 @@ const DEFAULTS = {
   section: null,
   status: () => '',
   dragBody: () => {},
+  rigidDrags: false, // true: a whole-selection move is sent as its motion (delta), not per-control moves (transform.js)
   tools: {},
   busy: {},
   view: {},
