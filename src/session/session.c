@@ -71,6 +71,8 @@ struct ffd_session {
     undo_stack undo, redo;
     uint32_t revision;
     double busy_ms;        /* duration of the last command */
+    double weights_stroke; /* the last "weights" op's stroke id and the revision it made */
+    uint32_t weights_revision;
 };
 
 /* ---------- small utilities ---------- */
@@ -827,6 +829,59 @@ static ffd_status op_method(ffd_session *s, const char *op, const cJSON *body, f
     return st;
 }
 
+/* Vertex-group weights (session_weights.c, deformer/layers.c): one undo
+ * step per brush stroke: the steps of one "stroke" id with nothing between
+ * them merge into the first one's. */
+static ffd_status op_weights(ffd_session *s, const ffd_rig_parser *p, const cJSON *body,
+                             ffd_error *err)
+{
+    ffd_status st = need_method(s, "weights", err);
+    double *w = st ? NULL : ffd_malloc_array(s->ctx.n, sizeof *w);
+    if (!st && !w)
+        st = ffd_fail(err, FFD_ERR_NOMEM, "weights: out of memory");
+    int clear = 0;
+    double stroke = 0;
+    undo_entry before;
+    if (st || (st = ffd_layers_weights(s->method, w, err)) ||
+        (st = ffd_sess_read_weights(p, body, s->ctx.n, w, &clear, &stroke)) ||
+        (st = capture(s, UNDO_REBUILD, "paint weights", &before, err))) {
+        ffd_free(w);
+        return st;
+    }
+    int merge = stroke > 0 && stroke == s->weights_stroke && s->revision == s->weights_revision &&
+                s->undo.count && !s->redo.count;
+    if ((st = ffd_layers_set_weights(&s->method, clear ? NULL : w, err)) || (st = refresh(s, err))) {
+        ffd_free(w);
+        return roll_back(s, &before, st);
+    }
+    ffd_free(w);
+    if (merge)
+        entry_free(&before);
+    else if ((st = commit(s, &before, err)))
+        return st;
+    s->weights_stroke = stroke;
+    s->weights_revision = s->revision;
+    return FFD_OK;
+}
+
+/* Every vertex's weight as a binary reply (1 everywhere without weights). */
+static ffd_status op_weights_values(ffd_session *s, void **reply, size_t *size, ffd_error *err)
+{
+    double *w = ffd_malloc_array(s->ctx.n, sizeof *w);
+    if (!w)
+        return ffd_fail(err, FFD_ERR_NOMEM, "weights_values: out of memory");
+    ffd_status st = FFD_OK;
+    if (s->method)
+        st = ffd_layers_weights(s->method, w, err);
+    else
+        for (size_t i = 0; i < s->ctx.n; i++)
+            w[i] = 1.0;
+    if (!st)
+        st = ffd_sess_weights_reply(w, s->ctx.n, s->revision, reply, size, err);
+    ffd_free(w);
+    return st;
+}
+
 static ffd_status reply_state(const ffd_session *s, void **reply, size_t *size, ffd_error *err)
 {
     char *json = NULL;
@@ -910,6 +965,13 @@ ffd_status ffd_session_command(ffd_session *s, const char *op, const char *body,
         cJSON_Delete(doc);
         *binary = !st;
         return st;
+    } else if (!strcmp(op, "weights"))
+        st = op_weights(s, &p, doc, err);
+    else if (!strcmp(op, "weights_values")) {
+        st = empty ? op_weights_values(s, reply, reply_size, err) : ffd_rig_expected(&p, "body", "{}");
+        cJSON_Delete(doc);
+        *binary = !st;
+        return st;
     } else if (ffd_method_op_known(op))
         st = op_method(s, op, doc, err);
     else
@@ -928,7 +990,7 @@ ffd_status ffd_session_command(ffd_session *s, const char *op, const char *body,
 /* The operations every session knows (ffd_session_command), before the methods' own. */
 static const char *const session_ops[] = {"create", "drag_begin", "drag",  "drag_end", "drag_cancel",
                                           "move",   "pin",        "unpin", "influence", "reset",
-                                          "undo",   "redo"};
+                                          "undo",   "redo", "weights", "weights_values"};
 
 const char *ffd_session_op_name(size_t i)
 {
