@@ -14,8 +14,8 @@ export default {
   form: { interior: 60, exterior: 60, levels: 1, sigma: 3, curve: { radius: 0, samples: 32 }, frame: { axis: 'z', angle: 15, scale: [1.2, 1, 1] } },
 
   createFields(p) {
-    return [numberRow('pbffd', 'Interior', p, 'interior', { min: 0, step: 1 }), numberRow('pbffd', 'Exterior', p, 'exterior', { min: 0, step: 1 }),
-      numberRow('pbffd', 'Levels', p, 'levels', { min: 1, max: 8, step: 1 }), numberRow('pbffd', 'Sigma', p, 'sigma', { min: 0, step: 0.1 }),
+    return [numberRow('pbffd', 'Interior', p, 'interior', { min: 0, step: 1, title: 'Control points placed inside the model' }), numberRow('pbffd', 'Exterior', p, 'exterior', { min: 0, step: 1, title: 'Control points placed around the model' }),
+      numberRow('pbffd', 'Levels', p, 'levels', { min: 1, max: 8, step: 1, title: 'Coarse-to-fine levels of control points (edit one level at a time)' }), numberRow('pbffd', 'Sigma', p, 'sigma', { min: 0, step: 0.1, title: 'How far each control point reaches: larger = smoother, wider moves' }),
       h('div', { class: 'hint-text' }, 'Automatic placement of EBF control points (interior / exterior counts), then binding.')];
   },
 
@@ -32,35 +32,35 @@ export default {
     return h('section', {}, h('h3', {}, 'PB-FFD'),
       h('div', { class: 'row' }, h('label', {}, 'Level'),
         h('select', {
-          name: 'level', onchange: (e) => ed.run('level', { level: Number(e.target.value) }),
+          name: 'level', title: 'The level of control points shown and edited (0: coarsest)', onchange: (e) => ed.run('level', { level: Number(e.target.value) }),
         }, Array.from({ length: levels }, (_, k) => h('option', { value: k, selected: k === (c.level || 0) }, `Level ${k}`))),
         h('span', { class: 'swatch', style: `background:#${levelColor(c.level || 0).toString(16).padStart(6, '0')}` }),
         h('span', { class: 'hint-text' }, `${(c.ebfs || []).length} EBFs`)),
       h('div', { class: 'hint-text' }, 'Selected EBFs: rotate or stretch their ROI frames.'),
       h('div', { class: 'row' }, h('label', {}, 'Rotate'),
-        h('select', { name: 'frame-axis', onchange: (e) => { f.frame.axis = e.target.value; } },
+        h('select', { name: 'frame-axis', title: 'The axis the selected EBFs’ regions turn about', onchange: (e) => { f.frame.axis = e.target.value; } },
           ['x', 'y', 'z'].map((a) => h('option', { value: a, selected: f.frame.axis === a }, a.toUpperCase()))),
-        h('input', { type: 'number', name: 'frame-angle', value: f.frame.angle, step: 5, title: 'degrees', onchange: (e) => { f.frame.angle = num(e.target.value, 15); } }),
+        h('input', { type: 'number', name: 'frame-angle', value: f.frame.angle, step: 5, title: 'Turn angle in degrees', onchange: (e) => { f.frame.angle = num(e.target.value, 15); } }),
         h('span', { class: 'hint-text' }, '°'),
         h('button', {
-          'data-need-sel': true,
+          'data-need-sel': true, title: 'Turn the selected EBFs’ regions (a twist)',
           onclick: () => ed.run('frame', { points: ed.selection, axis: AXES[f.frame.axis], angle: f.frame.angle * Math.PI / 180 }),
         }, 'Apply')),
       h('div', { class: 'row' }, h('label', {}, 'Scale'),
         [0, 1, 2].map((i) => h('input', {
-          type: 'number', class: 'narrow', step: 0.1, value: f.frame.scale[i], name: `frame-scale-${i}`, title: ['a', 'b', 'c'][i],
+          type: 'number', class: 'narrow', step: 0.1, value: f.frame.scale[i], name: `frame-scale-${i}`, title: `Stretch of the regions along their ${['first', 'second', 'third'][i]} axis (1: unchanged)`,
           onchange: (e) => { f.frame.scale[i] = num(e.target.value, 1); },
         })),
-        h('button', { 'data-need-sel': true, onclick: () => ed.run('frame', { points: ed.selection, scale: f.frame.scale }) }, 'Apply')),
+        h('button', { 'data-need-sel': true, title: 'Stretch the selected EBFs’ regions', onclick: () => ed.run('frame', { points: ed.selection, scale: f.frame.scale }) }, 'Apply')),
       h('div', { class: 'hint-text' }, `Curves: ${(c.curves || []).length}`),
       h('div', { class: 'row' }, h('label', {}, 'Radius'),
-        h('input', { type: 'number', name: 'curve-radius', step: 'any', min: 0, value: f.curve.radius, onchange: (e) => { f.curve.radius = num(e.target.value, f.curve.radius); } }),
+        h('input', { type: 'number', name: 'curve-radius', step: 'any', min: 0, title: 'How far a new curve reaches around it', value: f.curve.radius, onchange: (e) => { f.curve.radius = num(e.target.value, f.curve.radius); } }),
         h('label', { style: 'min-width:0' }, 'Samples'),
-        h('input', { type: 'number', name: 'curve-samples', class: 'narrow', min: 2, step: 1, value: f.curve.samples, onchange: (e) => { f.curve.samples = Math.round(num(e.target.value, 32)); } })),
+        h('input', { type: 'number', name: 'curve-samples', class: 'narrow', min: 2, step: 1, title: 'Points along a new curve', value: f.curve.samples, onchange: (e) => { f.curve.samples = Math.round(num(e.target.value, 32)); } })),
       h('div', { class: 'row buttons' },
         h('button', { class: drawing ? 'active' : '', onclick: () => ed.setTool(drawing ? 'controls' : 'curve'), title: 'Click points on the mesh, Enter to create' },
           drawing ? `✎ Drawing… (${ed.sketch.length} pts)` : '✎ Draw curve'),
-        drawing ? h('button', { class: 'primary', disabled: ed.sketch.length < 2, onclick: () => ed.finishTool() }, 'Create ⏎') : null),
+        drawing ? h('button', { class: 'primary', title: 'Create the curve through the clicked points (Enter)', disabled: ed.sketch.length < 2, onclick: () => ed.finishTool() }, 'Create ⏎') : null),
     );
   },
 
