@@ -76,8 +76,18 @@ export class WeightPaint {
     } catch (e) { this.ed.error(e); }
   }
 
-  /** Colours the mesh by the weights (absolute: 0 blue, 1 red), or gives it back to the influence map. */
-  paintMap() {
+  /** After the dabs of one pointer event: recolour what they changed, send it. */
+  strokeStep() {
+    if (this.dirty && this.dirty.size) this.paintMap(this.dirty);
+    this.dirty = new Set();
+    this.flush();
+  }
+
+  /**
+   * Colours the mesh by the weights (absolute: 0 blue, 1 red), or gives it
+   * back to the influence map. only: the vertices to recolour (a Set; all when absent).
+   */
+  paintMap(only = null) {
     const vp = this.ed.vp;
     if (!vp.geometry) return;
     if (!(this.active || this.showMap) || !this.weights || this.weights.length !== vp.geometry.attributes.position.count) {
@@ -86,10 +96,9 @@ export class WeightPaint {
     }
     const col = vp.geometry.attributes.color;
     const c = col.array;
-    for (let i = 0; i < this.weights.length; i++) {
-      const [r, g, b] = ramp(this.weights[i]);
-      c[3 * i] = r; c[3 * i + 1] = g; c[3 * i + 2] = b;
-    }
+    const paint = (i) => { const [r, g, b] = ramp(this.weights[i]); c[3 * i] = r; c[3 * i + 1] = g; c[3 * i + 2] = b; };
+    if (only && this.colored) only.forEach(paint);
+    else for (let i = 0; i < this.weights.length; i++) paint(i);
     col.needsUpdate = true;
     vp.material.vertexColors = true;
     vp.material.color.set(0xffffff);
@@ -135,6 +144,7 @@ export class WeightPaint {
       const mode = ev.shiftKey ? 'smooth' : ev.ctrlKey || ev.metaKey ? (this.mode === 'subtract' ? 'add' : 'subtract') : this.mode;
       this.stroke = { id: ++this.strokeId, mode, last: hit.point.clone() };
       this.dab(hit.point, mode);
+      this.strokeStep();
     }, true);
     el.addEventListener('pointermove', (ev) => {
       if (!this.active) return;
@@ -147,7 +157,7 @@ export class WeightPaint {
       const d = hit.point.distanceTo(this.stroke.last);
       const steps = Math.min(16, Math.floor(d / (0.25 * r)));
       for (let i = 1; i <= steps; i++) this.dab(this.stroke.last.clone().lerp(hit.point, i / steps), this.stroke.mode);
-      if (steps) this.stroke.last.copy(hit.point);
+      if (steps) { this.stroke.last.copy(hit.point); this.strokeStep(); }
     }, true);
     const end = () => {
       if (!this.stroke) return;
@@ -222,13 +232,13 @@ export class WeightPaint {
       if (v > 0.999) v = 1; else if (v < 0.001) v = 0;
       next.push(i, Math.round(v * 1e6) / 1e6);
     }
+    if (!this.dirty) this.dirty = new Set();
     for (let k = 0; k < next.length; k += 2) {
       if (w[next[k]] === next[k + 1]) continue;
       w[next[k]] = next[k + 1];
       this.pending.set(next[k], next[k + 1]);
+      this.dirty.add(next[k]);
     }
-    this.paintMap();
-    this.flush();
   }
 
   /** Sends the pending weights (one request in flight; the stroke's id merges them into one undo step). */
