@@ -336,6 +336,62 @@ static void test_values_without_deformer(void)
     ffd_session_destroy(s);
 }
 
+/* ffd_session_load_weights: a weights file's text (blank and '#' lines
+ * skipped) gives what the op's "values" give, one undo step; a bad file is
+ * refused naming the line or the count, changing nothing. */
+static void test_load_weights_file(void)
+{
+    ffd_session *s = open_session();
+    ffd_error err = {{0}};
+    size_t n = 1839;
+    char *text = malloc(8 * n + 64), *q = text;
+    q += sprintf(q, "# weights\n\n");
+    for (size_t i = 0; i < n; i++)
+        q += sprintf(q, "%g\n", (double)(i % 4) / 3.0);
+    CHECK(ffd_session_load_weights(s, text, strlen(text), "w.txt", &err) == FFD_ERR_INVALID);
+    CHECK(strstr(err.message, "conflict: ") == err.message); /* no deformer */
+    CHECK(run(s, "create", "{\"deformer\":\"lattice\",\"resolution\":[4,4,4]}", NULL) == FFD_OK);
+    CHECK(run(s, "move", "{\"points\":[21,22],\"delta\":[0.8,1.5,-0.4]}", NULL) == FFD_OK);
+    float *p0 = positions(s, &n);
+    int u0 = undo_count(s);
+    static const struct {
+        const char *text;
+        ffd_status status;
+        const char *says;
+    } bad[] = {
+        {"0.5\nhalf\n", FFD_ERR_PARSE, "w.txt:2: expected one weight (a number) per line, found 'half'"},
+        {"0.5\n0.5 0.5\n", FFD_ERR_PARSE, "w.txt:2:"},
+        {"nan\n", FFD_ERR_NONFINITE, "w.txt:1: the weight is not finite"},
+        {"0.5\n1\n", FFD_ERR_INVALID, "w.txt: 2 weights for 1839 vertices"},
+        {"", FFD_ERR_INVALID, "w.txt: 0 weights for 1839 vertices"},
+    };
+    for (size_t i = 0; i < sizeof bad / sizeof *bad; i++) {
+        err.message[0] = 0;
+        ffd_status st = ffd_session_load_weights(s, bad[i].text, strlen(bad[i].text), "w.txt", &err);
+        if (st != bad[i].status || !strstr(err.message, bad[i].says)) {
+            fprintf(stderr, "  %s: status %d, message '%s'\n", bad[i].text, (int)st, err.message);
+            check_failures++;
+        }
+    }
+    char *range = malloc(8 * n + 8), *r = range;
+    for (size_t i = 0; i < n; i++)
+        r += sprintf(r, "%g\n", i == 7 ? 1.5 : 1.0);
+    CHECK(ffd_session_load_weights(s, range, strlen(range), "w.txt", &err) == FFD_ERR_RANGE);
+    CHECK(strstr(err.message, "vertex 7 is 1.5, outside [0, 1]"));
+    float *p1 = positions(s, &n);
+    CHECK(max_change(p0, p1, n) == 0 && undo_count(s) == u0);
+    CHECK_OK(ffd_session_load_weights(s, text, strlen(text), "w.txt", &err));
+    CHECK(undo_count(s) == u0 + 1);
+    float *w = weights(s, n);
+    CHECK(w && w[0] == 0.0f && w[3] == 1.0f && fabs(w[1] - 1.0 / 3.0) < 1e-6 && fabs(w[1838] - 2.0 / 3.0) < 1e-6);
+    CHECK(replay_difference(s) < 1e-5);
+    CHECK(run(s, "undo", NULL, NULL) == FFD_OK);
+    float *p2 = positions(s, &n);
+    CHECK(max_change(p0, p2, n) == 0);
+    free(text), free(range), free(p0), free(p1), free(p2), free(w);
+    ffd_session_destroy(s);
+}
+
 /* Every allocation of a weights step may fail: a clean NOMEM, no leak, and
  * a session that takes the step again and replays. */
 static void test_allocation_failures(void)
@@ -373,6 +429,7 @@ int main(int argc, char **argv)
         {"one_undo_step_per_stroke", test_one_undo_step_per_stroke},
         {"bad_requests", test_bad_requests},
         {"values_without_deformer", test_values_without_deformer},
+        {"load_weights_file", test_load_weights_file},
         {"allocation_failures", test_allocation_failures},
     };
     return check_run(tests, sizeof tests / sizeof *tests, argc, argv);

@@ -829,9 +829,30 @@ static ffd_status op_method(ffd_session *s, const char *op, const cJSON *body, f
     return st;
 }
 
+/* Gives the method the weights w (NULL: none) as one undo step, or as part
+ * of the step of the stroke the previous weights change began (the same
+ * stroke id > 0, nothing in between). On error nothing changes. */
+static ffd_status apply_weights(ffd_session *s, const double *w, double stroke, ffd_error *err)
+{
+    undo_entry before;
+    ffd_status st = capture(s, UNDO_REBUILD, "paint weights", &before, err);
+    if (st)
+        return st;
+    int merge = stroke > 0 && stroke == s->weights_stroke && s->revision == s->weights_revision &&
+                s->undo.count && !s->redo.count;
+    if ((st = ffd_layers_set_weights(&s->method, w, err)) || (st = refresh(s, err)))
+        return roll_back(s, &before, st);
+    if (merge)
+        entry_free(&before);
+    else if ((st = commit(s, &before, err)))
+        return st;
+    s->weights_stroke = stroke;
+    s->weights_revision = s->revision;
+    return FFD_OK;
+}
+
 /* Vertex-group weights (session_weights.c, deformer/layers.c): one undo
- * step per brush stroke: the steps of one "stroke" id with nothing between
- * them merge into the first one's. */
+ * step per brush stroke. */
 static ffd_status op_weights(ffd_session *s, const ffd_rig_parser *p, const cJSON *body,
                              ffd_error *err)
 {
@@ -841,27 +862,41 @@ static ffd_status op_weights(ffd_session *s, const ffd_rig_parser *p, const cJSO
         st = ffd_fail(err, FFD_ERR_NOMEM, "weights: out of memory");
     int clear = 0;
     double stroke = 0;
-    undo_entry before;
-    if (st || (st = ffd_layers_weights(s->method, w, err)) ||
-        (st = ffd_sess_read_weights(p, body, s->ctx.n, w, &clear, &stroke)) ||
-        (st = capture(s, UNDO_REBUILD, "paint weights", &before, err))) {
-        ffd_free(w);
-        return st;
-    }
-    int merge = stroke > 0 && stroke == s->weights_stroke && s->revision == s->weights_revision &&
-                s->undo.count && !s->redo.count;
-    if ((st = ffd_layers_set_weights(&s->method, clear ? NULL : w, err)) || (st = refresh(s, err))) {
-        ffd_free(w);
-        return roll_back(s, &before, st);
-    }
+    if (!st && !(st = ffd_layers_weights(s->method, w, err)) &&
+        !(st = ffd_sess_read_weights(p, body, s->ctx.n, w, &clear, &stroke)))
+        st = apply_weights(s, clear ? NULL : w, stroke, err);
     ffd_free(w);
-    if (merge)
-        entry_free(&before);
-    else if ((st = commit(s, &before, err)))
+    return st;
+}
+
+ffd_status ffd_session_load_weights(ffd_session *s, const char *text, size_t size,
+                                    const char *name, ffd_error *err)
+{
+    if (!s || (!text && size))
+        return ffd_fail(err, FFD_ERR_INVALID, "ffd_session_load_weights: NULL argument");
+    if (s->drag.kind)
+        return conflict(err, "a drag is in progress", "weights/load");
+    ffd_status st = need_method(s, "weights/load", err);
+    if (st)
         return st;
-    s->weights_stroke = stroke;
-    s->weights_revision = s->revision;
-    return FFD_OK;
+    name = name ? name : "weights";
+    double *w = NULL;
+    size_t count = 0;
+    if ((st = ffd_rig_parse_weights(text ? text : "", size, name, &w, &count, err)))
+        return st;
+    if (count != s->ctx.n)
+        st = ffd_fail(err, FFD_ERR_INVALID, "%s: %zu weights for %zu vertices", name, count,
+                      s->ctx.n);
+    for (size_t i = 0; !st && i < count; i++)
+        if (!(w[i] >= 0.0 && w[i] <= 1.0))
+            st = ffd_fail(err, FFD_ERR_RANGE,
+                          "%s: the weight of vertex %zu is %g, outside [0, 1] (the editor paints "
+                          "weights from 0, at rest, to 1, the full effect)",
+                          name, i, w[i]);
+    if (!st)
+        st = apply_weights(s, w, 0, err);
+    ffd_free(w);
+    return st;
 }
 
 /* Every vertex's weight as a binary reply (1 everywhere without weights). */
