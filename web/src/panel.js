@@ -244,7 +244,11 @@ export class Panel {
       (w.active || w.showMap) && s.method ? h('div', { class: 'legend', id: 'weights-legend', title: 'Weight colours: blue 0 (the vertex stays at rest), red 1 (it follows the deformer fully)' },
         '0 stays', h('span', { class: 'bar' }), '1 follows') : null,
       s.method ? h('div', { class: 'row buttons' },
-        h('button', { title: 'Load weights from a text file: one number in [0, 1] per vertex, in vertex order (# lines skipped) — as `ffd deform` reads a rig’s weights file', onclick: () => input.click() }, '⇪ Load weights…'), input,
+        h('button', { title: 'Load weights from a text file: one number in [0, 1] per vertex, in vertex order (# lines skipped) — as `ffd deform` reads a rig’s weights file', onclick: () => input.click() }, '⇪ Upload…'), input,
+        h('button', {
+          title: 'Load a weights file from the server’s folder (--root), by its path there',
+          onclick: () => { const path = window.prompt('Weights file under the server root (one number per vertex):', 'weights.txt'); if (path) w.loadFromServer(path); },
+        }, '⇩ From server…'),
         h('button', { title: 'Every vertex back to weight 1 (undoable)', disabled: !sum || sum.below === 0, onclick: () => w.clear() }, 'Clear')) : null,
       sum && sum.below ? details([
         ['Vertices below 1', fmtInt(sum.below), 'How many vertices follow the deformer less than fully'],

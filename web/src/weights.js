@@ -294,6 +294,16 @@ export class WeightPaint {
     if (await this.ed.run('weights', { values })) { this.ed.info(`Weights loaded from ${file.name}`); await this.fetch(); }
   }
 
+  /** A weights file under the server's root (POST /api/weights/load), named by its path. */
+  async loadFromServer(path) {
+    try {
+      const st = await api.post('/api/weights/load', { path }, 'Loading weights…');
+      await this.ed.applyState(st);
+      this.ed.info(`Weights loaded from ${path}`);
+      await this.fetch();
+    } catch (e) { this.ed.error(e); }
+  }
+
   async clear() {
     if (await this.ed.run('weights', { clear: true })) { this.ed.info('Weights cleared (every vertex 1) — Ctrl+Z brings them back'); await this.fetch(); }
   }

@@ -292,6 +292,16 @@ async function weights() {
   const stillPainted = [...w2.keys()].filter((i) => w2[i] < 1).length;
   const firstStroke = stillPainted > 0 && stillPainted < [...w.keys()].filter((i) => w[i] < 1).length;
   check(firstStroke, `Ctrl+Z twice undoes the drag and the second stroke only (${stillPainted} vertices still painted)`);
+  // a weights file uploaded through the panel: every vertex 0.5, one undo step
+  const u1 = (await state()).undo;
+  await page.setInputFiles('#panel input[type=file][accept=".txt,.w,.csv"]', { name: 'half.txt', mimeType: 'text/plain', buffer: Buffer.from('# half\n' + '0.5\n'.repeat(1839)) });
+  await page.waitForFunction((u) => window.ffdEditor.state.undo === u + 1, u1, { timeout: 10000 }).catch(() => {});
+  await settle();
+  const wh = await api('POST', '/api/weights_values', {});
+  const w3 = new Float32Array(wh.buffer.slice(wh.byteOffset + 16, wh.byteOffset + wh.length));
+  check(w3.every((x) => x === 0.5) && (await state()).undo === u1 + 1, 'a weights file uploaded in the panel sets every weight (0.5), one undo step');
+  await page.keyboard.press('Control+z');
+  await settle();
   await clickOn('input[name=weights-map]');
   void st0;
 }
