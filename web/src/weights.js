@@ -17,6 +17,8 @@ import * as THREE from 'three';
 import { api } from './api.js';
 import { ramp } from './viewport.js';
 
+const BRUSH_KEY = 'ffd-editor.brush';
+
 export const MODES = [
   { name: 'add', label: 'Add', title: 'Raise the weights under the brush toward 1 (Ctrl while painting: subtract)' },
   { name: 'subtract', label: 'Subtract', title: 'Lower the weights under the brush toward 0 (Ctrl while painting: add)' },
@@ -28,7 +30,7 @@ export class WeightPaint {
     this.ed = editor;
     this.weights = null;     // Float32Array, one per vertex (null: not fetched)
     this.mode = 'add';
-    this.radius = 0;         // world units; 0: a tenth of the mesh's diagonal once known
+    this.radiusShare = 0.1;  // the brush's radius as a share of the mesh's diagonal
     this.strength = 0.5;
     this.showMap = false;    // the colour map outside the tool
     this.stroke = null;      // {id, mode, last: Vector3}
@@ -41,6 +43,7 @@ export class WeightPaint {
     this.cursor.className = 'brush-cursor';
     this.cursor.hidden = true;
     editor.container.appendChild(this.cursor);
+    this.loadBrush();
     this.bind();
     editor.on('state', () => this.onState());
     editor.on('tool', () => this.onTool());
@@ -48,7 +51,21 @@ export class WeightPaint {
   }
 
   get active() { return this.ed.tool === 'weights'; }
-  brushRadius() { return this.radius || 0.1 * (this.ed.vp.diag || 1); }
+
+  // the brush (mode, strength, radius as a share of the model's size) is remembered across loads
+  loadBrush() {
+    try {
+      const b = JSON.parse(localStorage.getItem(BRUSH_KEY)) || {};
+      if (MODES.some((m) => m.name === b.mode)) this.mode = b.mode;
+      if (b.strength > 0 && b.strength <= 1) this.strength = b.strength;
+      if (b.radiusShare > 0 && b.radiusShare <= 1) this.radiusShare = b.radiusShare;
+    } catch { /* nothing remembered */ }
+  }
+
+  saveBrush() {
+    try { localStorage.setItem(BRUSH_KEY, JSON.stringify({ mode: this.mode, strength: this.strength, radiusShare: this.radiusShare })); } catch { /* private mode */ }
+  }
+  brushRadius() { return this.radiusShare * (this.ed.vp.diag || 1); }
 
   // --- the tool ------------------------------------------------------------------
 
@@ -108,9 +125,10 @@ export class WeightPaint {
   }
 
   setShowMap(on) { this.showMap = on; if (on && !this.weights) this.fetch(); else this.paintMap(); this.ed.panel.update(); }
-  setMode(m) { this.mode = m; this.ed.panel.update(); }
-  setRadius(r) { if (r > 0 && Number.isFinite(r)) this.radius = r; this.syncBrushUi(); }
-  setStrength(s) { if (Number.isFinite(s)) this.strength = Math.min(1, Math.max(0, s)); this.syncBrushUi(); }
+  setMode(m) { this.mode = m; this.saveBrush(); this.ed.panel.update(); }
+  /** r: world units (kept as a share of the model's size, so that it suits the next mesh too). */
+  setRadius(r) { if (r > 0 && Number.isFinite(r)) this.radiusShare = Math.min(1, r / (this.ed.vp.diag || 1)); this.saveBrush(); this.syncBrushUi(); }
+  setStrength(s) { if (Number.isFinite(s)) this.strength = Math.min(1, Math.max(0, s)); this.saveBrush(); this.syncBrushUi(); }
 
   /** The panel's sliders follow the wheel in place (a re-render would end a slider drag). */
   syncBrushUi() {
