@@ -166,7 +166,9 @@ export class WeightPaint {
     }, true);
     el.addEventListener('pointermove', (ev) => {
       if (!this.active) return;
-      const hit = ev.target === this.ed.vp.renderer.domElement ? this.ed.vp.pickMesh(ev) : null;
+      // (during a stroke the view holds the pointer capture: events target it, not the canvas)
+      const onCanvas = ev.target === this.ed.vp.renderer.domElement || (this.stroke && ev.target === el);
+      const hit = onCanvas ? this.ed.vp.pickMesh(ev) : null;
       this.showCursor(ev, hit);
       if (!this.stroke || !hit) return;
       ev.stopImmediatePropagation();

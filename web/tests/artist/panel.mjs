@@ -237,6 +237,7 @@ async function weights() {
   const wbuf = await api('POST', '/api/weights_values', {});
   const w = new Float32Array(wbuf.buffer.slice(wbuf.byteOffset + 16, wbuf.byteOffset + wbuf.length));
   const painted = [...w.keys()].filter((i) => w[i] < 0.5);
+  check(w[from.v] < 1 && w[to.v] < 1 && w[row2[0].v] < 1, `each stroke painted from its first point to its last (weights ${w[from.v].toFixed(2)}, ${w[to.v].toFixed(2)}, ${w[row2[0].v].toFixed(2)})`);
   check(painted.length > 20, `the strokes lowered weights: ${painted.length} vertices below 0.5`);
   const local = await ed(() => Array.from(window.ffdEditor.editor.weights.weights));
   check(local.every((x, i) => Math.abs(x - w[i]) < 1e-6), 'the page\'s weights equal the server\'s');
