@@ -196,6 +196,50 @@ static void test_weights_scale_and_replay(void)
     ffd_session_destroy(s);
 }
 
+/* Every method takes weights the same way (the generic layers): a vertex of
+ * weight 0 stays at rest, and the rig replays. */
+static void test_every_method(void)
+{
+    static const char *const creates[] = {
+        "{\"deformer\":\"tspline\",\"resolution\":[4,4,4]}",
+        "{\"deformer\":\"gffd\"}",
+        "{\"deformer\":\"cage\"}",
+        "{\"deformer\":\"rbf\"}",
+        "{\"deformer\":\"idw\"}",
+        "{\"deformer\":\"pbffd\",\"controls\":{\"interior\":8,\"exterior\":8}}",
+    };
+    for (size_t m = 0; m < sizeof creates / sizeof *creates; m++) {
+        ffd_session *s = open_session();
+        size_t n = 0;
+        float *rest = positions(s, &n);
+        CHECK(run(s, "create", creates[m], NULL) == FFD_OK);
+        CHECK(run(s, "move", "{\"points\":[1],\"delta\":[0.3,0.6,-0.2]}", NULL) == FFD_OK);
+        float *full = positions(s, &n);
+        size_t moved = 0;
+        for (size_t i = 0; i < n && !moved; i++)
+            if (max_change(full + 3 * i, rest + 3 * i, 1) > 1e-3)
+                moved = i + 1;
+        CHECK(moved > 0);
+        char body[96];
+        snprintf(body, sizeof body, "{\"vertices\":{\"%zu\":0,\"%zu\":0.5}}", moved ? moved - 1 : 0,
+                 moved == n ? (size_t)0 : n - 1);
+        CHECK(run(s, "weights", body, NULL) == FFD_OK);
+        float *now = positions(s, &n);
+        if (moved && max_change(now + 3 * (moved - 1), rest + 3 * (moved - 1), 1) != 0) {
+            fprintf(stderr, "  %s: vertex %zu of weight 0 moved by %g\n", creates[m], moved - 1,
+                    max_change(now + 3 * (moved - 1), rest + 3 * (moved - 1), 1));
+            check_failures++;
+        }
+        double d = replay_difference(s);
+        if (!(d < 1e-5)) {
+            fprintf(stderr, "  %s: replay differs by %g\n", creates[m], d);
+            check_failures++;
+        }
+        free(rest), free(full), free(now);
+        ffd_session_destroy(s);
+    }
+}
+
 /* The steps of one stroke are one undo step; another stroke, or the same
  * id after another change, is another; undo brings back the positions and
  * weights before the stroke exactly, across the wrapping of a method that
@@ -273,6 +317,7 @@ static void test_bad_requests(void)
         {"{\"vertices\":{\"-1\":0.5}}", FFD_ERR_PARSE, "key '-1'"},
         {"{\"vertices\":{\"x\":0.5}}", FFD_ERR_PARSE, "key 'x'"},
         {"{\"vertices\":{\"07\":0.5}}", FFD_ERR_PARSE, "key '07'"},
+        {"{\"vertices\":{\"5\":0,\"5\":1}}", FFD_ERR_PARSE, "vertices: vertex 5 given twice"},
         {"{\"vertices\":{\"5\":1e999}}", FFD_ERR_NONFINITE, "vertices.5: expected a finite number"},
         {"{\"vertices\":{\"5\":1.5}}", FFD_ERR_RANGE, "vertices.5: the weight 1.5 is outside [0, 1]"},
         {"{\"vertices\":{\"5\":-0.25}}", FFD_ERR_RANGE, "outside [0, 1]"},
@@ -427,6 +472,7 @@ int main(int argc, char **argv)
     static const check_test tests[] = {
         {"weights_scale_and_replay", test_weights_scale_and_replay},
         {"one_undo_step_per_stroke", test_one_undo_step_per_stroke},
+        {"every_method", test_every_method},
         {"bad_requests", test_bad_requests},
         {"values_without_deformer", test_values_without_deformer},
         {"load_weights_file", test_load_weights_file},

@@ -207,7 +207,8 @@ ffd_status ffd_sess_parse_body(const char *op, const char *body, size_t size, cJ
  * weights are finite numbers in [0, 1]; an optional "stroke": k (a positive
  * integer) names the brush stroke (*stroke, 0 without). FFD_ERR_PARSE,
  * NONFINITE, RANGE (a weight outside [0, 1], a vertex out of range),
- * INVALID (a count other than n) naming the key; w unchanged on error. */
+ * INVALID (a count other than n) naming the key, PARSE for a vertex given
+ * twice; w unchanged on error. */
 ffd_status ffd_sess_read_weights(const ffd_rig_parser *p, const cJSON *body, size_t n, double *w,
                                  int *clear, double *stroke);
 /* The weights as a binary reply: "FFDW", uint32 revision, uint32 n, uint32

@@ -74,8 +74,12 @@ ffd_status ffd_sess_read_weights(const ffd_rig_parser *p, const cJSON *body, siz
         return ffd_rig_expected(p, "vertices", "an object {\"vertex\": weight, ...}");
     /* the new weights go in only when every one is good: read into a copy */
     double *next = ffd_malloc_array(n ? n : 1, sizeof *next);
-    if (!next)
+    unsigned char *seen = ffd_calloc(n ? n : 1, 1);
+    if (!next || !seen) {
+        ffd_free(next);
+        ffd_free(seen);
         return ffd_fail(p->err, FFD_ERR_NOMEM, "%s: out of memory", p->name);
+    }
     memcpy(next, w, n * sizeof *next);
     const cJSON *v;
     cJSON_ArrayForEach(v, vertices)
@@ -94,6 +98,11 @@ ffd_status ffd_sess_read_weights(const ffd_rig_parser *p, const cJSON *body, siz
                           p->name, id, n);
             break;
         }
+        if (seen[id]++) {
+            st = ffd_fail(p->err, FFD_ERR_PARSE, "%s: vertices: vertex %llu given twice", p->name,
+                          id);
+            break;
+        }
         snprintf(path, sizeof path, "vertices.%llu", id);
         if ((st = read_weight(p, v, path, &next[id])))
             break;
@@ -101,6 +110,7 @@ ffd_status ffd_sess_read_weights(const ffd_rig_parser *p, const cJSON *body, siz
     if (!st)
         memcpy(w, next, n * sizeof *w);
     ffd_free(next);
+    ffd_free(seen);
     return st;
 }
 
