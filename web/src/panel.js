@@ -164,8 +164,17 @@ export class Panel {
     const name = this.form.method;
     // the creation part of a rig of the method (docs/editor.md "Operations")
     const body = { deformer: name, ...methodOf(name).createBody(this.form[name]) };
+    // painted weights belong to the mesh, as vertex groups do: the new
+    // deformer gets them too (a second undo step)
+    let kept = null;
+    if (this.ed.state && this.ed.state.method) {
+      try { const w = await api.weights(); if (w.some((x) => x !== 1)) kept = Array.from(w); } catch { /* none to keep */ }
+    }
     this.ed.setSelection([]);
-    await this.ed.run('create', body, { label: `Creating ${name}…` });
+    const st = await this.ed.run('create', body, { label: `Creating ${name}…` });
+    if (st && kept && await this.ed.run('weights', { values: kept })) {
+      this.ed.info('The painted weights apply to the new deformer too (Ctrl+Z once: without them)');
+    }
     this.ed.vp.requestRender();
   }
 

@@ -293,6 +293,19 @@ async function weights() {
   const stillPainted = [...w2.keys()].filter((i) => w2[i] < 1).length;
   const firstStroke = stillPainted > 0 && stillPainted < [...w.keys()].filter((i) => w[i] < 1).length;
   check(firstStroke, `Ctrl+Z twice undoes the drag and the second stroke only (${stillPainted} vertices still painted)`);
+  // Re-create at another resolution: the painted weights stay (they belong to the mesh)
+  const u0r = (await state()).undo;
+  await createViaPanel('lattice', { 'res-lattice-0': 3, 'res-lattice-1': 3, 'res-lattice-2': 3 });
+  await page.waitForFunction((u) => window.ffdEditor.state.undo >= u + 2, u0r, { timeout: 10000 }).catch(() => {});
+  await settle();
+  const wr = await api('POST', '/api/weights_values', {});
+  const w4 = new Float32Array(wr.buffer.slice(wr.byteOffset + 16, wr.byteOffset + wr.length));
+  check((await state()).controls.count === 27 && w4.every((x, i) => Math.abs(x - w2[i]) < 1e-6),
+    `Re-create (3×3×3) keeps the painted weights (${[...w4].filter((x) => x < 1).length} vertices below 1)`);
+  await page.keyboard.press('Control+z');
+  await page.keyboard.press('Control+z');
+  await settle();
+  check((await state()).controls.count === 64, 'Ctrl+Z twice: back to the 4×4×4 lattice');
   // a weights file uploaded through the panel: every vertex 0.5, one undo step
   const u1 = (await state()).undo;
   await page.setInputFiles('#panel input[type=file][accept=".txt,.w,.csv"]', { name: 'half.txt', mimeType: 'text/plain', buffer: Buffer.from('# half\n' + '0.5\n'.repeat(1839)) });
