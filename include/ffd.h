@@ -790,6 +790,16 @@ FFD_API ffd_status ffd_session_rig(const ffd_session *s, char **json, size_t *si
  * refers to files is refused). On error nothing changes. */
 FFD_API ffd_status ffd_session_load_rig(ffd_session *s, const char *text, size_t size, const char *name,
                                         const char *root, ffd_error *err);
+/* Gives the session's deformer the vertex-group weights of a weights file's
+ * text (size bytes; docs/constraints.md: one number in [0, 1] per vertex, in
+ * vertex order, blank and '#' lines skipped), as the "weights" op's
+ * {"values": [...]} does: one undo step, saved in the rig. name names the
+ * file in errors. FFD_ERR_PARSE or NONFINITE (naming the line), INVALID (a
+ * count other than the vertex count; no deformer or a drag in progress:
+ * "conflict: ..."), RANGE (a weight outside [0, 1]). On error nothing
+ * changes. */
+FFD_API ffd_status ffd_session_load_weights(ffd_session *s, const char *text, size_t size,
+                                            const char *name, ffd_error *err);
 /* The deformed mesh in memory, in options->format (FFD_FORMAT_AUTO: the
  * format it was read in); ffd_free the data. */
 FFD_API ffd_status ffd_session_export(const ffd_session *s, const ffd_write_options *options,

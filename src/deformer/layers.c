@@ -858,3 +858,81 @@ ffd_status ffd_layers_outcome(const sess_method *m, cJSON *details)
     }
     return ok ? FFD_OK : FFD_ERR_NOMEM;
 }
+
+/* ---- the editor's weights (session "weights" op) ---- */
+
+ffd_status ffd_layers_weights(const sess_method *m, double *out, ffd_error *err)
+{
+    size_t n = m->ctx->n;
+    const ffd_rig_layers *ly = m->vt == &layered_vt ? CL(m)->layers : NULL;
+    if (!ly || ly->weights_kind == FFD_WEIGHTS_NONE) {
+        for (size_t i = 0; i < n; i++)
+            out[i] = 1.0;
+        return FFD_OK;
+    }
+    if (ly->weights_kind != FFD_WEIGHTS_ATTRIBUTE) {
+        memcpy(out, ly->weights, n * sizeof *out);
+        return FFD_OK;
+    }
+    double *w = NULL;
+    ffd_status st = ffd_mesh_vertex_attribute(m->ctx->mesh, ly->weights_name, &w, err);
+    if (!st) {
+        memcpy(out, w, n * sizeof *out);
+        ffd_free(w);
+    }
+    return st;
+}
+
+ffd_status ffd_layers_set_weights(sess_method **m, const double *w, ffd_error *err)
+{
+    sess_method *in = *m;
+    const sess_ctx *ctx = in->ctx;
+    size_t n = ctx->n;
+    if (in->vt != &layered_vt && !w)
+        return FFD_OK; /* no weights, none asked for */
+    double *values = NULL, *scale = NULL;
+    if (w && (!(values = ffd_malloc_array(n ? n : 1, sizeof *values)) ||
+              !(scale = ffd_malloc_array(n ? n : 1, sizeof *scale)))) {
+        ffd_free(values);
+        return ffd_fail(err, FFD_ERR_NOMEM, "weights: out of memory for %zu vertices", n);
+    }
+    layered *l = NULL;
+    if (in->vt == &layered_vt) {
+        l = L(in);
+    } else {
+        /* a method without layers gets them: strength 1, no constraints */
+        l = ffd_calloc(1, sizeof *l);
+        ffd_rig_layers *ly = l ? ffd_calloc(1, sizeof *ly) : NULL;
+        if (!ly) {
+            ffd_free(l);
+            ffd_free(values);
+            ffd_free(scale);
+            return ffd_fail(err, FFD_ERR_NOMEM, "weights: out of memory");
+        }
+        ly->strength = 1.0;
+        ly->mask_axes[0] = ly->mask_axes[1] = ly->mask_axes[2] = 1;
+        l->base.vt = &layered_vt;
+        l->base.ctx = ctx;
+        l->inner = in;
+        l->layers = ly;
+        l->fold_fraction = 1.0;
+        *m = &l->base;
+    }
+    ffd_rig_layers *ly = l->layers;
+    ffd_free(ly->weights);
+    ffd_free(ly->weights_name);
+    ffd_free(ly->weights_path);
+    ly->weights_name = ly->weights_path = NULL;
+    ly->weights = values;
+    ly->weight_count = w ? n : 0;
+    ly->weights_kind = w ? FFD_WEIGHTS_VALUES : FFD_WEIGHTS_NONE;
+    ffd_free(l->scale);
+    l->scale = scale;
+    for (size_t i = 0; w && i < n; i++) {
+        values[i] = w[i];
+        scale[i] = w[i] * ly->strength; /* as vertex_scale: exact when the strength is 1 */
+    }
+    /* a replay of the rig projects its controls onto the constraints with
+     * these weights: so does the session */
+    return constrain(l, err);
+}

@@ -96,6 +96,18 @@ ffd_status ffd_method_load(const ffd_method *method, const sess_ctx *ctx, const 
  * the fold policy's fraction) to details when m is wrapped (layers.c);
  * FFD_ERR_NOMEM. */
 ffd_status ffd_layers_outcome(const sess_method *m, cJSON *details);
+/* The editor's vertex-group weights (the session's "weights" op;
+ * docs/editor.md). ffd_layers_weights: m's weights into out (ctx->n values,
+ * before the strength; 1 everywhere when m has none); an attribute's are read
+ * from the mesh (its status). ffd_layers_set_weights: gives *m the weights
+ * w (ctx->n finite values, copied; NULL: none), saved in its rig as
+ * "values"; a method without the layers is wrapped in them (*m becomes the
+ * wrapper, which owns the old handle). The controls are projected onto the
+ * rig's constraints again, as a replay of the rig would; that failing
+ * (FFD_ERR_NUMERIC) leaves *m with the new weights: the caller rolls back.
+ * FFD_ERR_NOMEM leaves *m as it was. */
+ffd_status ffd_layers_weights(const sess_method *m, double *out, ffd_error *err);
+ffd_status ffd_layers_set_weights(sess_method **m, const double *w, ffd_error *err);
 
 /* The method behind a public deformer and its binding of the bound points
  * (deformer.c; for the generic operations in other files: sensitivities.c). */

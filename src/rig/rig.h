@@ -123,6 +123,13 @@ typedef struct ffd_rig_layers {
 extern const char *const ffd_rig_layer_keys[];
 /* 1 when the layers change nothing (NULL, or strength 1 and nothing else). */
 int ffd_rig_layers_trivial(const ffd_rig_layers *layers);
+/* The text of a weights file (rig_layers.c; docs/constraints.md): one
+ * number per line in vertex order, blank and '#' lines skipped; file names
+ * it in messages ("w.txt:3: the weight is not finite (nan)"). *out
+ * (ffd_free; NULL when empty) holds *count values. FFD_ERR_PARSE,
+ * NONFINITE, NOMEM. */
+ffd_status ffd_rig_parse_weights(const char *text, size_t size, const char *file, double **out,
+                                 size_t *count, ffd_error *err);
 void ffd_rig_layers_free(ffd_rig_layers *layers);
 /* A deep copy (NULL when out of memory; NULL for NULL). */
 ffd_rig_layers *ffd_rig_layers_copy(const ffd_rig_layers *layers);

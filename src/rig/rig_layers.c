@@ -115,20 +115,17 @@ static char *resolve_path(const char *name, const char *file)
     return out;
 }
 
-/* A weights file: one number per vertex, one per line, in vertex order;
- * blank lines and lines starting with '#' are skipped. */
-static ffd_status read_weights_file(const ffd_rig_parser *p, const char *path, const char *file,
-                                    ffd_rig_layers *l)
+/* A weights file's text: one number per vertex, one per line, in vertex
+ * order; blank lines and lines starting with '#' are skipped. */
+ffd_status ffd_rig_parse_weights(const char *text, size_t size, const char *file, double **out,
+                                 size_t *count, ffd_error *err)
 {
-    unsigned char *data = NULL;
-    size_t size = 0;
-    ffd_error inner = {0};
-    if (ffd_read_file(path, &data, &size, &inner))
-        return ffd_fail(p->err, FFD_ERR_IO, "%s: weights: %s", p->name, inner.message);
-    const char *s = (const char *)data, *end = s + size;
+    const char *s = text, *end = s + size;
     size_t cap = 0, n = 0, line = 1;
     double *w = NULL;
     ffd_status st = FFD_OK;
+    *out = NULL;
+    *count = 0;
     for (const char *q = s; q < end; line++) {
         const char *nl = memchr(q, '\n', (size_t)(end - q));
         const char *le = nl ? nl : end;
@@ -145,13 +142,13 @@ static ffd_status read_weights_file(const ffd_rig_parser *p, const char *path, c
                 int len = 0;
                 while (at + len < le && !ffd_is_space(at[len]) && len < 20)
                     len++;
-                st = ffd_fail(p->err, FFD_ERR_PARSE,
+                st = ffd_fail(err, FFD_ERR_PARSE,
                               "%s:%zu: expected one weight (a number) per line, found '%.*s'", file,
                               line, len, at);
                 break;
             }
             if (!isfinite(v)) {
-                st = ffd_fail(p->err, FFD_ERR_NONFINITE, "%s:%zu: the weight is not finite (%g)",
+                st = ffd_fail(err, FFD_ERR_NONFINITE, "%s:%zu: the weight is not finite (%g)",
                               file, line, v);
                 break;
             }
@@ -159,7 +156,7 @@ static ffd_status read_weights_file(const ffd_rig_parser *p, const char *path, c
                 size_t nc = cap ? 2 * cap : 1024;
                 double *g = ffd_realloc_array(w, nc, sizeof *g);
                 if (!g) {
-                    st = ffd_fail(p->err, FFD_ERR_NOMEM, "%s: out of memory", file);
+                    st = ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory", file);
                     break;
                 }
                 w = g;
@@ -169,14 +166,27 @@ static ffd_status read_weights_file(const ffd_rig_parser *p, const char *path, c
         }
         q = nl ? nl + 1 : end;
     }
-    ffd_free(data);
     if (st) {
         ffd_free(w);
         return st;
     }
-    l->weights = w;
-    l->weight_count = n;
+    *out = w;
+    *count = n;
     return FFD_OK;
+}
+
+static ffd_status read_weights_file(const ffd_rig_parser *p, const char *path, const char *file,
+                                    ffd_rig_layers *l)
+{
+    unsigned char *data = NULL;
+    size_t size = 0;
+    ffd_error inner = {0};
+    if (ffd_read_file(path, &data, &size, &inner))
+        return ffd_fail(p->err, FFD_ERR_IO, "%s: weights: %s", p->name, inner.message);
+    ffd_status st = ffd_rig_parse_weights((const char *)data, size, file, &l->weights,
+                                          &l->weight_count, p->err);
+    ffd_free(data);
+    return st;
 }
 
 static ffd_status read_weights(const ffd_rig_parser *p, const cJSON *item, ffd_rig *rig,

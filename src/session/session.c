@@ -71,6 +71,8 @@ struct ffd_session {
     undo_stack undo, redo;
     uint32_t revision;
     double busy_ms;        /* duration of the last command */
+    double weights_stroke; /* the last "weights" op's stroke id and the revision it made */
+    uint32_t weights_revision;
 };
 
 /* ---------- small utilities ---------- */
@@ -834,6 +836,94 @@ static ffd_status op_method(ffd_session *s, const char *op, const cJSON *body, f
     return st;
 }
 
+/* Gives the method the weights w (NULL: none) as one undo step, or as part
+ * of the step of the stroke the previous weights change began (the same
+ * stroke id > 0, nothing in between). On error nothing changes. */
+static ffd_status apply_weights(ffd_session *s, const double *w, double stroke, ffd_error *err)
+{
+    undo_entry before;
+    ffd_status st = capture(s, UNDO_REBUILD, "paint weights", &before, err);
+    if (st)
+        return st;
+    int merge = stroke > 0 && stroke == s->weights_stroke && s->revision == s->weights_revision &&
+                s->undo.count && !s->redo.count;
+    if ((st = ffd_layers_set_weights(&s->method, w, err)) || (st = refresh(s, err)))
+        return roll_back(s, &before, st);
+    if (merge)
+        entry_free(&before);
+    else if ((st = commit(s, &before, err)))
+        return st;
+    s->weights_stroke = stroke;
+    s->weights_revision = s->revision;
+    return FFD_OK;
+}
+
+/* Vertex-group weights (session_weights.c, deformer/layers.c): one undo
+ * step per brush stroke. */
+static ffd_status op_weights(ffd_session *s, const ffd_rig_parser *p, const cJSON *body,
+                             ffd_error *err)
+{
+    ffd_status st = need_method(s, "weights", err);
+    double *w = st ? NULL : ffd_malloc_array(s->ctx.n, sizeof *w);
+    if (!st && !w)
+        st = ffd_fail(err, FFD_ERR_NOMEM, "weights: out of memory");
+    int clear = 0;
+    double stroke = 0;
+    if (!st && !(st = ffd_layers_weights(s->method, w, err)) &&
+        !(st = ffd_sess_read_weights(p, body, s->ctx.n, w, &clear, &stroke)))
+        st = apply_weights(s, clear ? NULL : w, stroke, err);
+    ffd_free(w);
+    return st;
+}
+
+ffd_status ffd_session_load_weights(ffd_session *s, const char *text, size_t size,
+                                    const char *name, ffd_error *err)
+{
+    if (!s || (!text && size))
+        return ffd_fail(err, FFD_ERR_INVALID, "ffd_session_load_weights: NULL argument");
+    if (s->drag.kind)
+        return conflict(err, "a drag is in progress", "weights/load");
+    ffd_status st = need_method(s, "weights/load", err);
+    if (st)
+        return st;
+    name = name ? name : "weights";
+    double *w = NULL;
+    size_t count = 0;
+    if ((st = ffd_rig_parse_weights(text ? text : "", size, name, &w, &count, err)))
+        return st;
+    if (count != s->ctx.n)
+        st = ffd_fail(err, FFD_ERR_INVALID, "%s: %zu weights for %zu vertices", name, count,
+                      s->ctx.n);
+    for (size_t i = 0; !st && i < count; i++)
+        if (!(w[i] >= 0.0 && w[i] <= 1.0))
+            st = ffd_fail(err, FFD_ERR_RANGE,
+                          "%s: the weight of vertex %zu is %g, outside [0, 1] (the editor paints "
+                          "weights from 0, at rest, to 1, the full effect)",
+                          name, i, w[i]);
+    if (!st)
+        st = apply_weights(s, w, 0, err);
+    ffd_free(w);
+    return st;
+}
+
+/* Every vertex's weight as a binary reply (1 everywhere without weights). */
+static ffd_status op_weights_values(ffd_session *s, void **reply, size_t *size, ffd_error *err)
+{
+    double *w = ffd_malloc_array(s->ctx.n, sizeof *w);
+    if (!w)
+        return ffd_fail(err, FFD_ERR_NOMEM, "weights_values: out of memory");
+    ffd_status st = FFD_OK;
+    if (s->method)
+        st = ffd_layers_weights(s->method, w, err);
+    else
+        for (size_t i = 0; i < s->ctx.n; i++)
+            w[i] = 1.0;
+    if (!st)
+        st = ffd_sess_weights_reply(w, s->ctx.n, s->revision, reply, size, err);
+    ffd_free(w);
+    return st;
+}
+
 static ffd_status reply_state(const ffd_session *s, void **reply, size_t *size, ffd_error *err)
 {
     char *json = NULL;
@@ -917,6 +1007,13 @@ ffd_status ffd_session_command(ffd_session *s, const char *op, const char *body,
         cJSON_Delete(doc);
         *binary = !st;
         return st;
+    } else if (!strcmp(op, "weights"))
+        st = op_weights(s, &p, doc, err);
+    else if (!strcmp(op, "weights_values")) {
+        st = empty ? op_weights_values(s, reply, reply_size, err) : ffd_rig_expected(&p, "body", "{}");
+        cJSON_Delete(doc);
+        *binary = !st;
+        return st;
     } else if (ffd_method_op_known(op))
         st = op_method(s, op, doc, err);
     else
@@ -935,7 +1032,7 @@ ffd_status ffd_session_command(ffd_session *s, const char *op, const char *body,
 /* The operations every session knows (ffd_session_command), before the methods' own. */
 static const char *const session_ops[] = {"create", "drag_begin", "drag",  "drag_end", "drag_cancel",
                                           "move",   "pin",        "unpin", "influence", "reset",
-                                          "undo",   "redo"};
+                                          "undo",   "redo", "weights", "weights_values"};
 
 const char *ffd_session_op_name(size_t i)
 {

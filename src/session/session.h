@@ -209,4 +209,19 @@ ffd_status ffd_sess_rig_text(const sess_method *m, char **text, ffd_error *err);
 ffd_status ffd_sess_parse_body(const char *op, const char *body, size_t size, cJSON **doc,
                                ffd_error *err);
 
+/* The "weights" op's body (session_weights.c): {"values": [w, ...]} (every
+ * vertex), {"vertices": {"17": w, ...}} (some: w holds the current weights
+ * on entry and gets the new ones) or {"clear": true} (*clear: no weights);
+ * weights are finite numbers in [0, 1]; an optional "stroke": k (a positive
+ * integer) names the brush stroke (*stroke, 0 without). FFD_ERR_PARSE,
+ * NONFINITE, RANGE (a weight outside [0, 1], a vertex out of range),
+ * INVALID (a count other than n) naming the key, PARSE for a vertex given
+ * twice; w unchanged on error. */
+ffd_status ffd_sess_read_weights(const ffd_rig_parser *p, const cJSON *body, size_t n, double *w,
+                                 int *clear, double *stroke);
+/* The weights as a binary reply: "FFDW", uint32 revision, uint32 n, uint32
+ * 0, then n float32 (*data ffd_free'd by the caller). */
+ffd_status ffd_sess_weights_reply(const double *w, size_t n, uint32_t revision, void **data,
+                                  size_t *size, ffd_error *err);
+
 #endif

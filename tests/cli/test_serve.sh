@@ -586,6 +586,38 @@ if [ "${FFD_SERVE_STUB:-0}" != 1 ]; then
     cmp -s "$T/body" "$T/slow" || fail "GET /api/state after the refinement differs from its reply"
 fi
 
+# Vertex-group weights from a file under the root (POST /api/weights/load):
+# refused without a deformer, outside the root, or with a bad file (naming
+# the line or the count), changing nothing; a good file is one undo step and
+# lands in the rig.
+expect_ok POST /api/open --data-binary '{"path": "bunny.obj"}'
+awk 'BEGIN { for (i = 0; i < 1839; i++) print (i < 900 ? 0.25 : 1) }' >"$ROOT/w.txt"
+{ echo 0.5; echo half; } >"$ROOT/w-bad.txt"
+echo 0.5 >"$ROOT/w-short.txt"
+awk 'BEGIN { for (i = 0; i < 1839; i++) print (i == 7 ? 1.5 : 1) }' >"$ROOT/w-range.txt"
+post_json 409 conflict /api/weights/load '{"path": "w.txt"}'
+expect_ok POST /api/create --data-binary '{"deformer": "lattice", "resolution": [3, 3, 3]}'
+expect_ok POST /api/move --data-binary '{"points": [13], "delta": [0, 1, 0]}'
+req GET /api/state
+cp "$T/body" "$T/weights-before"
+post_json 403 forbidden /api/weights/load '{"path": "../outside/secret.json"}'
+post_json 403 forbidden /api/weights/load '{"path": "link.json"}'
+post_json 404 not_found /api/weights/load '{"path": "missing.txt"}'
+post_json 400 parse /api/weights/load '{"path": "w-bad.txt"}'
+has_body 'w-bad.txt:2: expected one weight (a number) per line'
+post_json 400 invalid /api/weights/load '{"path": "w-short.txt"}'
+has_body 'w-short.txt: 1 weights for 1839 vertices'
+post_json 400 range /api/weights/load '{"path": "w-range.txt"}'
+has_body 'vertex 7 is 1.5'
+req GET /api/state
+cmp -s "$T/body" "$T/weights-before" || fail "refused weights files changed the state"
+expect_ok POST /api/weights/load --data-binary '{"path": "w.txt"}'
+has_key undo 3
+req GET /api/rig
+grep -q '"weights"' "$T/body" || fail "GET /api/rig after loading weights: no \"weights\": $(show)"
+expect_ok POST /api/undo --data-binary '{}'
+has_key undo 2
+
 stop main
 [ "$(cksum <"$ROOT/bunny.obj")" = "$BUNNY_SUM" ] || fail "the opened mesh was modified"
 [ "$(cd "$OUT" && cat secret.obj secret.json secret.html | cksum)" = "$OUT_SUM" ] ||

@@ -78,6 +78,7 @@ typedef enum route {
     ROUTE_RIG_UPLOAD,
     ROUTE_RIG_SAVE,
     ROUTE_EXPORT_SAVE,
+    ROUTE_WEIGHTS_LOAD,
     ROUTE_OP
 } route;
 
@@ -113,6 +114,7 @@ static const struct api_route {
     {"/api/rig/upload", ROUTE_NONE, ROUTE_RIG_UPLOAD, "POST"},
     {"/api/rig/save", ROUTE_NONE, ROUTE_RIG_SAVE, "POST"},
     {"/api/export/save", ROUTE_NONE, ROUTE_EXPORT_SAVE, "POST"},
+    {"/api/weights/load", ROUTE_NONE, ROUTE_WEIGHTS_LOAD, "POST"},
 };
 
 /* ======================================================================
@@ -792,6 +794,40 @@ static enum MHD_Result post_rig_load(serve_server *srv, struct MHD_Connection *c
     return ret;
 }
 
+/* A weights file under the root (one weight per vertex, docs/editor.md):
+ * the session's deformer gets them, one undo step. */
+static enum MHD_Result post_weights_load(serve_server *srv, struct MHD_Connection *c, request *r)
+{
+    static const char *const keys[] = {"path"};
+    const char *path;
+    cJSON *doc;
+    char msg[MSG_LEN], abs[PATH_LEN];
+    const char *word;
+    unsigned code = parse_body(r, keys, 1, &path, &doc, msg, sizeof msg);
+    if (code)
+        return answer_error(srv, c, r, code, "parse", "%s", msg);
+    enum MHD_Result ret;
+    struct stat st;
+    if ((code = resolve(srv, path, 0, abs, &word, msg, sizeof msg)) != 0) {
+        ret = answer_error(srv, c, r, code, word, "%s", msg);
+    } else if (stat(abs, &st) == 0 && (uintmax_t)st.st_size > RIG_FILE_LIMIT) {
+        ret = answer_error(srv, c, r, MHD_HTTP_CONTENT_TOO_LARGE, "too_large",
+                           "%s: a weights file larger than 16 MiB", path);
+    } else {
+        ffd_error err = {{0}};
+        unsigned char *text = NULL;
+        size_t size = 0;
+        ffd_status s = ffd_read_file(abs, &text, &size, &err);
+        if (s == FFD_OK)
+            s = ffd_session_load_weights(srv->session, (const char *)text, size, path,
+                                         &err);
+        ffd_free(text);
+        ret = s == FFD_OK ? reply_state(srv, c, r) : answer_status(srv, c, r, s, err.message);
+    }
+    cJSON_Delete(doc);
+    return ret;
+}
+
 static enum MHD_Result post_rig_upload(serve_server *srv, struct MHD_Connection *c, request *r)
 {
     const char *name = base_name(MHD_lookup_connection_value(c, MHD_GET_ARGUMENT_KIND, "name"));
@@ -904,6 +940,7 @@ static enum MHD_Result api(serve_server *srv, struct MHD_Connection *c, request 
     case ROUTE_RIG_UPLOAD: return post_rig_upload(srv, c, r);
     case ROUTE_RIG_SAVE: return post_rig_save(srv, c, r);
     case ROUTE_EXPORT_SAVE: return post_export_save(srv, c, r);
+    case ROUTE_WEIGHTS_LOAD: return post_weights_load(srv, c, r);
     default: break;
     }
     return answer_error(srv, c, r, MHD_HTTP_INTERNAL_SERVER_ERROR, "error", "unrouted request");

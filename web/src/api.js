@@ -20,6 +20,27 @@ export const stats = { lastMs: 0, lastOp: '' };
 export function onActivity(fn) { listeners.add(fn); }
 function notify() { for (const fn of listeners) fn(); }
 
+// --- connection (the offline banner, toasts.js) -------------------------------
+
+const connection = new Set();
+/** fn(false) when a request cannot reach the server (network error). */
+export function onConnection(fn) { connection.add(fn); }
+function lost() { for (const fn of connection) fn(false); }
+
+/** True when the server answers GET /api/state within ms (not counted as a pending request). */
+export async function ping(ms = 3000) {
+  const ctl = new AbortController();
+  const t = setTimeout(() => ctl.abort(), ms);
+  try {
+    const res = await fetch('/api/state', { cache: 'no-store', signal: ctl.signal });
+    return res.ok;
+  } catch {
+    return false;
+  } finally {
+    clearTimeout(t);
+  }
+}
+
 /** Time (ms) the oldest pending request has been waiting, 0 when none. */
 export function oldestPendingMs() {
   let oldest = Infinity;
@@ -52,6 +73,7 @@ async function request(method, path, { json, body, binary = false, label } = {})
     try {
       res = await fetch(path, init);
     } catch (e) {
+      lost();
       throw new ApiError(`cannot reach the server (${e.message})`, 0, 'network');
     }
     if (!res.ok) {
@@ -131,6 +153,15 @@ export function parseInfluence(buf) {
   return { revision, V, weights: new Float32Array(buf, 16, V) };
 }
 
+/** Weights: FFDW, rev, V, 0, float32 weights V. */
+export function parseWeights(buf) {
+  const dv = new DataView(buf);
+  if (buf.byteLength < 16 || magic(dv) !== 'FFDW') throw new ApiError('bad weights from the server', 0, 'parse');
+  const V = dv.getUint32(8, true);
+  if (buf.byteLength < 16 + 4 * V) throw new ApiError('short weights reply', 0, 'parse');
+  return new Float32Array(buf, 16, V);
+}
+
 // --- endpoints --------------------------------------------------------------
 
 export const api = {
@@ -151,4 +182,6 @@ export const api = {
   post: (path, json, label) => request('POST', path, { json, label }),
   /** A GET download: {data: Blob, name: from Content-Disposition}. */
   blob: (path, label) => request('GET', path, { binary: 'blob', label }),
+  /** Every vertex's vertex-group weight (the "weights_values" op): Float32Array. */
+  weights: async () => parseWeights(await request('POST', '/api/weights_values', { json: {}, binary: true, label: 'weights' })),
 };

@@ -12,6 +12,9 @@ import { DragSession } from './drag.js';
 import { ViewNav } from './view.js';
 import { Panel, fmtInt, h } from './panel.js';
 import { methodOf, PICK_TOOLS, BUSY } from './methods/index.js';
+import { Toasts, OfflineBanner } from './toasts.js';
+import { WeightPaint } from './weights.js';
+import { firstRunCard } from './panel.js';
 
 const $ = (id) => document.getElementById(id);
 
@@ -41,8 +44,12 @@ class Editor {
     this.selector = new Selector(this);
     this.dm = new DirectManip(this);
     this.transform = new TransformTool(this); // modal G/R/S, pivot, mirror, snapping, proportional
+    this.toasts = new Toasts($('toasts'));
+    this.offline = new OfflineBanner($('offline'), async () => { this.meshKey = ''; await this.refresh(); this.panel.loadFiles(); this.info('Reconnected to the server'); });
+    this.weights = new WeightPaint(this);
     this.panel = new Panel(this, $('panel'));
     this.viewNav = new ViewNav(this); // up axis, view presets, ortho, grid, X-ray, rows / layers (view.js)
+    firstRunCard(this);
     this.sketchGroup = new THREE.Group();
     this.vp.overlays.add(this.sketchGroup);
 
@@ -221,14 +228,16 @@ class Editor {
   /** The tools: controls, mesh, and the pick tools of the methods (methods/*.js "tools"). */
   setTool(name) {
     const pick = PICK_TOOLS[name];
-    if (name !== 'controls' && name !== 'mesh' && !pick) return;
+    if (name !== 'controls' && name !== 'mesh' && name !== 'weights' && !pick) return;
     if (this.tool !== name && PICK_TOOLS[this.tool] && PICK_TOOLS[this.tool].sketch) this.clearSketch();
     this.tool = name;
     this.container.classList.toggle('tool-mesh', name === 'mesh');
     this.container.classList.toggle('tool-pick', !!pick);
+    this.container.classList.toggle('tool-weights', name === 'weights');
     const hints = {
       controls: '',
       mesh: 'Mesh tool: drag a point of the surface · Alt/Ctrl+click pins · P pins under the pointer',
+      weights: 'Weights: paint on the mesh (blue 0 → red 1) · Ctrl subtracts · Shift smooths · wheel: brush size · Shift+wheel: strength · Esc: done',
     };
     $('hint').textContent = pick ? pick.hint : hints[name];
     this.gizmo.update();
@@ -262,7 +271,7 @@ class Editor {
       if (seq !== this.influenceSeq || !this.opts.influence) return;
       this.vp.setInfluence(inf.weights);
       const m = document.querySelector('#influence-legend .max');
-      if (m) m.textContent = `max ${(+this.vp.influenceMax).toPrecision(3)}`;
+      if (m) m.textContent = `${Math.round(100 * this.vp.influenceMax)}%`;
     } catch (e) { this.error(e); }
   }
 
@@ -490,34 +499,30 @@ class Editor {
     set('st-controls', s.method ? `Controls <b>${fmtInt(c.count)}</b>${methodOf(s.method).status(c)}` : '');
     set('st-sel', `Selected <b>${this.selection.length}</b>`);
     set('st-pins', (s.pins || []).length ? `Pins <b>${s.pins.length}</b>` : '');
-    set('st-rev', s.revision !== undefined ? `Rev <b>${s.revision}</b> · undo <b>${s.undo || 0}</b>/${s.redo || 0}` : '');
+    set('st-rev', s.revision !== undefined ? `History <b>${s.undo || 0}</b> step${s.undo === 1 ? '' : 's'}${s.redo ? ` · ${s.redo} to redo` : ''}` : '');
+    const revTitle = `Steps Ctrl+Z can undo, and Ctrl+Y redo (revision ${s.revision ?? '—'}: the server's change counter)`;
+    if ($('st-rev').title !== revTitle) $('st-rev').title = revTitle;
     const now = performance.now();
     const recent = this.dragTimes.filter((t) => now - t <= 1000);
     set('st-ups', this.activeDrag || (recent.length && now - recent[recent.length - 1] < 1500)
       ? `Drag <b>${recent.length}</b> updates/s · step ${(this.lastDragMs || 0).toFixed(0)} ms (+${(this.lastApplyMs || 0).toFixed(0)} ms mesh update)` : '');
-    set('st-req', `Last request <b>${stats.lastMs.toFixed(1)}</b> ms${s.busy_ms !== undefined ? ` · server ${(+s.busy_ms).toFixed(1)} ms` : ''}`);
+    set('st-req', `Response <b>${Math.round(stats.lastMs)}</b> ms`);
+    const reqTitle = `How long the server took to answer the last request: ${stats.lastMs.toFixed(1)} ms in all${s.busy_ms !== undefined ? `, ${(+s.busy_ms).toFixed(1)} ms of it computing` : ''}`;
+    if ($('st-req').title !== reqTitle) $('st-req').title = reqTitle;
     this.syncToolbar();
   }
 
   error(e) {
     console.warn('ffd editor:', e);
     const msg = e instanceof ApiError ? e.message : (e && e.message) || String(e);
+    if (e instanceof ApiError && e.status === 'network') return; // the offline banner says it
     this.toast(msg, 'error');
   }
 
   info(msg) { this.toast(msg, 'info', 3500); }
 
-  toast(msg, kind = 'error', timeout = 0) {
-    const box = $('toasts');
-    // collapse repeats of the same message
-    for (const t of box.children) if (t.dataset.msg === msg) t.remove();
-    const el = h('div', { class: `toast ${kind}`, role: kind === 'error' ? 'alert' : 'status', dataset: { msg } },
-      h('span', { class: 'msg' }, msg),
-      h('button', { title: 'Dismiss', onclick: () => el.remove() }, '×'));
-    box.appendChild(el);
-    while (box.children.length > 4) box.firstChild.remove();
-    if (timeout) setTimeout(() => el.remove(), timeout);
-  }
+  /** A toast (toasts.js): errors stay until closed, info goes by itself. */
+  toast(msg, kind = 'error') { return this.toasts.show(msg, kind); }
 
   // --- test handle ------------------------------------------------------------------------
 

@@ -13,6 +13,7 @@ import { launch, runTest, guarded, argv } from './harness.mjs';
 const STAGES = [
   ['view', 'view.mjs'],
   ['transform', 'transform.mjs'],
+  ['panel', 'panel.mjs'],
 ];
 
 const only = (() => { const i = argv.indexOf('--stages'); return i >= 0 ? argv[i + 1].split(',') : null; })();

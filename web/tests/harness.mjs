@@ -366,3 +366,29 @@ export async function runTest(main, name = 'e2e') {
   }
   process.exit(failures ? 1 : 0);
 }
+
+// --- stopping and restarting the server (the artist's panel stage: offline) ----
+
+/** Stops `ffd serve` (SIGTERM) and waits until it has exited. */
+export async function stopServer() {
+  if (!server || server.exitCode !== null) return;
+  const p = server;
+  await new Promise((r) => { p.on('exit', r); p.kill('SIGTERM'); });
+}
+
+/** Starts `ffd serve` again on the same port and root, with TMP/meshName: a new session, the page's origin unchanged. */
+export function startServerAgain(meshName = 'bunny.obj') {
+  const port = new URL(BASE).port;
+  return new Promise((resolve, reject) => {
+    const p = spawn(FFD, ['serve', path.join(TMP, meshName), '--port', port, '--root', TMP, '--web', WEB], { stdio: ['ignore', 'pipe', 'pipe'] });
+    server = p;
+    let out = '';
+    const timer = setTimeout(() => reject(new Error(`ffd serve (again) printed no URL in 20 s: ${out}`)), 20000);
+    p.stderr.on('data', (d) => { serverErr += d; });
+    p.stdout.on('data', (d) => {
+      out += d;
+      if (out.includes('\n')) { clearTimeout(timer); resolve(BASE); }
+    });
+    p.on('exit', (code, sig) => { clearTimeout(timer); reject(new Error(`ffd serve (again) exited (${code ?? sig}): ${serverErr.slice(-300)}`)); });
+  });
+}

@@ -13,11 +13,11 @@ export default {
 
   createFields(p) {
     return [h('div', { class: 'row' }, h('label', {}, 'Coordinates'),
-      h('select', { name: 'coordinates', onchange: (e) => { p.coordinates = e.target.value; } },
+      h('select', { name: 'coordinates', title: 'How the cage moves the mesh: mean value (fast, exact at the cage) or harmonic (smoother, no negative weights; computed on a grid)', onchange: (e) => { p.coordinates = e.target.value; } },
         h('option', { value: 'mean_value', selected: p.coordinates === 'mean_value' }, 'Mean value'),
         h('option', { value: 'harmonic', selected: p.coordinates === 'harmonic' }, 'Harmonic (grid)'))),
     numberRow('cage', 'Grid cells', p, 'resolution', { min: 4, max: 96, step: 1, title: 'harmonic coordinates: grid cells along the longest side' }),
-    numberRow('cage', 'Margin', p, 'margin', { min: 0, step: 0.01 })];
+    numberRow('cage', 'Margin', p, 'margin', { min: 0, step: 0.01, title: 'Room between the mesh and the automatic cage, as a share of the model’s size' })];
   },
 
   createBody(p) {
@@ -33,7 +33,7 @@ export default {
         c.coordinates === 'harmonic' ? 'harmonic coordinates. ' : 'mean value coordinates. ',
         'Drag a cage vertex to deform; load a rig with a cage file for a fitted cage.'),
       h('div', { class: 'row buttons' },
-        h('button', { onclick: () => ed.selectAll() }, 'Select all'),
-        h('button', { 'data-need-sel': true, onclick: () => ed.setSelection([]) }, 'Clear selection')));
+        h('button', { title: 'Select every control point (A)', onclick: () => ed.selectAll() }, 'Select all'),
+        h('button', { 'data-need-sel': true, title: 'Select nothing (Esc)', onclick: () => ed.setSelection([]) }, 'Clear selection')));
   },
 };

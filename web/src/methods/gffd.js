@@ -16,7 +16,7 @@ export default {
 
   createFields(p) {
     return [h('div', { class: 'row' }, h('label', {}, 'Unit'),
-      h('input', { type: 'text', value: p.unit, placeholder: 'auto', name: 'gffd-unit', style: 'width:70px', onchange: (e) => { p.unit = e.target.value; } })),
+      h('input', { type: 'text', value: p.unit, placeholder: 'auto', name: 'gffd-unit', style: 'width:70px', title: 'The field’s length unit (empty: automatic, from the model’s size)', onchange: (e) => { p.unit = e.target.value; } })),
     h('div', { class: 'hint-text' }, 'Starts with one polyline along the longest axis; edit the skeleton below.')];
   },
 
@@ -40,17 +40,17 @@ export default {
           h('a', { href: '#', style: 'color:inherit', onclick: (e) => { e.preventDefault(); ed.setSelection(range(p.offset, p.count)); } }, `#${i} ${p.type}`),
           h('span', { class: 'hint-text' }, ` ${p.count} pt${p.count === 1 ? '' : 's'}`)),
         h('input', {
-          type: 'number', name: `prim-radius-${i}`, step: 'any', min: 0, value: +(+p.radius).toPrecision(4), title: 'radius',
+          type: 'number', name: `prim-radius-${i}`, step: 'any', min: 0, value: +(+p.radius).toPrecision(4), title: 'How far this primitive’s influence reaches',
           onchange: (e) => ed.run('primitive', { radius: num(e.target.value, p.radius), index: i }),
         }),
         h('button', { title: 'Remove this primitive', class: 'danger', onclick: () => ed.run('primitive', { remove: i }) }, '×'),
       )) : h('div', { class: 'item hint-text' }, 'No primitives')),
       h('div', { class: 'row' }, h('label', {}, 'New point'),
-        h('input', { type: 'number', name: 'point-radius', step: 'any', min: 0, value: f.radius, title: 'radius', onchange: (e) => { f.radius = num(e.target.value, f.radius); } }),
+        h('input', { type: 'number', name: 'point-radius', step: 'any', min: 0, value: f.radius, title: 'How far the new point primitive’s influence reaches', onchange: (e) => { f.radius = num(e.target.value, f.radius); } }),
         h('label', { style: 'min-width:0' }, 'offset'),
         h('input', { type: 'number', name: 'point-offset', class: 'narrow', step: 0.01, value: f.offset, title: 'offset from the surface along its normal (fraction of the diagonal; negative: inside)', onchange: (e) => { f.offset = num(e.target.value, 0.05); } })),
       h('div', { class: 'row buttons' },
-        h('button', { class: placing ? 'active' : '', onclick: () => ed.setTool(placing ? 'controls' : 'addpoint') },
+        h('button', { class: placing ? 'active' : '', title: 'Click the mesh to add a point primitive there (Esc to stop)', onclick: () => ed.setTool(placing ? 'controls' : 'addpoint') },
           placing ? '⊕ Click the mesh…' : '⊕ Add point primitive')),
       h('div', { class: 'hint-text' }, `${fmtInt(c.influenced || 0)} vertices influenced. Select skeleton vertices and use the gizmo to bend.`),
     );

@@ -29,9 +29,9 @@ export default {
   form: { poisson_ratio: 0.45, multiscale: 'single', brush: { type: 'grab', radius: 0, angle: 30, factor: 1.3, pinch: 0.3 } },
 
   createFields(p) {
-    return [numberRow('kelvinlet', 'Poisson ratio', p, 'poisson_ratio', { min: 0, max: 0.5, step: 0.01 }),
+    return [numberRow('kelvinlet', 'Poisson ratio', p, 'poisson_ratio', { min: 0, max: 0.5, step: 0.01, title: 'How the material keeps its volume: 0.5 like rubber (incompressible), lower: squashier' }),
       h('div', { class: 'row' }, h('label', {}, 'Falloff'),
-        h('select', { name: 'multiscale', onchange: (e) => { p.multiscale = e.target.value; } },
+        h('select', { name: 'multiscale', title: 'Falloff of the brushes: single, or a blend of two or three sizes for a longer tail', onchange: (e) => { p.multiscale = e.target.value; } },
           ['single', 'biscale', 'triscale'].map((m) => h('option', { value: m, selected: p.multiscale === m }, m)))),
       h('div', { class: 'hint-text' }, 'Starts without brushes: place them by clicking the mesh below.')];
   },
@@ -56,14 +56,14 @@ export default {
         h('button', { title: 'Remove this brush', class: 'danger', onclick: () => ed.run('brush', { remove: i }) }, '×'),
       )) : h('div', { class: 'item hint-text' }, 'No brushes')),
       h('div', { class: 'row' }, h('label', {}, 'New brush'),
-        h('select', { name: 'brush-type', onchange: (e) => { f.type = e.target.value; } },
+        h('select', { name: 'brush-type', title: 'The kind of brush placed by the next click on the mesh', onchange: (e) => { f.type = e.target.value; } },
           TYPES.map((t) => h('option', { value: t, selected: f.type === t }, t))),
-        h('input', { type: 'number', name: 'brush-radius', step: 'any', min: 0, value: f.radius, title: 'radius', onchange: (e) => { f.radius = num(e.target.value, f.radius); } })),
-      numberRow('kelvinlet-brush', 'Twist angle (°)', f, 'angle', { step: 5 }),
-      numberRow('kelvinlet-brush', 'Scale factor', f, 'factor', { min: 0.1, step: 0.05 }),
-      numberRow('kelvinlet-brush', 'Pinch', f, 'pinch', { step: 0.05 }),
+        h('input', { type: 'number', name: 'brush-radius', step: 'any', min: 0, value: f.radius, title: 'Radius of the new brush: how far it reaches', onchange: (e) => { f.radius = num(e.target.value, f.radius); } })),
+      numberRow('kelvinlet-brush', 'Twist angle (°)', f, 'angle', { step: 5, title: 'Twist brushes: how far they turn the material about the surface normal' }),
+      numberRow('kelvinlet-brush', 'Scale factor', f, 'factor', { min: 0.1, step: 0.05, title: 'Scale brushes: more than 1 swells, less than 1 shrinks' }),
+      numberRow('kelvinlet-brush', 'Pinch', f, 'pinch', { step: 0.05, title: 'Pinch brushes: how strongly they pull the material together (negative: apart)' }),
       h('div', { class: 'row buttons' },
-        h('button', { class: placing ? 'active' : '', onclick: () => ed.setTool(placing ? 'controls' : 'addbrush') },
+        h('button', { class: placing ? 'active' : '', title: 'Click the mesh to place a brush of the chosen kind there (Esc to stop)', onclick: () => ed.setTool(placing ? 'controls' : 'addbrush') },
           placing ? '⊕ Click the mesh…' : '⊕ Add brush')),
       h('div', { class: 'hint-text' }, 'Drag a grab brush\'s handle to pull the material; the material keeps its volume as the Poisson ratio nears 0.5.'),
     );

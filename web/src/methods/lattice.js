@@ -68,11 +68,11 @@ export default {
     const axes = AXES[p.coordinates || 'cartesian'];
     return [resolutionRow('lattice', p),
       h('div', { class: 'row' }, h('label', {}, 'Lattice'),
-        h('select', { name: 'coordinates', onchange: (e) => { p.coordinates = e.target.value; } },
+        h('select', { name: 'coordinates', title: 'The lattice’s shape: a box, or a cylinder or sphere around the model (for bending round things)', onchange: (e) => { p.coordinates = e.target.value; } },
           COORDINATES.map(([v, t]) => h('option', { value: v, selected: p.coordinates === v }, t)))),
       h('div', { class: 'row' }, h('label', {}, 'Basis (all axes)'),
         h('select', {
-          name: 'basis',
+          name: 'basis', title: 'How control points blend, on every axis: B-spline (smooth, local), Bernstein (smooth, global), linear, or Catmull-Rom / cardinal (through the points)',
           onchange: (e) => {
             p.basis = e.target.value;
             p.interp = [p.basis, p.basis, p.basis];
@@ -82,12 +82,12 @@ export default {
         }, INTERPOLATIONS.map(([v, t]) => h('option', { value: v, selected: basisOf(p.interp) === v }, t)))),
       ...[0, 1, 2].map((a) => h('div', { class: 'row' }, h('label', {}, `Interpolation ${axes[a]}`),
         h('select', {
-          name: `interp-${a}`,
+          name: `interp-${a}`, title: `How control points blend along ${axes[a]}`,
           onchange: (e) => { p.interp[a] = e.target.value; p.basis = p.interp[0]; },
         }, INTERPOLATIONS.map(([v, t]) => h('option', { value: v, selected: p.interp[a] === v }, t))))),
-      numberRow('lattice', 'Tension', p, 'tension', { min: -1, max: 0.99, step: 0.05, title: 'cardinal axes: [-1, 1)' }),
-      numberRow('lattice', 'Continuity', p, 'continuity', { min: -1, max: 1, step: 0.05, title: 'cardinal axes: [-1, 1]' }),
-      numberRow('lattice', 'Margin', p, 'margin', { min: 0, step: 0.01 })];
+      numberRow('lattice', 'Tension', p, 'tension', { min: -1, max: 0.99, step: 0.05, title: 'Cardinal axes: how tight the curve is through the points, from -1 (loose) to just under 1 (tight)' }),
+      numberRow('lattice', 'Continuity', p, 'continuity', { min: -1, max: 1, step: 0.05, title: 'Cardinal axes: how sharp the curve turns at the points, from -1 (sharp) to 1 (round)' }),
+      numberRow('lattice', 'Margin', p, 'margin', { min: 0, step: 0.01, title: 'Room between the mesh and the lattice, as a share of the model’s size' })];
   },
 
   createBody(p) {
@@ -113,8 +113,8 @@ export default {
         ...kids.map((l, k) => h('a', { href: '#', style: 'color:inherit', onclick: (e) => { e.preventDefault(); ed.setSelection(Array.from({ length: l.count }, (_, j) => l.first + j)); } },
           ` #${k + 1} ${l.resolution.join('×')} (depth ${l.depth})`))) : null,
       h('div', { class: 'row buttons' },
-        h('button', { onclick: () => ed.selectAll() }, 'Select all'),
-        h('button', { 'data-need-sel': true, onclick: () => ed.setSelection([]) }, 'Clear selection')));
+        h('button', { title: 'Select every control point (A)', onclick: () => ed.selectAll() }, 'Select all'),
+        h('button', { 'data-need-sel': true, title: 'Select nothing (Esc)', onclick: () => ed.setSelection([]) }, 'Clear selection')));
   },
 
   /** Selection helpers (select.js): axis 0, 1, 2 = the lattice's i, j, k (x, y, z for a box). */

@@ -21,10 +21,10 @@ export default {
 
   createFields(p) {
     return [h('div', { class: 'row' }, h('label', {}, 'Kernel'),
-      h('select', { name: 'rbf-kernel', onchange: (e) => { p.kernel = e.target.value; } },
+      h('select', { name: 'rbf-kernel', title: 'The radial function: how a control point’s pull fades with distance', onchange: (e) => { p.kernel = e.target.value; } },
         KERNELS.map(([v, t]) => h('option', { value: v, selected: p.kernel === v }, t)))),
-    numberRow('rbf', 'Radius', p, 'radius', { min: 0, step: 'any', title: '0: half the diagonal' }),
-    numberRow('rbf', 'Power k', p, 'power', { min: 1, max: 64, step: 1 }),
+    numberRow('rbf', 'Radius', p, 'radius', { min: 0, step: 'any', title: 'How far each control point reaches (0: half the model’s size)' }),
+    numberRow('rbf', 'Power k', p, 'power', { min: 1, max: 64, step: 1, title: 'The kernel’s power (polyharmonic kernels)' }),
     h('div', { class: 'hint-text' }, '27 control points on a grid around the mesh; drag them, or pin the mesh (direct manipulation).')];
   },
 
@@ -40,7 +40,7 @@ export default {
     return h('section', {}, h('h3', {}, 'RBF'),
       h('div', { class: 'hint-text' }, `${c.count || 0} control points, ${name} kernel. The mesh follows the control points exactly where they are.`),
       h('div', { class: 'row buttons' },
-        h('button', { onclick: () => ed.selectAll() }, 'Select all'),
-        h('button', { 'data-need-sel': true, onclick: () => ed.setSelection([]) }, 'Clear selection')));
+        h('button', { title: 'Select every control point (A)', onclick: () => ed.selectAll() }, 'Select all'),
+        h('button', { 'data-need-sel': true, title: 'Select nothing (Esc)', onclick: () => ed.setSelection([]) }, 'Clear selection')));
   },
 };

@@ -3,6 +3,7 @@
 
 import * as THREE from 'three';
 import { h, fmtInt } from '../dom.js';
+import { details } from './ui.js';
 import { COL } from '../palette.js';
 import { num, resolutionRow, numberRow } from './ui.js';
 
@@ -11,7 +12,7 @@ export default {
   label: 'T-spline (proxy)',
   form: { resolution: [6, 6, 6], padding: 0, refine: { kind: 'cell', ratio: 0.5 } },
 
-  createFields(p) { return [resolutionRow('tspline', p), numberRow('tspline', 'Padding', p, 'padding', { min: 0, step: 0.01 })]; },
+  createFields(p) { return [resolutionRow('tspline', p), numberRow('tspline', 'Padding', p, 'padding', { min: 0, step: 0.01, title: 'Room between the mesh and the T-spline volume, as a share of the model’s size' })]; },
 
   createBody(p) { return { resolution: p.resolution, padding: p.padding }; },
 
@@ -31,29 +32,38 @@ export default {
     };
     return h('section', {}, h('h3', {}, 'T-spline'),
       h('div', { class: 'hint-text' },
-        `${fmtInt(c.count)} points · ${fmtInt(c.cells ?? 0)} cells · ${fmtInt(c.faces ?? 0)} faces · ${fmtInt(c.edges_count ?? 0)} edges · ${c.refinements ?? 0} refinements`
-        + (c.max_weight_deviation !== undefined ? ` · max weight dev. ${(+c.max_weight_deviation).toExponential(1)}` : '')),
+        `${fmtInt(c.count)} control points`
+        + (c.refinements ? `, detail added ${c.refinements === 1 ? 'once' : `${c.refinements} times`}` : ', not refined yet')
+        + (+c.max_weight_deviation > 1e-9 ? '; refining has made the lattice rational (see Details)' : '.')),
+      details([
+        ['Cells', fmtInt(c.cells ?? 0), 'Boxes of the T-lattice (each refinement splits some)'],
+        ['Faces', fmtInt(c.faces ?? 0), 'Faces between the cells'],
+        ['Edges', fmtInt(c.edges_count ?? 0), 'Lines of the full T-lattice'],
+        ['Refinements', String(c.refinements ?? 0), 'How many times detail was added (cell, face or edge splits)'],
+        c.max_weight_deviation !== undefined ? ['Max weight deviation', (+c.max_weight_deviation).toExponential(1),
+          'How far the control points’ weights have drifted from 1 through refinements (0: a plain, polynomial T-spline; more: a rational one). The shape at rest does not change either way.'] : null,
+      ]),
       h('div', { class: 'row' },
-        h('label', { class: 'check' }, h('input', { type: 'checkbox', name: 'full-lattice', checked: ed.controlsView.showLattice, onchange: (e) => ed.setShowLattice(e.target.checked) }), 'Show full T-lattice')),
+        h('label', { class: 'check', title: 'Draw every point and line of the T-lattice instead of the simpler proxy cage' }, h('input', { type: 'checkbox', name: 'full-lattice', checked: ed.controlsView.showLattice, onchange: (e) => ed.setShowLattice(e.target.checked) }), 'Show full T-lattice')),
       h('div', { class: 'row' },
-        h('label', { class: 'check', title: 'Dragged points are ARAP handles (§3.4); off: they move alone' },
-          h('input', { type: 'checkbox', name: 'arap', checked: ed.opts.arap, onchange: (e) => { ed.opts.arap = e.target.checked; } }), 'ARAP drag (selection = handles)')),
-      h('div', { class: 'hint-text' }, 'Refine at the selection’s centroid (rest space):'),
+        h('label', { class: 'check', title: 'On: the points you drag pull the rest of the lattice along, keeping its shape as rigid as possible (ARAP, §3.4 of the paper). Off: only the dragged points move.' },
+          h('input', { type: 'checkbox', name: 'arap', checked: ed.opts.arap, onchange: (e) => { ed.opts.arap = e.target.checked; } }), 'Drag keeps the shape (ARAP)')),
+      h('div', { class: 'hint-text' }, 'Add detail where the selected points are:'),
       h('div', { class: 'row buttons' },
-        h('button', { 'data-need-sel': true, onclick: () => near('cell') }, 'Cell'),
-        h('button', { 'data-need-sel': true, onclick: () => near('face') }, 'Face'),
-        h('button', { 'data-need-sel': true, onclick: () => near('edge') }, 'Edge'),
-        h('input', { type: 'number', name: 'edge-ratio', class: 'narrow', min: 0.05, max: 0.95, step: 0.05, value: f.ratio, title: 'edge split ratio', onchange: (e) => { f.ratio = num(e.target.value, 0.5); } })),
+        h('button', { 'data-need-sel': true, title: 'Split the lattice cell at the selection’s centre into smaller cells', onclick: () => near('cell') }, 'Cell'),
+        h('button', { 'data-need-sel': true, title: 'Split the lattice face nearest the selection’s centre', onclick: () => near('face') }, 'Face'),
+        h('button', { 'data-need-sel': true, title: 'Split the lattice edge nearest the selection’s centre at the ratio on the right', onclick: () => near('edge') }, 'Edge'),
+        h('input', { type: 'number', name: 'edge-ratio', class: 'narrow', min: 0.05, max: 0.95, step: 0.05, value: f.ratio, title: 'Where an edge is split: 0.5 in the middle, 0.25 a quarter along it', onchange: (e) => { f.ratio = num(e.target.value, 0.5); } })),
       h('div', { class: 'row' },
-        h('select', { name: 'refine-kind', onchange: (e) => { f.kind = e.target.value; } },
+        h('select', { name: 'refine-kind', title: 'What a click on the mesh splits: the cell, face or edge there', onchange: (e) => { f.kind = e.target.value; } },
           ['cell', 'face', 'edge'].map((k) => h('option', { value: k, selected: f.kind === k }, k))),
-        h('button', { class: refining ? 'active' : '', style: 'flex:1', onclick: () => ed.setTool(refining ? 'controls' : 'refine') },
+        h('button', { class: refining ? 'active' : '', style: 'flex:1', title: 'Click the mesh where you want more detail (Esc to stop)', onclick: () => ed.setTool(refining ? 'controls' : 'refine') },
           refining ? 'Click the mesh…' : 'Refine at a mesh point')),
       h('div', { class: 'row buttons' },
-        h('button', { onclick: () => ed.run('refine', { insertions: [{ cells: 'proxy' }] }, { label: 'Refining…' }) }, 'Refine all proxy cells')),
+        h('button', { title: 'Split every cell of the proxy cage once: finer control everywhere', onclick: () => ed.run('refine', { insertions: [{ cells: 'proxy' }] }, { label: 'Refining…' }) }, 'Refine all proxy cells')),
       h('div', { class: 'row buttons' },
-        h('button', { 'data-need-sel': true, onclick: () => ed.run('freeze', { points: ed.selection, frozen: true }) }, '❄ Freeze'),
-        h('button', { 'data-need-sel': true, onclick: () => ed.run('freeze', { points: ed.selection, frozen: false }) }, 'Unfreeze')),
+        h('button', { 'data-need-sel': true, title: 'Frozen points stay where they are when you drag others', onclick: () => ed.run('freeze', { points: ed.selection, frozen: true }) }, '❄ Freeze'),
+        h('button', { 'data-need-sel': true, title: 'Let the selected points follow drags again', onclick: () => ed.run('freeze', { points: ed.selection, frozen: false }) }, 'Unfreeze')),
       h('div', { class: 'hint-text' }, `${frozen.size} frozen`),
     );
   },
