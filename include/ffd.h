@@ -417,17 +417,37 @@ typedef struct ffd_linear_map {
 /* Zero means default. */
 typedef struct ffd_manip_options {
     double rcond; /* relative singular-value threshold for the rank; default 1e-10 */
+    /* The first hard_count constraints are hard (pins): held exactly
+     * whenever they can all be met together; the others are soft (a drag),
+     * met in the least-squares sense by what freedom the hard ones leave.
+     * Default 0: every constraint soft (one least-squares problem). */
+    size_t hard_count;
 } ffd_manip_options;
 
 typedef struct ffd_manip_result {
     size_t rank;            /* numerical rank of B S */
     size_t variables_used;  /* distinct free variables touched by the constraints */
     double max_residual;    /* max over constraints of |reached - target| */
+    /* With hard constraints (options->hard_count > 0): 1 when they are all
+     * met (each within 1e-9 times the largest coordinate involved, at least 1), 0 when they
+     * contradict each other and were met in the least-squares sense instead;
+     * hard_residual and soft_residual are the largest residual of each kind. */
+    int hard_met;
+    double hard_residual;
+    double soft_residual;
 } ffd_manip_result;
 
 /* Direct manipulation (Hsu et al. 1992, eq. 2-7): finds the minimum-norm
  * change dV of the free variables so that the constrained points reach their
  * targets in the least-squares sense: dV = (B S)^+ (targets - current).
+ * With options->hard_count = h > 0 the first h constraints (pins) are
+ * equality constraints: dV = dV_h + dV_s, dV_h = A_h^+ dq_h the
+ * minimum-norm change meeting them, dV_s = (A_s N N^T)^+ (dq_s - A_s dV_h)
+ * the minimum-norm change in the null space N of their rows that brings the
+ * others closest (A_h, A_s: the rows of B S of each kind). When everything
+ * can be met this is the same dV as without hard constraints; when the hard
+ * ones contradict each other dV_h is their least-squares solution
+ * (result->hard_met = 0).
  * points: k row indices of map; current: k by 3 positions those points have
  * now; targets: k by 3 (finite, else FFD_ERR_NONFINITE). delta receives
  * map->variable_count by 3 (zero where untouched). residuals (k, may be NULL)

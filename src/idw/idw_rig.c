@@ -95,7 +95,7 @@ ffd_status ffd_rig_apply_idw(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report 
         ffd_idw_rows pins = {idw, rest};
         ffd_linear_map map;
         ffd_idw_linear_map(&pins, k, &map);
-        ffd_manip_options options = {rig->rcond};
+        ffd_manip_options options = {.rcond = rig->rcond};
         if ((s = ffd_rig_charge_manip(&map, k, budget, &inner)) ||
             (s = ffd_idw_eval(idw, rest, k, current, &inner)) ||
             (s = ffd_manip_solve(&map, rows, k, current, targets, &options, delta, NULL, &result,

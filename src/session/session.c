@@ -67,6 +67,8 @@ struct ffd_session {
     size_t pin_count;
     float *residuals;      /* last direct-manipulation solve: pins (then the dragged vertex) */
     size_t residual_count;
+    int pins_met;          /* last solve: the pins held (0: they contradict each other) */
+    double drag_residual;  /* last solve: the dragged vertex's distance to its target */
     drag_state drag;
     undo_stack undo, redo;
     uint32_t revision;
@@ -410,8 +412,10 @@ static ffd_status dm_solve(ffd_session *s, ffd_error *err)
     if (!res)
         return ffd_fail(err, FFD_ERR_NOMEM, "drag: out of memory");
     ffd_manip_result result;
+    /* pins hard, the dragged vertex soft (docs/editor.md "Pins hard, drag soft") */
+    ffd_manip_options options = {.hard_count = s->pin_count};
     ffd_status st = ffd_manip_solve(&d->map, d->rows, d->constraints, d->current, d->targets,
-                                    NULL, d->delta, res, &result, err);
+                                    &options, d->delta, res, &result, err);
     if (!st)
         st = s->method->vt->set_variables(s->method, d->delta, err);
     if (!st) {
@@ -424,6 +428,8 @@ static ffd_status dm_solve(ffd_session *s, ffd_error *err)
             for (size_t i = 0; i < d->constraints; i++)
                 r[i] = (float)res[i];
             s->residual_count = d->constraints;
+            s->pins_met = result.hard_met;
+            s->drag_residual = result.soft_residual;
         }
     }
     ffd_free(res);
@@ -1033,6 +1039,20 @@ static cJSON *pins_json(const ffd_session *s)
     return arr;
 }
 
+/* "manip": the last direct-manipulation solve (null when none is shown):
+ * whether the pins held, and how far the dragged vertex is from its target. */
+static int manip_json(const ffd_session *s, cJSON *root)
+{
+    if (!s->residual_count)
+        return cJSON_AddNullToObject(root, "manip") != NULL;
+    cJSON *o = cJSON_CreateObject();
+    if (!ffd_sess_add_item(root, "manip", o) || !cJSON_AddBoolToObject(o, "pins_met", s->pins_met))
+        return 0;
+    if (s->residual_count > s->pin_count)
+        return cJSON_AddNumberToObject(o, "drag_residual", s->drag_residual) != NULL;
+    return cJSON_AddNullToObject(o, "drag_residual") != NULL;
+}
+
 ffd_status ffd_session_state(const ffd_session *s, char **json, size_t *size, ffd_error *err)
 {
     cJSON *root = cJSON_CreateObject(), *mesh = cJSON_CreateObject();
@@ -1075,6 +1095,7 @@ ffd_status ffd_session_state(const ffd_session *s, char **json, size_t *size, ff
     }
     cJSON *pins = ok ? pins_json(s) : NULL;
     ok = ok && ffd_sess_add_item(root, "pins", pins); /* deletes pins it could not add */
+    ok = ok && manip_json(s, root);
     ok = ok && cJSON_AddNumberToObject(root, "undo", (double)s->undo.count) &&
          cJSON_AddNumberToObject(root, "redo", (double)s->redo.count) &&
          cJSON_AddNumberToObject(root, "busy_ms", s->busy_ms);
