@@ -818,6 +818,37 @@ FFD_API ffd_status ffd_session_export(const ffd_session *s, const ffd_write_opti
  * the session's rig applied, exactly what ffd deform writes. */
 FFD_API ffd_status ffd_session_deformed(const ffd_session *s, ffd_mesh **out, ffd_error *err);
 
+/* Several meshes in one session (a character and its clothes), deformed by
+ * the one deformer: the session's point set is the concatenation of the
+ * meshes' vertices, mesh i owning the range the state's "meshes" gives
+ * (first, vertices); ffd_session_mesh is then that concatenation (made
+ * from arrays) and ffd_session_name the first mesh's name. Adding or
+ * removing a mesh rebinds the deformer (rebuilt from its rig), keeps the
+ * pins of the meshes that stay, and clears the undo history (it refers to
+ * the old point set). Volume meshes stay alone.
+ * ffd_session_add_mesh appends mesh (taken over on success, untouched on
+ * error) named name; FFD_ERR_INVALID (a drag in progress, a volume mesh, no
+ * vertices, too many vertices), FFD_ERR_NOMEM; on error nothing changes. */
+FFD_API ffd_status ffd_session_add_mesh(ffd_session *s, ffd_mesh *mesh, const char *name,
+                                        ffd_error *err);
+/* Removes mesh index (also the op "remove_mesh" {"mesh": index});
+ * FFD_ERR_RANGE, FFD_ERR_INVALID for the session's only mesh. */
+FFD_API ffd_status ffd_session_remove_mesh(ffd_session *s, size_t index, ffd_error *err);
+/* How many meshes (1 for a session of one mesh) and mesh index's name (NULL past the end). */
+FFD_API size_t ffd_session_mesh_count(const ffd_session *s);
+FFD_API const char *ffd_session_mesh_name(const ffd_session *s, size_t index);
+/* Mesh index as read with the session's rig replayed on it alone (a new
+ * mesh): what ffd deform writes for that mesh's file, and for a deformer
+ * that does not depend on the other meshes (docs/editor.md) the mesh's
+ * range of the session's positions. FFD_ERR_RANGE for an index past the end. */
+FFD_API ffd_status ffd_session_deformed_mesh(const ffd_session *s, size_t index, ffd_mesh **out,
+                                             ffd_error *err);
+/* ffd_session_deformed_mesh written in options->format (FFD_FORMAT_AUTO:
+ * the format that mesh was read in); ffd_free the data. */
+FFD_API ffd_status ffd_session_export_mesh(const ffd_session *s, size_t index,
+                                           const ffd_write_options *options, void **data,
+                                           size_t *size, ffd_error *err);
+
 #ifdef __cplusplus
 }
 #endif
