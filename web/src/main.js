@@ -7,6 +7,7 @@ import { ControlsView } from './controls.js';
 import { Selector } from './select.js';
 import { Gizmo } from './gizmo.js';
 import { DirectManip } from './dm.js';
+import { MeshList } from './meshes.js';
 import { DragSession } from './drag.js';
 import { Panel, fmtInt, h } from './panel.js';
 import { methodOf, PICK_TOOLS, BUSY } from './methods/index.js';
@@ -38,6 +39,7 @@ class Editor {
     this.gizmo = new Gizmo(this); // before OrbitControls' listeners matter: see pointerDown
     this.selector = new Selector(this);
     this.dm = new DirectManip(this);
+    this.meshList = new MeshList(this); // several meshes in one session
     this.panel = new Panel(this, $('panel'));
     this.sketchGroup = new THREE.Group();
     this.vp.overlays.add(this.sketchGroup);
@@ -353,7 +355,7 @@ class Editor {
       if (ev.button !== 0 || this.activeDrag) return;
       const consume = () => { ev.stopPropagation(); ev.preventDefault(); };
       if (this.tool === 'controls' && this.gizmo.hitTest(ev)) return; // the gizmo takes it
-      if (ev.altKey || ev.ctrlKey || ev.metaKey) {
+      if (this.tool === 'mesh' && (ev.altKey || ev.ctrlKey || ev.metaKey)) { // pins: Mesh tool only
         const hit = this.vp.pickMesh(ev);
         if (hit) { consume(); this.dm.pinVertex(hit.vertex); return; }
       }
@@ -429,6 +431,7 @@ class Editor {
   }
 
   pinUnderPointer() {
+    if (this.tool !== 'mesh') { this.info('Pins are set with the Mesh tool: press M, then P over the surface'); return; }
     if (!this.hover) return;
     const hit = this.vp.pickMesh(this.hover);
     if (hit) this.dm.pinVertex(hit.vertex);

@@ -57,6 +57,7 @@ export class Panel {
     const focusedName = document.activeElement && document.activeElement.name;
     this.root.replaceChildren(
       this.meshSection(s),
+      this.ed.meshList.section(this),
       this.createSection(s),
       this.methodSection(s),
       this.dmSection(s),
@@ -135,7 +136,8 @@ export class Panel {
     const pins = s.pins || [];
     const tol = 1e-6 * ed.vp.diag;
     return h('section', {}, h('h3', {}, 'Direct manipulation'),
-      h('div', { class: 'hint-text' }, 'Mesh tool (M): drag a point of the surface. Alt/Ctrl+click or P pins a vertex; Delete unpins.'),
+      h('div', { class: 'hint-text' }, 'Mesh tool (M): drag a point of the surface. Alt/Ctrl+click or P pins a vertex; Delete unpins. Pins hold exactly; a drag they do not allow comes up short.'),
+      ((sf) => h('div', { id: 'dm-shortfall', class: `dm-shortfall${sf.text ? ' warn' : ''}`, title: sf.title }, sf.text))(ed.dm.shortfallText()),
       h('div', { class: 'row' },
         h('label', { class: 'check' }, h('input', { type: 'checkbox', name: 'pin-after', checked: ed.dm.pinAfterDrag, onchange: (e) => { ed.dm.pinAfterDrag = e.target.checked; } }), 'Pin dragged points')),
       pins.length ? h('div', { class: 'list' }, pins.map((p) => h('div', { class: `item${ed.dm.selectedPin === p.vertex ? ' sel' : ''}` },
