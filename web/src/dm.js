@@ -205,7 +205,7 @@ export class DirectManip {
     const pinned = this.pins.find((p) => p.vertex === vertex);
     // Esc (Editor.cancelDrag) ends the drag on the server and clears this.drag:
     // the pointer's later moves and its release then have nothing to do
-    const cancelled = () => session && (ed.activeDrag !== session || !this.drag);
+    const cancelled = () => session && (session.closed || ed.activeDrag !== session || !this.drag);
     const move = (e) => {
       if (cancelled()) { detach(); return; }
       if (!session) {
