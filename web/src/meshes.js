@@ -189,7 +189,7 @@ export class MeshList {
         }),
         h('span', { class: 'name', title: `${m.name}: vertices ${fmtInt(m.first)} to ${fmtInt(m.first + m.vertices - 1)} of the session` }, m.name),
         h('span', { class: 'hint-text' }, `${fmtInt(m.vertices)} v`),
-        h('button', { title: 'Frame this mesh (point the view at it; F frames them all)', onclick: () => this.frame(i) }, '⌖'),
+        h('button', { title: 'Frame this mesh (point the view at it; F frames them all)', onclick: () => this.frame(i) }, '◉'),
         h('button', { title: 'Download this mesh alone, deformed, in the Export format (below): exactly what ffd deform writes for its file', onclick: () => this.download(i) }, '⇩'),
         h('button', { title: 'Remove this mesh from the session (the undo history is cleared)', onclick: () => this.remove(i) }, '×')))) : null,
       h('div', { class: 'row' }, sel,

@@ -227,6 +227,7 @@ export async function stage() {
   await page.check('input[name=mesh-visible-0]');
   await ed(() => window.ffdEditor.editor.setControlsVisible(true));
   await page.keyboard.press('c');
+  await page.keyboard.press('f');
   await shot('artist-dm-both-visible');
   check(consoleErrors.length === errors0, `(dm) no page error in the stage (${consoleErrors.slice(errors0).join(' | ') || 'none'})`);
   // leave a usable page: the bunny alone again
