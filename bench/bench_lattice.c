@@ -126,7 +126,7 @@ int main(int argc, char **argv)
             for (size_t i = 0; i < k; i++)
                 idx[i] = i;
             double ts, tt;
-            ffd_manip_result mr = {0, 0, 0};
+            ffd_manip_result mr = {0};
             MEDIAN_OF(reps, ts, {
                 ffd_lattice_eval(lat, cb, cur, NULL);
                 for (size_t i = 0; i < 3 * k; i++)

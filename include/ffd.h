@@ -417,17 +417,37 @@ typedef struct ffd_linear_map {
 /* Zero means default. */
 typedef struct ffd_manip_options {
     double rcond; /* relative singular-value threshold for the rank; default 1e-10 */
+    /* The first hard_count constraints are hard (pins): held exactly
+     * whenever they can all be met together; the others are soft (a drag),
+     * met in the least-squares sense by what freedom the hard ones leave.
+     * Default 0: every constraint soft (one least-squares problem). */
+    size_t hard_count;
 } ffd_manip_options;
 
 typedef struct ffd_manip_result {
     size_t rank;            /* numerical rank of B S */
     size_t variables_used;  /* distinct free variables touched by the constraints */
     double max_residual;    /* max over constraints of |reached - target| */
+    /* With hard constraints (options->hard_count > 0): 1 when they are all
+     * met (each within 1e-9 times the largest coordinate involved, at least 1), 0 when they
+     * contradict each other and were met in the least-squares sense instead;
+     * hard_residual and soft_residual are the largest residual of each kind. */
+    int hard_met;
+    double hard_residual;
+    double soft_residual;
 } ffd_manip_result;
 
 /* Direct manipulation (Hsu et al. 1992, eq. 2-7): finds the minimum-norm
  * change dV of the free variables so that the constrained points reach their
  * targets in the least-squares sense: dV = (B S)^+ (targets - current).
+ * With options->hard_count = h > 0 the first h constraints (pins) are
+ * equality constraints: dV = dV_h + dV_s, dV_h = A_h^+ dq_h the
+ * minimum-norm change meeting them, dV_s = (A_s N N^T)^+ (dq_s - A_s dV_h)
+ * the minimum-norm change in the null space N of their rows that brings the
+ * others closest (A_h, A_s: the rows of B S of each kind). When everything
+ * can be met this is the same dV as without hard constraints; when the hard
+ * ones contradict each other dV_h is their least-squares solution
+ * (result->hard_met = 0).
  * points: k row indices of map; current: k by 3 positions those points have
  * now; targets: k by 3 (finite, else FFD_ERR_NONFINITE). delta receives
  * map->variable_count by 3 (zero where untouched). residuals (k, may be NULL)
@@ -807,6 +827,37 @@ FFD_API ffd_status ffd_session_export(const ffd_session *s, const ffd_write_opti
 /* The deformed mesh (a new mesh, ffd_mesh_destroy it): the rest mesh with
  * the session's rig applied, exactly what ffd deform writes. */
 FFD_API ffd_status ffd_session_deformed(const ffd_session *s, ffd_mesh **out, ffd_error *err);
+
+/* Several meshes in one session (a character and its clothes), deformed by
+ * the one deformer: the session's point set is the concatenation of the
+ * meshes' vertices, mesh i owning the range the state's "meshes" gives
+ * (first, vertices); ffd_session_mesh is then that concatenation (made
+ * from arrays) and ffd_session_name the first mesh's name. Adding or
+ * removing a mesh rebinds the deformer (rebuilt from its rig), keeps the
+ * pins of the meshes that stay, and clears the undo history (it refers to
+ * the old point set). Volume meshes stay alone.
+ * ffd_session_add_mesh appends mesh (taken over on success, untouched on
+ * error) named name; FFD_ERR_INVALID (a drag in progress, a volume mesh, no
+ * vertices, too many vertices), FFD_ERR_NOMEM; on error nothing changes. */
+FFD_API ffd_status ffd_session_add_mesh(ffd_session *s, ffd_mesh *mesh, const char *name,
+                                        ffd_error *err);
+/* Removes mesh index (also the op "remove_mesh" {"mesh": index});
+ * FFD_ERR_RANGE, FFD_ERR_INVALID for the session's only mesh. */
+FFD_API ffd_status ffd_session_remove_mesh(ffd_session *s, size_t index, ffd_error *err);
+/* How many meshes (1 for a session of one mesh) and mesh index's name (NULL past the end). */
+FFD_API size_t ffd_session_mesh_count(const ffd_session *s);
+FFD_API const char *ffd_session_mesh_name(const ffd_session *s, size_t index);
+/* Mesh index as read with the session's rig replayed on it alone (a new
+ * mesh): what ffd deform writes for that mesh's file, and for a deformer
+ * that does not depend on the other meshes (docs/editor.md) the mesh's
+ * range of the session's positions. FFD_ERR_RANGE for an index past the end. */
+FFD_API ffd_status ffd_session_deformed_mesh(const ffd_session *s, size_t index, ffd_mesh **out,
+                                             ffd_error *err);
+/* ffd_session_deformed_mesh written in options->format (FFD_FORMAT_AUTO:
+ * the format that mesh was read in); ffd_free the data. */
+FFD_API ffd_status ffd_session_export_mesh(const ffd_session *s, size_t index,
+                                           const ffd_write_options *options, void **data,
+                                           size_t *size, ffd_error *err);
 
 #ifdef __cplusplus
 }

@@ -820,6 +820,227 @@ static void test_manip_rank_deficient(void)
     ffd_lattice_destroy(lat);
 }
 
+/* ---------- pins hard, drag soft (options.hard_count) ---------- */
+
+/* The rows of B S of points (Bernstein: every column its own variable), k by
+ * nv row-major. */
+static double *map_rows(const ffd_linear_map *map, const size_t *pts, size_t k)
+{
+    size_t nv = map->variable_count;
+    double *A = calloc(k * nv, sizeof *A), w[64];
+    uint32_t cols[64];
+    CHECK(map->max_row_nnz <= 64);
+    for (size_t c = 0; c < k; c++) {
+        size_t nnz = map->row(map->self, pts[c], cols, w);
+        for (size_t e = 0; e < nnz; e++)
+            A[c * nv + (map->tie ? map->tie[cols[e]] : cols[e])] += w[e];
+    }
+    return A;
+}
+
+/* Solves the n by n row-major M x = b in place (Gaussian elimination, partial pivoting). */
+static void gauss_solve(double *M, double *b, size_t n)
+{
+    for (size_t c = 0; c < n; c++) {
+        size_t piv = c;
+        for (size_t r = c + 1; r < n; r++)
+            if (fabs(M[r * n + c]) > fabs(M[piv * n + c]))
+                piv = r;
+        for (size_t j = 0; j < n; j++) {
+            double t = M[c * n + j];
+            M[c * n + j] = M[piv * n + j];
+            M[piv * n + j] = t;
+        }
+        double t = b[c];
+        b[c] = b[piv];
+        b[piv] = t;
+        CHECK(fabs(M[c * n + c]) > 1e-300);
+        for (size_t r = c + 1; r < n; r++) {
+            double f = M[r * n + c] / M[c * n + c];
+            for (size_t j = c; j < n; j++)
+                M[r * n + j] -= f * M[c * n + j];
+            b[r] -= f * b[c];
+        }
+    }
+    for (size_t c = n; c-- > 0;) {
+        for (size_t j = c + 1; j < n; j++)
+            b[c] -= M[c * n + j] * b[j];
+        b[c] /= M[c * n + c];
+    }
+}
+
+/* 12 controls (Bernstein 3 x 2 x 2), 8 pins and 6 dragged points: the pins
+ * leave 4 of the 12 variables per axis free, too few for the 6 soft points.
+ * The pins are held to 1e-12 relative where the plain least-squares solve
+ * (hard_count 0) slides them, and each soft point's residual equals the one
+ * of an independent solve of the same equality-constrained least-squares
+ * problem: the KKT system [A_s^T A_s, A_h^T; A_h, 0] [x; l] = [A_s^T dq_s; dq_h]. */
+static void test_manip_pins_hard_drag_soft(void)
+{
+    ffd_lattice *lat = make(FFD_BASIS_BERNSTEIN, &rotated_box, 3, 2, 2);
+    enum { H = 8, S = 6, K = H + S };
+    double *p = random_inside(&rotated_box, K);
+    ffd_lattice_binding *b = NULL;
+    bind_points(lat, p, K, &b);
+    ffd_linear_map map;
+    ffd_lattice_linear_map(lat, b, &map);
+    size_t nv = map.variable_count, pts[K];
+    CHECK(nv == 12);
+    for (size_t i = 0; i < K; i++)
+        pts[i] = i;
+    double cur[3 * K], tgt[3 * K], res[K], after[3 * K];
+    CHECK_OK(ffd_lattice_eval(lat, b, cur, NULL));
+    for (size_t i = 0; i < 3 * K; i++) /* pins where they are, the soft points pulled away */
+        tgt[i] = cur[i] + (i >= 3 * H ? 0.8 * (check_rand01() - 0.5) : 0.0);
+    double *delta = malloc(3 * nv * sizeof *delta);
+    ffd_manip_result r;
+
+    /* the old solve: every pin slides */
+    CHECK_OK(ffd_manip_solve(&map, pts, K, cur, tgt, NULL, delta, res, &r, NULL));
+    double slid = 0;
+    for (size_t i = 0; i < H; i++)
+        slid = res[i] > slid ? res[i] : slid;
+    CHECK(slid > 1e-3);
+
+    ffd_manip_options o = {.hard_count = H};
+    CHECK_OK(ffd_manip_solve(&map, pts, K, cur, tgt, &o, delta, res, &r, NULL));
+    CHECK(r.hard_met == 1);
+    CHECK(r.soft_residual > 1e-3); /* the drag comes up short */
+    CHECK_OK(ffd_lattice_add(lat, delta, NULL));
+    CHECK_OK(ffd_lattice_eval(lat, b, after, NULL));
+    for (size_t i = 0; i < 3 * H; i++)
+        CHECK_NEAR(after[i], tgt[i], 1e-12 * fmax(1, fabs(tgt[i])));
+    for (size_t i = 0; i < H; i++)
+        CHECK(res[i] <= 1e-12 * 4);
+
+    /* the independent solve, one axis at a time */
+    double *A = map_rows(&map, pts, K);
+    size_t n = nv + H;
+    for (int d = 0; d < 3; d++) {
+        double *M = calloc(n * n, sizeof *M), *rhs = calloc(n, sizeof *rhs);
+        for (size_t i = 0; i < nv; i++) {
+            for (size_t j = 0; j < nv; j++)
+                for (size_t c = H; c < K; c++)
+                    M[i * n + j] += A[c * nv + i] * A[c * nv + j];
+            for (size_t c = H; c < K; c++)
+                rhs[i] += A[c * nv + i] * (tgt[3 * c + d] - cur[3 * c + d]);
+            for (size_t c = 0; c < H; c++)
+                M[i * n + nv + c] = M[(nv + c) * n + i] = A[c * nv + i];
+        }
+        for (size_t c = 0; c < H; c++)
+            rhs[nv + c] = tgt[3 * c + d] - cur[3 * c + d];
+        gauss_solve(M, rhs, n);
+        for (size_t c = H; c < K; c++) { /* the reached soft points agree */
+            double x = cur[3 * c + d];
+            for (size_t j = 0; j < nv; j++)
+                x += A[c * nv + j] * rhs[j];
+            CHECK_NEAR(after[3 * c + d], x, 1e-9);
+        }
+        free(M);
+        free(rhs);
+    }
+    double worst = 0;
+    for (size_t c = H; c < K; c++) {
+        double r2 = 0;
+        for (int d = 0; d < 3; d++)
+            r2 += (after[3 * c + d] - tgt[3 * c + d]) * (after[3 * c + d] - tgt[3 * c + d]);
+        CHECK_NEAR(res[c], sqrt(r2), 1e-9);
+        worst = fmax(worst, sqrt(r2));
+    }
+    CHECK_NEAR(r.soft_residual, worst, 1e-12);
+    free(A);
+    free(delta);
+    free(p);
+    ffd_lattice_binding_destroy(b);
+    ffd_lattice_destroy(lat);
+}
+
+/* As many generic pins as variables: the pins alone fix the controls, the
+ * drag cannot move anything (delta as for the pins alone, residual the
+ * dragged point's distance to its target). */
+static void test_manip_pins_leave_no_freedom(void)
+{
+    ffd_lattice *lat = make(FFD_BASIS_BERNSTEIN, &rotated_box, 2, 2, 2);
+    enum { K = 9 };
+    double *p = random_inside(&rotated_box, K);
+    ffd_lattice_binding *b = NULL;
+    bind_points(lat, p, K, &b);
+    ffd_linear_map map;
+    ffd_lattice_linear_map(lat, b, &map);
+    size_t pts[K] = {0, 1, 2, 3, 4, 5, 6, 7, 8};
+    double cur[3 * K], tgt[3 * K], res[K];
+    CHECK_OK(ffd_lattice_eval(lat, b, cur, NULL));
+    memcpy(tgt, cur, sizeof cur);
+    tgt[3 * 8] += 0.5;
+    double delta[3 * 8];
+    ffd_manip_options o = {.hard_count = 8};
+    ffd_manip_result r;
+    CHECK_OK(ffd_manip_solve(&map, pts, K, cur, tgt, &o, delta, res, &r, NULL));
+    CHECK(r.hard_met == 1);
+    for (int i = 0; i < 24; i++)
+        CHECK_NEAR(delta[i], 0.0, 1e-12);
+    CHECK_NEAR(res[8], 0.5, 1e-12);
+    CHECK_NEAR(r.soft_residual, 0.5, 1e-12);
+    free(p);
+    ffd_lattice_binding_destroy(b);
+    ffd_lattice_destroy(lat);
+}
+
+/* Everything reachable: the same delta as without hard constraints (the
+ * minimum-norm solution of the whole system); pins that contradict each
+ * other (one point, two targets) fall back to least squares and say so. */
+static void test_manip_hard_soft_under_constrained(void)
+{
+    ffd_lattice *lat = make(FFD_BASIS_BSPLINE, &rotated_box, 6, 6, 6);
+    size_t n = 6;
+    double *p = random_inside(&rotated_box, n);
+    ffd_lattice_binding *b = NULL;
+    bind_points(lat, p, n, &b);
+    ffd_linear_map map;
+    ffd_lattice_linear_map(lat, b, &map);
+    size_t pts[7] = {0, 1, 2, 3, 4, 5, 0};
+    double cur[21], tgt[21], res[7];
+    CHECK_OK(ffd_lattice_eval(lat, b, cur, NULL));
+    for (int i = 0; i < 18; i++)
+        tgt[i] = cur[i] + 0.3 * (check_rand01() - 0.5);
+    size_t nv = map.variable_count;
+    double *d0 = malloc(3 * nv * sizeof *d0), *d1 = malloc(3 * nv * sizeof *d1);
+    ffd_manip_result r0, r1;
+    ffd_manip_options o = {.hard_count = 4};
+    CHECK_OK(ffd_manip_solve(&map, pts, n, cur, tgt, NULL, d0, NULL, &r0, NULL));
+    CHECK_OK(ffd_manip_solve(&map, pts, n, cur, tgt, &o, d1, res, &r1, NULL));
+    CHECK(r1.hard_met == 1);
+    CHECK(r1.soft_residual <= 1e-10);
+    for (size_t i = 0; i < 3 * nv; i++)
+        CHECK_NEAR(d1[i], d0[i], 1e-12);
+    /* point 0 pinned twice, 0.2 apart: least squares over the pins */
+    memcpy(cur + 18, cur, 3 * sizeof *cur);
+    memcpy(tgt + 18, tgt, 3 * sizeof *tgt);
+    tgt[18] += 0.2;
+    size_t order[7] = {0, 1, 2, 3, 4, 0, 5};
+    double c2[21], t2[21];
+    for (int i = 0; i < 7; i++) {
+        size_t src = i == 5 ? 6 : i == 6 ? 5 : (size_t)i;
+        memcpy(c2 + 3 * i, cur + 3 * src, 3 * sizeof *c2);
+        memcpy(t2 + 3 * i, tgt + 3 * src, 3 * sizeof *t2);
+    }
+    o.hard_count = 6;
+    CHECK_OK(ffd_manip_solve(&map, order, 7, c2, t2, &o, d1, res, &r1, NULL));
+    CHECK(r1.hard_met == 0);
+    CHECK_NEAR(res[0], 0.1, 1e-9);
+    CHECK_NEAR(res[5], 0.1, 1e-9);
+    CHECK(r1.soft_residual <= 1e-10);
+    o.hard_count = 8;
+    ffd_error err = {{0}};
+    CHECK(ffd_manip_solve(&map, order, 7, c2, t2, &o, d1, res, &r1, &err) == FFD_ERR_RANGE);
+    CHECK(strstr(err.message, "hard_count 8") != NULL);
+    free(d0);
+    free(d1);
+    free(p);
+    ffd_lattice_binding_destroy(b);
+    ffd_lattice_destroy(lat);
+}
+
 int main(int argc, char **argv)
 {
     static const check_test tests[] = {
@@ -841,6 +1062,9 @@ int main(int argc, char **argv)
         {"manip_multi_point_formula", test_manip_multi_point_formula},
         {"manip_overdetermined", test_manip_overdetermined},
         {"manip_rank_deficient", test_manip_rank_deficient},
+        {"manip_pins_hard_drag_soft", test_manip_pins_hard_drag_soft},
+        {"manip_pins_leave_no_freedom", test_manip_pins_leave_no_freedom},
+        {"manip_hard_soft_under_constrained", test_manip_hard_soft_under_constrained},
     };
     return check_run(tests, sizeof tests / sizeof tests[0], argc, argv);
 }

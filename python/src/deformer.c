@@ -393,7 +393,7 @@ static PyObject *Deformer_solve(ffdpy_Deformer *self, PyObject *args, PyObject *
             r[i] = row_ids[i];
             memcpy(current + 3 * i, all + 3 * (size_t)row_ids[i], 3 * sizeof(double));
         }
-        ffd_manip_options mo = {rcond};
+        ffd_manip_options mo = {.rcond = rcond};
         st = ffd_manip_solve(&map, r, (size_t)k, current, tgt, &mo, delta, res, &mr, &err);
     }
     if (!st) {

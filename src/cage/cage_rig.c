@@ -233,7 +233,7 @@ ffd_status ffd_rig_apply_cage(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_report
             rows[q] = q;
             memcpy(targets + 3 * q, rig->constraints[q].target, 3 * sizeof *targets);
         }
-        ffd_manip_options options = {rig->rcond};
+        ffd_manip_options options = {.rcond = rig->rcond};
         if (!(s = ffd_cage_eval(cage, pins, current, &inner)))
             s = ffd_manip_solve(&map, rows, k, current, targets, &options, delta, NULL, &result,
                                 &inner);

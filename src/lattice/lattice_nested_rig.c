@@ -223,7 +223,7 @@ ffd_status ffd_rig_apply_lattice_nested(const ffd_rig *rig, ffd_mesh *mesh, ffd_
             s = ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory", name);
             goto fail;
         }
-        ffd_manip_options options = {rig->rcond};
+        ffd_manip_options options = {.rcond = rig->rcond};
         s = ffd_manip_solve(&map, rows, k, current, targets, &options, delta, NULL, &result,
                             &inner);
         if (!s) {

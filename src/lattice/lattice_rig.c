@@ -264,7 +264,7 @@ ffd_status ffd_rig_apply_lattice(const ffd_rig *rig, ffd_mesh *mesh, ffd_rig_rep
             rows[c] = c;
             memcpy(targets + 3 * c, rig->constraints[c].target, 3 * sizeof *targets);
         }
-        ffd_manip_options options = {rig->rcond};
+        ffd_manip_options options = {.rcond = rig->rcond};
         s = ffd_manip_solve(&map, rows, k, current, targets, &options, delta, NULL, &result,
                             &inner);
         if (!s && rig->limit_step) {

@@ -2,7 +2,10 @@
  * 1992, §3): move selected points to targets by the minimum-norm change of the
  * control points, dP = (B S)^+ dq (eq. 5-7), for one or many points that may
  * share control points (§3.2). Works on any ffd_linear_map, so on every
- * method whose deformer has one (ffd_deformer_linear_map). */
+ * method whose deformer has one (ffd_deformer_linear_map).
+ * Hard constraints (pins) are solved first and the soft ones (the drag) in
+ * the null space of their rows, so that an over-constrained drag comes up
+ * short instead of making the pins slide (solve_hard_soft). */
 #include "manip/manip.h"
 #include "math/dense.h"
 #include "math/tolerance.h"
@@ -32,16 +35,112 @@ static size_t tied_row(const ffd_linear_map *map, size_t point, uint32_t *cols, 
     return k;
 }
 
+/* The largest |entry| of a k by 3 array. */
+static double max_abs(const double *v, size_t k)
+{
+    double m = 0;
+    for (size_t i = 0; i < 3 * k; i++)
+        if (fabs(v[i]) > m)
+            m = fabs(v[i]);
+    return m;
+}
+
+/* Pins hard, drag soft. A (k by nv, column-major, leading dimension k) holds
+ * the rows of B S: the first h hard (A_h), the other s = k - h soft (A_s);
+ * dq (k by 3, leading dimension k) the wanted changes. Writes to x (nv by 3,
+ * column-major) dV = dV_h + dV_s, where dV_h = A_h^+ dq_h (the minimum-norm
+ * change meeting the pins, or their least-squares fit when they contradict
+ * each other) and dV_s = C^+ (dq_s - A_s dV_h) with C = A_s (I - A_h^+ A_h),
+ * the soft rows projected on the null space of the hard ones: C^+ = N (A_s
+ * N)^+ for an orthonormal basis N of that null space, so dV_s moves no pin
+ * and is the minimum-norm change bringing the soft points closest. dV_h lies
+ * in the row space of A_h and dV_s in its null space, so when all rows can
+ * be met dV is the minimum-norm solution of the whole system, (B S)^+ dq as
+ * before. */
+static ffd_status solve_hard_soft(size_t k, size_t h, size_t nv, const double *A, const double *dq,
+                                  double rcond, double *x, size_t *rank, ffd_error *err)
+{
+    size_t s = k - h, ldh = h > nv ? h : nv, lds = s > nv ? s : nv, rank_h = 0, rank_c = 0;
+    ffd_status st = FFD_OK;
+    double *Ah = ffd_malloc_array(h, nv * sizeof *Ah);
+    double *Rh = ffd_calloc(ldh * (3 + s), sizeof *Rh);
+    double *C = ffd_malloc_array(s, nv * sizeof *C);
+    double *Rs = ffd_calloc(lds * 3, sizeof *Rs);
+    if (!Ah || !Rh || !C || !Rs) {
+        st = ffd_fail(err, FFD_ERR_NOMEM, "direct manipulation: out of memory (%zu x %zu)", k, nv);
+        goto done;
+    }
+    /* one factorisation of A_h for [dq_h | A_h A_s^T]: columns 0-2 give
+     * dV_h, column 3 + c gives A_h^+ A_h a_c (a_c: soft row c) */
+    for (size_t j = 0; j < nv; j++)
+        for (size_t r = 0; r < h; r++)
+            Ah[j * h + r] = A[j * k + r];
+    for (size_t r = 0; r < h; r++) {
+        for (int d = 0; d < 3; d++)
+            Rh[(size_t)d * ldh + r] = dq[(size_t)d * k + r];
+        for (size_t c = 0; c < s; c++) {
+            double dot = 0;
+            for (size_t j = 0; j < nv; j++)
+                dot += A[j * k + r] * A[j * k + h + c];
+            Rh[(3 + c) * ldh + r] = dot;
+        }
+    }
+    if ((st = ffd_dense_lstsq(h, nv, 3 + s, Ah, Rh, rcond, &rank_h, err)))
+        goto done;
+    /* C = A_s - A_s A_h^+ A_h (A_h^+ A_h is symmetric), and the soft rows' remaining change */
+    double norm_s = 0, norm_c = 0;
+    for (size_t j = 0; j < nv; j++)
+        for (size_t c = 0; c < s; c++) {
+            double a = A[j * k + h + c];
+            C[j * s + c] = a - Rh[(3 + c) * ldh + j];
+            norm_s += a * a;
+            norm_c += C[j * s + c] * C[j * s + c];
+        }
+    for (size_t c = 0; c < s; c++)
+        for (int d = 0; d < 3; d++) {
+            double v = dq[(size_t)d * k + h + c];
+            for (size_t j = 0; j < nv; j++)
+                v -= A[j * k + h + c] * Rh[(size_t)d * ldh + j];
+            Rs[(size_t)d * lds + c] = v;
+        }
+    /* Singular values of C are measured against A_s, not against C itself:
+     * when the pins leave no freedom C is rounding noise, which a threshold
+     * relative to its own largest singular value would amplify. */
+    norm_s = sqrt(norm_s);
+    norm_c = sqrt(norm_c);
+    if (norm_c > rcond * norm_s) {
+        double rc = rcond * norm_s / norm_c;
+        if ((st = ffd_dense_lstsq(s, nv, 3, C, Rs, rc < 0.5 ? rc : 0.5, &rank_c, err)))
+            goto done;
+    } else {
+        memset(Rs, 0, lds * 3 * sizeof *Rs); /* nothing left to move the soft points */
+    }
+    for (size_t j = 0; j < nv; j++)
+        for (int d = 0; d < 3; d++)
+            x[(size_t)d * nv + j] = Rh[(size_t)d * ldh + j] + Rs[(size_t)d * lds + j];
+    *rank = rank_h + rank_c;
+done:
+    ffd_free(Ah);
+    ffd_free(Rh);
+    ffd_free(C);
+    ffd_free(Rs);
+    return st;
+}
+
 ffd_status ffd_manip_solve(const ffd_linear_map *map, const size_t *points, size_t k,
                            const double *current, const double *targets,
                            const ffd_manip_options *options, double *delta, double *residuals,
                            ffd_manip_result *result, ffd_error *err)
 {
-    ffd_manip_result res = {0, 0, 0.0};
+    ffd_manip_result res = {0, 0, 0.0, 1, 0.0, 0.0};
     double rcond = options && options->rcond > 0 ? options->rcond : FFD_TOL_RCOND;
+    size_t hard = options ? options->hard_count : 0;
     if (options && !(options->rcond >= 0 && options->rcond < 1))
         return ffd_fail(err, FFD_ERR_INVALID, "rcond %g: expected a number in [0, 1)",
                         options->rcond);
+    if (hard > k)
+        return ffd_fail(err, FFD_ERR_RANGE, "hard_count %zu: more than the %zu constraints", hard,
+                        k);
     for (size_t c = 0; c < k; c++) {
         if (points[c] >= map->point_count)
             return ffd_fail(err, FFD_ERR_RANGE, "constraint %zu: point %zu out of range (%zu points)",
@@ -103,14 +202,39 @@ ffd_status ffd_manip_solve(const ffd_linear_map *map, const size_t *points, size
             for (int d = 0; d < 3; d++)
                 B[(size_t)d * ldb + c] = targets[3 * c + d] - current[3 * c + d]; /* dq, eq. 2 */
         }
-        /* dP = (B S)^+ dq (eq. 7), by SVD so rank deficiency is normal */
-        st = ffd_dense_lstsq(k, nv, 3, A, B, rcond, &res.rank, err);
-        if (st != FFD_OK)
-            goto done;
-        for (size_t j = 0; j < nv; j++)
+        if (hard > 0 && hard < k) {
+            /* pins hard, drag soft */
+            double *x = ffd_malloc_array(nv, 3 * sizeof *x), *dq = ffd_malloc_array(k, 3 * sizeof *dq);
+            if (!x || !dq) {
+                ffd_free(x);
+                ffd_free(dq);
+                st = ffd_fail(err, FFD_ERR_NOMEM, "direct manipulation: out of memory");
+                goto done;
+            }
             for (int d = 0; d < 3; d++)
-                delta[3 * (size_t)used[j] + d] = B[(size_t)d * ldb + j];
+                memcpy(dq + (size_t)d * k, B + (size_t)d * ldb, k * sizeof *dq);
+            st = solve_hard_soft(k, hard, nv, A, dq, rcond, x, &res.rank, err);
+            for (size_t j = 0; !st && j < nv; j++)
+                for (int d = 0; d < 3; d++)
+                    delta[3 * (size_t)used[j] + d] = x[(size_t)d * nv + j];
+            ffd_free(x);
+            ffd_free(dq);
+            if (st)
+                goto done;
+        } else {
+            /* dP = (B S)^+ dq (eq. 7), by SVD so rank deficiency is normal */
+            st = ffd_dense_lstsq(k, nv, 3, A, B, rcond, &res.rank, err);
+            if (st != FFD_OK)
+                goto done;
+            for (size_t j = 0; j < nv; j++)
+                for (int d = 0; d < 3; d++)
+                    delta[3 * (size_t)used[j] + d] = B[(size_t)d * ldb + j];
+        }
     }
+    /* the size of the positions involved, for the test of the hard residuals */
+    double size = max_abs(current, k), reach = max_abs(targets, k);
+    size = size > reach ? size : reach;
+    size = size > 1 ? size : 1;
     /* the residual of every constraint, with the change applied */
     for (size_t c = 0; c < k; c++) {
         double r2 = 0;
@@ -126,7 +250,12 @@ ffd_status ffd_manip_solve(const ffd_linear_map *map, const size_t *points, size
             residuals[c] = r;
         if (r > res.max_residual)
             res.max_residual = r;
+        if (c < hard && r > res.hard_residual)
+            res.hard_residual = r;
+        if (c >= hard && r > res.soft_residual)
+            res.soft_residual = r;
     }
+    res.hard_met = res.hard_residual <= FFD_TOL_REACH * size;
     if (result)
         *result = res;
 done:

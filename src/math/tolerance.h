@@ -19,6 +19,11 @@
 /* Default relative singular-value threshold of the least-squares solves. */
 #define FFD_TOL_RCOND 1e-10
 
+/* Direct manipulation: hard constraints (pins) count as met when each one's
+ * residual is within this times the size of the positions involved (the
+ * largest coordinate of the current positions and targets, at least 1). */
+#define FFD_TOL_REACH 1e-9
+
 /* Newton iterations of the outer-segment cubic solve stop at this step in t. */
 #define FFD_TOL_CUBIC 1e-15
 

@@ -151,7 +151,7 @@ ffd_status ffd_rig_pb_constraint_delta(const ffd_rig *rig, ffd_pbffd *pb, const 
         memcpy(now + 3 * c, current + 3 * rows[c], 3 * sizeof *now);
         memcpy(targets + 3 * c, rig->constraints[c].target, 3 * sizeof *targets);
     }
-    ffd_manip_options options = {rig->rcond};
+    ffd_manip_options options = {.rcond = rig->rcond};
     if ((s = ffd_manip_solve(&map, rows, k, now, targets, &options, delta, NULL, result,
                              &inner)))
         s = ffd_rig_wrap(err, s, rig->name, "constraints", &inner);

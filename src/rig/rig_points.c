@@ -181,7 +181,7 @@ ffd_status ffd_rig_apply_points(const ffd_point_morph_ops *ops, const ffd_rig *r
         ffd_point_rows pins = {morph, rest};
         ffd_linear_map map;
         ops->linear_map(&pins, k, &map);
-        ffd_manip_options options = {rig->rcond};
+        ffd_manip_options options = {.rcond = rig->rcond};
         if ((s = ffd_rig_charge_manip(&map, k, budget, &inner)) ||
             (s = ops->eval(morph, rest, k, current, &inner)) ||
             (s = ffd_manip_solve(&map, rows, k, current, targets, &options, delta, NULL, &result,

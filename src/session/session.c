@@ -67,7 +67,10 @@ struct ffd_session {
     size_t pin_count;
     float *residuals;      /* last direct-manipulation solve: pins (then the dragged vertex) */
     size_t residual_count;
+    int pins_met;          /* last solve: the pins held (0: they contradict each other) */
+    double drag_residual;  /* last solve: the dragged vertex's distance to its target */
     drag_state drag;
+    sess_meshes meshes;    /* several meshes: the parts of mesh (session_meshes.c) */
     undo_stack undo, redo;
     uint32_t revision;
     double busy_ms;        /* duration of the last command */
@@ -412,8 +415,10 @@ static ffd_status dm_solve(ffd_session *s, ffd_error *err)
     if (!res)
         return ffd_fail(err, FFD_ERR_NOMEM, "drag: out of memory");
     ffd_manip_result result;
+    /* pins hard, the dragged vertex soft (docs/editor.md "Pins hard, drag soft") */
+    ffd_manip_options options = {.hard_count = s->pin_count};
     ffd_status st = ffd_manip_solve(&d->map, d->rows, d->constraints, d->current, d->targets,
-                                    NULL, d->delta, res, &result, err);
+                                    &options, d->delta, res, &result, err);
     if (!st)
         st = s->method->vt->set_variables(s->method, d->delta, err);
     if (!st) {
@@ -426,6 +431,8 @@ static ffd_status dm_solve(ffd_session *s, ffd_error *err)
             for (size_t i = 0; i < d->constraints; i++)
                 r[i] = (float)res[i];
             s->residual_count = d->constraints;
+            s->pins_met = result.hard_met;
+            s->drag_residual = result.soft_residual;
         }
     }
     ffd_free(res);
@@ -932,6 +939,9 @@ static ffd_status reply_state(const ffd_session *s, void **reply, size_t *size, 
     return st;
 }
 
+static ffd_status op_remove_mesh(ffd_session *s, const ffd_rig_parser *p, const cJSON *body,
+                                 ffd_error *err);
+
 ffd_status ffd_session_command(ffd_session *s, const char *op, const char *body, size_t size,
                                void **reply, size_t *reply_size, int *binary, ffd_error *err)
 {
@@ -996,6 +1006,8 @@ ffd_status ffd_session_command(ffd_session *s, const char *op, const char *body,
         st = op_pin(s, &p, doc, err);
     else if (!strcmp(op, "unpin"))
         st = op_unpin(s, &p, doc, err);
+    else if (!strcmp(op, "remove_mesh"))
+        st = op_remove_mesh(s, &p, doc, err);
     else if (!strcmp(op, "reset"))
         st = empty ? op_reset(s, err) : ffd_rig_expected(&p, "body", "{}");
     else if (!strcmp(op, "undo"))
@@ -1032,7 +1044,8 @@ ffd_status ffd_session_command(ffd_session *s, const char *op, const char *body,
 /* The operations every session knows (ffd_session_command), before the methods' own. */
 static const char *const session_ops[] = {"create", "drag_begin", "drag",  "drag_end", "drag_cancel",
                                           "move",   "pin",        "unpin", "influence", "reset",
-                                          "undo",   "redo", "weights", "weights_values"};
+                                          "undo",   "redo",       "weights", "weights_values",
+                                          "remove_mesh"};
 
 const char *ffd_session_op_name(size_t i)
 {
@@ -1137,6 +1150,20 @@ static cJSON *pins_json(const ffd_session *s)
     return arr;
 }
 
+/* "manip": the last direct-manipulation solve (null when none is shown):
+ * whether the pins held, and how far the dragged vertex is from its target. */
+static int manip_json(const ffd_session *s, cJSON *root)
+{
+    if (!s->residual_count)
+        return cJSON_AddNullToObject(root, "manip") != NULL;
+    cJSON *o = cJSON_CreateObject();
+    if (!ffd_sess_add_item(root, "manip", o) || !cJSON_AddBoolToObject(o, "pins_met", s->pins_met))
+        return 0;
+    if (s->residual_count > s->pin_count)
+        return cJSON_AddNumberToObject(o, "drag_residual", s->drag_residual) != NULL;
+    return cJSON_AddNullToObject(o, "drag_residual") != NULL;
+}
+
 ffd_status ffd_session_state(const ffd_session *s, char **json, size_t *size, ffd_error *err)
 {
     cJSON *root = cJSON_CreateObject(), *mesh = cJSON_CreateObject();
@@ -1179,6 +1206,7 @@ ffd_status ffd_session_state(const ffd_session *s, char **json, size_t *size, ff
     }
     cJSON *pins = ok ? pins_json(s) : NULL;
     ok = ok && ffd_sess_add_item(root, "pins", pins); /* deletes pins it could not add */
+    ok = ok && manip_json(s, root) && ffd_sess_meshes_json(&s->meshes, s->name, s->mesh, root);
     ok = ok && cJSON_AddNumberToObject(root, "undo", (double)s->undo.count) &&
          cJSON_AddNumberToObject(root, "redo", (double)s->redo.count) &&
          cJSON_AddNumberToObject(root, "busy_ms", s->busy_ms);
@@ -1302,6 +1330,7 @@ void ffd_session_destroy(ffd_session *s)
     if (s->method)
         s->method->vt->destroy(s->method);
     ffd_mesh_destroy(s->mesh);
+    ffd_sess_meshes_free(&s->meshes);
     ffd_free(s->name);
     ffd_free(s->positions);
     ffd_free(s->pins);
@@ -1317,4 +1346,241 @@ const ffd_mesh *ffd_session_mesh(const ffd_session *s)
 const char *ffd_session_name(const ffd_session *s)
 {
     return s->name;
+}
+
+/* ---------- several meshes (session_meshes.c) ---------- */
+
+/* Makes mesh (taken over on success) the session's point set, the parts
+ * next (taken over on success; count 0: mesh is the one mesh, named name)
+ * its meshes, and rebinds the deformer to it (rebuilt from its rig, which
+ * describes it without reference to the points). Pins follow map (old
+ * vertex -> new, UINT32_MAX: dropped; NULL: unchanged). The undo history
+ * refers to the old point set and is cleared. On error nothing changes. */
+static ffd_status set_point_set(ffd_session *s, ffd_mesh *mesh, sess_meshes *next,
+                                const char *name, const uint32_t *map, const char *op,
+                                ffd_error *err)
+{
+    size_t n = ffd_mesh_vertex_count(mesh);
+    double *positions = ffd_malloc_array(n, 3 * sizeof *positions);
+    char *label = ffd_strdup(name);
+    char *rig = NULL;
+    ffd_status st = positions && label ? FFD_OK : ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory", op);
+    if (!st && s->method)
+        st = ffd_sess_rig_text(s->method, &rig, err);
+    if (st) {
+        ffd_free(positions);
+        ffd_free(label);
+        return st;
+    }
+    sess_ctx old = s->ctx;
+    ffd_sess_ctx_init(&s->ctx, mesh, s->options.max_controls, &s->options.limits);
+    sess_method *m = NULL;
+    if (rig && (st = method_from_text(&s->ctx, rig, strlen(rig), op, NULL, &m, err))) {
+        s->ctx = old;
+        ffd_free(rig);
+        ffd_free(positions);
+        ffd_free(label);
+        return st;
+    }
+    ffd_free(rig);
+    if (s->method)
+        s->method->vt->destroy(s->method);
+    s->method = m;
+    stack_clear(&s->undo);
+    stack_clear(&s->redo);
+    size_t kept = 0;
+    for (size_t i = 0; i < s->pin_count; i++) {
+        uint32_t v = map ? map[s->pins[i].vertex] : s->pins[i].vertex;
+        if (v != UINT32_MAX) {
+            s->pins[kept] = s->pins[i];
+            s->pins[kept++].vertex = v;
+        }
+    }
+    s->pin_count = kept;
+    s->residual_count = 0;
+    ffd_mesh_destroy(s->mesh);
+    s->mesh = mesh;
+    ffd_free(s->meshes.parts); /* the part meshes and names moved to next */
+    s->meshes = *next;
+    memset(next, 0, sizeof *next);
+    ffd_free(s->name);
+    s->name = label;
+    ffd_free(s->positions);
+    s->positions = positions;
+    return refresh(s, err);
+}
+
+ffd_status ffd_session_add_mesh(ffd_session *s, ffd_mesh *mesh, const char *name, ffd_error *err)
+{
+    if (!s || !mesh)
+        return ffd_fail(err, FFD_ERR_INVALID, "ffd_session_add_mesh: NULL argument");
+    name = name ? name : "mesh";
+    if (s->drag.kind)
+        return conflict(err, "a drag is in progress: drag_end or drag_cancel first", "add mesh");
+    if (!ffd_mesh_vertex_count(mesh))
+        return ffd_fail(err, FFD_ERR_INVALID, "add mesh: %s: the mesh has no vertices", name);
+    if (ffd_mesh_is_volume(s->mesh) && !s->meshes.count)
+        return ffd_fail(err, FFD_ERR_INVALID,
+                        "add mesh: %s is a volume mesh: it cannot share the session", s->name);
+    size_t count = s->meshes.count ? s->meshes.count : 1;
+    sess_meshes next = {ffd_calloc(count + 1, sizeof *next.parts), count + 1};
+    char *label = ffd_strdup(name);
+    if (!next.parts || !label) {
+        ffd_free(next.parts);
+        ffd_free(label);
+        return ffd_fail(err, FFD_ERR_NOMEM, "add mesh: out of memory");
+    }
+    if (s->meshes.count)
+        memcpy(next.parts, s->meshes.parts, count * sizeof *next.parts);
+    else
+        next.parts[0] = (sess_mesh_part){s->mesh, s->name, 0, 0};
+    next.parts[count] = (sess_mesh_part){mesh, label, 0, 0};
+    ffd_mesh *all = NULL;
+    ffd_error inner = {{0}};
+    ffd_status st = ffd_sess_meshes_concat(&next, &all, &inner);
+    if (st) {
+        ffd_free(next.parts);
+        ffd_free(label);
+        return ffd_fail(err, st, "add mesh: %s", inner.message);
+    }
+    /* one mesh so far: it becomes part 0, owned by the parts from now on */
+    ffd_mesh *own = s->mesh;
+    if (!s->meshes.count) {
+        if (!(next.parts[0].name = ffd_strdup(s->name))) {
+            ffd_mesh_destroy(all);
+            ffd_free(next.parts);
+            ffd_free(label);
+            return ffd_fail(err, FFD_ERR_NOMEM, "add mesh: out of memory");
+        }
+        s->mesh = NULL; /* kept by part 0: set_point_set must not destroy it */
+    }
+    if ((st = set_point_set(s, all, &next, next.parts[0].name, NULL, "add mesh", err))) {
+        if (!s->meshes.count) {
+            ffd_free(next.parts[0].name);
+            s->mesh = own;
+        }
+        ffd_mesh_destroy(all);
+        ffd_free(next.parts);
+        ffd_free(label);
+        return st;
+    }
+    return FFD_OK;
+}
+
+ffd_status ffd_session_remove_mesh(ffd_session *s, size_t index, ffd_error *err)
+{
+    if (!s)
+        return ffd_fail(err, FFD_ERR_INVALID, "ffd_session_remove_mesh: NULL argument");
+    if (s->drag.kind)
+        return conflict(err, "a drag is in progress: drag_end or drag_cancel first", "remove_mesh");
+    if (!s->meshes.count)
+        return conflict(err, "the session's only mesh stays (open another mesh instead)",
+                        "remove_mesh");
+    if (index >= s->meshes.count)
+        return ffd_fail(err, FFD_ERR_RANGE, "remove_mesh: mesh %zu out of range (%zu meshes)",
+                        index, s->meshes.count);
+    sess_mesh_part gone = s->meshes.parts[index];
+    size_t count = s->meshes.count - 1;
+    sess_meshes next = {ffd_malloc_array(count, sizeof *next.parts), count};
+    uint32_t *map = ffd_malloc_array(s->ctx.n, sizeof *map);
+    ffd_mesh *mesh = NULL;
+    ffd_status st = next.parts && map ? FFD_OK
+                                      : ffd_fail(err, FFD_ERR_NOMEM, "remove_mesh: out of memory");
+    if (!st) {
+        for (size_t i = 0, j = 0; i < s->meshes.count; i++)
+            if (i != index)
+                next.parts[j++] = s->meshes.parts[i];
+        for (size_t v = 0; v < s->ctx.n; v++)
+            map[v] = v < gone.first ? (uint32_t)v
+                     : v < gone.first + gone.count ? UINT32_MAX
+                                                   : (uint32_t)(v - gone.count);
+        if (count > 1) {
+            ffd_error inner = {{0}};
+            if ((st = ffd_sess_meshes_concat(&next, &mesh, &inner)))
+                ffd_fail(err, st, "remove_mesh: %s", inner.message);
+        }
+    }
+    if (!st && count == 1) {
+        /* back to one mesh: it is the session's own again, named after it */
+        sess_meshes none = {NULL, 0};
+        sess_mesh_part last = next.parts[0];
+        if (!(st = set_point_set(s, last.mesh, &none, last.name, map, "remove_mesh", err)))
+            ffd_free(last.name);
+    } else if (!st) {
+        st = set_point_set(s, mesh, &next, next.parts[0].name, map, "remove_mesh", err);
+        if (st)
+            ffd_mesh_destroy(mesh);
+    }
+    if (!st) {
+        ffd_mesh_destroy(gone.mesh);
+        ffd_free(gone.name);
+    }
+    ffd_free(next.parts);
+    ffd_free(map);
+    return st;
+}
+
+static ffd_status op_remove_mesh(ffd_session *s, const ffd_rig_parser *p, const cJSON *body,
+                                 ffd_error *err)
+{
+    static const char *const keys[] = {"mesh", NULL};
+    uint32_t index = 0;
+    ffd_status st = ffd_rig_check_keys(p, body, "body", keys, "mesh");
+    const cJSON *item = cJSON_GetObjectItemCaseSensitive(body, "mesh");
+    if (!st && !item)
+        st = ffd_rig_expected(p, "mesh", "the index of a mesh (missing)");
+    if (!st)
+        st = ffd_rig_read_index(p, item, "mesh", "the index of a mesh", &index);
+    return st ? st : ffd_session_remove_mesh(s, index, err);
+}
+
+size_t ffd_session_mesh_count(const ffd_session *s)
+{
+    return s->meshes.count ? s->meshes.count : 1;
+}
+
+const char *ffd_session_mesh_name(const ffd_session *s, size_t index)
+{
+    if (!s->meshes.count)
+        return index == 0 ? s->name : NULL;
+    return index < s->meshes.count ? s->meshes.parts[index].name : NULL;
+}
+
+ffd_status ffd_session_deformed_mesh(const ffd_session *s, size_t index, ffd_mesh **out,
+                                     ffd_error *err)
+{
+    if (!s->meshes.count) {
+        if (index != 0) {
+            *out = NULL;
+            return ffd_fail(err, FFD_ERR_RANGE, "mesh %zu out of range (1 mesh)", index);
+        }
+        return ffd_session_deformed(s, out, err);
+    }
+    char *rig = NULL;
+    ffd_status st = s->method ? ffd_sess_rig_text(s->method, &rig, err) : FFD_OK;
+    if (!st)
+        st = ffd_sess_meshes_deformed(&s->meshes, index, rig, &s->ctx.limits, out, err);
+    ffd_free(rig);
+    return st;
+}
+
+ffd_status ffd_session_export_mesh(const ffd_session *s, size_t index,
+                                   const ffd_write_options *options, void **data, size_t *size,
+                                   ffd_error *err)
+{
+    ffd_mesh *mesh = NULL;
+    *data = NULL;
+    ffd_status st = ffd_session_deformed_mesh(s, index, &mesh, err);
+    if (st)
+        return st;
+    ffd_write_options o = options ? *options : (ffd_write_options){0};
+    if (o.format == FFD_FORMAT_AUTO)
+        o.format = ffd_mesh_source_format(mesh);
+    if (o.format == FFD_FORMAT_AUTO)
+        o.format = FFD_FORMAT_PLY;
+    unsigned char *bytes = NULL;
+    st = ffd_mesh_write_memory(mesh, &o, &bytes, size, err);
+    ffd_mesh_destroy(mesh);
+    *data = bytes;
+    return st;
 }

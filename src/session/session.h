@@ -223,5 +223,34 @@ ffd_status ffd_sess_read_weights(const ffd_rig_parser *p, const cJSON *body, siz
  * 0, then n float32 (*data ffd_free'd by the caller). */
 ffd_status ffd_sess_weights_reply(const double *w, size_t n, uint32_t revision, void **data,
                                   size_t *size, ffd_error *err);
+/* Several meshes in one session (session_meshes.c): a character and its
+ * clothes deformed by one deformer. The session's point set is the
+ * concatenation of the meshes' vertices, mesh i owning the vertex range
+ * [first, first + count); the deformer binds them all. */
+typedef struct sess_mesh_part {
+    ffd_mesh *mesh;  /* as read (owned) */
+    char *name;      /* its label, the file name (owned) */
+    size_t first, count;
+} sess_mesh_part;
+
+typedef struct sess_meshes {
+    sess_mesh_part *parts; /* count == 0: one mesh, the session's own */
+    size_t count;
+} sess_meshes;
+
+/* The concatenation of the parts (vertices in order, each part's faces
+ * shifted by its first vertex), made from arrays; first and count of each
+ * part are set. FFD_ERR_INVALID for a volume mesh or too many vertices. */
+ffd_status ffd_sess_meshes_concat(sess_meshes *m, ffd_mesh **out, ffd_error *err);
+/* Frees the parts, their meshes and names; m is then empty. */
+void ffd_sess_meshes_free(sess_meshes *m);
+/* "meshes": [{name, first, vertices, faces}] of the parts, or of the one
+ * mesh (name, mesh) when m is empty. 0 on allocation failure. */
+int ffd_sess_meshes_json(const sess_meshes *m, const char *name, const ffd_mesh *mesh,
+                         cJSON *root);
+/* Part index's mesh with a rig (text; NULL: none) replayed on it alone:
+ * what ffd deform writes for that mesh's file. */
+ffd_status ffd_sess_meshes_deformed(const sess_meshes *m, size_t index, const char *rig,
+                                    const ffd_limits *limits, ffd_mesh **out, ffd_error *err);
 
 #endif

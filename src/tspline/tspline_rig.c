@@ -408,7 +408,7 @@ static ffd_status step_constrain(ffd_tsv *t, const ffd_rig_tsv_step *st, id_set 
         memcpy(cur + 3 * c, x + 3 * rows[c], 3 * sizeof(double));
         memcpy(tgt + 3 * c, st->constraints[c].target, 3 * sizeof(double));
     }
-    ffd_manip_options mo = {rig->rcond};
+    ffd_manip_options mo = {.rcond = rig->rcond};
     ffd_manip_result mr;
     if ((s = ffd_manip_solve(&map, rows, k, cur, tgt, &mo, delta, NULL, &mr, err)))
         goto done;

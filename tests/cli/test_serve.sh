@@ -528,6 +528,29 @@ if [ "${FFD_SERVE_STUB:-0}" != 1 ]; then
     expect_ok POST /api/influence --data-binary '{"points": [0]}'
     [ "$(head -c 4 "$T/body")" = FFDI ] || fail "influence: no FFDI magic"
 
+    # several meshes (docs/editor.md "Several meshes"): ?add=1 adds a mesh to
+    # the session, each mesh exports alone (an untouched copy byte for byte
+    # after the deformer is reset), remove_mesh takes one out
+    expect_ok POST '/api/open?add=1' --data-binary '{"path": "sub/copy.obj"}'
+    has_body '"meshes":[{"name":"bunny.obj","first":0,"vertices":1839,"faces":3674},{"name":"copy.obj","first":1839,"vertices":1839,"faces":3674}]'
+    has_body '"vertices":3678'
+    expect_ok POST '/api/upload?add=1&name=third.obj' --data-binary @"$ROOT/bunny.obj"
+    has_body '{"name":"third.obj","first":3678'
+    expect_ok POST /api/reset --data-binary '{}'
+    expect_ok GET '/api/export?mesh=2'
+    has_header 'filename="third-deformed.obj"'
+    cmp -s "$T/body" "$ROOT/bunny.obj" || fail "export?mesh=2 of an untouched mesh differs from its file"
+    expect 400 invalid GET '/api/export?mesh=3'
+    has_body 'expected the index of one of the session'
+    expect 400 invalid GET '/api/export?mesh=1x'
+    post_json 400 range /api/remove_mesh '{"mesh": 5}'
+    post_json 400 parse /api/remove_mesh '{"index": 1}'
+    expect_ok POST /api/remove_mesh --data-binary '{"mesh": 1}'
+    has_body '{"name":"third.obj","first":1839'
+    expect_ok POST /api/remove_mesh --data-binary '{"mesh": 1}'
+    has_body '"meshes":[{"name":"bunny.obj","first":0,"vertices":1839,"faces":3674}]'
+    post_json 409 conflict /api/remove_mesh '{"mesh": 0}'
+
     # files a rig names that are not regular files: the client's error (400), never a hang
     mkfifo "$ROOT/pipe.obj" "$ROOT/pipe.json"
     mkdir "$ROOT/folder.obj"

@@ -434,10 +434,10 @@ static const char *base_name(const char *path)
 
 /* "<stem><suffix>" for Content-Disposition: the session's mesh name without
  * its extension, reduced to [A-Za-z0-9._-]. */
-static void attachment(const ffd_session *s, const char *suffix, char *out, size_t size)
+static void attachment_named(const char *label, const char *suffix, char *out, size_t size)
 {
     char stem[96];
-    const char *name = ffd_session_name(s) ? base_name(ffd_session_name(s)) : "mesh";
+    const char *name = label ? base_name(label) : "mesh";
     size_t n = 0;
     for (const char *p = name; *p && n + 1 < sizeof stem; p++) {
         char ch = *p;
@@ -452,6 +452,11 @@ static void attachment(const ffd_session *s, const char *suffix, char *out, size
     if (!stem[0] || stem[0] == '.')
         snprintf(stem, sizeof stem, "mesh");
     snprintf(out, size, "attachment; filename=\"%s%s\"", stem, suffix);
+}
+
+static void attachment(const ffd_session *s, const char *suffix, char *out, size_t size)
+{
+    attachment_named(ffd_session_name(s), suffix, out, size);
 }
 
 /* ======================================================================
@@ -635,6 +640,20 @@ static enum MHD_Result get_rig(const serve_server *srv, struct MHD_Connection *c
 
 static const char *const format_names[] = {"", "obj", "ply", "off", "stl", "gltf"};
 
+/* The name of mesh text (a decimal index) of the session, its index in
+ * *index; NULL when text is not the index of one of its meshes. */
+static const char *mesh_of(const ffd_session *s, const char *text, size_t *index)
+{
+    char *end;
+    errno = 0;
+    unsigned long long v = strtoull(text, &end, 10);
+    if (errno || end == text || *end || *text < '0' || *text > '9' ||
+        v >= ffd_session_mesh_count(s))
+        return NULL;
+    *index = (size_t)v;
+    return ffd_session_mesh_name(s, *index);
+}
+
 static enum MHD_Result get_export(const serve_server *srv, struct MHD_Connection *c, request *r)
 {
     const char *format = MHD_lookup_connection_value(c, MHD_GET_ARGUMENT_KIND, "format");
@@ -652,15 +671,26 @@ static enum MHD_Result get_export(const serve_server *srv, struct MHD_Connection
     if (parse_encoding(encoding, &options.encoding) != 0)
         return answer_error(srv, c, r, MHD_HTTP_BAD_REQUEST, "invalid",
                             "encoding '%.32s': expected ascii, binary or binary-be", encoding);
+    /* ?mesh=I: that mesh of several alone (ffd_session_export_mesh) */
+    const char *mesh = MHD_lookup_connection_value(c, MHD_GET_ARGUMENT_KIND, "mesh");
+    size_t index = 0;
+    const char *mesh_name = NULL;
+    if (mesh && !(mesh_name = mesh_of(srv->session, mesh, &index)))
+        return answer_error(srv, c, r, MHD_HTTP_BAD_REQUEST, "invalid",
+                            "mesh '%.32s': expected the index of one of the session's %zu meshes",
+                            mesh, ffd_session_mesh_count(srv->session));
     ffd_format shown = options.format;
     if (shown == FFD_FORMAT_AUTO)
-        shown = ffd_mesh_source_format(ffd_session_mesh(srv->session));
+        shown = mesh_name ? ffd_format_from_path(mesh_name)
+                          : ffd_mesh_source_format(ffd_session_mesh(srv->session));
     if (shown < FFD_FORMAT_OBJ || shown > FFD_FORMAT_GLTF)
         shown = FFD_FORMAT_OBJ;
     ffd_error err = {{0}};
     void *data = NULL;
     size_t size = 0;
-    ffd_status st = ffd_session_export(srv->session, &options, &data, &size, &err);
+    ffd_status st = mesh_name ? ffd_session_export_mesh(srv->session, index, &options, &data,
+                                                        &size, &err)
+                              : ffd_session_export(srv->session, &options, &data, &size, &err);
     if (st == FFD_ERR_UNSUPPORTED) /* an encoding the format does not have */
         st = FFD_ERR_INVALID;
     if (st != FFD_OK)
@@ -669,7 +699,8 @@ static enum MHD_Result get_export(const serve_server *srv, struct MHD_Connection
     /* glTF's binary encoding is a .glb (it starts with the GLB magic) */
     bool glb = shown == FFD_FORMAT_GLTF && size >= 4 && memcmp(data, "glTF", 4) == 0;
     snprintf(suffix, sizeof suffix, "-deformed.%s", glb ? "glb" : format_names[shown]);
-    attachment(srv->session, suffix, disposition, sizeof disposition);
+    attachment_named(mesh_name ? mesh_name : ffd_session_name(srv->session), suffix, disposition,
+                     sizeof disposition);
     return answer_data(srv, c, r, data, size, "application/octet-stream", disposition);
 }
 
@@ -693,10 +724,32 @@ static enum MHD_Result post_op(serve_server *srv, struct MHD_Connection *c, requ
                        binary ? "application/octet-stream" : "application/json", NULL);
 }
 
+/* ?add=1 on /api/open and /api/upload: the mesh joins the session
+ * (ffd_session_add_mesh) instead of replacing it. */
+static int adding(struct MHD_Connection *c)
+{
+    const char *add = MHD_lookup_connection_value(c, MHD_GET_ARGUMENT_KIND, "add");
+    return add && strcmp(add, "1") == 0;
+}
+
+static enum MHD_Result add_mesh(serve_server *srv, struct MHD_Connection *c, request *r,
+                                ffd_mesh *mesh, const char *name)
+{
+    ffd_error err = {{0}};
+    ffd_status st = ffd_session_add_mesh(srv->session, mesh, name, &err);
+    if (st != FFD_OK) {
+        ffd_mesh_destroy(mesh);
+        return answer_status(srv, c, r, st, err.message);
+    }
+    return reply_state(srv, c, r);
+}
+
 /* Makes a session of mesh (taken over) and puts it in place of the old one. */
 static enum MHD_Result replace_session(serve_server *srv, struct MHD_Connection *c, request *r,
                                        ffd_mesh *mesh, const char *name, const char *path)
 {
+    if (adding(c))
+        return add_mesh(srv, c, r, mesh, name);
     ffd_error err = {{0}};
     ffd_session *s = NULL;
     char *copy = NULL;

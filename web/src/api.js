@@ -177,6 +177,9 @@ export const api = {
     parseInfluence(await request('POST', '/api/influence', { json: { points }, binary: true, label: 'influence' })),
   upload: (name, data) =>
     request('POST', `/api/upload?name=${encodeURIComponent(name)}`, { body: data, label: 'upload mesh' }),
+  /** Adds an uploaded mesh to the session (several meshes): replies with the state. */
+  addMeshUpload: (name, data) =>
+    request('POST', `/api/upload?add=1&name=${encodeURIComponent(name)}`, { body: data, label: 'Adding mesh…' }),
   uploadRig: (name, data) =>
     request('POST', `/api/rig/upload?name=${encodeURIComponent(name)}`, { body: data, label: 'upload rig' }),
   post: (path, json, label) => request('POST', path, { json, label }),

@@ -87,14 +87,65 @@ export class DirectManip {
       this.group.add(line);
       if (bad) {
         const el = document.createElement('div');
-        el.className = 'pin-label';
-        el.textContent = `Δ ${fmt(it.residual)}`;
-        el.title = `vertex ${it.vertex}: the deformer cannot reach the target (residual ${it.residual})`;
+        el.className = it.pin ? 'pin-label' : 'pin-label drag-short';
+        el.textContent = it.pin ? `Δ ${fmt(it.residual)}` : `short by ${fmt(it.residual)}`;
+        el.title = it.pin
+          ? `vertex ${it.vertex}: the deformer cannot reach the target (residual ${it.residual})`
+          : `The pins hold; the dragged point stays ${fmt(it.residual)} from where you dragged it`;
         this.labels.appendChild(el);
         this.labelItems.push({ el, at: at.clone() });
       }
     }
     vp.requestRender();
+    this.showShortfall();
+  }
+
+  /**
+   * Pins hard, drag soft: the server holds the pins exactly and brings the
+   * dragged point as close as they allow. Returns {drag, pinsHeld}: how far
+   * the dragged point still is from where it was dragged (null: no drag
+   * solved), and whether every pin is held.
+   */
+  shortfall() {
+    const tol = this.tolerance();
+    const n = this.pins.length;
+    if (this.drag && this.residuals) {
+      return {
+        drag: this.residuals.length > n ? this.residuals[n] : null,
+        pinsHeld: this.residuals.slice(0, n).every((r) => r <= tol),
+      };
+    }
+    const m = (this.ed.state || {}).manip;
+    if (!m) return { drag: null, pinsHeld: true };
+    return { drag: m.drag_residual === undefined ? null : m.drag_residual, pinsHeld: m.pins_met !== false };
+  }
+
+  /** What the status bar and the panel say: {text, title} ("drag short by …", plain words in the tooltip). */
+  shortfallText() {
+    const { drag, pinsHeld } = this.shortfall();
+    const short = drag !== null && drag > this.tolerance();
+    let text = '', title = '';
+    if (!pinsHeld) {
+      text = 'Pins conflict: held as closely as possible';
+      title = 'The pins ask for more than the deformer can do at once (too many pins close together, or pins pulled apart), '
+        + 'so none of them is exactly where it should be: each is as close as the others allow. Unpin one, or use a finer deformer.';
+    } else if (short) {
+      text = `Drag short by ${fmt(drag)}`;
+      title = `The pins stay exactly where they are; the dragged point could only come within ${fmt(drag)} (scene units) of where you dragged it, `
+        + 'because the deformer has no freedom left near it that would not move a pin. Unpin a nearby vertex, or use a finer deformer, to reach it.';
+    }
+    return { text, title };
+  }
+
+  showShortfall() {
+    const { text, title } = this.shortfallText();
+    for (const id of ['st-dm', 'dm-shortfall']) {
+      const el = document.getElementById(id);
+      if (!el) continue;
+      if (el.textContent !== text) el.textContent = text;
+      el.title = title;
+      el.classList.toggle('warn', !!text);
+    }
   }
 
   placeLabels() {
@@ -153,7 +204,11 @@ export class DirectManip {
     const x0 = ev.clientX, y0 = ev.clientY;
     let session = null;
     const pinned = this.pins.find((p) => p.vertex === vertex);
+    // Esc (Editor.cancelDrag) ends the drag on the server and clears this.drag:
+    // the pointer's later moves and its release then have nothing to do
+    const cancelled = () => session && (session.closed || ed.activeDrag !== session || !this.drag);
     const move = (e) => {
+      if (cancelled()) { detach(); return; }
       if (!session) {
         if (Math.hypot(e.clientX - x0, e.clientY - y0) < 3) return;
         session = new DragSession(ed, { vertex });
@@ -167,10 +222,13 @@ export class DirectManip {
       session.update({ target: target.toArray() });
       this.redraw();
     };
-    const up = async () => {
+    const detach = () => {
       window.removeEventListener('pointermove', move);
       window.removeEventListener('pointerup', up);
-      if (!session) { this.redraw(); return; }
+    };
+    const up = async () => {
+      detach();
+      if (!session || cancelled()) { this.redraw(); return; }
       const target = this.drag.target.toArray();
       const st = await ed.endDrag(session);
       this.drag = null;

@@ -8,6 +8,7 @@ import { Selector } from './select.js';
 import { Gizmo } from './gizmo.js';
 import { DirectManip } from './dm.js';
 import { TransformTool } from './transform.js';
+import { MeshList } from './meshes.js';
 import { DragSession } from './drag.js';
 import { ViewNav } from './view.js';
 import { Panel, fmtInt, h } from './panel.js';
@@ -47,6 +48,7 @@ class Editor {
     this.toasts = new Toasts($('toasts'));
     this.offline = new OfflineBanner($('offline'), async () => { this.meshKey = ''; await this.refresh(); this.panel.loadFiles(); this.info('Reconnected to the server'); });
     this.weights = new WeightPaint(this);
+    this.meshList = new MeshList(this); // several meshes in one session
     this.panel = new Panel(this, $('panel'));
     this.viewNav = new ViewNav(this); // up axis, view presets, ortho, grid, X-ray, rows / layers (view.js)
     firstRunCard(this);
@@ -366,7 +368,7 @@ class Editor {
       if (ev.button !== 0 || this.activeDrag) return;
       const consume = () => { ev.stopPropagation(); ev.preventDefault(); };
       if (this.tool === 'controls' && this.gizmo.hitTest(ev)) return; // the gizmo takes it
-      if (ev.altKey || ev.ctrlKey || ev.metaKey) {
+      if (this.tool === 'mesh' && (ev.altKey || ev.ctrlKey || ev.metaKey)) { // pins: Mesh tool only
         const hit = this.vp.pickMesh(ev);
         if (hit) { consume(); this.dm.pinVertex(hit.vertex); return; }
       }
@@ -442,6 +444,7 @@ class Editor {
   }
 
   pinUnderPointer() {
+    if (this.tool !== 'mesh') { this.info('Pins are set with the Mesh tool: press M, then P over the surface'); return; }
     if (!this.hover) return;
     const hit = this.vp.pickMesh(this.hover);
     if (hit) this.dm.pinVertex(hit.vertex);

@@ -101,6 +101,7 @@ export class Panel {
     const focusedName = document.activeElement && document.activeElement.name;
     this.root.replaceChildren(
       this.meshSection(s),
+      this.ed.meshList.section(this),
       this.createSection(s),
       this.methodSection(s),
       this.ed.viewNav.selectSection(s),
@@ -194,7 +195,8 @@ export class Panel {
     // a miss in words: a share of the model's size
     const share = (r) => { const x = (100 * r) / (ed.vp.diag || 1); return x < 0.1 ? 'less than 0.1%' : `${x < 10 ? x.toFixed(1) : Math.round(x)}%`; };
     return h('section', {}, h('h3', {}, 'Direct manipulation'),
-      h('div', { class: 'hint-text' }, 'Mesh tool (M): drag a point of the surface. Alt/Ctrl+click or P pins a vertex; Delete unpins.'),
+      h('div', { class: 'hint-text' }, 'Mesh tool (M): drag a point of the surface. Alt/Ctrl+click or P pins a vertex; Delete unpins. Pins hold exactly; a drag they do not allow comes up short.'),
+      ((sf) => h('div', { id: 'dm-shortfall', class: `dm-shortfall${sf.text ? ' warn' : ''}`, title: sf.title }, sf.text))(ed.dm.shortfallText()),
       h('div', { class: 'row' },
         h('label', { class: 'check', title: 'After a mesh drag, the dragged point stays pinned where you let go' }, h('input', {
           type: 'checkbox', name: 'pin-after', checked: ed.dm.pinAfterDrag,

@@ -98,7 +98,7 @@ export class Selector {
     const id = this.pick(ev);
     if (id >= 0) {
       const sel = new Set(ed.selection);
-      if (ev.shiftKey) {
+      if (ev.shiftKey || ev.ctrlKey || ev.metaKey) { // Ctrl+click toggles too (never pins here)
         if (sel.has(id)) sel.delete(id); else sel.add(id);
         ed.setSelection([...sel]);
         return true;

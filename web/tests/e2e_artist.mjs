@@ -14,6 +14,7 @@ const STAGES = [
   ['view', 'view.mjs'],
   ['transform', 'transform.mjs'],
   ['panel', 'panel.mjs'],
+  ['dm', 'dm.mjs'],
 ];
 
 const only = (() => { const i = argv.indexOf('--stages'); return i >= 0 ? argv[i + 1].split(',') : null; })();
