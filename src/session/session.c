@@ -71,6 +71,7 @@ struct ffd_session {
     undo_stack undo, redo;
     uint32_t revision;
     double busy_ms;        /* duration of the last command */
+    sess_frames *frames;   /* delta frames for drag steps (session_frame.c) */
 };
 
 /* ---------- small utilities ---------- */
@@ -502,6 +503,7 @@ static ffd_status op_drag_begin(ffd_session *s, const ffd_rig_parser *p, const c
     memset(d, 0, sizeof *d);
     if ((st = capture(s, UNDO_STATE, "drag", &d->before, err)))
         return st;
+    ffd_sess_frames_reset(&s->frames, s->mesh, s->positions, s->ctx.n, s->revision);
     const cJSON *vertex = cJSON_GetObjectItemCaseSensitive(body, "vertex");
     if (vertex) {
         static const char *const keys[] = {"vertex", NULL};
@@ -977,6 +979,18 @@ ffd_status ffd_session_frame(const ffd_session *s, void **data, size_t *size, ff
     return FFD_OK;
 }
 
+ffd_status ffd_session_delta_frame(ffd_session *s, uint32_t base, const void *frame, size_t size,
+                                  void **delta, size_t *delta_size, ffd_error *err)
+{
+    if (!s || !frame || !delta || !delta_size)
+        return ffd_fail(err, FFD_ERR_INVALID, "ffd_session_delta_frame: NULL argument");
+    uint32_t v = 0;
+    if (size >= 20 && (memcpy(&v, (const char *)frame + 8, 4), v != s->ctx.n))
+        return ffd_fail(err, FFD_ERR_INVALID, "delta frame: a frame of %u vertices (the mesh has %zu)",
+                        v, s->ctx.n);
+    return ffd_sess_frames_delta(s->frames, base, frame, size, delta, delta_size, err);
+}
+
 ffd_status ffd_session_topology(const ffd_session *s, void **data, size_t *size, ffd_error *err)
 {
     const ffd_mesh *mesh = s->mesh;
@@ -1202,6 +1216,7 @@ void ffd_session_destroy(ffd_session *s)
     ffd_free(s->positions);
     ffd_free(s->pins);
     ffd_free(s->residuals);
+    ffd_sess_frames_free(s->frames);
     ffd_free(s);
 }
 

@@ -671,16 +671,55 @@ static enum MHD_Result get_export(const serve_server *srv, struct MHD_Connection
     return answer_data(srv, c, r, data, size, "application/octet-stream", disposition);
 }
 
+/* POST /api/drag?base=REV: the revision of the frame the client holds, for a
+ * delta frame (docs/editor.md "Delta frames"). 0: none asked, 1: *base set,
+ * -1: not a revision. */
+static int drag_base(struct MHD_Connection *c, const request *r, uint32_t *base)
+{
+    const char *q = MHD_lookup_connection_value(c, MHD_GET_ARGUMENT_KIND, "base");
+    if (!q || strcmp(r->op, "drag") != 0)
+        return 0;
+    char *end = NULL;
+    errno = 0;
+    unsigned long v = strtoul(q, &end, 10);
+    if (!*q || *end || errno || v > UINT32_MAX || *q == '-' || *q == '+' || *q == ' ')
+        return -1;
+    *base = (uint32_t)v;
+    return 1;
+}
+
+/* Replaces a drag step's full frame by its delta against base where the session holds base. */
+static void to_delta(const serve_server *srv, uint32_t base, void **reply, size_t *size)
+{
+    void *delta = NULL;
+    size_t delta_size = 0;
+    if (ffd_session_delta_frame(srv->session, base, *reply, *size, &delta, &delta_size, NULL) ==
+            FFD_OK &&
+        delta) {
+        ffd_free(*reply);
+        *reply = delta;
+        *size = delta_size;
+    }
+}
+
 static enum MHD_Result post_op(serve_server *srv, struct MHD_Connection *c, request *r)
 {
     ffd_error err = {{0}};
     void *reply = NULL;
     size_t size = 0;
     int binary = 0;
+    uint32_t base = 0;
+    int delta = drag_base(c, r, &base);
+    if (delta < 0)
+        return answer_error(srv, c, r, MHD_HTTP_BAD_REQUEST, "invalid",
+                            "drag: base: expected the revision of the client's frame (0 to %u)",
+                            UINT32_MAX);
     ffd_status st = ffd_session_command(srv->session, r->op, r->body ? r->body : "", r->size,
                                         &reply, &size, &binary, &err);
     if (st != FFD_OK)
         return answer_status(srv, c, r, st, err.message);
+    if (delta && binary)
+        to_delta(srv, base, &reply, &size);
     /* a JSON reply is the new state; a binary one (a drag step's frame)
      * leaves the state to be made when next needed */
     if (binary)
