@@ -122,7 +122,9 @@ class Editor {
   }
 
   applyFrame(frame) {
-    this.vp.setPositions(frame.positions);
+    // a delta frame applies to the frame it was made against only; else the whole frame is fetched
+    if (frame.delta && !this.vp.applyDelta(frame, this.lastFrameRevision)) { this.refreshFrame(); return; }
+    if (!frame.delta) this.vp.setPositions(frame.positions);
     if (frame.C === this.controlsView.count) this.controlsView.setPositions(frame.controls);
     this.lastFrameRevision = frame.revision;
     this.dm.setFrameResiduals(frame.residuals);
@@ -472,6 +474,7 @@ class Editor {
       const show = oldestPendingMs() > 400;
       if (show !== !busy.hidden) busy.hidden = !show;
       if (show) $('busy-label').textContent = busyText(pendingLabel());
+      if (show) $('busy-time').textContent = busyElapsed(oldestPendingMs());
       if (this.activeDrag) this.updateStatus();
     }, 100);
   }
@@ -524,6 +527,8 @@ class Editor {
 }
 
 function esc(s) { return String(s).replace(/[&<>"]/g, (c) => ({ '&': '&amp;', '<': '&lt;', '>': '&gt;', '"': '&quot;' }[c])); }
+/** The busy overlay's running time: what a long step (T-spline creation, binding, export) has taken so far. */
+function busyElapsed(ms) { return ms < 60000 ? `${(ms / 1000).toFixed(1)} s` : `${Math.floor(ms / 60000)} min ${Math.floor(ms / 1000) % 60} s`; }
 function busyText(label) {
   const names = {
     create: 'Creating the deformer…', topology: 'Loading the mesh…', frame: 'Evaluating…', influence: 'Computing influence…',
@@ -607,6 +612,8 @@ window.ffdEditor = {
   setGizmoMode(mode) { editor.gizmo.setMode(mode); },
   gizmoCenter() { return editor.screenOf(editor.gizmo.pivot.position); },
   benchDrag(n, opts) { return benchDrag(n, opts); },
+  /** Benchmarks: api.deltaFrames = false makes drag steps ask for full frames. */
+  api,
   editor,
 };
 editor.boot();

@@ -116,16 +116,43 @@ export class Viewport {
 
   get vertexCount() { return this.geometry ? this.geometry.attributes.position.count : 0; }
 
-  /** Copies deformed positions in place. */
+  /** Copies deformed positions in place (a full frame) and recomputes every normal. */
   setPositions(positions) {
     if (!this.geometry) return;
+    const t0 = performance.now();
     const attr = this.geometry.attributes.position;
     if (positions.length !== attr.array.length) return;
     attr.array.set(positions);
+    attr.clearUpdateRanges(); // the whole buffer goes to the GPU
     attr.needsUpdate = true;
     this.computeNormals();
     this.boundsDirty = true;
     this.requestRender();
+    this.measureFrame(t0, 'full');
+  }
+
+  /**
+   * Applies a delta frame (api.js parseDeltaFrame) made against the frame of
+   * revision `held`: the changed positions and the normals the server
+   * computed around them are written in place and only their ranges of the
+   * buffers go to the GPU. Returns false, changing nothing, when the delta
+   * was made against another frame or another mesh.
+   */
+  applyDelta(frame, held) {
+    if (!this.geometry || frame.base !== held || frame.V !== this.vertexCount) return false;
+    const t0 = performance.now();
+    const pos = this.geometry.attributes.position, nrm = this.geometry.attributes.normal;
+    scatter(pos, frame.indices, frame.positions);
+    scatter(nrm, frame.normalIndices, frame.normals);
+    if (frame.K) this.boundsDirty = true;
+    if (frame.K || frame.M) this.requestRender();
+    this.measureFrame(t0, 'delta');
+    return true;
+  }
+
+  /** Frame-apply timing for bench/editor_drag.mjs: a performance measure per frame when timing is on. */
+  measureFrame(t0, kind) {
+    if (this.timing) performance.measure(`ffd:frame-apply:${kind}`, { start: t0, end: performance.now() });
   }
 
   /** Area-weighted vertex normals straight on the typed arrays (fast on 100K+ vertices). */
@@ -149,6 +176,7 @@ export class Viewport {
       const l = Math.hypot(n[i], n[i + 1], n[i + 2]);
       if (l > 0) { n[i] /= l; n[i + 1] /= l; n[i + 2] /= l; } else { n[i + 1] = 1; }
     }
+    nAttr.clearUpdateRanges();
     nAttr.needsUpdate = true;
   }
 
@@ -278,6 +306,44 @@ export class Viewport {
     const p = this.geometry.attributes.position.array;
     return target.set(p[3 * v], p[3 * v + 1], p[3 * v + 2]);
   }
+}
+
+/**
+ * Writes values (3 per id) at the vertices ids (ascending; null: all of them)
+ * of a BufferAttribute and marks only the written ranges for upload: runs of
+ * ids closer than RUN_GAP vertices share a range; past MAX_RANGES ranges (also
+ * those of frames not yet drawn) one range spans them all.
+ */
+const RUN_GAP = 64, MAX_RANGES = 48;
+function scatter(attr, ids, values) {
+  const a = attr.array;
+  if (!ids) {
+    a.set(values);
+    attr.clearUpdateRanges();
+    attr.needsUpdate = true;
+    return;
+  }
+  const k = ids.length;
+  if (!k) return;
+  for (let i = 0; i < k; i++) {
+    const o = 3 * ids[i], j = 3 * i;
+    a[o] = values[j]; a[o + 1] = values[j + 1]; a[o + 2] = values[j + 2];
+  }
+  const ranges = attr.updateRanges;
+  let lo = ids[0], hi = ids[0];
+  for (let i = 1; i <= k; i++) {
+    const v = i < k ? ids[i] : Infinity;
+    if (v - hi <= RUN_GAP) { hi = v; continue; }
+    ranges.push({ start: 3 * lo, count: 3 * (hi - lo + 1) });
+    lo = hi = v;
+  }
+  if (ranges.length > MAX_RANGES) {
+    let s = Infinity, e = 0;
+    for (const r of ranges) { s = Math.min(s, r.start); e = Math.max(e, r.start + r.count); }
+    attr.clearUpdateRanges();
+    attr.addUpdateRange(s, e - s);
+  }
+  attr.needsUpdate = true;
 }
 
 /** Blue -> cyan -> green -> yellow -> red. */
