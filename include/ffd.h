@@ -784,8 +784,9 @@ FFD_API ffd_status ffd_session_frame(const ffd_session *s, void **data, size_t *
  * of the vertices around them, the controls and the residuals. frame (size
  * bytes) is a full frame of s just made (a drag step's reply or
  * ffd_session_frame). The session keeps the positions of the last frame it
- * sent, from drag_begin on: when it does not hold base, *delta is NULL and
- * the client gets the full frame, which becomes the base of the next step.
+ * sent (from drag_begin or the first call on): when it does not hold base,
+ * *delta is NULL and the client gets the full frame, which becomes the base
+ * of the next call.
  * ffd_free *delta. FFD_ERR_INVALID when frame is not a full frame of s. */
 FFD_API ffd_status ffd_session_delta_frame(ffd_session *s, uint32_t base, const void *frame,
                                            size_t size, void **delta, size_t *delta_size,

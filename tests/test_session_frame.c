@@ -266,12 +266,18 @@ static void test_other_base_gets_the_full_frame(void)
     void *dd = NULL;
     size_t dsize = 0;
     ffd_free(command(s, "create", "{\"method\":\"lattice\",\"resolution\":[2,2,2]}", &size));
-    /* before any drag the session holds no base */
+    /* before any drag: a client holding an older frame gets the full one,
+     * a client holding the current frame an empty delta */
     void *f0 = NULL;
     size_t f0_size = 0;
     CHECK_OK(ffd_session_frame(s, &f0, &f0_size, NULL));
-    CHECK_OK(ffd_session_delta_frame(s, frame_revision(f0), f0, f0_size, &dd, &dsize, NULL));
+    CHECK_OK(ffd_session_delta_frame(s, frame_revision(f0) - 1, f0, f0_size, &dd, &dsize, NULL));
     CHECK(dd == NULL && dsize == 0);
+    CHECK_OK(ffd_session_delta_frame(s, frame_revision(f0), f0, f0_size, &dd, &dsize, NULL));
+    delta d;
+    CHECK(dd && parse_delta(dd, dsize, &d) && d.K == 0 && d.M == 0);
+    ffd_free(dd);
+    dd = NULL;
     uint32_t base = frame_revision(f0);
     ffd_free(command(s, "drag_begin", "{\"points\":[0,1,2,3,4,5,6,7]}", &size));
     /* a client holding another frame: the full frame, which is the next base */
@@ -281,7 +287,6 @@ static void test_other_base_gets_the_full_frame(void)
     /* every vertex moves: dense sections, the frame's own positions */
     void *f2 = command(s, "drag", "{\"delta\":[0.2,0,0]}", &size);
     CHECK_OK(ffd_session_delta_frame(s, frame_revision(f1), f2, size, &dd, &dsize, NULL));
-    delta d;
     CHECK(dd && parse_delta(dd, dsize, &d));
     if (dd && parse_delta(dd, dsize, &d)) {
         CHECK(d.K == 1839 && d.M == 1839);

@@ -988,6 +988,8 @@ ffd_status ffd_session_delta_frame(ffd_session *s, uint32_t base, const void *fr
     if (size >= 20 && (memcpy(&v, (const char *)frame + 8, 4), v != s->ctx.n))
         return ffd_fail(err, FFD_ERR_INVALID, "delta frame: a frame of %u vertices (the mesh has %zu)",
                         v, s->ctx.n);
+    if (!s->frames) /* the first frame asked for: the current positions are its base */
+        ffd_sess_frames_reset(&s->frames, s->mesh, s->positions, s->ctx.n, s->revision);
     return ffd_sess_frames_delta(s->frames, base, frame, size, delta, delta_size, err);
 }
 

@@ -605,18 +605,6 @@ static enum MHD_Result get_state(serve_server *srv, struct MHD_Connection *c, re
     return ret;
 }
 
-static enum MHD_Result get_binary(const serve_server *srv, struct MHD_Connection *c, request *r)
-{
-    ffd_error err = {{0}};
-    void *data = NULL;
-    size_t size = 0;
-    ffd_status st = r->route == ROUTE_FRAME
-                        ? ffd_session_frame(srv->session, &data, &size, &err)
-                        : ffd_session_topology(srv->session, &data, &size, &err);
-    if (st != FFD_OK)
-        return answer_status(srv, c, r, st, err.message);
-    return answer_data(srv, c, r, data, size, "application/octet-stream", NULL);
-}
 
 static enum MHD_Result get_rig(const serve_server *srv, struct MHD_Connection *c, request *r)
 {
@@ -671,13 +659,13 @@ static enum MHD_Result get_export(const serve_server *srv, struct MHD_Connection
     return answer_data(srv, c, r, data, size, "application/octet-stream", disposition);
 }
 
-/* POST /api/drag?base=REV: the revision of the frame the client holds, for a
- * delta frame (docs/editor.md "Delta frames"). 0: none asked, 1: *base set,
- * -1: not a revision. */
-static int drag_base(struct MHD_Connection *c, const request *r, uint32_t *base)
+/* GET /api/frame?base=REV, POST /api/drag?base=REV: the revision of the
+ * frame the client holds, for a delta frame (docs/editor.md "Delta frames").
+ * 0: none asked, 1: *base set, -1: not a revision. */
+static int frame_base(struct MHD_Connection *c, const request *r, uint32_t *base)
 {
     const char *q = MHD_lookup_connection_value(c, MHD_GET_ARGUMENT_KIND, "base");
-    if (!q || strcmp(r->op, "drag") != 0)
+    if (!q || (r->route != ROUTE_FRAME && strcmp(r->op, "drag") != 0))
         return 0;
     char *end = NULL;
     errno = 0;
@@ -702,6 +690,27 @@ static void to_delta(const serve_server *srv, uint32_t base, void **reply, size_
     }
 }
 
+static enum MHD_Result get_binary(const serve_server *srv, struct MHD_Connection *c, request *r)
+{
+    ffd_error err = {{0}};
+    void *data = NULL;
+    size_t size = 0;
+    uint32_t base = 0;
+    int delta = frame_base(c, r, &base);
+    if (delta < 0)
+        return answer_error(srv, c, r, MHD_HTTP_BAD_REQUEST, "invalid",
+                            "frame: base: expected the revision of the client's frame (0 to %u)",
+                            UINT32_MAX);
+    ffd_status st = r->route == ROUTE_FRAME
+                        ? ffd_session_frame(srv->session, &data, &size, &err)
+                        : ffd_session_topology(srv->session, &data, &size, &err);
+    if (st != FFD_OK)
+        return answer_status(srv, c, r, st, err.message);
+    if (delta)
+        to_delta(srv, base, &data, &size);
+    return answer_data(srv, c, r, data, size, "application/octet-stream", NULL);
+}
+
 static enum MHD_Result post_op(serve_server *srv, struct MHD_Connection *c, request *r)
 {
     ffd_error err = {{0}};
@@ -709,7 +718,7 @@ static enum MHD_Result post_op(serve_server *srv, struct MHD_Connection *c, requ
     size_t size = 0;
     int binary = 0;
     uint32_t base = 0;
-    int delta = drag_base(c, r, &base);
+    int delta = frame_base(c, r, &base);
     if (delta < 0)
         return answer_error(srv, c, r, MHD_HTTP_BAD_REQUEST, "invalid",
                             "drag: base: expected the revision of the client's frame (0 to %u)",

@@ -175,7 +175,9 @@ export function parseInfluence(buf) {
 
 export const api = {
   state: () => request('GET', '/api/state', { label: 'state' }),
-  frame: async () => parseFrame(await request('GET', '/api/frame', { binary: true, label: 'frame' })),
+  /** The current frame; with `base` (the revision the geometry holds) a delta frame where the server holds it. */
+  frame: async (base) => parseAnyFrame(await request('GET',
+    base === undefined || base < 0 || !api.deltaFrames ? '/api/frame' : `/api/frame?base=${base}`, { binary: true, label: 'frame' })),
   topology: async () => parseTopology(await request('GET', '/api/topology', { binary: true, label: 'topology' })),
   files: () => request('GET', '/api/files', { label: 'files' }),
   /** A JSON operation replying with the new state. */

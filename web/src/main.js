@@ -78,6 +78,7 @@ class Editor {
       if (m.min && m.max) this.vp.setExtent(m.min, m.max);
       const topo = await api.topology();
       this.vp.setTopology(topo);
+      this.lastFrameRevision = -1; // the geometry holds the rest positions, no frame
       if (prev) this.frame();
       this.influenceWeights = null;
     }
@@ -116,7 +117,7 @@ class Editor {
 
   async refreshFrame() {
     const seq = ++this.frameSeq;
-    const frame = await api.frame();
+    const frame = await api.frame(this.lastFrameRevision);
     if (seq !== this.frameSeq) return; // a newer frame request superseded this one
     this.applyFrame(frame);
   }

@@ -34,6 +34,30 @@ function normalsFromScratch(p, tri) {
   return n;
 }
 
+/** The drawn geometry equals GET /api/frame bit for bit, its normals those recomputed from scratch. */
+async function drawnIsServerFrame(when) {
+  const f1 = await frame();
+  const drawn = await ed(() => {
+    const g = window.ffdEditor.editor.vp.geometry;
+    return {
+      bits: Array.from(new Uint32Array(g.attributes.position.array.buffer.slice(0))),
+      normals: Array.from(g.attributes.normal.array),
+      index: Array.from(g.index.array),
+      revision: window.ffdEditor.lastFrameRevision,
+    };
+  });
+  const serverBits = new Uint32Array(f1.positions.buffer.slice(f1.positions.byteOffset, f1.positions.byteOffset + f1.positions.byteLength));
+  let differ = 0;
+  for (let i = 0; i < serverBits.length; i++) if (serverBits[i] !== drawn.bits[i]) differ++;
+  check(drawn.bits.length === serverBits.length && differ === 0 && drawn.revision === f1.revision,
+    `perf: ${when}, the drawn positions equal GET /api/frame bit for bit (${differ} of ${serverBits.length} floats differ; rev ${drawn.revision} / ${f1.revision})`);
+  const p = new Float32Array(new Uint32Array(drawn.bits).buffer);
+  const ref = normalsFromScratch(p, drawn.index);
+  let worst = 0;
+  for (let i = 0; i < ref.length; i++) worst = Math.max(worst, Math.abs(ref[i] - drawn.normals[i]));
+  check(worst <= 1e-5, `perf: ${when}, the drawn normals equal normals recomputed from scratch (max |diff| ${worst.toExponential(2)})`);
+}
+
 export async function stage() {
   await openMesh('elephant.off');
   const V = (await state()).mesh.vertices;
@@ -65,7 +89,7 @@ export async function stage() {
     };
   });
   const rev0 = (await state()).revision;
-  await mouseDrag(arrow.from, { x: arrow.from.x - arrow.dir.x * 70, y: arrow.from.y - arrow.dir.y * 70 }, 14);
+  await mouseDrag(arrow.from, { x: arrow.from.x - arrow.dir.x * 110, y: arrow.from.y - arrow.dir.y * 110 }, 14);
   const log = await ed(() => { delete window.ffdEditor.editor.onDragFrame; return window.__perfFrames; });
   const st1 = await state();
   check(st1.revision > rev0 && st1.drag === null, `perf: the drag ended (rev ${rev0} -> ${st1.revision})`);
@@ -75,28 +99,27 @@ export async function stage() {
   check(log.length > 0 && deltas.length === log.length, `perf: every drag step came as a delta frame (${deltas.length} of ${log.length})`);
   check(sparse.length > 0, `perf: the deltas carry a part of the mesh (${sparse.length} with 0 < changed < ${V})`);
 
-  // the drawn geometry is the server's full frame, bit for bit
-  const f1 = await frame();
-  const drawn = await ed(() => {
-    const g = window.ffdEditor.editor.vp.geometry;
-    return {
-      bits: Array.from(new Uint32Array(g.attributes.position.array.buffer.slice(0))),
-      normals: Array.from(g.attributes.normal.array),
-      index: Array.from(g.index.array),
-      revision: window.ffdEditor.lastFrameRevision,
+  await drawnIsServerFrame('after the drag');
+  await shot('artist-perf-delta-drag');
+
+  // undo (Ctrl+Z): the page asks for the frame as a delta against the one it holds
+  await ed(() => {
+    const vp = window.ffdEditor.editor.vp;
+    window.__perfDeltas = [];
+    vp.applyDelta = function applyDelta(f, held) {
+      window.__perfDeltas.push({ K: f.K, ok: f.base === held });
+      return Object.getPrototypeOf(vp).applyDelta.call(vp, f, held);
     };
   });
-  const serverBits = new Uint32Array(f1.positions.buffer.slice(f1.positions.byteOffset, f1.positions.byteOffset + f1.positions.byteLength));
-  let differ = 0;
-  for (let i = 0; i < serverBits.length; i++) if (serverBits[i] !== drawn.bits[i]) differ++;
-  check(drawn.bits.length === serverBits.length && differ === 0 && drawn.revision === f1.revision,
-    `perf: the drawn positions equal GET /api/frame bit for bit (${differ} of ${serverBits.length} floats differ; rev ${drawn.revision} / ${f1.revision})`);
-  const p = new Float32Array(new Uint32Array(drawn.bits).buffer);
-  const ref = normalsFromScratch(p, drawn.index);
-  let worst = 0;
-  for (let i = 0; i < ref.length; i++) worst = Math.max(worst, Math.abs(ref[i] - drawn.normals[i]));
-  check(worst <= 1e-5, `perf: the drawn normals equal normals recomputed from scratch (max |diff| ${worst.toExponential(2)})`);
-  await shot('artist-perf-delta-drag');
+  const undo0 = (await state()).undo;
+  await page.mouse.move(5, 300); // over the viewport's empty corner, not a text field
+  await page.keyboard.press('Control+z');
+  await page.waitForFunction((u) => window.ffdEditor.state.undo < u, undo0, { timeout: 10000 });
+  await settle();
+  const undone = await ed(() => { delete window.ffdEditor.editor.vp.applyDelta; return window.__perfDeltas; });
+  check(undone.length >= 1 && undone.every((d) => d.ok) && undone.some((d) => d.K > 0 && d.K < V),
+    `perf: Ctrl+Z brings the frame back as a delta (${undone.map((d) => d.K).join(', ')} vertices changed)`);
+  await drawnIsServerFrame('after undo');
 
   // a long step (the export, held back 1.8 s here): the busy overlay names it and shows its running time
   const isExport = (u) => u.pathname === '/api/export';
