@@ -186,14 +186,17 @@ try {
               vp.onBeforeRender.splice(vp.onBeforeRender.indexOf(before), 1);
               vp.onAfterRender.splice(vp.onAfterRender.indexOf(after), 1);
               vp.timing = false;
-              const apply = performance.getEntriesByType('measure').filter((m) => m.name.startsWith('ffd:frame-apply')).map((m) => m.duration);
+              const measures = performance.getEntriesByType('measure');
+              const apply = measures.filter((m) => m.name === `ffd:frame-apply:${dl ? 'delta' : 'full'}`).map((m) => m.duration);
+              const other = measures.filter((m) => m.name.startsWith('ffd:frame-apply:') && m.name !== `ffd:frame-apply:${dl ? 'delta' : 'full'}`).map((m) => m.duration);
               performance.clearMeasures();
               ed.api.deltaFrames = true;
               ed.setRenderEnabled(true);
-              return { ...out, apply, renderMs };
+              return { ...out, apply, other, renderMs };
             }, { n: STEPS, on: render, delta });
             const s = stats(r.requestMs.slice(3));
             const a = stats(r.apply.slice(3));
+            if (r.other.length) console.error(`  ${name}, ${delta ? 'delta' : 'full'} frames: ${r.other.length} frame(s) of the other kind applied (${r.other.map((x) => x.toFixed(1)).join(', ')} ms)`);
             const dr = stats(r.renderMs);
             pageRows.push([name, `${delta ? 'delta' : 'full'} frames, drawing ${render ? 'on (SwiftShader)' : 'off'}`,
               { median: s.median, ups: r.updatesPerSecond, apply: a.median, applyMax: a.max, render: render ? dr.median : undefined, drawn: render ? r.drawnPerSecond : undefined }]);

@@ -30,10 +30,14 @@ struct sess_frames {
     uint32_t *tri;         /* 3 per triangle */
     uint32_t *vt_off;      /* n + 1 */
     uint32_t *vt_tri;      /* triangle ids, ascending per vertex */
+    size_t tri_count;
     /* per-step scratch */
     uint32_t *changed;     /* n */
     uint32_t *ring;        /* n */
     unsigned char *mark;   /* n */
+    uint32_t *faces;       /* tri_count: the triangles around the ring */
+    unsigned char *fmark;  /* tri_count */
+    double *cross;         /* tri_count by 3: their cross products (twice the area vector) */
 };
 
 enum { DELTA_HEAD = 36, DELTA_DENSE_POSITIONS = 1, DELTA_DENSE_NORMALS = 2 };
@@ -49,6 +53,9 @@ void ffd_sess_frames_free(sess_frames *f)
     ffd_free(f->changed);
     ffd_free(f->ring);
     ffd_free(f->mark);
+    ffd_free(f->faces);
+    ffd_free(f->fmark);
+    ffd_free(f->cross);
     ffd_free(f);
 }
 
@@ -66,7 +73,11 @@ static int build_adjacency(sess_frames *f, const ffd_mesh *mesh, size_t n)
     f->tri = ffd_malloc_array(t ? 3 * t : 1, sizeof *f->tri);
     f->vt_off = ffd_calloc(n + 1, sizeof *f->vt_off);
     f->vt_tri = ffd_malloc_array(t ? 3 * t : 1, sizeof *f->vt_tri);
-    if (!f->tri || !f->vt_off || !f->vt_tri)
+    f->tri_count = t;
+    f->faces = ffd_malloc_array(t ? t : 1, sizeof *f->faces);
+    f->fmark = ffd_calloc(t ? t : 1, 1);
+    f->cross = ffd_malloc_array(t ? t : 1, 3 * sizeof *f->cross);
+    if (!f->tri || !f->vt_off || !f->vt_tri || !f->faces || !f->fmark || !f->cross)
         return 0;
     size_t w = 0;
     for (size_t i = 0; i < nf; i++)
@@ -118,19 +129,29 @@ void ffd_sess_frames_reset(sess_frames **fp, const ffd_mesh *mesh, const double 
     f->valid = 1;
 }
 
-/* Area-weighted normal of vertex v from the float32 positions p (the sum of
- * its triangles' cross products, normalised; (0, 1, 0) where it vanishes). */
-static void vertex_normal(const sess_frames *f, const float *p, uint32_t v, float out[3])
+/* The cross product of triangle t's edges from the float32 positions p. */
+static void triangle_cross(const sess_frames *f, const float *p, uint32_t t, double *out)
+{
+    const uint32_t *c = f->tri + 3 * (size_t)t;
+    const float *a = p + 3 * (size_t)c[0], *b = p + 3 * (size_t)c[1], *d = p + 3 * (size_t)c[2];
+    double e1[3] = {(double)b[0] - a[0], (double)b[1] - a[1], (double)b[2] - a[2]};
+    double e2[3] = {(double)d[0] - a[0], (double)d[1] - a[1], (double)d[2] - a[2]};
+    out[0] = e1[1] * e2[2] - e1[2] * e2[1];
+    out[1] = e1[2] * e2[0] - e1[0] * e2[2];
+    out[2] = e1[0] * e2[1] - e1[1] * e2[0];
+}
+
+/* Area-weighted normal of vertex v: the sum of its triangles' cross products
+ * (f->cross, in ascending triangle order), normalised; (0, 1, 0) where it
+ * vanishes. */
+static void vertex_normal(const sess_frames *f, uint32_t v, float out[3])
 {
     double n[3] = {0, 0, 0};
     for (uint32_t k = f->vt_off[v]; k < f->vt_off[v + 1]; k++) {
-        const uint32_t *t = f->tri + 3 * (size_t)f->vt_tri[k];
-        const float *a = p + 3 * (size_t)t[0], *b = p + 3 * (size_t)t[1], *c = p + 3 * (size_t)t[2];
-        double e1[3] = {(double)b[0] - a[0], (double)b[1] - a[1], (double)b[2] - a[2]};
-        double e2[3] = {(double)c[0] - a[0], (double)c[1] - a[1], (double)c[2] - a[2]};
-        n[0] += e1[1] * e2[2] - e1[2] * e2[1];
-        n[1] += e1[2] * e2[0] - e1[0] * e2[2];
-        n[2] += e1[0] * e2[1] - e1[1] * e2[0];
+        const double *x = f->cross + 3 * (size_t)f->vt_tri[k];
+        n[0] += x[0];
+        n[1] += x[1];
+        n[2] += x[2];
     }
     double l = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
     if (l > 0) {
@@ -230,16 +251,39 @@ ffd_status ffd_sess_frames_delta(sess_frames *f, uint32_t base, const void *fram
         nrm = (float *)(void *)w;
         w += 12 * m;
     }
+    /* the cross product of every triangle around the ring, once each */
+    int dense = flags & DELTA_DENSE_NORMALS;
+    size_t nfaces = 0;
+    if (dense) {
+        nfaces = f->tri_count;
+        for (size_t t = 0; t < nfaces; t++)
+            f->faces[t] = (uint32_t)t;
+    } else {
+        for (size_t i = 0; i < m; i++) {
+            uint32_t v = f->ring[i];
+            for (uint32_t j = f->vt_off[v]; j < f->vt_off[v + 1]; j++)
+                if (!f->fmark[f->vt_tri[j]]) {
+                    f->fmark[f->vt_tri[j]] = 1;
+                    f->faces[nfaces++] = f->vt_tri[j];
+                }
+        }
+        for (size_t i = 0; i < nfaces; i++)
+            f->fmark[f->faces[i]] = 0;
+    }
     const sess_frames *cf = f;
     const float *sent = f->sent;
-    const uint32_t *ring = f->ring;
-    int dense = flags & DELTA_DENSE_NORMALS;
-    ptrdiff_t count = (ptrdiff_t)(dense ? n : m);
-    /* each normal is one fixed sequence of operations: the same bits for any thread count */
-#pragma omp parallel for schedule(static) if (count > 8192)
-    for (ptrdiff_t i = 0; i < count; i++) {
-        uint32_t v = dense ? (uint32_t)i : ring[i];
-        vertex_normal(cf, sent, v, nrm + 3 * i);
+    const uint32_t *ring = f->ring, *faces = f->faces;
+    double *cross = f->cross;
+    ptrdiff_t nf = (ptrdiff_t)nfaces, count = (ptrdiff_t)(dense ? n : m);
+    /* each value is one fixed sequence of operations: the same bits for any thread count */
+#pragma omp parallel if (count > 16384)
+    {
+#pragma omp for schedule(static)
+        for (ptrdiff_t i = 0; i < nf; i++)
+            triangle_cross(cf, sent, faces[i], cross + 3 * (size_t)faces[i]);
+#pragma omp for schedule(static)
+        for (ptrdiff_t i = 0; i < count; i++)
+            vertex_normal(cf, dense ? (uint32_t)i : ring[i], nrm + 3 * i);
     }
     memcpy(w, x + 3 * n, 4 * (3 * c + r)); /* controls, residuals as in the full frame */
     *delta = buf;
