@@ -787,7 +787,8 @@ FFD_API ffd_status ffd_session_frame(const ffd_session *s, void **data, size_t *
  * sent (from drag_begin or the first call on): when it does not hold base,
  * *delta is NULL and the client gets the full frame, which becomes the base
  * of the next call.
- * ffd_free *delta. FFD_ERR_INVALID when frame is not a full frame of s. */
+ * ffd_free *delta. FFD_ERR_INVALID when frame is not a full frame of s;
+ * FFD_ERR_NOMEM (nothing held changes: send the full frame). */
 FFD_API ffd_status ffd_session_delta_frame(ffd_session *s, uint32_t base, const void *frame,
                                            size_t size, void **delta, size_t *delta_size,
                                            ffd_error *err);

@@ -503,7 +503,11 @@ static ffd_status op_drag_begin(ffd_session *s, const ffd_rig_parser *p, const c
     memset(d, 0, sizeof *d);
     if ((st = capture(s, UNDO_STATE, "drag", &d->before, err)))
         return st;
-    ffd_sess_frames_reset(&s->frames, s->mesh, s->positions, s->ctx.n, s->revision);
+    if ((st = ffd_sess_frames_reset(&s->frames, s->mesh, s->positions, s->ctx.n, s->revision,
+                                    "drag_begin", err))) {
+        drag_free(d);
+        return st;
+    }
     const cJSON *vertex = cJSON_GetObjectItemCaseSensitive(body, "vertex");
     if (vertex) {
         static const char *const keys[] = {"vertex", NULL};
@@ -988,9 +992,11 @@ ffd_status ffd_session_delta_frame(ffd_session *s, uint32_t base, const void *fr
     if (size >= 20 && (memcpy(&v, (const char *)frame + 8, 4), v != s->ctx.n))
         return ffd_fail(err, FFD_ERR_INVALID, "delta frame: a frame of %u vertices (the mesh has %zu)",
                         v, s->ctx.n);
+    ffd_status st = FFD_OK;
     if (!s->frames) /* the first frame asked for: the current positions are its base */
-        ffd_sess_frames_reset(&s->frames, s->mesh, s->positions, s->ctx.n, s->revision);
-    return ffd_sess_frames_delta(s->frames, base, frame, size, delta, delta_size, err);
+        st = ffd_sess_frames_reset(&s->frames, s->mesh, s->positions, s->ctx.n, s->revision,
+                                   "delta frame", err);
+    return st ? st : ffd_sess_frames_delta(s->frames, base, frame, size, delta, delta_size, err);
 }
 
 ffd_status ffd_session_topology(const ffd_session *s, void **data, size_t *size, ffd_error *err)

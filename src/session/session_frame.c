@@ -99,8 +99,8 @@ static int build_adjacency(sess_frames *f, const ffd_mesh *mesh, size_t n)
     return 1;
 }
 
-void ffd_sess_frames_reset(sess_frames **fp, const ffd_mesh *mesh, const double *positions,
-                           size_t n, uint32_t revision)
+ffd_status ffd_sess_frames_reset(sess_frames **fp, const ffd_mesh *mesh, const double *positions,
+                                 size_t n, uint32_t revision, const char *op, ffd_error *err)
 {
     sess_frames *f = *fp;
     if (f && (f->mesh != mesh || f->n != n)) {
@@ -110,7 +110,7 @@ void ffd_sess_frames_reset(sess_frames **fp, const ffd_mesh *mesh, const double 
     if (!f) {
         f = ffd_calloc(1, sizeof *f);
         if (!f)
-            return;
+            return ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory for the delta frames", op);
         f->mesh = mesh;
         f->n = n;
         f->sent = ffd_malloc_array(n, 3 * sizeof *f->sent);
@@ -119,7 +119,8 @@ void ffd_sess_frames_reset(sess_frames **fp, const ffd_mesh *mesh, const double 
         f->mark = ffd_calloc(n, 1);
         if (!f->sent || !f->changed || !f->ring || !f->mark || !build_adjacency(f, mesh, n)) {
             ffd_sess_frames_free(f);
-            return; /* no delta frames: drag steps send full frames */
+            return ffd_fail(err, FFD_ERR_NOMEM,
+                            "%s: out of memory for the delta frames (%zu vertices)", op, n);
         }
         *fp = f;
     }
@@ -127,6 +128,7 @@ void ffd_sess_frames_reset(sess_frames **fp, const ffd_mesh *mesh, const double 
         f->sent[i] = (float)positions[i];
     f->revision = revision;
     f->valid = 1;
+    return FFD_OK;
 }
 
 /* The cross product of triangle t's edges from the float32 positions p. */
@@ -215,12 +217,8 @@ ffd_status ffd_sess_frames_delta(sess_frames *f, uint32_t base, const void *fram
     size_t nrm_bytes = flags & DELTA_DENSE_NORMALS ? 12 * n : 16 * m;
     size_t bytes = DELTA_HEAD + pos_bytes + nrm_bytes + 4 * (3 * c + r);
     unsigned char *buf = ffd_malloc(bytes);
-    if (!buf) {
-        /* the full frame then; the client will hold it */
-        memcpy(f->sent, x, 12 * n);
-        f->revision = head[1];
-        return FFD_OK;
-    }
+    if (!buf) /* nothing held changed: a client given the full frame instead resyncs */
+        return ffd_fail(err, FFD_ERR_NOMEM, "delta frame: out of memory (%zu bytes)", bytes);
     uint32_t dh[9] = {0, head[1], base, (uint32_t)n, (uint32_t)k, (uint32_t)m, (uint32_t)c,
                       (uint32_t)r, (uint32_t)flags};
     memcpy(dh, "FFDD", 4);
