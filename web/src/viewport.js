@@ -2,6 +2,7 @@
 
 import * as THREE from 'three';
 import { OrbitControls } from 'three/examples/jsm/controls/OrbitControls.js';
+import { NormalsWorker, WORKER_MIN_TRIANGLES } from './normals.js';
 
 export class Viewport {
   constructor(container) {
@@ -100,7 +101,9 @@ export class Viewport {
     this.geometry = g;
     this.rest = new Float32Array(topo.rest);
     this.triangles = new Uint32Array(topo.triangles);
-    this.computeNormals();
+    if (this.normalsWorker) this.normalsWorker.terminate();
+    this.normalsWorker = topo.T >= WORKER_MIN_TRIANGLES && typeof Worker !== 'undefined' ? new NormalsWorker(this.triangles) : null;
+    this.updateNormals();
     this.mesh = new THREE.Mesh(g, this.material);
     this.mesh.frustumCulled = false;
     this.wire = new THREE.Mesh(g, this.wireMaterial);
@@ -125,10 +128,33 @@ export class Viewport {
     attr.array.set(positions);
     attr.clearUpdateRanges(); // the whole buffer goes to the GPU
     attr.needsUpdate = true;
-    this.computeNormals();
+    this.updateNormals();
     this.boundsDirty = true;
     this.requestRender();
     this.measureFrame(t0, 'full');
+  }
+
+  /**
+   * Every normal from the current positions: on the main thread for a small
+   * mesh; for a big one in the worker (normals.js), written when it answers,
+   * except at the vertices whose normals a delta frame set meanwhile (those
+   * are newer, and every normal a delta's positions affect comes with it).
+   */
+  updateNormals() {
+    if (!this.normalsWorker) { this.computeNormals(); return; }
+    const g = this.geometry, V = this.vertexCount;
+    this.normalsTouched = null; // vertices given normals by deltas since the request
+    this.normalsWorker.request(g.attributes.position.array, (normals) => {
+      if (g !== this.geometry) return;
+      const t0 = performance.now();
+      const nAttr = g.attributes.normal, n = nAttr.array, touched = this.normalsTouched;
+      if (!touched) n.set(normals);
+      else for (let v = 0; v < V; v++) if (!touched[v]) { n[3 * v] = normals[3 * v]; n[3 * v + 1] = normals[3 * v + 1]; n[3 * v + 2] = normals[3 * v + 2]; }
+      nAttr.clearUpdateRanges();
+      nAttr.needsUpdate = true;
+      this.requestRender();
+      this.measureFrame(t0, 'normals');
+    });
   }
 
   /**
@@ -144,6 +170,14 @@ export class Viewport {
     const pos = this.geometry.attributes.position, nrm = this.geometry.attributes.normal;
     scatter(pos, frame.indices, frame.positions);
     scatter(nrm, frame.normalIndices, frame.normals);
+    if (this.normalsWorker && this.normalsWorker.pending) {
+      // the worker's normals are older than these
+      if (!frame.normalIndices) this.normalsWorker.waiting = null;
+      else {
+        const t = this.normalsTouched || (this.normalsTouched = new Uint8Array(this.vertexCount));
+        for (const v of frame.normalIndices) t[v] = 1;
+      }
+    }
     if (frame.K) this.boundsDirty = true;
     if (frame.K || frame.M) this.requestRender();
     this.measureFrame(t0, 'delta');
