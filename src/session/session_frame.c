@@ -11,8 +11,8 @@
  * triangle touching a changed vertex) come with it, area-weighted over the
  * fan triangulation the topology reply sends, computed from the float32
  * positions the client draws, so the page recomputes nothing on its main
- * thread. Each section is sparse (indices then values) when that is smaller
- * than all of it, else dense. */
+ * thread. When the delta would not be smaller than the full frame (most of
+ * the mesh moved) the client gets the full frame instead. */
 #include "session/session.h"
 
 #include "mesh/mesh.h"
@@ -40,7 +40,7 @@ struct sess_frames {
     double *cross;         /* tri_count by 3: their cross products (twice the area vector) */
 };
 
-enum { DELTA_HEAD = 36, DELTA_DENSE_POSITIONS = 1, DELTA_DENSE_NORMALS = 2 };
+enum { DELTA_HEAD = 36 };
 
 void ffd_sess_frames_free(sess_frames *f)
 {
@@ -208,71 +208,53 @@ ffd_status ffd_sess_frames_delta(sess_frames *f, uint32_t base, const void *fram
             f->mark[v] = 0;
             f->ring[m++] = (uint32_t)v;
         }
-    int flags = 0;
-    if (16 * k >= 12 * n)
-        flags |= DELTA_DENSE_POSITIONS;
-    if (16 * m >= 12 * n)
-        flags |= DELTA_DENSE_NORMALS;
-    size_t pos_bytes = flags & DELTA_DENSE_POSITIONS ? 12 * n : 16 * k;
-    size_t nrm_bytes = flags & DELTA_DENSE_NORMALS ? 12 * n : 16 * m;
-    size_t bytes = DELTA_HEAD + pos_bytes + nrm_bytes + 4 * (3 * c + r);
+    size_t bytes = DELTA_HEAD + 16 * k + 16 * m + 4 * (3 * c + r);
+    if (bytes >= size) {
+        /* the delta would be larger: the full frame, which the client will hold */
+        for (size_t i = 0; i < k; i++)
+            memcpy(f->sent + 3 * (size_t)f->changed[i], x + 3 * (size_t)f->changed[i], 12);
+        f->revision = head[1];
+        return FFD_OK;
+    }
     unsigned char *buf = ffd_malloc(bytes);
     if (!buf) /* nothing held changed: a client given the full frame instead resyncs */
         return ffd_fail(err, FFD_ERR_NOMEM, "delta frame: out of memory (%zu bytes)", bytes);
     uint32_t dh[9] = {0, head[1], base, (uint32_t)n, (uint32_t)k, (uint32_t)m, (uint32_t)c,
-                      (uint32_t)r, (uint32_t)flags};
+                      (uint32_t)r, 0};
     memcpy(dh, "FFDD", 4);
     memcpy(buf, dh, sizeof dh);
     unsigned char *w = buf + DELTA_HEAD;
-    if (flags & DELTA_DENSE_POSITIONS) {
-        memcpy(w, x, 12 * n);
-        w += 12 * n;
-    } else {
-        memcpy(w, f->changed, 4 * k);
-        w += 4 * k;
-        float *p = (float *)(void *)w;
-        for (size_t i = 0; i < k; i++)
-            memcpy(p + 3 * i, x + 3 * (size_t)f->changed[i], 12);
-        w += 12 * k;
-    }
+    memcpy(w, f->changed, 4 * k);
+    w += 4 * k;
+    float *p = (float *)(void *)w;
+    for (size_t i = 0; i < k; i++)
+        memcpy(p + 3 * i, x + 3 * (size_t)f->changed[i], 12);
+    w += 12 * k;
     /* the client's positions are now the frame's */
     for (size_t i = 0; i < k; i++)
         memcpy(f->sent + 3 * (size_t)f->changed[i], x + 3 * (size_t)f->changed[i], 12);
     f->revision = head[1];
-    float *nrm;
-    if (flags & DELTA_DENSE_NORMALS) {
-        nrm = (float *)(void *)w;
-        w += 12 * n;
-    } else {
-        memcpy(w, f->ring, 4 * m);
-        w += 4 * m;
-        nrm = (float *)(void *)w;
-        w += 12 * m;
-    }
+    memcpy(w, f->ring, 4 * m);
+    w += 4 * m;
+    float *nrm = (float *)(void *)w;
+    w += 12 * m;
     /* the cross product of every triangle around the ring, once each */
-    int dense = flags & DELTA_DENSE_NORMALS;
     size_t nfaces = 0;
-    if (dense) {
-        nfaces = f->tri_count;
-        for (size_t t = 0; t < nfaces; t++)
-            f->faces[t] = (uint32_t)t;
-    } else {
-        for (size_t i = 0; i < m; i++) {
-            uint32_t v = f->ring[i];
-            for (uint32_t j = f->vt_off[v]; j < f->vt_off[v + 1]; j++)
-                if (!f->fmark[f->vt_tri[j]]) {
-                    f->fmark[f->vt_tri[j]] = 1;
-                    f->faces[nfaces++] = f->vt_tri[j];
-                }
-        }
-        for (size_t i = 0; i < nfaces; i++)
-            f->fmark[f->faces[i]] = 0;
+    for (size_t i = 0; i < m; i++) {
+        uint32_t v = f->ring[i];
+        for (uint32_t j = f->vt_off[v]; j < f->vt_off[v + 1]; j++)
+            if (!f->fmark[f->vt_tri[j]]) {
+                f->fmark[f->vt_tri[j]] = 1;
+                f->faces[nfaces++] = f->vt_tri[j];
+            }
     }
+    for (size_t i = 0; i < nfaces; i++)
+        f->fmark[f->faces[i]] = 0;
     const sess_frames *cf = f;
     const float *sent = f->sent;
     const uint32_t *ring = f->ring, *faces = f->faces;
     double *cross = f->cross;
-    ptrdiff_t nf = (ptrdiff_t)nfaces, count = (ptrdiff_t)(dense ? n : m);
+    ptrdiff_t nf = (ptrdiff_t)nfaces, count = (ptrdiff_t)m;
     /* each value is one fixed sequence of operations: the same bits for any thread count */
 #pragma omp parallel if (count > 16384)
     {
@@ -281,7 +263,7 @@ ffd_status ffd_sess_frames_delta(sess_frames *f, uint32_t base, const void *fram
             triangle_cross(cf, sent, faces[i], cross + 3 * (size_t)faces[i]);
 #pragma omp for schedule(static)
         for (ptrdiff_t i = 0; i < count; i++)
-            vertex_normal(cf, dense ? (uint32_t)i : ring[i], nrm + 3 * i);
+            vertex_normal(cf, ring[i], nrm + 3 * i);
     }
     memcpy(w, x + 3 * n, 4 * (3 * c + r)); /* controls, residuals as in the full frame */
     *delta = buf;

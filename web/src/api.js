@@ -108,26 +108,24 @@ export function parseFrame(buf) {
 }
 
 /**
- * Delta frame (a drag step's reply when the request names the frame the page
- * holds, POST /api/drag?base=REV; docs/editor.md "Delta frames"): FFDD, rev,
- * base, V, K, M, C, R, flags; then K vertex ids (uint32) and their K*3
- * positions (or, flag 1, all V*3 positions), M ids and their M*3 normals (or,
- * flag 2, all V*3 normals), controls C*3, residuals R. Returns an object like
- * parseFrame's with delta: true, base, indices (null when dense), normals and
- * normalIndices (null when dense).
+ * Delta frame (a drag step's or a frame's reply when the request names the
+ * frame the page holds, ?base=REV; docs/editor.md "Delta frames"): FFDD, rev,
+ * base, V, K, M, C, R, 0; then K vertex ids (uint32) and their K*3
+ * positions, M ids and their M*3 normals, controls C*3, residuals R.
+ * Returns an object like parseFrame's with delta: true, base, indices,
+ * normalIndices and normals.
  */
 export function parseDeltaFrame(buf) {
   const dv = new DataView(buf);
   if (buf.byteLength < 36 || magic(dv) !== 'FFDD') throw new ApiError('bad delta frame from the server', 0, 'parse');
   const [revision, base, V, K, M, C, R, flags] = [1, 2, 3, 4, 5, 6, 7, 8].map((i) => dv.getUint32(4 * i, true));
-  const densePos = (flags & 1) !== 0, denseNrm = (flags & 2) !== 0;
-  const need = 36 + (densePos ? 12 * V : 16 * K) + (denseNrm ? 12 * V : 16 * M) + 12 * C + 4 * R;
-  if (buf.byteLength !== need) throw new ApiError(`delta frame of ${buf.byteLength} bytes, expected ${need}`, 0, 'parse');
+  const need = 36 + 16 * K + 16 * M + 12 * C + 4 * R;
+  if (flags !== 0 || buf.byteLength !== need) throw new ApiError(`delta frame of ${buf.byteLength} bytes (flags ${flags}), expected ${need} (flags 0)`, 0, 'parse');
   let off = 36;
-  const indices = densePos ? null : new Uint32Array(buf, off, K); off += densePos ? 0 : 4 * K;
-  const positions = new Float32Array(buf, off, 3 * (densePos ? V : K)); off += 12 * (densePos ? V : K);
-  const normalIndices = denseNrm ? null : new Uint32Array(buf, off, M); off += denseNrm ? 0 : 4 * M;
-  const normals = new Float32Array(buf, off, 3 * (denseNrm ? V : M)); off += 12 * (denseNrm ? V : M);
+  const indices = new Uint32Array(buf, off, K); off += 4 * K;
+  const positions = new Float32Array(buf, off, 3 * K); off += 12 * K;
+  const normalIndices = new Uint32Array(buf, off, M); off += 4 * M;
+  const normals = new Float32Array(buf, off, 3 * M); off += 12 * M;
   const controls = new Float32Array(buf, off, 3 * C); off += 12 * C;
   const residuals = new Float32Array(buf, off, R);
   return { delta: true, revision, base, V, K, M, C, R, indices, positions, normalIndices, normals, controls, residuals };

@@ -45,6 +45,7 @@ export class Viewport {
       color: 0x15171a, wireframe: true, transparent: true, opacity: 0.28, depthWrite: false,
     });
     this.influenceOn = false;
+    this.workerMinTriangles = WORKER_MIN_TRIANGLES; // meshes this big get their full normals from a worker
 
     this.orbit = new OrbitControls(this.camera, this.renderer.domElement);
     this.orbit.enableDamping = false;
@@ -102,7 +103,7 @@ export class Viewport {
     this.rest = new Float32Array(topo.rest);
     this.triangles = new Uint32Array(topo.triangles);
     if (this.normalsWorker) this.normalsWorker.terminate();
-    this.normalsWorker = topo.T >= WORKER_MIN_TRIANGLES && typeof Worker !== 'undefined' ? new NormalsWorker(this.triangles) : null;
+    this.normalsWorker = topo.T >= this.workerMinTriangles && typeof Worker !== 'undefined' ? new NormalsWorker(this.triangles) : null;
     this.updateNormals();
     this.mesh = new THREE.Mesh(g, this.material);
     this.mesh.frustumCulled = false;
@@ -172,11 +173,8 @@ export class Viewport {
     scatter(nrm, frame.normalIndices, frame.normals);
     if (this.normalsWorker && this.normalsWorker.pending) {
       // the worker's normals are older than these
-      if (!frame.normalIndices) this.normalsWorker.waiting = null;
-      else {
-        const t = this.normalsTouched || (this.normalsTouched = new Uint8Array(this.vertexCount));
-        for (const v of frame.normalIndices) t[v] = 1;
-      }
+      const t = this.normalsTouched || (this.normalsTouched = new Uint8Array(this.vertexCount));
+      for (const v of frame.normalIndices) t[v] = 1;
     }
     if (frame.K) this.boundsDirty = true;
     if (frame.K || frame.M) this.requestRender();
@@ -343,20 +341,14 @@ export class Viewport {
 }
 
 /**
- * Writes values (3 per id) at the vertices ids (ascending; null: all of them)
- * of a BufferAttribute and marks only the written ranges for upload: runs of
- * ids closer than RUN_GAP vertices share a range; past MAX_RANGES ranges (also
+ * Writes values (3 per id) at the vertices ids (ascending) of a
+ * BufferAttribute and marks only the written ranges for upload: runs of ids
+ * closer than RUN_GAP vertices share a range; past MAX_RANGES ranges (also
  * those of frames not yet drawn) one range spans them all.
  */
 const RUN_GAP = 64, MAX_RANGES = 48;
 function scatter(attr, ids, values) {
   const a = attr.array;
-  if (!ids) {
-    a.set(values);
-    attr.clearUpdateRanges();
-    attr.needsUpdate = true;
-    return;
-  }
   const k = ids.length;
   if (!k) return;
   for (let i = 0; i < k; i++) {

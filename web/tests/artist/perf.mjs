@@ -141,6 +141,29 @@ export async function stage() {
   await page.waitForFunction(() => document.getElementById('busy').hidden, null, { timeout: 30000 });
   await settle();
 
+  // a big mesh's full frames: normals from the Web Worker (normals.js; here
+  // for every mesh), then deltas again; the drawn normals stay right
+  await ed(() => { window.ffdEditor.editor.vp.workerMinTriangles = 0; });
+  await openMesh('bunny.obj');
+  await openMesh('elephant.off');
+  must(await ed(() => !!window.ffdEditor.editor.vp.normalsWorker), 'perf: the normals worker runs for the opened mesh');
+  const st2 = await createViaPanel('lattice', { 'res-lattice-0': 3, 'res-lattice-1': 3, 'res-lattice-2': 3 });
+  must(st2.controls.count === 27, `perf: lattice 3x3x3 created (${st2.controls.count} controls)`);
+  const pick2 = await pickableControls([22, 21, 23, 19, 25, 13]);
+  must(pick2.length > 0, `perf: a pickable control of the 3x3x3 lattice (${pick2.length})`);
+  await page.mouse.click(pick2[0].x, pick2[0].y);
+  await page.waitForTimeout(350);
+  const arrow2 = await gizmoArrow('X');
+  must(!!arrow2, 'perf: the gizmo\'s X arrow found on screen (3x3x3)');
+  await ed(() => { window.__perfKinds = []; const e = window.ffdEditor.editor; e.onDragFrame = function onDragFrame(f, ms) { window.__perfKinds.push(f.delta ? 'delta' : 'full'); return Object.getPrototypeOf(e).onDragFrame.call(e, f, ms); }; });
+  await mouseDrag(arrow2.from, { x: arrow2.from.x + arrow2.dir.x * 80, y: arrow2.from.y + arrow2.dir.y * 80 }, 10);
+  const kinds = await ed(() => { delete window.ffdEditor.editor.onDragFrame; return window.__perfKinds; });
+  check(kinds.length > 0 && kinds.every((k) => k === 'full'), `perf: a 3x3x3 control moves most of the mesh: full frames, smaller than deltas (${kinds.join(' ')})`);
+  await page.waitForFunction(() => !window.ffdEditor.editor.vp.normalsWorker.pending, null, { timeout: 10000 });
+  await drawnIsServerFrame('after full frames with worker normals');
+  await shot('artist-perf-worker-normals');
+  await ed(() => { window.ffdEditor.editor.vp.workerMinTriangles = 150000; });
+
   // leave the page as it started
   await openMesh('bunny.obj');
 }
