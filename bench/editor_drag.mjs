@@ -10,13 +10,14 @@
 // committed). For each mesh, a server of its own:
 // 1. HTTP only (Node's fetch): drag_begin, then --steps sequential `drag`
 //    requests, each awaited with its whole binary reply, then drag_end; a
-//    5x5x5 B-spline lattice's top middle control point with full frames
-//    (FFDF) and with delta frames (FFDD: POST /api/drag?base=REV, the
-//    vertices that changed and the normals around them); a mesh vertex of
-//    the lattice (direct manipulation, two pins) and, up to 200K vertices, a
-//    12x12x12 T-spline proxy point (ARAP), both with delta frames.
-// 2. The page in headless Chromium: window.ffdEditor.benchDrag(steps), the
-//    gizmo's code path (DragSession: one request in flight, the latest step
+//    5x5x5 and a 9x9x9 B-spline lattice's top middle control point with
+//    full frames (FFDF) and with delta frames (FFDD: POST /api/drag?base=REV,
+//    the vertices that changed and the normals around them, or the full
+//    frame where that is smaller); a mesh vertex of the 5x5x5 lattice (direct
+//    manipulation, two pins) and, up to 200K vertices, a 12x12x12 T-spline
+//    proxy point (ARAP), both asking for delta frames.
+// 2. The page in headless Chromium, the 9x9x9 lattice's top control point:
+//    window.ffdEditor.benchDrag(steps), the gizmo's code path (DragSession: one request in flight, the latest step
 //    wins, each frame applied to the geometry, drawn by the render loop),
 //    with full and with delta frames, drawing on (SwiftShader: software GL,
 //    far slower than any GPU) and off. The page's main-thread cost per frame
@@ -128,13 +129,17 @@ try {
       const wave = (i) => [d * Math.sin(i / 7), 0.5 * d * (1 - Math.cos(i / 7)), 0];
       console.error(`${name}, ${st.mesh.faces} faces; ${STEPS} steps per case`);
 
-      const lattice = { method: 'lattice', resolution: [5, 5, 5], basis: 'bspline', margin: 0.05 };
-      st = await srv.post('create', lattice);
-      const top = (2 * 5 + 4) * 5 + 2; // (2, 4, 2): top middle
-      for (const delta of [false, true]) {
-        const r = await httpDrag(srv, { points: [top], mode: 'translate' }, (i) => ({ delta: wave(i) }), delta);
-        httpRows.push([name, `lattice 5×5×5, control point, ${delta ? 'delta' : 'full'} frames`, r]);
+      // B-spline lattices n×n×n, the top middle control point ((n-1)/2, n-1, (n-1)/2)
+      const lattice = (n) => ({ method: 'lattice', resolution: [n, n, n], basis: 'bspline', margin: 0.05 });
+      const topOf = (n) => { const m = (n - 1) / 2; return (m * n + n - 1) * n + m; };
+      for (const n of [5, 9]) {
+        st = await srv.post('create', lattice(n));
+        for (const delta of [false, true]) {
+          const r = await httpDrag(srv, { points: [topOf(n)], mode: 'translate' }, (i) => ({ delta: wave(i) }), delta);
+          httpRows.push([name, `lattice ${n}×${n}×${n}, control point, ${delta ? 'delta' : 'full'} frames`, r]);
+        }
       }
+      st = await srv.post('create', lattice(5));
       // direct manipulation of the top vertex, two pins held
       const f = new Float32Array(await (await fetch(`${srv.base}/api/frame`)).arrayBuffer(), 20, 3 * V);
       let vTop = 0, vLo = 0, vHi = 0;
@@ -157,7 +162,8 @@ try {
         httpRows.push([name, `T-spline 12×12×12 (${st.controls.count} points), proxy point, ARAP, delta frames`,
           await httpDrag(srv, { points: [pTop], mode: 'translate' }, (i) => ({ delta: wave(i) }), true)]);
       }
-      await srv.post('create', lattice);
+      const N = 9, top = topOf(N);
+      await srv.post('create', lattice(N));
 
       if (browser) {
         const page = await browser.newPage({ viewport: { width: 1280, height: 800 } });
@@ -198,7 +204,7 @@ try {
             const a = stats(r.apply.slice(3));
             if (r.other.length) console.error(`  ${name}, ${delta ? 'delta' : 'full'} frames: ${r.other.length} frame(s) of the other kind applied (${r.other.map((x) => x.toFixed(1)).join(', ')} ms)`);
             const dr = stats(r.renderMs);
-            pageRows.push([name, `${delta ? 'delta' : 'full'} frames, drawing ${render ? 'on (SwiftShader)' : 'off'}`,
+            pageRows.push([name, `lattice ${N}×${N}×${N}, ${delta ? 'delta' : 'full'} frames, drawing ${render ? 'on (SwiftShader)' : 'off'}`,
               { median: s.median, ups: r.updatesPerSecond, apply: a.median, applyMax: a.max, render: render ? dr.median : undefined, drawn: render ? r.drawnPerSecond : undefined }]);
           }
         }
@@ -211,14 +217,15 @@ try {
 
   const cpu = os.cpus()[0];
   console.log(`\nEditor drag steps, ${STEPS} steps per case; ${os.cpus().length} × ${cpu ? cpu.model.trim() : '?'}; `
+    + `OMP_NUM_THREADS=${process.env.OMP_NUM_THREADS || '(unset)'}; load average ${os.loadavg().map((x) => x.toFixed(1)).join(' ')}; `
     + `${((performance.now() - tStart) / 1000).toFixed(0)} s in all.\n`);
   console.log('| mesh | drag over HTTP | step median (ms) | step p90 (ms) | updates/s | reply (KB) | changed vertices |');
   console.log('|---|---|---:|---:|---:|---:|---:|');
   for (const [m, what, r] of httpRows) {
-    console.log(`| ${m} | ${what} | ${fmt(r.median)} | ${fmt(r.p90)} | ${fmt(r.ups)} | ${fmt(r.bytes / 1024, 0)} | ${r.changed === undefined ? '—' : r.changed.toLocaleString('en-US')} |`);
+    console.log(`| ${m} | ${what} | ${fmt(r.median)} | ${fmt(r.p90)} | ${fmt(r.ups)} | ${fmt(r.bytes / 1024, 0)} | ${r.changed === undefined ? '— (full frames)' : r.changed.toLocaleString('en-US')} |`);
   }
   if (pageRows.length) {
-    console.log('\n| mesh | page: lattice 5×5×5 control point | step median (ms) | updates/s | frame apply median (ms) | frame apply max (ms) | draw median (ms) | frames drawn/s |');
+    console.log('\n| mesh | page: control point | step median (ms) | updates/s | frame apply median (ms) | frame apply max (ms) | draw median (ms) | frames drawn/s |');
     console.log('|---|---|---:|---:|---:|---:|---:|---:|');
     for (const [m, what, r] of pageRows) {
       console.log(`| ${m} | ${what} | ${fmt(r.median)} | ${fmt(r.ups)} | ${fmt(r.apply, 2)} | ${fmt(r.applyMax, 2)} | ${fmt(r.render)} | ${fmt(r.drawn)} |`);

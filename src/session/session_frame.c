@@ -256,7 +256,7 @@ ffd_status ffd_sess_frames_delta(sess_frames *f, uint32_t base, const void *fram
     double *cross = f->cross;
     ptrdiff_t nf = (ptrdiff_t)nfaces, count = (ptrdiff_t)m;
     /* each value is one fixed sequence of operations: the same bits for any thread count */
-#pragma omp parallel if (count > 16384)
+#pragma omp parallel if (count > 65536)
     {
 #pragma omp for schedule(static)
         for (ptrdiff_t i = 0; i < nf; i++)
