@@ -233,8 +233,9 @@ try {
   }
   console.log('\nHTTP: sequential requests from Node\'s fetch, each awaiting its reply. page: window.ffdEditor.benchDrag, the gizmo\'s path'
     + ' (one request in flight, the latest step wins; a new step every 4 ms, so one is always queued); "step" is the request\'s round trip;'
-    + ' "frame apply" is the page\'s main-thread work on a frame (full: copy the positions, recompute every normal; delta: write the changed'
-    + ' positions and the normals the server sent); "draw" is renderer.render (uploading the changed buffer ranges, SwiftShader drawing),'
+    + ' "frame apply" is the page\'s main-thread work on a frame (full: copy the positions and recompute every normal, or hand them to the'
+    + ' normals worker from 150,000 triangles on, whose answers are applied apart; delta: write the changed positions and the normals the'
+    + ' server sent); "draw" is renderer.render (uploading the changed buffer ranges, SwiftShader drawing),'
     + ' in headless Chromium, which shares the CPU with the server.');
 } finally {
   if (browser) await browser.close().catch(() => {});
