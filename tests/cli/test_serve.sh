@@ -591,9 +591,19 @@ if [ "${FFD_SERVE_STUB:-0}" != 1 ]; then
         [ "${t%% *}" = 200 ] && awk -v t="${t#* }" 'BEGIN { exit !(t < 1) }' ||
             fail "GET /api/state during a long request: $t (expected 200 within 1 s)"
         same_state "$T/during" || fail "GET /api/state during a long request: not the last state"
+        # GET /api/progress names the running op, its time and the library's stage
+        t=$(curl -s --max-time 10 -o "$T/progress" -w '%{http_code}' "$URL/api/progress")
+        if kill -0 "$SLOW" 2>/dev/null; then
+            [ "$t" = 200 ] && grep -qE '^\{"op": "refine", "seconds": [0-9.]+, "stage": (null|"[^"]+", "fraction": [0-9.]+, "stage_seconds": [0-9.]+)\}$' "$T/progress" ||
+                fail "GET /api/progress during a long refinement: $t $(cat "$T/progress")"
+            grep -qF '"stage": "T-spline set-up"' "$T/progress" && staged=1
+        fi
         sleep 0.1
     done
     wait "$SLOW"
+    [ "$during" = 0 ] || [ "${staged:-0}" = 1 ] || fail "GET /api/progress never showed the T-spline set-up stage"
+    expect_ok GET /api/progress
+    grep -qxF '{"op": null, "stage": null}' "$T/body" || fail "GET /api/progress after the request: $(show)"
     [ "$(cat "$T/slow.code")" = 200 ] || fail "the long refinement: HTTP $(cat "$T/slow.code")"
     [ "$during" -ge 1 ] || fail "no GET /api/state was answered while the refinement ran"
     req GET /api/state

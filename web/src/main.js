@@ -10,6 +10,7 @@ import { DirectManip } from './dm.js';
 import { DragSession } from './drag.js';
 import { Panel, fmtInt, h } from './panel.js';
 import { methodOf, PICK_TOOLS, BUSY } from './methods/index.js';
+import { busyProgress, progressDone } from './progress.js';
 
 const $ = (id) => document.getElementById(id);
 
@@ -475,7 +476,7 @@ class Editor {
       const show = oldestPendingMs() > 400;
       if (show !== !busy.hidden) busy.hidden = !show;
       if (show) $('busy-label').textContent = busyText(pendingLabel());
-      if (show) $('busy-time').textContent = busyElapsed(oldestPendingMs());
+      if (show) $('busy-time').textContent = busyProgress(oldestPendingMs()); else progressDone();
       if (this.activeDrag) this.updateStatus();
     }, 100);
   }
@@ -528,8 +529,6 @@ class Editor {
 }
 
 function esc(s) { return String(s).replace(/[&<>"]/g, (c) => ({ '&': '&amp;', '<': '&lt;', '>': '&gt;', '"': '&quot;' }[c])); }
-/** The busy overlay's running time: what a long step (T-spline creation, binding, export) has taken so far. */
-function busyElapsed(ms) { return ms < 60000 ? `${(ms / 1000).toFixed(1)} s` : `${Math.floor(ms / 60000)} min ${Math.floor(ms / 1000) % 60} s`; }
 function busyText(label) {
   const names = {
     create: 'Creating the deformer…', topology: 'Loading the mesh…', frame: 'Evaluating…', influence: 'Computing influence…',
