@@ -25,7 +25,6 @@ struct sess_frames {
     size_t n;
     float *sent;           /* n by 3: the positions of the last frame sent */
     uint32_t revision;     /* its revision */
-    int valid;             /* sent holds the positions of revision */
     /* triangles (the topology reply's fan triangulation) around each vertex */
     uint32_t *tri;         /* 3 per triangle */
     uint32_t *vt_off;      /* n + 1 */
@@ -127,7 +126,6 @@ ffd_status ffd_sess_frames_reset(sess_frames **fp, const ffd_mesh *mesh, const d
     for (size_t i = 0; i < 3 * n; i++)
         f->sent[i] = (float)positions[i];
     f->revision = revision;
-    f->valid = 1;
     return FFD_OK;
 }
 
@@ -182,11 +180,10 @@ ffd_status ffd_sess_frames_delta(sess_frames *f, uint32_t base, const void *fram
     const float *x = (const float *)(const void *)((const unsigned char *)frame + 20);
     if (!f || f->n != n)
         return FFD_OK; /* nothing held: the full frame */
-    if (!f->valid || f->revision != base) {
+    if (f->revision != base) {
         /* the client holds another frame: it gets this full one, the base of the next */
         memcpy(f->sent, x, 12 * n);
         f->revision = head[1];
-        f->valid = 1;
         return FFD_OK;
     }
     /* the vertices whose float32 bits changed */
