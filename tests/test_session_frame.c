@@ -1,10 +1,11 @@
-/* Delta frames of drag steps (ffd_session_delta_frame, docs/editor.md "Delta
- * frames"): a delta lists exactly the vertices whose float32 position bits
- * changed since the client's frame (an identity step: none; one lattice
- * control moved: only vertices in its support), applying it to the client's
- * copy gives the full frame bit for bit, its normals are those of the
- * triangles around the changed vertices recomputed from scratch, and a
- * client holding another frame gets the full frame. */
+/* Delta frames (ffd_session_delta_frame, docs/editor.md "Delta frames"): a
+ * delta lists exactly the vertices whose float32 position bits changed since
+ * the client's frame (an identity step: none; one lattice control moved:
+ * only vertices in its support), applying it to the client's copy gives the
+ * full frame bit for bit, its normals are those of the triangles around the
+ * changed vertices recomputed from scratch; a client holding another frame,
+ * or one the session did not send, gets the full frame, as does a step
+ * whose delta would be larger. */
 #include "check.h"
 #include "ffd.h"
 
@@ -127,10 +128,13 @@ static void test_identity_step_is_empty(void)
     size_t f0_size = 0;
     CHECK_OK(ffd_session_frame(s, &f0, &f0_size, NULL));
     uint32_t base = frame_revision(f0);
-    ffd_free(command(s, "drag_begin", "{\"points\":[62]}", &size));
-    void *f1 = command(s, "drag", "{\"delta\":[0,0,0]}", &size);
     void *dd = NULL;
     size_t dsize = 0;
+    /* a client holding no frame gets the full one, which the session then holds */
+    CHECK_OK(ffd_session_delta_frame(s, UINT32_MAX, f0, f0_size, &dd, &dsize, NULL));
+    CHECK(dd == NULL);
+    ffd_free(command(s, "drag_begin", "{\"points\":[62]}", &size));
+    void *f1 = command(s, "drag", "{\"delta\":[0,0,0]}", &size);
     CHECK_OK(ffd_session_delta_frame(s, base, f1, size, &dd, &dsize, NULL));
     delta d;
     CHECK(dd && parse_delta(dd, dsize, &d));
@@ -162,6 +166,10 @@ static void test_one_control_moves_its_support(void)
     held = malloc(12 * V);
     memcpy(held, (char *)f0 + 20, 12 * V);
     uint32_t base = frame_revision(f0);
+    void *none = NULL;
+    size_t none_size = 0;
+    CHECK_OK(ffd_session_delta_frame(s, UINT32_MAX, f0, f0_size, &none, &none_size, NULL));
+    CHECK(none == NULL); /* the full frame: the client's copy above */
     ffd_free(f0);
     /* a control whose support holds a part of the bunny (its influence) */
     float *w = NULL;
@@ -264,12 +272,14 @@ static void test_other_base_gets_the_full_frame(void)
     void *dd = NULL;
     size_t dsize = 0;
     ffd_free(command(s, "create", "{\"method\":\"lattice\",\"resolution\":[2,2,2]}", &size));
-    /* before any drag: a client holding an older frame gets the full one,
-     * a client holding the current frame an empty delta */
+    /* a client naming a revision the session never sent it (a frame of
+     * another session, or of an earlier run of the server, may carry the same
+     * number) gets the full frame; then the session holds it, and a client
+     * holding it gets an empty delta */
     void *f0 = NULL;
     size_t f0_size = 0;
     CHECK_OK(ffd_session_frame(s, &f0, &f0_size, NULL));
-    CHECK_OK(ffd_session_delta_frame(s, frame_revision(f0) - 1, f0, f0_size, &dd, &dsize, NULL));
+    CHECK_OK(ffd_session_delta_frame(s, frame_revision(f0), f0, f0_size, &dd, &dsize, NULL));
     CHECK(dd == NULL && dsize == 0);
     CHECK_OK(ffd_session_delta_frame(s, frame_revision(f0), f0, f0_size, &dd, &dsize, NULL));
     delta d;
@@ -292,6 +302,8 @@ static void test_other_base_gets_the_full_frame(void)
     CHECK(dd && parse_delta(dd, dsize, &d) && d.K == 0 && d.M == 0);
     ffd_free(dd);
     dd = NULL;
+    CHECK_OK(ffd_session_delta_frame(s, UINT32_MAX, f3, size, &dd, &dsize, NULL));
+    CHECK(dd == NULL); /* a client holding no frame */
     ffd_free(f3);
     /* not a frame of this session: an error, nothing made */
     ffd_error err = {{0}};

@@ -503,11 +503,6 @@ static ffd_status op_drag_begin(ffd_session *s, const ffd_rig_parser *p, const c
     memset(d, 0, sizeof *d);
     if ((st = capture(s, UNDO_STATE, "drag", &d->before, err)))
         return st;
-    if ((st = ffd_sess_frames_reset(&s->frames, s->mesh, s->positions, s->ctx.n, s->revision,
-                                    "drag_begin", err))) {
-        drag_free(d);
-        return st;
-    }
     const cJSON *vertex = cJSON_GetObjectItemCaseSensitive(body, "vertex");
     if (vertex) {
         static const char *const keys[] = {"vertex", NULL};
@@ -992,10 +987,7 @@ ffd_status ffd_session_delta_frame(ffd_session *s, uint32_t base, const void *fr
     if (size >= 20 && (memcpy(&v, (const char *)frame + 8, 4), v != s->ctx.n))
         return ffd_fail(err, FFD_ERR_INVALID, "delta frame: a frame of %u vertices (the mesh has %zu)",
                         v, s->ctx.n);
-    ffd_status st = FFD_OK;
-    if (!s->frames) /* the first frame asked for: the current positions are its base */
-        st = ffd_sess_frames_reset(&s->frames, s->mesh, s->positions, s->ctx.n, s->revision,
-                                   "delta frame", err);
+    ffd_status st = ffd_sess_frames_make(&s->frames, s->mesh, s->ctx.n, err);
     return st ? st : ffd_sess_frames_delta(s->frames, base, frame, size, delta, delta_size, err);
 }
 

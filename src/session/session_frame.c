@@ -3,9 +3,11 @@
  * A drag step changes only the vertices in the support of what moved, so the
  * editor's page asks for the changes since the frame it holds (its revision,
  * the "base") instead of every position. The session keeps the float32
- * positions of the last frame it sent (set at drag_begin from the current
- * positions) and compares: a vertex is in the delta when any of its three
- * float32 coordinates differs in its bits from what the client holds, so the
+ * positions of the last frame it sent to such a request (only a frame it
+ * sent: a client holding a frame of another session or of an earlier run of
+ * the server gets the full frame) and compares: a vertex is in the delta
+ * when any of its three float32 coordinates differs in its bits from what
+ * the client holds, so the
  * client's copy after applying the delta equals the full frame bit for bit.
  * The normals of the vertices around a changed one (the corners of every
  * triangle touching a changed vertex) come with it, area-weighted over the
@@ -25,6 +27,7 @@ struct sess_frames {
     size_t n;
     float *sent;           /* n by 3: the positions of the last frame sent */
     uint32_t revision;     /* its revision */
+    int held;              /* a frame was sent: sent and revision hold it */
     /* triangles (the topology reply's fan triangulation) around each vertex */
     uint32_t *tri;         /* 3 per triangle */
     uint32_t *vt_off;      /* n + 1 */
@@ -98,34 +101,27 @@ static int build_adjacency(sess_frames *f, const ffd_mesh *mesh, size_t n)
     return 1;
 }
 
-ffd_status ffd_sess_frames_reset(sess_frames **fp, const ffd_mesh *mesh, const double *positions,
-                                 size_t n, uint32_t revision, const char *op, ffd_error *err)
+ffd_status ffd_sess_frames_make(sess_frames **fp, const ffd_mesh *mesh, size_t n, ffd_error *err)
 {
     sess_frames *f = *fp;
-    if (f && (f->mesh != mesh || f->n != n)) {
+    if (f && f->mesh == mesh && f->n == n)
+        return FFD_OK;
+    ffd_sess_frames_free(f);
+    *fp = NULL;
+    f = ffd_calloc(1, sizeof *f);
+    if (!f)
+        return ffd_fail(err, FFD_ERR_NOMEM, "delta frame: out of memory");
+    f->mesh = mesh;
+    f->n = n;
+    f->sent = ffd_malloc_array(n, 3 * sizeof *f->sent);
+    f->changed = ffd_malloc_array(n, sizeof *f->changed);
+    f->ring = ffd_malloc_array(n, sizeof *f->ring);
+    f->mark = ffd_calloc(n, 1);
+    if (!f->sent || !f->changed || !f->ring || !f->mark || !build_adjacency(f, mesh, n)) {
         ffd_sess_frames_free(f);
-        *fp = f = NULL;
+        return ffd_fail(err, FFD_ERR_NOMEM, "delta frame: out of memory for %zu vertices", n);
     }
-    if (!f) {
-        f = ffd_calloc(1, sizeof *f);
-        if (!f)
-            return ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory for the delta frames", op);
-        f->mesh = mesh;
-        f->n = n;
-        f->sent = ffd_malloc_array(n, 3 * sizeof *f->sent);
-        f->changed = ffd_malloc_array(n, sizeof *f->changed);
-        f->ring = ffd_malloc_array(n, sizeof *f->ring);
-        f->mark = ffd_calloc(n, 1);
-        if (!f->sent || !f->changed || !f->ring || !f->mark || !build_adjacency(f, mesh, n)) {
-            ffd_sess_frames_free(f);
-            return ffd_fail(err, FFD_ERR_NOMEM,
-                            "%s: out of memory for the delta frames (%zu vertices)", op, n);
-        }
-        *fp = f;
-    }
-    for (size_t i = 0; i < 3 * n; i++)
-        f->sent[i] = (float)positions[i];
-    f->revision = revision;
+    *fp = f;
     return FFD_OK;
 }
 
@@ -180,10 +176,12 @@ ffd_status ffd_sess_frames_delta(sess_frames *f, uint32_t base, const void *fram
     const float *x = (const float *)(const void *)((const unsigned char *)frame + 20);
     if (!f || f->n != n)
         return FFD_OK; /* nothing held: the full frame */
-    if (f->revision != base) {
-        /* the client holds another frame: it gets this full one, the base of the next */
+    if (!f->held || base == UINT32_MAX || f->revision != base) {
+        /* the client holds another frame (or none the session sent): it gets
+         * this full one, the base of the next */
         memcpy(f->sent, x, 12 * n);
         f->revision = head[1];
+        f->held = 1;
         return FFD_OK;
     }
     /* the vertices whose float32 bits changed */

@@ -504,9 +504,9 @@ if [ "${FFD_SERVE_STUB:-0}" != 1 ]; then
     has_header 'Content-Type: application/octet-stream'
     [ "$(head -c 4 "$T/body")" = FFDF ] || fail "drag: not a frame"
     # delta frames (?base=REV, the frame the client holds): a base the session
-    # does not hold (it kept the frame of drag_begin) gets the full frame, which
-    # it then holds; a bad base is refused before the step runs; the same step
-    # against the frame just sent changes nothing
+    # did not send through a delta request gets the full frame, which it then
+    # holds; a bad base is refused before the step runs; the same step against
+    # the frame just sent changes nothing
     rev=$(od -An -tu4 -j4 -N4 "$T/body" | tr -d ' ')
     expect_ok POST "/api/drag?base=$rev" --data-binary '{"delta": [0.5, 0, 0]}'
     [ "$(head -c 4 "$T/body")" = FFDF ] || fail "drag?base=$rev: not the full frame: $(show)"
@@ -514,10 +514,13 @@ if [ "${FFD_SERVE_STUB:-0}" != 1 ]; then
     expect 400 invalid POST '/api/drag?base=x1' --data-binary '{"delta": [0.7, 0, 0]}'
     has_body 'drag: base: expected the revision'
     expect 400 invalid GET '/api/frame?base=-1'
+    expect 400 invalid GET '/api/frame?base=4294967295'
     expect_ok POST "/api/drag?base=$rev" --data-binary '{"delta": [0.5, 0, 0]}'
     [ "$(head -c 4 "$T/body")" = FFDD ] || fail "drag?base=$rev: not a delta frame: $(show)"
     [ "$(od -An -tu4 -j16 -N8 "$T/body" | tr -s ' ')" = " 0 0" ] || fail "drag?base=$rev: vertices changed"
     [ "$(stat -c %s "$T/body")" = $((36 + 12 * 64)) ] || fail "drag?base=$rev: $(stat -c %s "$T/body") bytes"
+    expect_ok GET '/api/frame?base=none'
+    [ "$(head -c 4 "$T/body")" = FFDF ] || fail "frame?base=none: not the full frame: $(show)"
     expect_ok POST /api/drag_end --data-binary '{}'
     expect_ok GET /api/rig
     has_header 'Content-Disposition: attachment; filename="bunny-rig.json"'

@@ -726,17 +726,22 @@ static enum MHD_Result get_export(const serve_server *srv, struct MHD_Connection
 }
 
 /* GET /api/frame?base=REV, POST /api/drag?base=REV: the revision of the
- * frame the client holds, for a delta frame (docs/editor.md "Delta frames").
- * 0: none asked, 1: *base set, -1: not a revision. */
+ * frame the client holds, for a delta frame (docs/editor.md "Delta frames"),
+ * "none" when it holds none (UINT32_MAX). 0: none asked, 1: *base set, -1:
+ * not a revision. */
 static int frame_base(struct MHD_Connection *c, const request *r, uint32_t *base)
 {
     const char *q = MHD_lookup_connection_value(c, MHD_GET_ARGUMENT_KIND, "base");
     if (!q || (r->route != ROUTE_FRAME && strcmp(r->op, "drag") != 0))
         return 0;
+    if (strcmp(q, "none") == 0) {
+        *base = UINT32_MAX;
+        return 1;
+    }
     char *end = NULL;
     errno = 0;
     unsigned long v = strtoul(q, &end, 10);
-    if (!*q || *end || errno || v > UINT32_MAX || *q == '-' || *q == '+' || *q == ' ')
+    if (!*q || *end || errno || v >= UINT32_MAX || *q == '-' || *q == '+' || *q == ' ')
         return -1;
     *base = (uint32_t)v;
     return 1;
@@ -765,8 +770,8 @@ static enum MHD_Result get_binary(const serve_server *srv, struct MHD_Connection
     int delta = frame_base(c, r, &base);
     if (delta < 0)
         return answer_error(srv, c, r, MHD_HTTP_BAD_REQUEST, "invalid",
-                            "frame: base: expected the revision of the client's frame (0 to %u)",
-                            UINT32_MAX);
+                            "frame: base: expected the revision of the client's frame (0 to %u) "
+                            "or none", UINT32_MAX - 1);
     ffd_status st = r->route == ROUTE_FRAME
                         ? ffd_session_frame(srv->session, &data, &size, &err)
                         : ffd_session_topology(srv->session, &data, &size, &err);
@@ -787,8 +792,8 @@ static enum MHD_Result post_op(serve_server *srv, struct MHD_Connection *c, requ
     int delta = frame_base(c, r, &base);
     if (delta < 0)
         return answer_error(srv, c, r, MHD_HTTP_BAD_REQUEST, "invalid",
-                            "drag: base: expected the revision of the client's frame (0 to %u)",
-                            UINT32_MAX);
+                            "drag: base: expected the revision of the client's frame (0 to %u) "
+                            "or none", UINT32_MAX - 1);
     ffd_status st = ffd_session_command(srv->session, r->op, r->body ? r->body : "", r->size,
                                         &reply, &size, &binary, &err);
     if (st != FFD_OK)

@@ -171,11 +171,16 @@ export function parseInfluence(buf) {
 
 // --- endpoints --------------------------------------------------------------
 
+/** "?base=REV" (the revision of the frame the page holds; "none": no frame), or "" for full frames only. */
+function baseQuery(base) {
+  if (base === undefined || !api.deltaFrames) return '';
+  return `?base=${base >= 0 ? base : 'none'}`;
+}
+
 export const api = {
   state: () => request('GET', '/api/state', { label: 'state' }),
   /** The current frame; with `base` (the revision the geometry holds) a delta frame where the server holds it. */
-  frame: async (base) => parseAnyFrame(await request('GET',
-    base === undefined || base < 0 || !api.deltaFrames ? '/api/frame' : `/api/frame?base=${base}`, { binary: true, label: 'frame' })),
+  frame: async (base) => parseAnyFrame(await request('GET', `/api/frame${baseQuery(base)}`, { binary: true, label: 'frame' })),
   topology: async () => parseTopology(await request('GET', '/api/topology', { binary: true, label: 'topology' })),
   files: () => request('GET', '/api/files', { label: 'files' }),
   /** A JSON operation replying with the new state. */
@@ -185,8 +190,7 @@ export const api = {
    * frame the geometry holds when the reply is applied) a delta frame of the
    * vertices that changed since it, where the server holds that frame.
    */
-  dragStep: async (body, base) => parseAnyFrame(await request('POST',
-    base === undefined || base < 0 || !api.deltaFrames ? '/api/drag' : `/api/drag?base=${base}`, { json: body, binary: true, label: 'drag' })),
+  dragStep: async (body, base) => parseAnyFrame(await request('POST', `/api/drag${baseQuery(base)}`, { json: body, binary: true, label: 'drag' })),
   /** Drag steps ask for delta frames (benchmarks compare with full frames). */
   deltaFrames: true,
   influence: async (points) =>
