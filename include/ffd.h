@@ -798,6 +798,20 @@ FFD_API ffd_status ffd_session_state(const ffd_session *s, char **json, size_t *
 /* The current frame (binary, little-endian, docs/editor.md): deformed vertex
  * positions, control positions and pin residuals as float32. */
 FFD_API ffd_status ffd_session_frame(const ffd_session *s, void **data, size_t *size, ffd_error *err);
+/* A frame as a delta frame (binary, docs/editor.md "Delta frames"): the
+ * vertices whose float32 position changed since the frame of revision base
+ * that the client holds (indices and positions), the normals of the
+ * vertices around them, the controls and the residuals. frame (size bytes)
+ * is a full frame of s just made (a drag step's reply or ffd_session_frame).
+ * The session keeps the positions of the last frame it answered through
+ * this function: when that is not base (UINT32_MAX: the client holds no
+ * frame), or the delta would not be smaller than frame, *delta is NULL and
+ * the client gets the full frame, which becomes the base of the next call.
+ * ffd_free *delta. FFD_ERR_INVALID when frame is not a full frame of s;
+ * FFD_ERR_NOMEM (nothing held changes: send the full frame). */
+FFD_API ffd_status ffd_session_delta_frame(ffd_session *s, uint32_t base, const void *frame,
+                                           size_t size, void **delta, size_t *delta_size,
+                                           ffd_error *err);
 /* The rest mesh's triangles (polygons fanned) and rest positions (binary). */
 FFD_API ffd_status ffd_session_topology(const ffd_session *s, void **data, size_t *size, ffd_error *err);
 /* The session's state as a rig (JSON text, ffd_free): replays with

@@ -76,6 +76,7 @@ struct ffd_session {
     double busy_ms;        /* duration of the last command */
     double weights_stroke; /* the last "weights" op's stroke id and the revision it made */
     uint32_t weights_revision;
+    sess_frames *frames;   /* delta frames for drag steps (session_frame.c) */
 };
 
 /* ---------- small utilities ---------- */
@@ -1094,6 +1095,19 @@ ffd_status ffd_session_frame(const ffd_session *s, void **data, size_t *size, ff
     return FFD_OK;
 }
 
+ffd_status ffd_session_delta_frame(ffd_session *s, uint32_t base, const void *frame, size_t size,
+                                  void **delta, size_t *delta_size, ffd_error *err)
+{
+    if (!s || !frame || !delta || !delta_size)
+        return ffd_fail(err, FFD_ERR_INVALID, "ffd_session_delta_frame: NULL argument");
+    uint32_t v = 0;
+    if (size >= 20 && (memcpy(&v, (const char *)frame + 8, 4), v != s->ctx.n))
+        return ffd_fail(err, FFD_ERR_INVALID, "delta frame: a frame of %u vertices (the mesh has %zu)",
+                        v, s->ctx.n);
+    ffd_status st = ffd_sess_frames_make(&s->frames, s->mesh, s->ctx.n, err);
+    return st ? st : ffd_sess_frames_delta(s->frames, base, frame, size, delta, delta_size, err);
+}
+
 ffd_status ffd_session_topology(const ffd_session *s, void **data, size_t *size, ffd_error *err)
 {
     const ffd_mesh *mesh = s->mesh;
@@ -1335,6 +1349,7 @@ void ffd_session_destroy(ffd_session *s)
     ffd_free(s->positions);
     ffd_free(s->pins);
     ffd_free(s->residuals);
+    ffd_sess_frames_free(s->frames);
     ffd_free(s);
 }
 

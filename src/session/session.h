@@ -252,5 +252,18 @@ int ffd_sess_meshes_json(const sess_meshes *m, const char *name, const ffd_mesh 
  * what ffd deform writes for that mesh's file. */
 ffd_status ffd_sess_meshes_deformed(const sess_meshes *m, size_t index, const char *rig,
                                     const ffd_limits *limits, ffd_mesh **out, ffd_error *err);
+/* Delta frames (session_frame.c, docs/editor.md): the float32 positions of
+ * the last frame sent to a client asking for deltas, and the triangles
+ * around each vertex. make builds *f on first use (FFD_ERR_NOMEM, *f NULL).
+ * delta turns a full frame (ffd_session_frame's layout) into a delta frame
+ * against base (UINT32_MAX: the client holds none), or leaves *delta NULL
+ * (send the full frame) when f does not hold base or the delta would not
+ * be smaller; either way the frame becomes the base of the next call.
+ * FFD_ERR_NOMEM changes nothing held. */
+typedef struct sess_frames sess_frames;
+ffd_status ffd_sess_frames_make(sess_frames **f, const ffd_mesh *mesh, size_t n, ffd_error *err);
+ffd_status ffd_sess_frames_delta(sess_frames *f, uint32_t base, const void *frame, size_t size,
+                                 void **delta, size_t *delta_size, ffd_error *err);
+void ffd_sess_frames_free(sess_frames *f);
 
 #endif

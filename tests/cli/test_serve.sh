@@ -503,6 +503,24 @@ if [ "${FFD_SERVE_STUB:-0}" != 1 ]; then
     expect_ok POST /api/drag --data-binary '{"delta": [0.5, 0, 0]}'
     has_header 'Content-Type: application/octet-stream'
     [ "$(head -c 4 "$T/body")" = FFDF ] || fail "drag: not a frame"
+    # delta frames (?base=REV, the frame the client holds): a base the session
+    # did not send through a delta request gets the full frame, which it then
+    # holds; a bad base is refused before the step runs; the same step against
+    # the frame just sent changes nothing
+    rev=$(od -An -tu4 -j4 -N4 "$T/body" | tr -d ' ')
+    expect_ok POST "/api/drag?base=$rev" --data-binary '{"delta": [0.5, 0, 0]}'
+    [ "$(head -c 4 "$T/body")" = FFDF ] || fail "drag?base=$rev: not the full frame: $(show)"
+    rev=$(od -An -tu4 -j4 -N4 "$T/body" | tr -d ' ')
+    expect 400 invalid POST '/api/drag?base=x1' --data-binary '{"delta": [0.7, 0, 0]}'
+    has_body 'drag: base: expected the revision'
+    expect 400 invalid GET '/api/frame?base=-1'
+    expect 400 invalid GET '/api/frame?base=4294967295'
+    expect_ok POST "/api/drag?base=$rev" --data-binary '{"delta": [0.5, 0, 0]}'
+    [ "$(head -c 4 "$T/body")" = FFDD ] || fail "drag?base=$rev: not a delta frame: $(show)"
+    [ "$(od -An -tu4 -j16 -N8 "$T/body" | tr -s ' ')" = " 0 0" ] || fail "drag?base=$rev: vertices changed"
+    [ "$(stat -c %s "$T/body")" = $((36 + 12 * 64)) ] || fail "drag?base=$rev: $(stat -c %s "$T/body") bytes"
+    expect_ok GET '/api/frame?base=none'
+    [ "$(head -c 4 "$T/body")" = FFDF ] || fail "frame?base=none: not the full frame: $(show)"
     expect_ok POST /api/drag_end --data-binary '{}'
     expect_ok GET /api/rig
     has_header 'Content-Disposition: attachment; filename="bunny-rig.json"'
@@ -599,9 +617,19 @@ if [ "${FFD_SERVE_STUB:-0}" != 1 ]; then
         [ "${t%% *}" = 200 ] && awk -v t="${t#* }" 'BEGIN { exit !(t < 1) }' ||
             fail "GET /api/state during a long request: $t (expected 200 within 1 s)"
         same_state "$T/during" || fail "GET /api/state during a long request: not the last state"
+        # GET /api/progress names the running op, its time and the library's stage
+        t=$(curl -s --max-time 10 -o "$T/progress" -w '%{http_code}' "$URL/api/progress")
+        if kill -0 "$SLOW" 2>/dev/null; then
+            [ "$t" = 200 ] && grep -qE '^\{"op": "refine", "seconds": [0-9.]+, "stage": (null|"[^"]+", "fraction": [0-9.]+, "stage_seconds": [0-9.]+)\}$' "$T/progress" ||
+                fail "GET /api/progress during a long refinement: $t $(cat "$T/progress")"
+            grep -qF '"stage": "T-spline set-up"' "$T/progress" && staged=1
+        fi
         sleep 0.1
     done
     wait "$SLOW"
+    [ "$during" = 0 ] || [ "${staged:-0}" = 1 ] || fail "GET /api/progress never showed the T-spline set-up stage"
+    expect_ok GET /api/progress
+    grep -qxF '{"op": null, "stage": null}' "$T/body" || fail "GET /api/progress after the request: $(show)"
     [ "$(cat "$T/slow.code")" = 200 ] || fail "the long refinement: HTTP $(cat "$T/slow.code")"
     [ "$during" -ge 1 ] || fail "no GET /api/state was answered while the refinement ran"
     req GET /api/state

@@ -54,6 +54,12 @@ struct serve_server {
     pthread_mutex_t published_lock;
     char *published; /* ffd_malloc'd JSON, or NULL */
     size_t published_size;
+    /* The running request's progress (GET /api/progress), under published_lock:
+     * its op, the library's stage (static string, NULL before the first) and
+     * fraction (ffd_set_progress), and when each began. */
+    char progress_op[40];
+    const char *progress_stage;
+    double progress_fraction, progress_started, progress_stage_started;
     char *mesh_path;      /* resolved file the session was opened from (never overwritten); NULL after an upload */
     char root[PATH_LEN];  /* resolved, no trailing slash unless "/" */
     char web[PATH_LEN];   /* resolved, "" when the page is missing */
@@ -67,6 +73,7 @@ typedef enum route {
     ROUTE_NONE = 0,
     ROUTE_STATIC,
     ROUTE_STATE,
+    ROUTE_PROGRESS,
     ROUTE_FRAME,
     ROUTE_TOPOLOGY,
     ROUTE_RIG,
@@ -103,6 +110,7 @@ static const struct api_route {
     const char *allow;
 } api_routes[] = {
     {"/api/state", ROUTE_STATE, ROUTE_NONE, "GET, HEAD"},
+    {"/api/progress", ROUTE_PROGRESS, ROUTE_NONE, "GET, HEAD"},
     {"/api/frame", ROUTE_FRAME, ROUTE_OP, "GET, HEAD, POST"}, /* POST: a method's "frame" op */
     {"/api/topology", ROUTE_TOPOLOGY, ROUTE_NONE, "GET, HEAD"},
     {"/api/rig", ROUTE_RIG, ROUTE_NONE, "GET, HEAD"},
@@ -612,17 +620,63 @@ static enum MHD_Result get_state(serve_server *srv, struct MHD_Connection *c, re
     return ret;
 }
 
-static enum MHD_Result get_binary(const serve_server *srv, struct MHD_Connection *c, request *r)
+
+/* ---------- progress of the running request (GET /api/progress) ---------- */
+
+/* ffd_set_progress's hook while serving: called on the request's thread
+ * (which holds srv->lock) for each stage of a long operation. */
+static void progress_hook(void *user, const char *stage, double fraction)
 {
-    ffd_error err = {{0}};
-    void *data = NULL;
-    size_t size = 0;
-    ffd_status st = r->route == ROUTE_FRAME
-                        ? ffd_session_frame(srv->session, &data, &size, &err)
-                        : ffd_session_topology(srv->session, &data, &size, &err);
-    if (st != FFD_OK)
-        return answer_status(srv, c, r, st, err.message);
-    return answer_data(srv, c, r, data, size, "application/octet-stream", NULL);
+    serve_server *srv = user;
+    pthread_mutex_lock(&srv->published_lock);
+    if (stage != srv->progress_stage || fraction == 0)
+        srv->progress_stage_started = cli_now();
+    srv->progress_stage = stage;
+    srv->progress_fraction = fraction;
+    pthread_mutex_unlock(&srv->published_lock);
+}
+
+/* Marks the start (r) or the end (NULL) of a request under srv->lock. */
+static void progress_request(serve_server *srv, const request *r)
+{
+    pthread_mutex_lock(&srv->published_lock);
+    if (r)
+        snprintf(srv->progress_op, sizeof srv->progress_op, "%s",
+                 r->route == ROUTE_OP ? r->op : r->url + (strncmp(r->url, "/api/", 5) ? 0 : 5));
+    else
+        srv->progress_op[0] = 0;
+    srv->progress_stage = NULL;
+    srv->progress_fraction = 0;
+    srv->progress_started = srv->progress_stage_started = cli_now();
+    pthread_mutex_unlock(&srv->published_lock);
+}
+
+/* {"op": running request or null, "seconds": its time so far, "stage": the
+ * library's stage or null, "fraction": of that stage, "stage_seconds"}:
+ * answered without the session's lock, like GET /api/state. */
+static enum MHD_Result get_progress(serve_server *srv, struct MHD_Connection *c, request *r)
+{
+    char json[256];
+    double now = cli_now();
+    pthread_mutex_lock(&srv->published_lock);
+    if (!srv->progress_op[0])
+        snprintf(json, sizeof json, "{\"op\": null, \"stage\": null}");
+    else if (!srv->progress_stage)
+        snprintf(json, sizeof json, "{\"op\": \"%s\", \"seconds\": %.3f, \"stage\": null}",
+                 srv->progress_op, now - srv->progress_started);
+    else
+        snprintf(json, sizeof json,
+                 "{\"op\": \"%s\", \"seconds\": %.3f, \"stage\": \"%s\", \"fraction\": %.4f, "
+                 "\"stage_seconds\": %.3f}",
+                 srv->progress_op, now - srv->progress_started, srv->progress_stage,
+                 srv->progress_fraction, now - srv->progress_stage_started);
+    pthread_mutex_unlock(&srv->published_lock);
+    size_t n = strlen(json);
+    char *copy = ffd_malloc(n + 1);
+    if (!copy)
+        return answer_error(srv, c, r, MHD_HTTP_INTERNAL_SERVER_ERROR, "nomem", "out of memory");
+    memcpy(copy, json, n + 1);
+    return answer_data(srv, c, r, copy, n, "application/json", NULL);
 }
 
 static enum MHD_Result get_rig(const serve_server *srv, struct MHD_Connection *c, request *r)
@@ -704,16 +758,81 @@ static enum MHD_Result get_export(const serve_server *srv, struct MHD_Connection
     return answer_data(srv, c, r, data, size, "application/octet-stream", disposition);
 }
 
+/* GET /api/frame?base=REV, POST /api/drag?base=REV: the revision of the
+ * frame the client holds, for a delta frame (docs/editor.md "Delta frames"),
+ * "none" when it holds none (UINT32_MAX). 0: none asked, 1: *base set, -1:
+ * not a revision. */
+static int frame_base(struct MHD_Connection *c, const request *r, uint32_t *base)
+{
+    const char *q = MHD_lookup_connection_value(c, MHD_GET_ARGUMENT_KIND, "base");
+    if (!q || (r->route != ROUTE_FRAME && strcmp(r->op, "drag") != 0))
+        return 0;
+    if (strcmp(q, "none") == 0) {
+        *base = UINT32_MAX;
+        return 1;
+    }
+    char *end = NULL;
+    errno = 0;
+    unsigned long v = strtoul(q, &end, 10);
+    if (!*q || *end || errno || v >= UINT32_MAX || *q == '-' || *q == '+' || *q == ' ')
+        return -1;
+    *base = (uint32_t)v;
+    return 1;
+}
+
+/* Replaces a drag step's full frame by its delta against base where the session holds base. */
+static void to_delta(const serve_server *srv, uint32_t base, void **reply, size_t *size)
+{
+    void *delta = NULL;
+    size_t delta_size = 0;
+    if (ffd_session_delta_frame(srv->session, base, *reply, *size, &delta, &delta_size, NULL) ==
+            FFD_OK &&
+        delta) {
+        ffd_free(*reply);
+        *reply = delta;
+        *size = delta_size;
+    }
+}
+
+static enum MHD_Result get_binary(const serve_server *srv, struct MHD_Connection *c, request *r)
+{
+    ffd_error err = {{0}};
+    void *data = NULL;
+    size_t size = 0;
+    uint32_t base = 0;
+    int delta = frame_base(c, r, &base);
+    if (delta < 0)
+        return answer_error(srv, c, r, MHD_HTTP_BAD_REQUEST, "invalid",
+                            "frame: base: expected the revision of the client's frame (0 to %u) "
+                            "or none", UINT32_MAX - 1);
+    ffd_status st = r->route == ROUTE_FRAME
+                        ? ffd_session_frame(srv->session, &data, &size, &err)
+                        : ffd_session_topology(srv->session, &data, &size, &err);
+    if (st != FFD_OK)
+        return answer_status(srv, c, r, st, err.message);
+    if (delta)
+        to_delta(srv, base, &data, &size);
+    return answer_data(srv, c, r, data, size, "application/octet-stream", NULL);
+}
+
 static enum MHD_Result post_op(serve_server *srv, struct MHD_Connection *c, request *r)
 {
     ffd_error err = {{0}};
     void *reply = NULL;
     size_t size = 0;
     int binary = 0;
+    uint32_t base = 0;
+    int delta = frame_base(c, r, &base);
+    if (delta < 0)
+        return answer_error(srv, c, r, MHD_HTTP_BAD_REQUEST, "invalid",
+                            "drag: base: expected the revision of the client's frame (0 to %u) "
+                            "or none", UINT32_MAX - 1);
     ffd_status st = ffd_session_command(srv->session, r->op, r->body ? r->body : "", r->size,
                                         &reply, &size, &binary, &err);
     if (st != FFD_OK)
         return answer_status(srv, c, r, st, err.message);
+    if (delta && binary)
+        to_delta(srv, base, &reply, &size);
     /* a JSON reply is the new state; a binary one (a drag step's frame)
      * leaves the state to be made when next needed */
     if (binary)
@@ -1423,6 +1542,8 @@ static enum MHD_Result handle(void *cls, struct MHD_Connection *c, const char *u
         return get_files(srv, c, r);
     if (r->route == ROUTE_STATE)
         return get_state(srv, c, r);
+    if (r->route == ROUTE_PROGRESS)
+        return get_progress(srv, c, r);
     pthread_mutex_lock(&srv->lock);
     /* a request that may take long starts with the state published, so that
      * GET /api/state meanwhile answers without waiting for it; drag steps
@@ -1433,7 +1554,9 @@ static enum MHD_Result handle(void *cls, struct MHD_Connection *c, const char *u
                   strcmp(r->op, "drag_cancel") == 0 || strcmp(r->op, "influence") == 0));
     if (!quick)
         ensure_published(srv);
+    progress_request(srv, r);
     enum MHD_Result ret = api(srv, c, r);
+    progress_request(srv, NULL);
     pthread_mutex_unlock(&srv->lock);
     return ret;
 }
@@ -1565,6 +1688,7 @@ int serve_start(ffd_session *session, const serve_options *o, serve_server **out
         snprintf(msg, msg_size, "cannot start the HTTP server on %s:%u", srv->host, srv->port);
         goto fail;
     }
+    ffd_set_progress(progress_hook, srv);
     *out = srv;
     return 0;
 fail:
@@ -1595,6 +1719,7 @@ void serve_stop(serve_server *srv)
     if (!srv)
         return;
     MHD_stop_daemon(srv->daemon); /* waits for the connections' threads, closes the socket */
+    ffd_set_progress(NULL, NULL);
     ffd_session_destroy(srv->session);
     publish(srv, NULL, 0);
     pthread_mutex_destroy(&srv->published_lock);

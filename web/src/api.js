@@ -129,6 +129,44 @@ export function parseFrame(buf) {
   return { revision, V, C, R, positions, controls, residuals };
 }
 
+/**
+ * Delta frame (a drag step's or a frame's reply when the request names the
+ * frame the page holds, ?base=REV; docs/editor.md "Delta frames"): FFDD, rev,
+ * base, V, K, M, C, R, 0; then K vertex ids (uint32) and their K*3
+ * positions, M ids and their M*3 normals, controls C*3, residuals R.
+ * Returns an object like parseFrame's with delta: true, base, indices,
+ * normalIndices and normals.
+ */
+export function parseDeltaFrame(buf) {
+  const dv = new DataView(buf);
+  if (buf.byteLength < 36 || magic(dv) !== 'FFDD') throw new ApiError('bad delta frame from the server', 0, 'parse');
+  const [revision, base, V, K, M, C, R, flags] = [1, 2, 3, 4, 5, 6, 7, 8].map((i) => dv.getUint32(4 * i, true));
+  const need = 36 + 16 * K + 16 * M + 12 * C + 4 * R;
+  if (flags !== 0 || buf.byteLength !== need) throw new ApiError(`delta frame of ${buf.byteLength} bytes (flags ${flags}), expected ${need} (flags 0)`, 0, 'parse');
+  let off = 36;
+  const indices = new Uint32Array(buf, off, K); off += 4 * K;
+  const positions = new Float32Array(buf, off, 3 * K); off += 12 * K;
+  const normalIndices = new Uint32Array(buf, off, M); off += 4 * M;
+  const normals = new Float32Array(buf, off, 3 * M); off += 12 * M;
+  const controls = new Float32Array(buf, off, 3 * C); off += 12 * C;
+  const residuals = new Float32Array(buf, off, R);
+  return { delta: true, revision, base, V, K, M, C, R, indices, positions, normalIndices, normals, controls, residuals };
+}
+
+/** A drag reply: a full frame or a delta frame. */
+export function parseAnyFrame(buf) {
+  return buf.byteLength >= 4 && magic(new DataView(buf)) === 'FFDD' ? parseDeltaFrame(buf) : parseFrame(buf);
+}
+
+/**
+ * The revision the page's geometry will have once `frame` is applied to a
+ * geometry of revision `held`: a delta applies only to the frame it was made
+ * against (else the page drops it and asks for the whole frame).
+ */
+export function revisionAfter(frame, held) {
+  return !frame.delta || frame.base === held ? frame.revision : held;
+}
+
 /** Topology: FFDT, rev, V, T, rest positions V*3, triangles T*3 (uint32). */
 export function parseTopology(buf) {
   const dv = new DataView(buf);
@@ -164,15 +202,28 @@ export function parseWeights(buf) {
 
 // --- endpoints --------------------------------------------------------------
 
+/** "?base=REV" (the revision of the frame the page holds; "none": no frame), or "" for full frames only. */
+function baseQuery(base) {
+  if (base === undefined || !api.deltaFrames) return '';
+  return `?base=${base >= 0 ? base : 'none'}`;
+}
+
 export const api = {
   state: () => request('GET', '/api/state', { label: 'state' }),
-  frame: async () => parseFrame(await request('GET', '/api/frame', { binary: true, label: 'frame' })),
+  /** The current frame; with `base` (the revision the geometry holds) a delta frame where the server holds it. */
+  frame: async (base) => parseAnyFrame(await request('GET', `/api/frame${baseQuery(base)}`, { binary: true, label: 'frame' })),
   topology: async () => parseTopology(await request('GET', '/api/topology', { binary: true, label: 'topology' })),
   files: () => request('GET', '/api/files', { label: 'files' }),
   /** A JSON operation replying with the new state. */
   op: (name, body = {}) => request('POST', `/api/${name}`, { json: body, label: name }),
-  /** One drag step: replies with a frame. */
-  dragStep: async (body) => parseFrame(await request('POST', '/api/drag', { json: body, binary: true, label: 'drag' })),
+  /**
+   * One drag step: replies with a frame; with `base` (the revision of the
+   * frame the geometry holds when the reply is applied) a delta frame of the
+   * vertices that changed since it, where the server holds that frame.
+   */
+  dragStep: async (body, base) => parseAnyFrame(await request('POST', `/api/drag${baseQuery(base)}`, { json: body, binary: true, label: 'drag' })),
+  /** Drag steps ask for delta frames (benchmarks compare with full frames). */
+  deltaFrames: true,
   influence: async (points) =>
     parseInfluence(await request('POST', '/api/influence', { json: { points }, binary: true, label: 'influence' })),
   upload: (name, data) =>

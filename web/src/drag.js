@@ -1,7 +1,7 @@
 // A drag against the server: drag_begin once, `drag` steps with at most one
 // request in flight (latest wins), then drag_end (or drag_cancel).
 
-import { api } from './api.js';
+import { api, revisionAfter } from './api.js';
 
 export class DragSession {
   /**
@@ -44,15 +44,16 @@ export class DragSession {
     this.pumping = true;
     try {
       if (!(await this.begun)) return;
-      const start = () => {
+      // base: the revision the geometry will hold when the reply is applied (delta frames)
+      const start = (base) => {
         const body = this.pending;
         this.pending = null;
         this.lastSent = body;
         const t0 = performance.now();
-        this.inflight = api.dragStep(body).then((frame) => ({ frame, ms: performance.now() - t0 }));
+        this.inflight = api.dragStep(body, base).then((frame) => ({ frame, ms: performance.now() - t0 }));
         return this.inflight;
       };
-      let req = this.pending && !this.failed ? start() : null;
+      let req = this.pending && !this.failed ? start(this.editor.lastFrameRevision) : null;
       while (req) {
         let res;
         try {
@@ -63,7 +64,7 @@ export class DragSession {
           this.editor.error(err);
           return;
         }
-        req = this.pending && !this.failed ? start() : null;
+        req = this.pending && !this.failed ? start(revisionAfter(res.frame, this.editor.lastFrameRevision)) : null;
         if (!req) this.inflight = null;
         this.steps++;
         this.editor.onDragFrame(res.frame, res.ms);

@@ -16,6 +16,7 @@ import { methodOf, PICK_TOOLS, BUSY } from './methods/index.js';
 import { Toasts, OfflineBanner } from './toasts.js';
 import { WeightPaint } from './weights.js';
 import { firstRunCard } from './panel.js';
+import { busyProgress, progressDone } from './progress.js';
 
 const $ = (id) => document.getElementById(id);
 
@@ -91,6 +92,7 @@ class Editor {
       if (m.min && m.max) this.vp.setExtent(m.min, m.max);
       const topo = await api.topology();
       this.vp.setTopology(topo);
+      this.lastFrameRevision = -1; // the geometry holds the rest positions, no frame
       if (prev) this.frame();
       this.influenceWeights = null;
     }
@@ -129,13 +131,15 @@ class Editor {
 
   async refreshFrame() {
     const seq = ++this.frameSeq;
-    const frame = await api.frame();
+    const frame = await api.frame(this.lastFrameRevision);
     if (seq !== this.frameSeq) return; // a newer frame request superseded this one
     this.applyFrame(frame);
   }
 
   applyFrame(frame) {
-    this.vp.setPositions(frame.positions);
+    // a delta frame applies to the frame it was made against only; else the whole frame is fetched
+    if (frame.delta && !this.vp.applyDelta(frame, this.lastFrameRevision)) { this.refreshFrame(); return; }
+    if (!frame.delta) this.vp.setPositions(frame.positions);
     if (frame.C === this.controlsView.count) this.controlsView.setPositions(frame.controls);
     this.lastFrameRevision = frame.revision;
     this.dm.setFrameResiduals(frame.residuals);
@@ -488,6 +492,7 @@ class Editor {
       const show = oldestPendingMs() > 400;
       if (show !== !busy.hidden) busy.hidden = !show;
       if (show) $('busy-label').textContent = busyText(pendingLabel());
+      if (show) $('busy-time').textContent = busyProgress(oldestPendingMs()); else progressDone();
       if (this.activeDrag) this.updateStatus();
     }, 100);
   }
@@ -619,6 +624,8 @@ window.ffdEditor = {
   setGizmoMode(mode) { editor.gizmo.setMode(mode); },
   gizmoCenter() { return editor.screenOf(editor.gizmo.pivot.position); },
   benchDrag(n, opts) { return benchDrag(n, opts); },
+  /** Benchmarks: api.deltaFrames = false makes drag steps ask for full frames. */
+  api,
   editor,
   THREE, // tests: independent checks (a ray cast) with the page's own three
 };

@@ -2,6 +2,7 @@
 
 import * as THREE from 'three';
 import { OrbitControls } from 'three/examples/jsm/controls/OrbitControls.js';
+import { NormalsWorker, WORKER_MIN_TRIANGLES } from './normals.js';
 import { COL } from './palette.js';
 
 const FOV = 40;
@@ -58,6 +59,7 @@ export class Viewport {
       color: 0x15171a, wireframe: true, transparent: true, opacity: 0.28, depthWrite: false,
     });
     this.influenceOn = false;
+    this.workerMinTriangles = WORKER_MIN_TRIANGLES; // meshes this big get their full normals from a worker
 
     this.orbit = new OrbitControls(this.camera, this.renderer.domElement);
     this.orbit.enableDamping = false;
@@ -117,7 +119,9 @@ export class Viewport {
     this.geometry = g;
     this.rest = new Float32Array(topo.rest);
     this.triangles = new Uint32Array(topo.triangles);
-    this.computeNormals();
+    if (this.normalsWorker) this.normalsWorker.terminate();
+    this.normalsWorker = topo.T >= this.workerMinTriangles && typeof Worker !== 'undefined' ? new NormalsWorker(this.triangles) : null;
+    this.updateNormals();
     this.mesh = new THREE.Mesh(g, this.material);
     this.mesh.frustumCulled = false;
     this.wire = new THREE.Mesh(g, this.wireMaterial);
@@ -133,16 +137,71 @@ export class Viewport {
 
   get vertexCount() { return this.geometry ? this.geometry.attributes.position.count : 0; }
 
-  /** Copies deformed positions in place. */
+  /** Copies deformed positions in place (a full frame) and recomputes every normal. */
   setPositions(positions) {
     if (!this.geometry) return;
+    const t0 = performance.now();
     const attr = this.geometry.attributes.position;
     if (positions.length !== attr.array.length) return;
     attr.array.set(positions);
+    attr.clearUpdateRanges(); // the whole buffer goes to the GPU
     attr.needsUpdate = true;
-    this.computeNormals();
+    this.updateNormals();
     this.boundsDirty = true;
     this.requestRender();
+    this.measureFrame(t0, 'full');
+  }
+
+  /**
+   * Every normal from the current positions: on the main thread for a small
+   * mesh; for a big one in the worker (normals.js), written when it answers,
+   * except at the vertices whose normals a delta frame set meanwhile (those
+   * are newer, and every normal a delta's positions affect comes with it).
+   */
+  updateNormals() {
+    if (!this.normalsWorker) { this.computeNormals(); return; }
+    const g = this.geometry, V = this.vertexCount;
+    this.normalsTouched = null; // vertices given normals by deltas since the request
+    this.normalsWorker.request(g.attributes.position.array, (normals) => {
+      if (g !== this.geometry) return;
+      const t0 = performance.now();
+      const nAttr = g.attributes.normal, n = nAttr.array, touched = this.normalsTouched;
+      if (!touched) n.set(normals);
+      else for (let v = 0; v < V; v++) if (!touched[v]) { n[3 * v] = normals[3 * v]; n[3 * v + 1] = normals[3 * v + 1]; n[3 * v + 2] = normals[3 * v + 2]; }
+      nAttr.clearUpdateRanges();
+      nAttr.needsUpdate = true;
+      this.requestRender();
+      this.measureFrame(t0, 'normals');
+    });
+  }
+
+  /**
+   * Applies a delta frame (api.js parseDeltaFrame) made against the frame of
+   * revision `held`: the changed positions and the normals the server
+   * computed around them are written in place and only their ranges of the
+   * buffers go to the GPU. Returns false, changing nothing, when the delta
+   * was made against another frame or another mesh.
+   */
+  applyDelta(frame, held) {
+    if (!this.geometry || frame.base !== held || frame.V !== this.vertexCount) return false;
+    const t0 = performance.now();
+    const pos = this.geometry.attributes.position, nrm = this.geometry.attributes.normal;
+    scatter(pos, frame.indices, frame.positions);
+    scatter(nrm, frame.normalIndices, frame.normals);
+    if (this.normalsWorker && this.normalsWorker.pending) {
+      // the worker's normals are older than these
+      const t = this.normalsTouched || (this.normalsTouched = new Uint8Array(this.vertexCount));
+      for (const v of frame.normalIndices) t[v] = 1;
+    }
+    if (frame.K) this.boundsDirty = true;
+    if (frame.K || frame.M) this.requestRender();
+    this.measureFrame(t0, 'delta');
+    return true;
+  }
+
+  /** Frame-apply timing for bench/editor_drag.mjs: a performance measure per frame when timing is on. */
+  measureFrame(t0, kind) {
+    if (this.timing) performance.measure(`ffd:frame-apply:${kind}`, { start: t0, end: performance.now() });
   }
 
   /** Area-weighted vertex normals straight on the typed arrays (fast on 100K+ vertices). */
@@ -166,6 +225,7 @@ export class Viewport {
       const l = Math.hypot(n[i], n[i + 1], n[i + 2]);
       if (l > 0) { n[i] /= l; n[i + 1] /= l; n[i + 2] /= l; } else { n[i + 1] = 1; }
     }
+    nAttr.clearUpdateRanges();
     nAttr.needsUpdate = true;
   }
 
@@ -514,6 +574,38 @@ function letterTexture(ch, color) {
   const t = new THREE.CanvasTexture(c);
   t.colorSpace = THREE.SRGBColorSpace;
   return t;
+}
+
+/**
+ * Writes values (3 per id) at the vertices ids (ascending) of a
+ * BufferAttribute and marks only the written ranges for upload: runs of ids
+ * closer than RUN_GAP vertices share a range; past MAX_RANGES ranges (also
+ * those of frames not yet drawn) one range spans them all.
+ */
+const RUN_GAP = 64, MAX_RANGES = 48;
+function scatter(attr, ids, values) {
+  const a = attr.array;
+  const k = ids.length;
+  if (!k) return;
+  for (let i = 0; i < k; i++) {
+    const o = 3 * ids[i], j = 3 * i;
+    a[o] = values[j]; a[o + 1] = values[j + 1]; a[o + 2] = values[j + 2];
+  }
+  const ranges = attr.updateRanges;
+  let lo = ids[0], hi = ids[0];
+  for (let i = 1; i <= k; i++) {
+    const v = i < k ? ids[i] : Infinity;
+    if (v - hi <= RUN_GAP) { hi = v; continue; }
+    ranges.push({ start: 3 * lo, count: 3 * (hi - lo + 1) });
+    lo = hi = v;
+  }
+  if (ranges.length > MAX_RANGES) {
+    let s = Infinity, e = 0;
+    for (const r of ranges) { s = Math.min(s, r.start); e = Math.max(e, r.start + r.count); }
+    attr.clearUpdateRanges();
+    attr.addUpdateRange(s, e - s);
+  }
+  attr.needsUpdate = true;
 }
 
 /** Blue -> cyan -> green -> yellow -> red. */

@@ -15,6 +15,7 @@ const STAGES = [
   ['transform', 'transform.mjs'],
   ['panel', 'panel.mjs'],
   ['dm', 'dm.mjs'],
+  ['perf', 'perf.mjs'],
 ];
 
 const only = (() => { const i = argv.indexOf('--stages'); return i >= 0 ? argv[i + 1].split(',') : null; })();
