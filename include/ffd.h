@@ -798,6 +798,33 @@ FFD_API ffd_status ffd_session_export(const ffd_session *s, const ffd_write_opti
  * the session's rig applied, exactly what ffd deform writes. */
 FFD_API ffd_status ffd_session_deformed(const ffd_session *s, ffd_mesh **out, ffd_error *err);
 
+/* Work is never lost (docs/editor.md "Work is never lost"). The history:
+ * {"current": i, "steps": ["Open bunny.obj", "Create lattice 5×5×5", ...]},
+ * the named steps of undo/redo, the present one current (the "history_goto"
+ * op jumps to any of them); the state carries it as "history" too. */
+FFD_API ffd_status ffd_session_history(const ffd_session *s, char **json, size_t *size,
+                                       ffd_error *err);
+/* The steps an autosave keeps: the newest, the present one among them. */
+#define FFD_AUTOSAVE_STEPS 100
+/* The session's record as JSON text (ffd_free): the mesh (name, mesh_path
+ * when not NULL, vertex and face counts, a hash of its positions and
+ * faces), the rig with pins, and the history, each step's name and rig.
+ * A conflict (FFD_ERR_INVALID) during a drag: only whole steps are saved. */
+FFD_API ffd_status ffd_session_autosave_text(const ffd_session *s, const char *mesh_path,
+                                             char **json, size_t *size, ffd_error *err);
+/* Writes it to path atomically (a temporary file renamed over path). */
+FFD_API ffd_status ffd_session_autosave(const ffd_session *s, const char *path,
+                                        const char *mesh_path, ffd_error *err);
+/* Brings back a record ffd_session_autosave wrote (name names it in
+ * messages) into a session just created on the same mesh: its state,
+ * pins and history. A record of another version of the mesh (its hash
+ * differs), a malformed one, or a session with changes already is refused
+ * and nothing changes. Either way the state's "autosave" says what
+ * happened ({"resumed": true, "saved": time, ...} or {"resumed": false,
+ * "reason": message, where the server keeps the record: kept_as}). */
+FFD_API ffd_status ffd_session_resume(ffd_session *s, const char *text, size_t size,
+                                      const char *name, const char *kept_as, ffd_error *err);
+
 #ifdef __cplusplus
 }
 #endif
