@@ -178,31 +178,27 @@ ffd_status ffd_session_autosave_text(const ffd_session *s, const char *mesh_path
     if (first > current)
         first = current;
     size_t last = first + FFD_AUTOSAVE_STEPS < count ? first + FFD_AUTOSAVE_STEPS : count;
-    cJSON *root = cJSON_CreateObject(), *m = cJSON_CreateObject();
-    cJSON *history = cJSON_CreateObject(), *steps = cJSON_CreateArray();
+    /* every item goes into root as soon as it is made: root owns it, on error too */
+    cJSON *root = cJSON_CreateObject();
+    cJSON *mesh_obj = NULL, *h = NULL, *list = NULL;
     int ok = root && ffd_sess_add_item(root, "format", cJSON_CreateString("ffd-autosave")) &&
              cJSON_AddNumberToObject(root, "version", 1) &&
              cJSON_AddStringToObject(root, "saved", saved) &&
              cJSON_AddNumberToObject(root, "saved_unix", (double)now) &&
-             ffd_sess_add_item(root, "mesh", m) && (m = NULL, 1);
-    cJSON *mesh_obj = ok ? cJSON_GetObjectItemCaseSensitive(root, "mesh") : NULL;
+             ffd_sess_add_item(root, "mesh", mesh_obj = cJSON_CreateObject());
     ok = ok && cJSON_AddStringToObject(mesh_obj, "name", ffd_session_name(s)) &&
          (!mesh_path || cJSON_AddStringToObject(mesh_obj, "path", mesh_path)) &&
          cJSON_AddNumberToObject(mesh_obj, "vertices", (double)ffd_mesh_vertex_count(mesh)) &&
          cJSON_AddNumberToObject(mesh_obj, "faces", (double)ffd_mesh_face_count(mesh)) &&
          cJSON_AddStringToObject(mesh_obj, "hash", hash);
-    if (!ok)
-        cJSON_Delete(m);
     ffd_status st = ok ? FFD_OK : ffd_fail(err, FFD_ERR_NOMEM, "autosave: out of memory");
     char *text = NULL;
     if (!st && !(st = sess_state_rig(s, &text, err)))
         ok = ffd_sess_add_item(root, "rig", rig_item(text));
-    ok = ok && ffd_sess_add_item(root, "history", history) && (history = NULL, 1);
-    cJSON *h = ok ? cJSON_GetObjectItemCaseSensitive(root, "history") : NULL;
-    ok = ok && cJSON_AddNumberToObject(h, "current", (double)(current - first)) &&
+    ok = ok && ffd_sess_add_item(root, "history", h = cJSON_CreateObject()) &&
+         cJSON_AddNumberToObject(h, "current", (double)(current - first)) &&
          cJSON_AddNumberToObject(h, "dropped", (double)first) &&
-         ffd_sess_add_item(h, "steps", steps) && (steps = NULL, 1);
-    cJSON *list = ok ? cJSON_GetObjectItemCaseSensitive(h, "steps") : NULL;
+         ffd_sess_add_item(h, "steps", list = cJSON_CreateArray());
     for (size_t i = first; !st && ok && i < last; i++) {
         cJSON *step = cJSON_CreateObject();
         ok = ffd_sess_add_to_array(list, step) &&
@@ -210,8 +206,6 @@ ffd_status ffd_session_autosave_text(const ffd_session *s, const char *mesh_path
         if (ok && !(st = sess_history_rig(s, i, &text, err)))
             ok = ffd_sess_add_item(step, "rig", rig_item(text));
     }
-    cJSON_Delete(history);
-    cJSON_Delete(steps);
     char *printed = !st && ok ? cJSON_Print(root) : NULL;
     cJSON_Delete(root);
     if (st)
