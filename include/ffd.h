@@ -824,6 +824,9 @@ FFD_API ffd_status ffd_session_autosave(const ffd_session *s, const char *path,
  * "reason": message, where the server keeps the record: kept_as}). */
 FFD_API ffd_status ffd_session_resume(ffd_session *s, const char *text, size_t size,
                                       const char *name, const char *kept_as, ffd_error *err);
+/* Names the file the session is autosaved to (NULL: not autosaved) in the
+ * state's "autosave" ("file"), so that the page can say where work goes. */
+FFD_API void ffd_session_set_autosave_file(ffd_session *s, const char *file);
 
 #ifdef __cplusplus
 }

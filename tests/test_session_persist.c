@@ -339,6 +339,14 @@ static void test_autosave_and_resume(void)
     CHECK(cJSON_IsString(cJSON_GetObjectItem(note, "saved")));
     CHECK(cJSON_GetObjectItem(st, "undo")->valueint == 3 && cJSON_GetObjectItem(st, "redo")->valueint == 1);
     cJSON_Delete(st);
+    /* the file it goes to joins the note */
+    ffd_session_set_autosave_file(t, ".ffd/autosave-bunny.obj.json");
+    st = state(t);
+    note = cJSON_GetObjectItem(st, "autosave");
+    CHECK(cJSON_IsTrue(cJSON_GetObjectItem(note, "resumed")));
+    CHECK(cJSON_IsString(cJSON_GetObjectItem(note, "file")) &&
+          !strcmp(cJSON_GetObjectItem(note, "file")->valuestring, ".ffd/autosave-bunny.obj.json"));
+    cJSON_Delete(st);
     /* every step of the resumed history is the saved session's */
     for (int i = 4; i >= 0; i--) {
         char body[32];

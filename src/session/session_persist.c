@@ -380,3 +380,22 @@ ffd_status ffd_session_resume(ffd_session *s, const char *text, size_t size, con
     cJSON_Delete(root);
     return FFD_OK;
 }
+
+void ffd_session_set_autosave_file(ffd_session *s, const char *file)
+{
+    if (!s)
+        return;
+    const char *old = sess_autosave_note(s);
+    cJSON *note = old ? cJSON_Parse(old) : cJSON_CreateObject();
+    if (!note)
+        return;
+    cJSON_DeleteItemFromObjectCaseSensitive(note, "file");
+    char *printed = NULL;
+    if (!file || cJSON_AddStringToObject(note, "file", file))
+        printed = cJSON_PrintUnformatted(note);
+    cJSON_Delete(note);
+    char *copy = printed ? ffd_strdup(printed) : NULL;
+    cJSON_free(printed);
+    if (copy)
+        sess_set_autosave_note(s, copy);
+}

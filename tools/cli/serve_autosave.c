@@ -162,8 +162,10 @@ void serve_autosave_opened(serve_autosave *a, ffd_session *s, const char *mesh_p
     size_t size = 0;
     ffd_error err = {{0}};
     struct stat sb;
-    if (stat(a->path, &sb) != 0)
+    if (stat(a->path, &sb) != 0) {
+        ffd_session_set_autosave_file(s, shown);
         return; /* nothing saved yet */
+    }
     ffd_status st = ffd_read_file(a->path, &text, &size, &err);
     if (!st)
         st = ffd_session_resume(s, (const char *)text, size, shown, kept_shown, &err);
@@ -174,6 +176,7 @@ void serve_autosave_opened(serve_autosave *a, ffd_session *s, const char *mesh_p
             fprintf(stderr, "ffd: warning: autosave: cannot keep %s as %s: %s\n", a->path, kept,
                     strerror(errno));
         fprintf(stderr, "ffd serve: your autosaved session was not applied: %s\n", err.message);
+        ffd_session_set_autosave_file(s, shown);
         return;
     }
     char *state = NULL;
@@ -191,6 +194,7 @@ void serve_autosave_opened(serve_autosave *a, ffd_session *s, const char *mesh_p
             saved, cJSON_IsNumber(steps) ? (int)steps->valuedouble : 0, shown);
     cJSON_Delete(doc);
     ffd_free(state);
+    ffd_session_set_autosave_file(s, shown);
 }
 
 void serve_autosave_flush(serve_autosave *a)
