@@ -9,6 +9,7 @@ import { Gizmo } from './gizmo.js';
 import { DirectManip } from './dm.js';
 import { DragSession } from './drag.js';
 import { Panel, fmtInt, h } from './panel.js';
+import { History } from './history.js';
 import { methodOf, PICK_TOOLS, BUSY } from './methods/index.js';
 
 const $ = (id) => document.getElementById(id);
@@ -38,6 +39,7 @@ class Editor {
     this.gizmo = new Gizmo(this); // before OrbitControls' listeners matter: see pointerDown
     this.selector = new Selector(this);
     this.dm = new DirectManip(this);
+    this.history = new History(this); // the History section, Undo/Redo counts, autosave notes
     this.panel = new Panel(this, $('panel'));
     this.sketchGroup = new THREE.Group();
     this.vp.overlays.add(this.sketchGroup);
@@ -170,11 +172,13 @@ class Editor {
   redo() { return this.run('redo'); }
 
   async openPath(path) {
+    if (!this.history.confirmReplace(path)) return;
     this.setSelection([]);
     await this.run('open', { path });
   }
 
   async openUpload(file) {
+    if (!this.history.confirmReplace(file.name)) return;
     try {
       this.setSelection([]);
       const state = await api.upload(file.name, await file.arrayBuffer());

@@ -61,6 +61,7 @@ export class Panel {
       this.methodSection(s),
       this.dmSection(s),
       this.editSection(s),
+      this.ed.history.section(s),
       this.viewSection(s),
       this.rigSection(s),
     );
@@ -94,10 +95,10 @@ export class Panel {
       h('div', { class: 'row' }, h('b', {}, m.name || '—'),
         h('span', { class: 'hint-text' }, m.vertices !== undefined ? `${fmtInt(m.vertices)} vertices · ${fmtInt(m.faces)} faces` : '')),
       h('div', { class: 'row' }, sel,
-        h('button', { onclick: () => this.form.meshFile && this.ed.openPath(this.form.meshFile), title: 'Open the chosen mesh (a new session)' }, 'Open'),
+        h('button', { onclick: () => this.form.meshFile && this.ed.openPath(this.form.meshFile), title: 'Open the chosen mesh: a new session (this one is autosaved and resumes when you open its mesh again)' }, 'Open'),
         h('button', { onclick: () => this.loadFiles(), title: 'Refresh the file list' }, '⟲')),
       h('div', { class: 'row buttons' },
-        h('button', { onclick: () => fileInput.click(), title: 'Upload a mesh from this computer' }, '⇪ Upload mesh…'), fileInput),
+        h('button', { onclick: () => fileInput.click(), title: 'Upload a mesh from this computer: a new session (an uploaded mesh is not autosaved)' }, '⇪ Upload mesh…'), fileInput),
     );
   }
 
@@ -111,7 +112,7 @@ export class Panel {
           METHODS.map((m) => h('option', { value: m.name, selected: m.name === f.method }, m.label)))),
       method.createFields(f[f.method]),
       h('div', { class: 'row buttons' },
-        h('button', { class: 'primary', onclick: () => this.create(), title: 'Create the deformer (undoable)' }, s.method ? '↻ Re-create' : '＋ Create')),
+        h('button', { class: 'primary', onclick: () => this.create(), title: s.method ? 'Re-create puts the mesh back at rest — undo with Ctrl+Z' : 'Create the deformer (undo with Ctrl+Z)' }, s.method ? '↻ Re-create' : '＋ Create')),
     );
   }
 
@@ -144,7 +145,7 @@ export class Panel {
         h('span', { class: 'hint-text', title: 'residual' }, p.residual > tol ? `Δ ${(+p.residual).toExponential(2)}` : 'reached'),
         h('button', { title: 'Unpin', onclick: () => ed.dm.unpin(p.vertex) }, '×')))) : null,
       h('div', { class: 'row buttons' },
-        h('button', { disabled: !pins.length, onclick: () => ed.run('unpin', { all: true }) }, 'Unpin all')),
+        h('button', { disabled: !pins.length, onclick: () => ed.run('unpin', { all: true }), title: 'Remove every pin — undo with Ctrl+Z' }, 'Unpin all')),
     );
   }
 
@@ -152,9 +153,9 @@ export class Panel {
     const ed = this.ed;
     return h('section', {}, h('h3', {}, 'Edit'),
       h('div', { class: 'row buttons' },
-        h('button', { disabled: !s.undo, onclick: () => ed.undo(), title: 'Ctrl+Z' }, `↶ Undo${s.undo ? ` (${s.undo})` : ''}`),
-        h('button', { disabled: !s.redo, onclick: () => ed.redo(), title: 'Ctrl+Shift+Z / Ctrl+Y' }, `↷ Redo${s.redo ? ` (${s.redo})` : ''}`),
-        h('button', { 'data-need-method': true, onclick: () => ed.run('reset', {}), title: 'Every control back at rest (undoable)' }, '⟲ Reset')),
+        h('button', { disabled: !s.undo, 'data-history': 'undo', onclick: () => ed.undo(), title: ed.history.undoTitle(s) }, `↶ Undo${s.undo ? ` (${s.undo})` : ''}`),
+        h('button', { disabled: !s.redo, 'data-history': 'redo', onclick: () => ed.redo(), title: ed.history.redoTitle(s) }, `↷ Redo${s.redo ? ` (${s.redo})` : ''}`),
+        h('button', { 'data-need-method': true, onclick: () => ed.run('reset', {}), title: 'Every control back at rest — undo with Ctrl+Z' }, '⟲ Reset')),
     );
   }
 
@@ -212,8 +213,8 @@ export class Panel {
           },
         }, '💾 Save on server…')),
       h('div', { class: 'row' }, rigSel,
-        h('button', { onclick: () => f.rigFile && ed.loadRigPath(f.rigFile) }, 'Load')),
-      h('div', { class: 'row buttons' }, h('button', { onclick: () => rigInput.click() }, '⇪ Upload rig…'), rigInput),
+        h('button', { onclick: () => f.rigFile && ed.loadRigPath(f.rigFile), title: 'Load the chosen rig: it replaces the deformer (with its pins) — undo with Ctrl+Z' }, 'Load')),
+      h('div', { class: 'row buttons' }, h('button', { onclick: () => rigInput.click(), title: 'Upload a rig from this computer: it replaces the deformer (with its pins) — undo with Ctrl+Z' }, '⇪ Upload rig…'), rigInput),
       h('h3', { style: 'margin-top:12px' }, 'Export'),
       h('div', { class: 'row' }, fmtSel, encSel),
       h('div', { class: 'row buttons' },

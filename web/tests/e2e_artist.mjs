@@ -11,6 +11,7 @@ import { launch, runTest, guarded, argv } from './harness.mjs';
 
 // one line per stage module: [name, file under web/tests/artist/]
 const STAGES = [
+  ['persist', 'persist.mjs'],
 ];
 
 const only = (() => { const i = argv.indexOf('--stages'); return i >= 0 ? argv[i + 1].split(',') : null; })();
