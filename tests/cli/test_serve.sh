@@ -11,6 +11,9 @@
 # idle ones), silent connections close after --idle-timeout, an ambiguous
 # body length (two Content-Length headers) is a 400 that closes the
 # connection; GET /api/state answers while a long request holds the session.
+# Work is never lost: GET /api/history, POST /api/history/goto, the autosave
+# under ROOT/.ffd resumed by a server started again (after SIGKILL), written
+# on SIGTERM, kept aside when the mesh changed; --no-autosave writes nothing.
 # Raw connections use bash's /dev/tcp and curl --interface 127.0.0.2 (a
 # second loopback client address); nothing leaves 127.0.0.0/8.
 # The "session" part (a lattice, a drag, undo, rig and mesh round trips) needs
@@ -590,6 +593,66 @@ stop main
 [ "$(cksum <"$ROOT/bunny.obj")" = "$BUNNY_SUM" ] || fail "the opened mesh was modified"
 [ "$(cd "$OUT" && cat secret.obj secret.json secret.html | cksum)" = "$OUT_SUM" ] ||
     fail "files outside the root were modified"
+
+# ---- work is never lost: history, autosave and resume (docs/editor.md) ----
+if [ -z "${FFD_SERVE_STUB:-}" ]; then
+    AR=$T/autosave
+    mkdir -p "$AR"
+    cp "$SRC/examples/lattice/bunny.obj" "$AR/bunny.obj"
+    start a1 "$AR/bunny.obj" --port 0 --root "$AR" --web "$T/no-page" || exit 1
+    req POST /api/create -d '{"deformer":"lattice","resolution":[4,4,4]}'
+    req POST /api/move -d '{"points":[21,22],"delta":[0,0.3,0]}'
+    req POST /api/pin -d '{"vertex":893}'
+    [ "$CODE" = 200 ] || fail "autosave: the edits: HTTP $CODE: $(show)"
+    req GET /api/history
+    has_body '{"steps":["Open bunny.obj","Create lattice 4×4×4","Drag 2 controls","Pin vertex 893"],"current":3}'
+    req GET /api/rig
+    tr -d '[:space:]' <"$T/body" | grep -qF '"pins":[{"vertex":893,' || fail "GET /api/rig lacks the pin: $(show)"
+    post_json 400 range /api/history/goto '{"index":9}'
+    has_body 'history_goto: index: 9 out of range (the history has 4 steps, 0 to 3)'
+    post_json 400 parse /api/history/goto '{"step":1}'
+    req POST /api/history/goto -d '{"index":1}'
+    [ "$CODE" = 200 ] || fail "POST /api/history/goto: HTTP $CODE: $(show)"
+    has_key current 1
+    req POST /api/history/goto -d '{"index":3}'
+    sleep 1 # the autosave's quiet time
+    [ -f "$AR/.ffd/autosave-bunny.obj.json" ] || fail "no autosave under ROOT/.ffd after the edits"
+    grep -q '"Pin vertex 893"' "$AR/.ffd/autosave-bunny.obj.json" || fail "the autosave lacks the steps"
+    ls "$AR/.ffd" | grep -v '^autosave-bunny.obj.json$' && fail "a temporary file left in ROOT/.ffd"
+    kill -KILL "$PID"
+    wait "$PID" 2>/dev/null
+    start a2 "$AR/bunny.obj" --port 0 --root "$AR" --web "$T/no-page" || exit 1
+    grep -q "ffd serve: resumed your session of bunny.obj from .* (4 history steps; .ffd/autosave-bunny.obj.json)" "$T/a2.err" ||
+        fail "a restarted server does not say it resumed: $(cat "$T/a2.err")"
+    req GET /api/state
+    has_body '"steps":["Open bunny.obj","Create lattice 4×4×4","Drag 2 controls","Pin vertex 893"],"current":3}'
+    has_body '"resumed":true'
+    has_key vertex 893
+    req POST /api/undo
+    has_key undo 2
+    stop a2 # SIGTERM writes the pending change
+    grep -qE '"current":[[:space:]]*2,' "$AR/.ffd/autosave-bunny.obj.json" || fail "the stop did not write the last change"
+    # the mesh changed since: not applied, kept aside, the state says why
+    sed -i '0,/^v /s/^v .*/v 0 0 0/' "$AR/bunny.obj"
+    start a3 "$AR/bunny.obj" --port 0 --root "$AR" --web "$T/no-page" || exit 1
+    grep -q "your autosaved session was not applied: .*saved for another version of bunny.obj" "$T/a3.err" ||
+        fail "a changed mesh: no word of the autosave not applied: $(cat "$T/a3.err")"
+    [ -f "$AR/.ffd/autosave-bunny.obj.not-applied.json" ] || fail "the autosave not applied is not kept"
+    req GET /api/state
+    has_body '"resumed":false'
+    has_body 'kept as .ffd/autosave-bunny.obj.not-applied.json'
+    has_key method null
+    stop a3
+    # --no-autosave: nothing written, nothing resumed
+    AN=$T/noauto
+    mkdir -p "$AN"
+    cp "$SRC/examples/lattice/bunny.obj" "$AN/bunny.obj"
+    start a4 "$AN/bunny.obj" --port 0 --root "$AN" --web "$T/no-page" --no-autosave || exit 1
+    req POST /api/create -d '{"deformer":"lattice"}'
+    sleep 1
+    stop a4
+    [ -e "$AN/.ffd" ] && fail "--no-autosave wrote $AN/.ffd"
+fi
 
 if [ "$failures" -ne 0 ]; then
     echo "$failures failure(s)"
