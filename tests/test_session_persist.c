@@ -455,6 +455,54 @@ static void test_autosave_cap(void)
     ffd_session_destroy(t);
 }
 
+/* Structural steps (a T-spline refinement, undone by rebuilding) in the
+ * history, its names, goto across them and their resume. */
+static void test_structural_steps(void)
+{
+    ffd_session *s = open_session(BUNNY);
+    CHECK(run(s, "create", "{\"deformer\":\"tspline\",\"resolution\":[4,4,4]}", NULL) == FFD_OK);
+    size_t n[4];
+    float *f[4];
+    f[0] = frame(s, &n[0]);
+    CHECK(run(s, "refine", "{\"insertions\":[{\"cell\":13}]}", NULL) == FFD_OK);
+    f[1] = frame(s, &n[1]);
+    CHECK(run(s, "move", "{\"points\":[3],\"delta\":[0.2,0,0],\"arap\":false}", NULL) == FFD_OK);
+    f[2] = frame(s, &n[2]);
+    CHECK(run(s, "freeze", "{\"points\":[1,2],\"frozen\":true}", NULL) == FFD_OK);
+    f[3] = frame(s, &n[3]);
+    char h[512];
+    history_text(s, h, sizeof h);
+    CHECK(strcmp(h, "4|Open bunny.obj|Create T-spline 4\xc3\x97" "4\xc3\x97" "4|Refine T-spline cell 13|"
+                    "Drag control 3|Freeze 2 points") == 0);
+    if (strncmp(h, "4|", 2) != 0 || !strstr(h, "Freeze"))
+        fprintf(stderr, "  %s\n", h);
+    char *json = NULL;
+    size_t size = 0;
+    CHECK_OK(ffd_session_autosave_text(s, NULL, &json, &size, NULL));
+    ffd_session *t = open_session(BUNNY);
+    CHECK_OK(ffd_session_resume(t, json, size, "autosave", NULL, NULL));
+    static const int order[] = {1, 2, 4, 3};
+    for (size_t i = 0; i < sizeof order / sizeof *order; i++) {
+        char body[32];
+        snprintf(body, sizeof body, "{\"index\":%d}", order[i]);
+        for (int w = 0; w < 2; w++) {
+            ffd_session *x = w ? t : s;
+            CHECK(run(x, "history_goto", body, NULL) == FFD_OK);
+            size_t m;
+            float *g = frame(x, &m);
+            CHECK(m == n[order[i] - 1]);
+            for (size_t k = 0; g && m == n[order[i] - 1] && k < m; k++)
+                CHECK_NEAR(g[k], f[order[i] - 1][k], 1e-5);
+            free(g);
+        }
+    }
+    for (int i = 0; i < 4; i++)
+        free(f[i]);
+    ffd_free(json);
+    ffd_session_destroy(s);
+    ffd_session_destroy(t);
+}
+
 static void test_allocation_failures(void)
 {
     /* every allocation of an autosave, a resume and a goto may fail: clean errors, no leaks */
@@ -492,6 +540,7 @@ int main(int argc, char **argv)
         {"history_goto", test_history_goto},
         {"autosave_and_resume", test_autosave_and_resume},
         {"autosave_cap", test_autosave_cap},
+        {"structural_steps", test_structural_steps},
         {"allocation_failures", test_allocation_failures},
     };
     return check_run(tests, sizeof tests / sizeof *tests, argc, argv);

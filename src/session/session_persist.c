@@ -49,21 +49,64 @@ void sess_name_drag(char *buf, size_t size, int mode, const uint32_t *ids, size_
         snprintf(buf, size, "%s %zu controls", verb, k);
 }
 
+/* "Refine T-spline cell 12", "Freeze 3 points", "Remove primitive 1", ... */
 void sess_name_op(char *buf, size_t size, const char *method, const char *op, const cJSON *body)
 {
-    static const char *const ops[][2] = {
-        {"refine", "Refine"},       {"freeze", "Freeze"},       {"level", "Edit level"},
-        {"frame", "Turn a frame"},  {"curve", "Edit a curve"},  {"primitive", "Edit a primitive"},
-        {"brush", "Brush"}};
-    const char *verb = op;
-    for (size_t i = 0; i < sizeof ops / sizeof *ops; i++)
-        if (!strcmp(op, ops[i][0]))
-            verb = ops[i][1];
-    const cJSON *cell = cJSON_GetObjectItemCaseSensitive(body, "cell");
-    if (cJSON_IsNumber(cell))
-        snprintf(buf, size, "%s %s cell %d", verb, method_title(method), (int)cell->valuedouble);
-    else
-        snprintf(buf, size, "%s (%s)", verb, method_title(method));
+    const char *title = method_title(method);
+    const cJSON *points = cJSON_GetObjectItemCaseSensitive(body, "points");
+    int k = cJSON_GetArraySize(points);
+    if (!strcmp(op, "refine")) {
+        const cJSON *ins = cJSON_GetObjectItemCaseSensitive(body, "insertions");
+        const cJSON *one = cJSON_GetArraySize(ins) == 1 ? cJSON_GetArrayItem(ins, 0) : NULL;
+        static const char *const kinds[] = {"cell", "face", "edge"};
+        for (int i = 0; one && i < 3; i++) {
+            const cJSON *id = cJSON_GetObjectItemCaseSensitive(one, kinds[i]);
+            if (cJSON_IsNumber(id)) {
+                snprintf(buf, size, "Refine %s %s %d", title, kinds[i], (int)id->valuedouble);
+                return;
+            }
+            if (cJSON_IsObject(id)) {
+                snprintf(buf, size, "Refine %s %s at a point", title, kinds[i]);
+                return;
+            }
+        }
+        if (one && cJSON_GetObjectItemCaseSensitive(one, "cells"))
+            snprintf(buf, size, "Refine every %s proxy cell", title);
+        else
+            snprintf(buf, size, "Refine %s (%d insertions)", title, cJSON_GetArraySize(ins));
+    } else if (!strcmp(op, "freeze")) {
+        const cJSON *frozen = cJSON_GetObjectItemCaseSensitive(body, "frozen");
+        snprintf(buf, size, "%s %d point%s", cJSON_IsFalse(frozen) ? "Unfreeze" : "Freeze", k,
+                 k == 1 ? "" : "s");
+    } else if (!strcmp(op, "frame")) {
+        snprintf(buf, size, "%s %d %s frame%s",
+                 cJSON_GetObjectItemCaseSensitive(body, "scale") ? "Scale" : "Turn", k, title,
+                 k == 1 ? "" : "s");
+    } else if (!strcmp(op, "curve")) {
+        snprintf(buf, size, "Add a %s curve", title);
+    } else if (!strcmp(op, "primitive") || !strcmp(op, "brush")) {
+        const cJSON *add = cJSON_GetObjectItemCaseSensitive(body, "add");
+        const cJSON *rm = cJSON_GetObjectItemCaseSensitive(body, "remove");
+        const cJSON *index = cJSON_GetObjectItemCaseSensitive(body, "index");
+        const cJSON *type = cJSON_GetObjectItemCaseSensitive(add, "type");
+        const char *what = !strcmp(op, "brush") ? "brush" : "primitive";
+        if (add)
+            snprintf(buf, size, "Add a %s%s%s", cJSON_IsString(type) ? type->valuestring : "",
+                     cJSON_IsString(type) ? " " : "", what);
+        else if (cJSON_IsNumber(rm))
+            snprintf(buf, size, "Remove %s %d", what, (int)rm->valuedouble);
+        else if (cJSON_IsNumber(index))
+            snprintf(buf, size, "Edit %s %d", what, (int)index->valuedouble);
+        else
+            snprintf(buf, size, "Edit a %s", what);
+    } else if (!strcmp(op, "level")) {
+        const cJSON *level = cJSON_GetObjectItemCaseSensitive(body, "level");
+        snprintf(buf, size, "Edit %s level %d", title,
+                 cJSON_IsNumber(level) ? (int)level->valuedouble : 0);
+    } else {
+        snprintf(buf, size, "%c%s (%s)", op[0] >= 'a' && op[0] <= 'z' ? op[0] - 'a' + 'A' : op[0],
+                 op + 1, title);
+    }
 }
 
 void sess_name_file(char *buf, size_t size, const char *verb, const char *path)
