@@ -827,6 +827,9 @@ FFD_API ffd_status ffd_session_resume(ffd_session *s, const char *text, size_t s
 /* Names the file the session is autosaved to (NULL: not autosaved) in the
  * state's "autosave" ("file"), so that the page can say where work goes. */
 FFD_API void ffd_session_set_autosave_file(ffd_session *s, const char *file);
+/* Sets key of the state's "autosave" to a JSON value (NULL: removes it);
+ * the server's notes to the page ("previous": an earlier record kept). */
+FFD_API void ffd_session_note_autosave(ffd_session *s, const char *key, const char *json);
 
 #ifdef __cplusplus
 }

@@ -424,21 +424,33 @@ ffd_status ffd_session_resume(ffd_session *s, const char *text, size_t size, con
     return FFD_OK;
 }
 
-void ffd_session_set_autosave_file(ffd_session *s, const char *file)
+void ffd_session_note_autosave(ffd_session *s, const char *key, const char *json)
 {
-    if (!s)
+    if (!s || !key)
         return;
     const char *old = sess_autosave_note(s);
     cJSON *note = old ? cJSON_Parse(old) : cJSON_CreateObject();
     if (!note)
         return;
-    cJSON_DeleteItemFromObjectCaseSensitive(note, "file");
+    cJSON_DeleteItemFromObjectCaseSensitive(note, key);
+    cJSON *value = json ? cJSON_Parse(json) : NULL;
     char *printed = NULL;
-    if (!file || cJSON_AddStringToObject(note, "file", file))
+    if (!json || ffd_sess_add_item(note, key, value))
         printed = cJSON_PrintUnformatted(note);
     cJSON_Delete(note);
     char *copy = printed ? ffd_strdup(printed) : NULL;
     cJSON_free(printed);
     if (copy)
         sess_set_autosave_note(s, copy);
+}
+
+void ffd_session_set_autosave_file(ffd_session *s, const char *file)
+{
+    cJSON *value = file ? cJSON_CreateString(file) : NULL;
+    char *printed = value ? cJSON_PrintUnformatted(value) : NULL;
+    cJSON_Delete(value);
+    if (file && !printed)
+        return;
+    ffd_session_note_autosave(s, "file", printed);
+    cJSON_free(printed);
 }

@@ -13,7 +13,9 @@
 # connection; GET /api/state answers while a long request holds the session.
 # Work is never lost: GET /api/history, POST /api/history/goto, the autosave
 # under ROOT/.ffd resumed by a server started again (after SIGKILL), written
-# on SIGTERM, kept aside when the mesh changed; --no-autosave writes nothing.
+# on SIGTERM, kept aside when the mesh changed; a mesh opened again from the
+# page starts anew, its earlier session kept aside and resumed by POST
+# /api/autosave/resume; --no-autosave writes nothing.
 # Raw connections use bash's /dev/tcp and curl --interface 127.0.0.2 (a
 # second loopback client address); nothing leaves 127.0.0.0/8.
 # The "session" part (a lattice, a drag, undo, rig and mesh round trips) needs
@@ -643,6 +645,28 @@ if [ -z "${FFD_SERVE_STUB:-}" ]; then
     has_body 'kept as .ffd/autosave-bunny.obj.not-applied.json'
     has_key method null
     stop a3
+    # opened again from the page: a new session; the earlier one kept aside and offered
+    AO=$T/reopen
+    mkdir -p "$AO"
+    cp "$SRC/examples/lattice/bunny.obj" "$AO/bunny.obj"
+    cp "$SRC/examples/tspline/cow.off" "$AO/cow.off"
+    start a5 "$AO/bunny.obj" --port 0 --root "$AO" --web "$T/no-page" || exit 1
+    req POST /api/create -d '{"deformer":"lattice","resolution":[3,3,3]}'
+    req POST /api/move -d '{"points":[13],"delta":[0,0.3,0]}'
+    req POST /api/open -d '{"path":"cow.off"}'
+    [ -f "$AO/.ffd/autosave-bunny.obj.json" ] || fail "opening another mesh did not write the session it replaced"
+    req POST /api/open -d '{"path":"bunny.obj"}'
+    has_key method null
+    has_key undo 0
+    has_body '"previous":{"file":".ffd/autosave-bunny.obj.previous.json"'
+    [ -f "$AO/.ffd/autosave-bunny.obj.previous.json" ] || fail "the earlier session of bunny.obj is not kept aside"
+    req POST /api/autosave/resume -d '{}'
+    [ "$CODE" = 200 ] || fail "POST /api/autosave/resume: HTTP $CODE: $(show)"
+    has_body '"steps":["Open bunny.obj","Create lattice 3×3×3","Drag control 13"],"current":2}'
+    [ -e "$AO/.ffd/autosave-bunny.obj.previous.json" ] && fail "the resumed earlier session is still kept aside"
+    post_json 409 conflict /api/autosave/resume '{}'
+    has_body 'no earlier session of bunny.obj is kept'
+    stop a5
     # --no-autosave: nothing written, nothing resumed
     AN=$T/noauto
     mkdir -p "$AN"

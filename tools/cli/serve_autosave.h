@@ -21,10 +21,18 @@ typedef struct serve_autosave serve_autosave;
 serve_autosave *serve_autosave_start(const char *root, pthread_mutex_t *lock,
                                      ffd_session **session, char *msg, size_t msg_size);
 /* Under the lock: the session was just made on mesh_path (resolved, under
- * the root; NULL: an upload, not autosaved). Resumes its record if there
- * is one (on stderr: what happened; the state's "autosave" says it to the
- * page). */
-void serve_autosave_opened(serve_autosave *a, ffd_session *s, const char *mesh_path);
+ * the root; NULL: an upload, not autosaved). resume (the server's start):
+ * resumes its record if there is one (stderr says what happened; the
+ * state's "autosave" says it to the page); a record not applied is kept as
+ * .not-applied.json. Else (opened from the page: a new session) a record
+ * is kept as .previous.json and the state's "autosave" offers it
+ * ("previous"). */
+void serve_autosave_opened(serve_autosave *a, ffd_session *s, const char *mesh_path, int resume);
+/* Under the lock (POST /api/autosave/resume): *session replaced by a new
+ * session on mesh_path that resumes the kept .previous.json (then removed).
+ * On error nothing changes. */
+ffd_status serve_autosave_resume_previous(serve_autosave *a, ffd_session **session,
+                                          const char *mesh_path, ffd_error *err);
 /* Under the lock, before the session is replaced: writes a pending change now. */
 void serve_autosave_flush(serve_autosave *a);
 /* The session changed: write it once it has been quiet for a while. */

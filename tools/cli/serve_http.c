@@ -81,6 +81,7 @@ typedef enum route {
     ROUTE_RIG_SAVE,
     ROUTE_EXPORT_SAVE,
     ROUTE_HISTORY,
+    ROUTE_AUTOSAVE_RESUME,
     ROUTE_OP
 } route;
 
@@ -118,6 +119,7 @@ static const struct api_route {
     {"/api/export/save", ROUTE_NONE, ROUTE_EXPORT_SAVE, "POST"},
     {"/api/history", ROUTE_HISTORY, ROUTE_NONE, "GET, HEAD"},
     {"/api/history/goto", ROUTE_NONE, ROUTE_OP, "POST"}, /* the "history_goto" op */
+    {"/api/autosave/resume", ROUTE_NONE, ROUTE_AUTOSAVE_RESUME, "POST"},
 };
 
 /* ======================================================================
@@ -720,7 +722,7 @@ static enum MHD_Result replace_session(serve_server *srv, struct MHD_Connection 
     srv->session = s;
     ffd_free(srv->mesh_path);
     srv->mesh_path = copy;
-    serve_autosave_opened(srv->autosave, s, copy); /* resumes its autosave */
+    serve_autosave_opened(srv->autosave, s, copy, 0); /* keeps an earlier record aside */
     return reply_state(srv, c, r);
 }
 
@@ -827,6 +829,18 @@ static enum MHD_Result get_history(const serve_server *srv, struct MHD_Connectio
     return answer_data(srv, c, r, json, size, "application/json", NULL);
 }
 
+/* POST /api/autosave/resume: the earlier session of this mesh kept at open. */
+static enum MHD_Result post_autosave_resume(serve_server *srv, struct MHD_Connection *c,
+                                            request *r)
+{
+    ffd_error err = {{0}};
+    ffd_status st = serve_autosave_resume_previous(srv->autosave, &srv->session, srv->mesh_path,
+                                                   &err);
+    if (st != FFD_OK)
+        return answer_status(srv, c, r, st, err.message);
+    return reply_state(srv, c, r);
+}
+
 /* {"path": rel, "bytes": n}: what a save wrote. */
 static enum MHD_Result answer_saved(const serve_server *srv, struct MHD_Connection *c,
                                     request *r, const char *rel, const char *abs)
@@ -929,6 +943,7 @@ static enum MHD_Result api(serve_server *srv, struct MHD_Connection *c, request 
     case ROUTE_RIG_SAVE: return post_rig_save(srv, c, r);
     case ROUTE_EXPORT_SAVE: return post_export_save(srv, c, r);
     case ROUTE_HISTORY: return get_history(srv, c, r);
+    case ROUTE_AUTOSAVE_RESUME: return post_autosave_resume(srv, c, r);
     default: break;
     }
     return answer_error(srv, c, r, MHD_HTTP_INTERNAL_SERVER_ERROR, "error", "unrouted request");
@@ -1485,7 +1500,7 @@ int serve_start(ffd_session *session, const serve_options *o, serve_server **out
         pthread_mutex_destroy(&srv->lock);
         goto fail;
     }
-    serve_autosave_opened(srv->autosave, session, srv->mesh_path); /* resumes its autosave */
+    serve_autosave_opened(srv->autosave, session, srv->mesh_path, 1); /* resumes its autosave */
     ensure_published(srv);
     /* no MHD_USE_ERROR_LOG: MHD never prints on its own. Of the 256
      * connections, one client address holds at most client_connections (MHD
