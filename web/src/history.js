@@ -32,9 +32,10 @@ export class History {
   section(s) {
     this.list = h('ol', { class: 'history-list', 'aria-label': 'History steps' });
     this.status = h('div', { class: 'hint-text history-status' });
+    this.earlier = h('div', { class: 'history-earlier', hidden: true });
     const sec = h('section', { class: 'history' },
       h('h3', { title: 'Every change is a named step: click one to go back to it (or forward again). A new change after going back drops the steps after it, like Undo.' }, 'History'),
-      this.list, this.status);
+      this.list, this.status, this.earlier);
     this.fill(s);
     return sec;
   }
@@ -75,8 +76,36 @@ export class History {
       if (this.status.textContent !== text) {
         this.status.textContent = text;
         this.status.classList.toggle('warn', a.resumed === false || !a.file);
-        this.status.title = a.file ? 'A restarted ffd serve on this mesh, or opening it again, resumes this session: state, pins and history' : '';
+        this.status.title = a.file ? 'A restarted ffd serve on this mesh resumes this session: state, pins and history' : '';
       }
+    }
+    if (this.earlier) {
+      const p = (s.autosave || {}).previous;
+      const key = p ? JSON.stringify([p.file, p.saved_unix, !!(s.undo || s.redo)]) : '';
+      if (this.earlier.dataset.key !== key) {
+        this.earlier.dataset.key = key;
+        this.earlier.hidden = !p;
+        this.earlier.replaceChildren(...(p ? [
+          h('span', { class: 'hint-text' }, `An earlier session of ${s.mesh && s.mesh.name} is kept (${p.steps} steps, saved ${when(p.saved_unix, p.saved)})`),
+          h('button', {
+            name: 'resume-earlier', onclick: () => this.resumeEarlier(),
+            title: `Bring back the earlier session of this mesh (${p.file}): its deformer, pins and history${s.undo || s.redo ? '. This session’s steps are replaced: you will be asked first' : ''}`,
+          }, '⟲ Resume it'),
+        ] : []));
+      }
+    }
+  }
+
+  /** POST /api/autosave/resume: the earlier session kept when the mesh was opened. */
+  async resumeEarlier() {
+    const s = this.ed.state || {};
+    if ((s.undo || s.redo) && !window.confirm(`Resume the earlier session of ${s.mesh && s.mesh.name}?\n\nThe ${s.undo + s.redo} steps of this session are replaced and cannot be undone.`)) return;
+    try {
+      const st = await api.post('/api/autosave/resume', {}, 'Resuming…');
+      await this.ed.applyState(st, { forceFrame: true });
+      this.ed.info(`Resumed your earlier session of ${st.mesh && st.mesh.name} (${st.history.steps.length} history steps)`);
+    } catch (e) {
+      this.ed.error(e);
     }
   }
 
@@ -126,14 +155,20 @@ export class History {
   /** Once per resumed record: where the session came from, or why it did not come back. */
   resumeNote(s) {
     const a = s.autosave;
+    if (a && a.previous) {
+      const key = `ffd-previous-${a.previous.file}-${a.previous.saved_unix}`;
+      if (this.notedPrevious !== key) {
+        this.notedPrevious = key;
+        this.ed.toast(`An earlier session of ${s.mesh && s.mesh.name} is kept (${a.previous.steps} steps, saved ${when(a.previous.saved_unix, a.previous.saved)}): History ▸ Resume it`, 'info', 8000);
+      }
+    }
     if (!a || a.resumed === undefined) return;
     const key = `ffd-resume-${s.mesh && s.mesh.name}-${a.saved_unix}-${a.resumed}`;
     if (this.noted === key) return;
     this.noted = key;
     try { if (sessionStorage.getItem(key)) return; sessionStorage.setItem(key, '1'); } catch { /* storage off: show it */ }
     if (a.resumed) {
-      const when = a.saved_unix ? new Date(a.saved_unix * 1000).toLocaleString() : a.saved;
-      this.ed.toast(`Resumed your session from ${when} (${a.steps} history steps)`, 'info', 8000);
+      this.ed.toast(`Resumed your session from ${when(a.saved_unix, a.saved)} (${a.steps} history steps)`, 'info', 8000);
     } else {
       this.ed.toast(`Your autosaved session was not applied: ${a.reason}`, 'error');
     }
@@ -163,9 +198,12 @@ export class History {
     const mesh = (s.mesh && s.mesh.name) || 'this mesh';
     const a = s.autosave || {};
     if (a.file) {
-      this.ed.info(`${mesh}: your session is autosaved (${a.file}) — open ${mesh} again to resume it`);
+      this.ed.info(`${mesh}: your session is autosaved (${a.file}) — open ${mesh} again and History ▸ Resume it brings it back`);
       return true;
     }
     return window.confirm(`Open ${what}?\n\nYour session of ${mesh} (${s.undo} steps) is not autosaved and will be lost: save its rig first (Rig ▸ Save on server) to keep it.`);
   }
 }
+
+/** A saved time in the reader's local time. */
+function when(unix, text) { return unix ? new Date(unix * 1000).toLocaleString() : text || '?'; }

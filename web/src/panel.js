@@ -95,7 +95,7 @@ export class Panel {
       h('div', { class: 'row' }, h('b', {}, m.name || '—'),
         h('span', { class: 'hint-text' }, m.vertices !== undefined ? `${fmtInt(m.vertices)} vertices · ${fmtInt(m.faces)} faces` : '')),
       h('div', { class: 'row' }, sel,
-        h('button', { onclick: () => this.form.meshFile && this.ed.openPath(this.form.meshFile), title: 'Open the chosen mesh: a new session (this one is autosaved and resumes when you open its mesh again)' }, 'Open'),
+        h('button', { onclick: () => this.form.meshFile && this.ed.openPath(this.form.meshFile), title: 'Open the chosen mesh: a new session (this one is autosaved: open its mesh again and History ▸ Resume it brings it back)' }, 'Open'),
         h('button', { onclick: () => this.loadFiles(), title: 'Refresh the file list' }, '⟲')),
       h('div', { class: 'row buttons' },
         h('button', { onclick: () => fileInput.click(), title: 'Upload a mesh from this computer: a new session (an uploaded mesh is not autosaved)' }, '⇪ Upload mesh…'), fileInput),

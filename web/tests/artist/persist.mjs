@@ -6,7 +6,9 @@
 // root resumes the autosaved session (state, pins, history), says so on
 // stderr and in the page, and `ffd deform --rig` of its rig (pins in it)
 // replays the frame; Re-create says it puts the mesh back at rest and is
-// undone by Ctrl+Z; the Undo/Redo counts follow every change.
+// undone by Ctrl+Z; the Undo/Redo counts follow every change; opening
+// another mesh and this one again starts anew and "Resume it" brings the
+// earlier session back.
 
 import {
   page, ed, check, must, note, shot, settle, mouseDrag, click, createViaPanel, pickableControls,
@@ -183,4 +185,29 @@ export async function stage() {
   const back = await frame();
   check(sameFrame(back, f3) < 1e-6 && (await state()).pins.length === s3.pins.length, `Ctrl+Z undoes the Re-create: the edits and the pin are back (max |diff| ${sameFrame(back, f3).toExponential(1)})`);
   note(`history: ${JSON.stringify((await state()).history.steps.slice(-4))}`);
+
+  // --- another mesh opened, then this one again: a new session, the earlier one offered -----
+  const before = await state();
+  await page.selectOption('select[name=mesh-file]', 'cow.off');
+  await page.click('#panel button:text-is("Open")');
+  await page.waitForFunction(() => window.ffdEditor.state.mesh.name === 'cow.off', null, { timeout: 20000 });
+  await settle();
+  await page.selectOption('select[name=mesh-file]', 'bunny.obj');
+  await page.click('#panel button:text-is("Open")');
+  await page.waitForFunction(() => window.ffdEditor.state.mesh.name === 'bunny.obj', null, { timeout: 20000 });
+  await settle();
+  const fresh = await state();
+  check(fresh.method === null && fresh.undo === 0 && fresh.autosave && fresh.autosave.previous && fresh.autosave.previous.steps === before.history.steps.length,
+    `bunny.obj opened again: a new session, the earlier one kept (${JSON.stringify(fresh.autosave && fresh.autosave.previous)})`);
+  const offer = page.locator('button[name=resume-earlier]');
+  await offer.scrollIntoViewIfNeeded();
+  await shot('artist-persist-earlier');
+  const ob = await offer.boundingBox();
+  await page.mouse.click(ob.x + ob.width / 2, ob.y + ob.height / 2);
+  await page.waitForFunction(() => window.ffdEditor.state.method === 'lattice', null, { timeout: 20000 });
+  await settle();
+  const again = await state();
+  const fa = await frame();
+  check(JSON.stringify(again.history) === JSON.stringify(before.history) && again.pins.length === before.pins.length && sameFrame(fa, f3) < 1e-5 && !(again.autosave || {}).previous,
+    `"Resume it" brings the earlier session back: ${again.history.steps.length} steps, current ${again.history.current}, ${again.pins.length} pin (max |diff| ${sameFrame(fa, f3).toExponential(1)})`);
 }
