@@ -157,7 +157,9 @@ BUNNY_SUM=$(cksum <"$ROOT/bunny.obj")
 OUT_SUM=$(cd "$OUT" && cat secret.obj secret.json secret.html | cksum)
 
 # 64 connections per client: "concurrent requests" below opens 60 at once
-start main "$ROOT/bunny.obj" --port 0 --root "$ROOT" --web "$T/web" --client-connections 64 || exit 1
+# --no-autosave here and below: the servers on this root start from a bare
+# session (the autosave has its own part at the end)
+start main "$ROOT/bunny.obj" --port 0 --root "$ROOT" --web "$T/web" --client-connections 64 --no-autosave || exit 1
 MAIN_PID=$PID
 MAIN_URL=$URL
 PORT=${URL##*:}
@@ -384,7 +386,7 @@ expect_ok POST /api/open --data-binary '{"path": "bunny.obj"}'
 has_body '"bunny.obj"'
 
 # ---- a second server: --max-upload 1 ----
-start small "$ROOT/bunny.obj" --port 0 --root "$ROOT" --max-upload 1 --web "$T/no-page" || exit 1
+start small "$ROOT/bunny.obj" --port 0 --no-autosave --root "$ROOT" --max-upload 1 --web "$T/no-page" || exit 1
 head -c $((1024 * 1024 + 1)) /dev/zero >"$T/big.stl"
 expect 413 too_large POST '/api/upload?name=big.stl' --data-binary @"$T/big.stl"
 expect 413 too_large POST '/api/upload?name=big.stl' -H 'Transfer-Encoding: chunked' \
@@ -420,7 +422,7 @@ close_idle() {
 state_from() {
     [ "$(curl -s --max-time 5 --interface "$1" -o /dev/null -w '%{http_code}' "$URL/api/state")" = 200 ]
 }
-start limits "$ROOT/bunny.obj" --port 0 --root "$ROOT" --web "$T/no-page" --client-connections 4 \
+start limits "$ROOT/bunny.obj" --port 0 --no-autosave --root "$ROOT" --web "$T/no-page" --client-connections 4 \
     --idle-timeout 2 || exit 1
 PORT=${URL##*:}
 IDLE=()
@@ -448,7 +450,7 @@ fi
 stop limits
 
 # ---- more idle clients than the server's 256 connections, at the defaults ----
-start crowd "$ROOT/bunny.obj" --port 0 --root "$ROOT" --web "$T/no-page" || exit 1
+start crowd "$ROOT/bunny.obj" --port 0 --no-autosave --root "$ROOT" --web "$T/no-page" || exit 1
 PORT=${URL##*:}
 idle 260
 closed "${IDLE[40]}" 2 || fail "defaults: the 41st idle connection of 127.0.0.1 was not closed at once"
@@ -470,12 +472,12 @@ PORT=${MAIN_URL##*:}
 # ---- a taken port; a non-loopback host ----
 bad 1 serve "$ROOT/bunny.obj" --port "$PORT" --root "$ROOT"
 has stderr "ffd: serve: cannot listen on 127.0.0.1:$PORT: Address already in use"
-start any "$ROOT/bunny.obj" --port 0 --host 0.0.0.0 --root "$ROOT" || exit 1
+start any "$ROOT/bunny.obj" --port 0 --no-autosave --host 0.0.0.0 --root "$ROOT" || exit 1
 grep -qF "ffd: warning: listening on 0.0.0.0: the editor has no authentication; anyone who can reach this port can read and write files under $(cd "$ROOT" && pwd -P)" "$T/any.err" ||
     fail "--host 0.0.0.0: no warning: $(cat "$T/any.err")"
 grep -qE '^ffd serve: http://0\.0\.0\.0:[0-9]+/$' "$T/any.out" || fail "--host 0.0.0.0: $(cat "$T/any.out")"
 stop any
-start local "$ROOT/bunny.obj" --port 0 --host localhost --root "$ROOT" --verbose || exit 1
+start local "$ROOT/bunny.obj" --port 0 --no-autosave --host localhost --root "$ROOT" --verbose || exit 1
 grep -q warning "$T/local.err" && fail "--host localhost warned: $(cat "$T/local.err")"
 req GET /api/state
 grep -qF 'GET /api/state 200' "$T/local.err" || fail "--verbose: no request line: $(cat "$T/local.err")"
