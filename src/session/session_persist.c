@@ -327,13 +327,13 @@ static ffd_status read_autosave(ffd_session *s, const cJSON *root, const char *n
         faces->valuedouble == (double)ffd_mesh_face_count(now))
         return ffd_fail(err, FFD_ERR_INVALID,
                         "%s: saved for another version of %s (the same %zu vertices and %zu faces, "
-                        "but other positions or faces: the mesh file changed since): not applied",
+                        "but other positions or faces: the mesh file changed since)",
                         name, ffd_session_name(s), ffd_mesh_vertex_count(now),
                         ffd_mesh_face_count(now));
     if (strcmp(own, hash->valuestring) != 0)
         return ffd_fail(err, FFD_ERR_INVALID,
                         "%s: saved for another version of %s (%.0f vertices and %.0f faces then, "
-                        "%zu and %zu now; the mesh file changed since): not applied",
+                        "%zu and %zu now; the mesh file changed since)",
                         name, ffd_session_name(s), vertices->valuedouble, faces->valuedouble,
                         ffd_mesh_vertex_count(now), ffd_mesh_face_count(now));
     const cJSON *steps = cJSON_GetObjectItemCaseSensitive(history, "steps");

@@ -5,7 +5,8 @@
 // comes back; the server killed (SIGKILL) and started again on the same
 // root resumes the autosaved session (state, pins, history), says so on
 // stderr and in the page, and `ffd deform --rig` of its rig (pins in it)
-// replays the frame; Re-create says it puts the mesh back at rest and is
+// replays the frame; an autosave of another version of the mesh is not
+// applied and the page says why; Re-create says it puts the mesh back at rest and is
 // undone by Ctrl+Z; the Undo/Redo counts follow every change; opening
 // another mesh and this one again starts anew and "Resume it" brings the
 // earlier session back.
@@ -14,7 +15,7 @@ import {
   page, ed, check, must, note, shot, settle, mouseDrag, click, createViaPanel, pickableControls,
   visibleVertices, gizmoArrow, replay, state, frame, maxAbsDiff, TMP, restartServer, api,
 } from '../harness.mjs';
-import { existsSync, readFileSync } from 'node:fs';
+import { existsSync, readFileSync, writeFileSync, copyFileSync } from 'node:fs';
 import path from 'node:path';
 
 async function openBunny() {
@@ -185,6 +186,32 @@ export async function stage() {
   const back = await frame();
   check(sameFrame(back, f3) < 1e-6 && (await state()).pins.length === s3.pins.length, `Ctrl+Z undoes the Re-create: the edits and the pin are back (max |diff| ${sameFrame(back, f3).toExponential(1)})`);
   note(`history: ${JSON.stringify((await state()).history.steps.slice(-4))}`);
+
+  // --- an autosave of another version of the mesh is not applied, and the page says why ---
+  await page.waitForTimeout(800); // the autosave's quiet time
+  const lines = readFileSync(path.join(TMP, 'bunny.obj'), 'utf8').split('\n');
+  const v0 = lines.findIndex((l) => l.startsWith('v '));
+  lines[v0] = 'v 0 0 0'; // the file changed: one vertex moved
+  writeFileSync(path.join(TMP, 'persist-moved.obj'), lines.join('\n'));
+  copyFileSync(record, path.join(TMP, '.ffd', 'autosave-persist-moved.obj.json'));
+  const refusal = await restartServer('persist-moved.obj');
+  check(/your autosaved session was not applied: .*saved for another version of persist-moved\.obj/.test(refusal), `a changed mesh file: stderr says the autosave was not applied: ${JSON.stringify(refusal.trim().slice(0, 160))}`);
+  await page.reload();
+  await page.waitForSelector('body[data-ready="1"]', { timeout: 30000 });
+  await settle();
+  const m = await state();
+  const why = await page.waitForSelector('#toasts .toast.error', { timeout: 5000 }).then((t) => t.textContent(), () => '');
+  const line = await ed(() => (document.querySelector('.history-status') || {}).textContent || '');
+  check(m.method === null && m.history.steps.length === 1 && /not applied: .*another version/.test(why) && /kept as \.ffd\/autosave-persist-moved\.obj\.not-applied\.json/.test(line),
+    `…and the page says why (a toast, and in History: ${JSON.stringify(line.slice(0, 120))}…), the session untouched`);
+  check(existsSync(path.join(TMP, '.ffd', 'autosave-persist-moved.obj.not-applied.json')), 'the record not applied is kept aside');
+  await ed(() => document.querySelector('section.history').scrollIntoView({ block: 'center' }));
+  await shot('artist-persist-not-applied');
+  await restartServer('bunny.obj'); // back on bunny.obj, resumed
+  await page.reload();
+  await page.waitForSelector('body[data-ready="1"]', { timeout: 30000 });
+  await settle();
+  await ed(() => document.querySelectorAll('#toasts .toast').forEach((t) => t.remove()));
 
   // --- another mesh opened, then this one again: a new session, the earlier one offered -----
   const before = await state();
