@@ -745,6 +745,8 @@ typedef struct ffd_session_options {
     size_t max_controls;       /* refuse deformers with more control points; default 2,000,000 */
     ffd_limits limits;         /* bounds on each operation's memory and work (ffd_limits;
                                   default: its defaults); a refused operation changes nothing */
+    size_t autosave_max_bytes; /* rig text an autosave record keeps (ffd_session_autosave);
+                                  default FFD_AUTOSAVE_MAX_BYTES */
 } ffd_session_options;
 
 /* Creates a session on mesh, which it takes over on success (destroyed with
@@ -806,6 +808,9 @@ FFD_API ffd_status ffd_session_history(const ffd_session *s, char **json, size_t
                                        ffd_error *err);
 /* The steps an autosave keeps: the newest, the present one among them. */
 #define FFD_AUTOSAVE_STEPS 100
+/* ... and at most this much rig text (ffd_session_options.autosave_max_bytes),
+ * the present step always. */
+#define FFD_AUTOSAVE_MAX_BYTES ((size_t)64 << 20)
 /* The session's record as JSON text (ffd_free): the mesh (name, mesh_path
  * when not NULL, vertex and face counts, a hash of its positions and
  * faces), the rig with pins, and the history, each step's name and rig.

@@ -503,6 +503,44 @@ static void test_structural_steps(void)
     ffd_session_destroy(t);
 }
 
+/* The record's byte budget: the present step always, then the steps
+ * before it, newest first, then those after it. */
+static void test_autosave_byte_budget(void)
+{
+    ffd_mesh *mesh = NULL;
+    ffd_session *s = NULL;
+    CHECK_OK(ffd_mesh_read(BUNNY, &mesh, NULL));
+    ffd_session_options o = {0};
+    o.autosave_max_bytes = 1;
+    CHECK_OK(ffd_session_create(mesh, "bunny.obj", &o, &s, NULL));
+    CHECK(run(s, "create", "{\"deformer\":\"lattice\",\"resolution\":[3,3,3]}", NULL) == FFD_OK);
+    for (int i = 0; i < 6; i++)
+        CHECK(run(s, "move", "{\"points\":[4],\"delta\":[0,0.01,0]}", NULL) == FFD_OK);
+    CHECK(run(s, "history_goto", "{\"index\":5}", NULL) == FFD_OK);
+    char *json = NULL;
+    size_t size = 0;
+    CHECK_OK(ffd_session_autosave_text(s, NULL, &json, &size, NULL));
+    cJSON *doc = cJSON_Parse(json);
+    const cJSON *h = cJSON_GetObjectItem(doc, "history");
+    /* one byte: only the present step (step 5 of 8) */
+    CHECK(cJSON_GetArraySize(cJSON_GetObjectItem(h, "steps")) == 1);
+    CHECK(cJSON_GetObjectItem(h, "current")->valueint == 0);
+    CHECK(cJSON_GetObjectItem(h, "dropped")->valueint == 5);
+    CHECK(!strcmp(cJSON_GetObjectItem(cJSON_GetArrayItem(cJSON_GetObjectItem(h, "steps"), 0), "name")->valuestring,
+                  "Drag control 4"));
+    cJSON_Delete(doc);
+    ffd_free(json);
+    ffd_session *t = open_session(BUNNY);
+    CHECK_OK(ffd_session_autosave_text(s, NULL, &json, &size, NULL));
+    CHECK_OK(ffd_session_resume(t, json, size, "autosave", NULL, NULL));
+    char a[512];
+    history_text(t, a, sizeof a);
+    CHECK(strcmp(a, "0|Drag control 4") == 0);
+    ffd_free(json);
+    ffd_session_destroy(t);
+    ffd_session_destroy(s);
+}
+
 static void test_allocation_failures(void)
 {
     /* every allocation of an autosave, a resume and a goto may fail: clean errors, no leaks */
@@ -541,6 +579,7 @@ int main(int argc, char **argv)
         {"autosave_and_resume", test_autosave_and_resume},
         {"autosave_cap", test_autosave_cap},
         {"structural_steps", test_structural_steps},
+        {"autosave_byte_budget", test_autosave_byte_budget},
         {"allocation_failures", test_allocation_failures},
     };
     return check_run(tests, sizeof tests / sizeof *tests, argc, argv);

@@ -1341,6 +1341,11 @@ ffd_status sess_history_rig(const ffd_session *s, size_t i, char **text, ffd_err
     return FFD_OK;
 }
 
+size_t sess_autosave_max_bytes(const ffd_session *s)
+{
+    return s->options.autosave_max_bytes ? s->options.autosave_max_bytes : FFD_AUTOSAVE_MAX_BYTES;
+}
+
 int sess_dragging(const ffd_session *s)
 {
     return s->drag.kind != DRAG_NONE;

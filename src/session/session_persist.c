@@ -194,6 +194,11 @@ static void time_text(time_t t, char out[32])
         snprintf(out, 32, "%lld", (long long)t);
 }
 
+static size_t text_size(const char *text)
+{
+    return text ? strlen(text) : 0;
+}
+
 /* A rig text as a JSON item (raw: printed as is) or null. */
 static cJSON *rig_item(char *text)
 {
@@ -221,6 +226,29 @@ ffd_status ffd_session_autosave_text(const ffd_session *s, const char *mesh_path
     if (first > current)
         first = current;
     size_t last = first + FFD_AUTOSAVE_STEPS < count ? first + FFD_AUTOSAVE_STEPS : count;
+    /* and at most autosave_max_bytes of rig text: the present, then the
+     * steps before it, newest first, then those after it */
+    char **texts = ffd_calloc(last - first, sizeof *texts);
+    if (!texts)
+        return ffd_fail(err, FFD_ERR_NOMEM, "autosave: out of memory");
+    ffd_status st = FFD_OK;
+    for (size_t i = first; !st && i < last; i++)
+        st = sess_history_rig(s, i, &texts[i - first], err);
+    size_t lo = current, hi = current + 1;
+    size_t bytes = text_size(texts[current - first]);
+    size_t budget = sess_autosave_max_bytes(s);
+    while (lo > first && bytes + text_size(texts[lo - 1 - first]) <= budget)
+        bytes += text_size(texts[--lo - first]);
+    while (hi < last && bytes + text_size(texts[hi - first]) <= budget)
+        bytes += text_size(texts[hi++ - first]);
+    for (size_t i = first; i < last; i++)
+        if (i < lo || i >= hi) {
+            ffd_free(texts[i - first]);
+            texts[i - first] = NULL;
+        }
+    char **kept = texts + (lo - first);
+    first = lo;
+    last = hi;
     /* every item goes into root as soon as it is made: root owns it, on error too */
     cJSON *root = cJSON_CreateObject();
     cJSON *mesh_obj = NULL, *h = NULL, *list = NULL;
@@ -234,7 +262,8 @@ ffd_status ffd_session_autosave_text(const ffd_session *s, const char *mesh_path
          cJSON_AddNumberToObject(mesh_obj, "vertices", (double)ffd_mesh_vertex_count(mesh)) &&
          cJSON_AddNumberToObject(mesh_obj, "faces", (double)ffd_mesh_face_count(mesh)) &&
          cJSON_AddStringToObject(mesh_obj, "hash", hash);
-    ffd_status st = ok ? FFD_OK : ffd_fail(err, FFD_ERR_NOMEM, "autosave: out of memory");
+    if (!st && !ok)
+        st = ffd_fail(err, FFD_ERR_NOMEM, "autosave: out of memory");
     char *text = NULL;
     if (!st && !(st = sess_state_rig(s, &text, err)))
         ok = ffd_sess_add_item(root, "rig", rig_item(text));
@@ -246,9 +275,14 @@ ffd_status ffd_session_autosave_text(const ffd_session *s, const char *mesh_path
         cJSON *step = cJSON_CreateObject();
         ok = ffd_sess_add_to_array(list, step) &&
              cJSON_AddStringToObject(step, "name", sess_history_name(s, i));
-        if (ok && !(st = sess_history_rig(s, i, &text, err)))
-            ok = ffd_sess_add_item(step, "rig", rig_item(text));
+        if (ok) {
+            ok = ffd_sess_add_item(step, "rig", rig_item(kept[i - first]));
+            kept[i - first] = NULL; /* rig_item took it */
+        }
     }
+    for (size_t i = 0; i < last - first; i++)
+        ffd_free(kept[i]);
+    ffd_free(texts);
     char *printed = !st && ok ? cJSON_Print(root) : NULL;
     cJSON_Delete(root);
     if (st)

@@ -28,6 +28,7 @@ const char *sess_history_name(const ffd_session *s, size_t i);
 /* Step i as rig text with pins (*text NULL: no deformer then; ffd_free). */
 ffd_status sess_history_rig(const ffd_session *s, size_t i, char **text, ffd_error *err);
 int sess_dragging(const ffd_session *s);
+size_t sess_autosave_max_bytes(const ffd_session *s);
 /* The "history_goto" op: {"index": i}, as many undo or redo as it takes. */
 ffd_status sess_op_history_goto(ffd_session *s, const ffd_rig_parser *p, const cJSON *body,
                                 ffd_error *err);
