@@ -669,6 +669,18 @@ if [ -z "${FFD_SERVE_STUB:-}" ]; then
     post_json 409 conflict /api/autosave/resume '{}'
     has_body 'no earlier session of bunny.obj is kept'
     stop a5
+    # a root where the record cannot be written: stderr and the state say so
+    AE=$T/unwritable
+    mkdir -p "$AE"
+    cp "$SRC/examples/lattice/bunny.obj" "$AE/bunny.obj"
+    printf 'not a directory\n' >"$AE/.ffd"
+    start a6 "$AE/bunny.obj" --port 0 --root "$AE" --web "$T/no-page" || exit 1
+    req POST /api/create -d '{"deformer":"lattice"}'
+    sleep 1
+    req POST /api/reset -d '{}'
+    has_body '"error":"'
+    grep -q "ffd: warning: autosave: .*autosave-bunny.obj.json" "$T/a6.err" || fail "a failed autosave: no warning: $(cat "$T/a6.err")"
+    stop a6
     # --no-autosave: nothing written, nothing resumed
     AN=$T/noauto
     mkdir -p "$AN"

@@ -55,9 +55,17 @@ static void write_record(serve_autosave *a)
         fprintf(stderr, "ffd: warning: autosave: %s\n", err.message);
         ffd_free(a->failed);
         a->failed = ffd_strdup(err.message);
+        /* the page says so too (the state's autosave.error, from the next change on) */
+        cJSON *msg = cJSON_CreateString(err.message);
+        char *printed = msg ? cJSON_PrintUnformatted(msg) : NULL;
+        if (printed)
+            ffd_session_note_autosave(*a->session, "error", printed);
+        cJSON_free(printed);
+        cJSON_Delete(msg);
     } else if (!st && a->failed) {
         ffd_free(a->failed);
         a->failed = NULL;
+        ffd_session_note_autosave(*a->session, "error", NULL);
     }
 }
 

@@ -70,12 +70,14 @@ export class History {
     }
     if (this.status) {
       const a = s.autosave || {};
-      const text = a.resumed === false
+      const text = a.error
+        ? `Autosave failed: ${a.error} — save the rig to keep your work`
+        : a.resumed === false
         ? `Your autosave was not applied: ${a.reason}`
         : a.file ? `Autosaved after each change to ${a.file}` : 'Autosave is off: this session lives in the server only (ffd serve --no-autosave, or an uploaded mesh)';
       if (this.status.textContent !== text) {
         this.status.textContent = text;
-        this.status.classList.toggle('warn', a.resumed === false || !a.file);
+        this.status.classList.toggle('warn', a.resumed === false || !a.file || !!a.error);
         this.status.title = a.file ? 'A restarted ffd serve on this mesh resumes this session: state, pins and history' : '';
       }
     }
