@@ -37,7 +37,17 @@ export class History {
       h('h3', { title: 'Every change is a named step: click one to go back to it (or forward again). A new change after going back drops the steps after it, like Undo.' }, 'History'),
       this.list, this.status, this.earlier);
     this.fill(s);
+    requestAnimationFrame(() => this.showCurrent()); // once the panel holds it
     return sec;
+  }
+
+  /** The present step in view inside the list only (never scrolls the panel). */
+  showCurrent() {
+    const cur = this.list && this.list.querySelector('.current');
+    if (!cur) return;
+    const l = this.list.getBoundingClientRect(), c = cur.getBoundingClientRect();
+    if (c.top < l.top) this.list.scrollTop -= l.top - c.top;
+    else if (c.bottom > l.bottom) this.list.scrollTop += c.bottom - l.bottom;
   }
 
   /** Every state: the list, the counts, the resume note and the after-action toasts. */
@@ -65,8 +75,7 @@ export class History {
           onkeydown: (e) => { if (e.key === 'Enter' || e.key === ' ') { e.preventDefault(); this.goto(i); } },
         }, h('span', { class: 'n' }, String(i)), h('span', { class: 'name' }, name));
       }));
-      const cur = this.list.querySelector('.current');
-      if (cur && cur.scrollIntoView) cur.scrollIntoView({ block: 'nearest' });
+      this.showCurrent();
     }
     if (this.status) {
       const a = s.autosave || {};
@@ -104,8 +113,7 @@ export class History {
     if ((s.undo || s.redo) && !window.confirm(`Resume the earlier session of ${s.mesh && s.mesh.name}?\n\nThe ${s.undo + s.redo} steps of this session are replaced and cannot be undone.`)) return;
     try {
       const st = await api.post('/api/autosave/resume', {}, 'Resuming…');
-      await this.ed.applyState(st, { forceFrame: true });
-      this.ed.info(`Resumed your earlier session of ${st.mesh && st.mesh.name} (${st.history.steps.length} history steps)`);
+      await this.ed.applyState(st, { forceFrame: true }); // its autosave note makes the toast
     } catch (e) {
       this.ed.error(e);
     }
