@@ -73,7 +73,10 @@ export async function stage() {
   await page.waitForTimeout(300);
   const arrow = await gizmoArrow('Y');
   must(!!arrow, "the gizmo's Y arrow on screen");
+  await ed(() => { document.getElementById('panel').scrollTop = 0; });
   await mouseDrag(arrow.from, { x: arrow.from.x + arrow.dir.x * 70, y: arrow.from.y + arrow.dir.y * 70 }, 12);
+  const panelTop = await ed(() => document.getElementById('panel').scrollTop);
+  check(panelTop === 0, `the History section's update does not scroll the panel (scrollTop ${panelTop})`);
   const s2 = await state();
   const f2 = await frame();
   check(s2.undo === s1.undo + 1 && sameFrame(f1, f2) > 1e-4, `gizmo drag of control ${pickable[0].id}: one step (undo ${s1.undo} -> ${s2.undo})`);
