@@ -1362,6 +1362,60 @@ void sess_set_autosave_note(ffd_session *s, char *json)
     s->autosave_note = json;
 }
 
+/* A jump of n >= 2 steps over entries that all rebuild from rig text (a
+ * resumed history, structural steps): only the target is built. The top n
+ * entries E_1 (top) .. E_n of from go to to as the states they leave:
+ * the present (named E_1's label), then E_i's state named E_{i+1}'s label;
+ * E_n's state becomes the present. 1: not such a jump (nothing changed). */
+static int jump_rebuilding(ffd_session *s, undo_stack *from, undo_stack *to, size_t n,
+                           ffd_status *status, ffd_error *err)
+{
+    if (n < 2 || n > from->count)
+        return 1;
+    undo_entry *top = from->items + from->count - 1, *deep = from->items + from->count - n;
+    for (undo_entry *e = deep; e <= top; e++)
+        if (e->kind != UNDO_REBUILD)
+            return 1;
+    /* all that can fail first: the target, the present's entry, room on to */
+    sess_method *m = NULL;
+    undo_entry present;
+    ffd_status st = deep->rig ? method_from_text(&s->ctx, deep->rig, strlen(deep->rig),
+                                                 "history_goto", NULL, &m, err)
+                              : FFD_OK;
+    if (!st && (st = capture(s, UNDO_REBUILD, top->label, &present, err))) {
+        if (m)
+            m->vt->destroy(m);
+    }
+    if (!st && !ffd_grow((void **)&to->items, &to->cap, to->count + n, sizeof *to->items)) {
+        entry_free(&present);
+        if (m)
+            m->vt->destroy(m);
+        st = ffd_fail(err, FFD_ERR_NOMEM, "history_goto: out of memory");
+    }
+    *status = st;
+    if (st)
+        return 0;
+    stack_push(s, to, &present, NULL); /* cannot fail: room made */
+    for (undo_entry *e = top; e > deep; e--) {
+        undo_entry moved = *e; /* E_i's state, named after E_{i+1} */
+        snprintf(moved.label, sizeof moved.label, "%s", (e - 1)->label);
+        memset(e, 0, sizeof *e);
+        stack_push(s, to, &moved, NULL);
+    }
+    if (s->method)
+        s->method->vt->destroy(s->method);
+    s->method = m;
+    ffd_free(s->pins);
+    s->pins = deep->pins;
+    s->pin_count = deep->pin_count;
+    deep->pins = NULL;
+    entry_free(deep);
+    from->count -= n;
+    s->residual_count = 0;
+    *status = refresh(s, err);
+    return 0;
+}
+
 ffd_status sess_op_history_goto(ffd_session *s, const ffd_rig_parser *p, const cJSON *body,
                                 ffd_error *err)
 {
@@ -1381,6 +1435,12 @@ ffd_status sess_op_history_goto(ffd_session *s, const ffd_rig_parser *p, const c
         return ffd_fail(err, FFD_ERR_RANGE,
                         "history_goto: index: %u out of range (the history has %zu steps, 0 to %zu)",
                         index, count, count - 1);
+    if (s->undo.count > index &&
+        !jump_rebuilding(s, &s->undo, &s->redo, s->undo.count - index, &st, err))
+        return st;
+    if (s->undo.count < index &&
+        !jump_rebuilding(s, &s->redo, &s->undo, index - s->undo.count, &st, err))
+        return st;
     while (!st && s->undo.count > index)
         st = undo_redo(s, &s->undo, &s->redo, "history_goto", err);
     while (!st && s->undo.count < index)
