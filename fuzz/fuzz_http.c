@@ -49,7 +49,7 @@ static int start(void)
     if (ffd_mesh_read(path, &mesh, NULL) != FFD_OK ||
         ffd_session_create(mesh, "cube.obj", &options, &session, NULL) != FFD_OK)
         return -1;
-    serve_options o = {"127.0.0.1", 0, root, root, path, 1 << 20, 0, 0, 0}; /* default limits */
+    serve_options o = {"127.0.0.1", 0, root, root, path, 1 << 20, 0, 0, 0, 0}; /* default limits, no autosave */
     char msg[256];
     if (serve_start(session, &o, &server, msg, sizeof msg) != 0) {
         fprintf(stderr, "fuzz_http: %s\n", msg);

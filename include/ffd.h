@@ -765,6 +765,8 @@ typedef struct ffd_session_options {
     size_t max_controls;       /* refuse deformers with more control points; default 2,000,000 */
     ffd_limits limits;         /* bounds on each operation's memory and work (ffd_limits;
                                   default: its defaults); a refused operation changes nothing */
+    size_t autosave_max_bytes; /* rig text an autosave record keeps (ffd_session_autosave);
+                                  default FFD_AUTOSAVE_MAX_BYTES */
 } ffd_session_options;
 
 /* Creates a session on mesh, which it takes over on success (destroyed with
@@ -872,6 +874,41 @@ FFD_API ffd_status ffd_session_deformed_mesh(const ffd_session *s, size_t index,
 FFD_API ffd_status ffd_session_export_mesh(const ffd_session *s, size_t index,
                                            const ffd_write_options *options, void **data,
                                            size_t *size, ffd_error *err);
+/* Work is never lost (docs/editor.md "Work is never lost"). The history:
+ * {"current": i, "steps": ["Open bunny.obj", "Create lattice 5×5×5", ...]},
+ * the named steps of undo/redo, the present one current (the "history_goto"
+ * op jumps to any of them); the state carries it as "history" too. */
+FFD_API ffd_status ffd_session_history(const ffd_session *s, char **json, size_t *size,
+                                       ffd_error *err);
+/* The steps an autosave keeps: the newest, the present one among them. */
+#define FFD_AUTOSAVE_STEPS 100
+/* ... and at most this much rig text (ffd_session_options.autosave_max_bytes),
+ * the present step always. */
+#define FFD_AUTOSAVE_MAX_BYTES ((size_t)64 << 20)
+/* The session's record as JSON text (ffd_free): the mesh (name, mesh_path
+ * when not NULL, vertex and face counts, a hash of its positions and
+ * faces), the rig with pins, and the history, each step's name and rig.
+ * A conflict (FFD_ERR_INVALID) during a drag: only whole steps are saved. */
+FFD_API ffd_status ffd_session_autosave_text(const ffd_session *s, const char *mesh_path,
+                                             char **json, size_t *size, ffd_error *err);
+/* Writes it to path atomically (a temporary file renamed over path). */
+FFD_API ffd_status ffd_session_autosave(const ffd_session *s, const char *path,
+                                        const char *mesh_path, ffd_error *err);
+/* Brings back a record ffd_session_autosave wrote (name names it in
+ * messages) into a session just created on the same mesh: its state,
+ * pins and history. A record of another version of the mesh (its hash
+ * differs), a malformed one, or a session with changes already is refused
+ * and nothing changes. Either way the state's "autosave" says what
+ * happened ({"resumed": true, "saved": time, ...} or {"resumed": false,
+ * "reason": message, where the server keeps the record: kept_as}). */
+FFD_API ffd_status ffd_session_resume(ffd_session *s, const char *text, size_t size,
+                                      const char *name, const char *kept_as, ffd_error *err);
+/* Names the file the session is autosaved to (NULL: not autosaved) in the
+ * state's "autosave" ("file"), so that the page can say where work goes. */
+FFD_API void ffd_session_set_autosave_file(ffd_session *s, const char *file);
+/* Sets key of the state's "autosave" to a JSON value (NULL: removes it);
+ * the server's notes to the page ("previous": an earlier record kept). */
+FFD_API void ffd_session_note_autosave(ffd_session *s, const char *key, const char *json);
 
 #ifdef __cplusplus
 }

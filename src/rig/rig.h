@@ -14,6 +14,14 @@ typedef enum ffd_rig_constraint_kind {
     FFD_RIG_CONSTRAINT_POINT       /* an arbitrary point (rest position) inside the control volume */
 } ffd_rig_constraint_kind;
 
+/* A direct-manipulation pin the editor kept (docs/rig.md "pins"): a mesh
+ * vertex held at a target. A record of the editing session: the rig's
+ * moves already hold the deformation, so pins change no deform. */
+typedef struct ffd_rig_pin {
+    uint32_t vertex;
+    double target[3];
+} ffd_rig_pin;
+
 typedef struct ffd_rig_constraint {
     ffd_rig_constraint_kind kind;
     uint32_t vertex;   /* kind == VERTEX */
@@ -42,6 +50,8 @@ struct ffd_rig {
     size_t move_count;
     ffd_rig_constraint *constraints;
     size_t constraint_count;
+    ffd_rig_pin *pins;       /* "pins" (rig_pins.c), in the order given */
+    size_t pin_count;
     struct ffd_rig_layers *layers; /* the generic layers every method shares: weights,
                                       strength, constraints, fold policy (rig_layers.c);
                                       NULL when the rig has none */
@@ -137,5 +147,9 @@ ffd_rig_layers *ffd_rig_layers_copy(const ffd_rig_layers *layers);
 /* A zeroed rig of the registry's default method with its defaults (bspline,
  * 5x5x5, auto box, margin 0.05). NULL on OOM. */
 ffd_rig *ffd_rig_new(const char *name);
+
+/* FFD_ERR_RANGE when a pin's vertex is not one of a mesh of n vertices:
+ * "NAME: pins[i].vertex: V out of range: the mesh has n vertices". */
+ffd_status ffd_rig_check_pins(const ffd_rig *rig, size_t n, ffd_error *err);
 
 #endif

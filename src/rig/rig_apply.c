@@ -260,6 +260,9 @@ ffd_status ffd_rig_apply_limited(const ffd_rig *rig, ffd_mesh *mesh, const ffd_l
     const ffd_method *method = ffd_method_of_rig(rig);
     if (!method)
         return ffd_fail(err, FFD_ERR_INVALID, "%s: unknown deformer", rig->name);
+    ffd_status pins = ffd_rig_check_pins(rig, ffd_mesh_vertex_count(mesh), err);
+    if (pins)
+        return pins;
     /* read before apply: a method may replace the mesh's arrays */
     size_t cells = ffd_mesh_cell_count(mesh), faces = ffd_mesh_face_count(mesh);
     int volume = ffd_mesh_is_volume(mesh);

@@ -51,6 +51,7 @@ void ffd_rig_destroy(ffd_rig *rig)
         return;
     ffd_free(rig->name);
     ffd_free(rig->constraints);
+    ffd_free(rig->pins);
     ffd_rig_layers_free(rig->layers);
     if (rig->method && rig->method->release)
         rig->method->release(rig);
@@ -546,12 +547,17 @@ static ffd_status read_root(const ffd_rig_parser *p, const cJSON *root, ffd_rig 
     /* the generic layers (rig_layers.c) are read here, for every method, and
      * the method's reader reads the rest */
     ffd_status s = ffd_rig_read_layers(p, root, rig);
-    if (s || !rig->layers)
+    int pins = cJSON_GetObjectItemCaseSensitive(root, "pins") != NULL;
+    if (!s && pins)
+        s = ffd_rig_read_pins(p, cJSON_GetObjectItemCaseSensitive(root, "pins"), rig);
+    if (s || (!rig->layers && !pins))
         return s ? s : method->parse(p, root, rig);
     unsigned long oom = ffd_json_alloc_failures();
     cJSON *rest = cJSON_Duplicate(root, 1);
     for (size_t i = 0; rest && ffd_rig_layer_keys[i]; i++)
         cJSON_DeleteItemFromObjectCaseSensitive(rest, ffd_rig_layer_keys[i]);
+    if (rest)
+        cJSON_DeleteItemFromObjectCaseSensitive(rest, "pins");
     s = rest && ffd_json_alloc_failures() == oom
             ? method->parse(p, rest, rig)
             : ffd_fail(p->err, FFD_ERR_NOMEM, "%s: out of memory", p->name);
@@ -712,7 +718,9 @@ ffd_status ffd_rig_write_json(const ffd_rig *rig, char **text, ffd_error *err)
              (!rig->limit_step || cJSON_AddTrueToObject(root, "limit_step")) &&
              (!rig->constraint_count ||
               ffd_sess_add_item(root, "constraints", constraints_json(rig))) &&
-             ffd_rig_write_layers(rig->layers, root);
+             ffd_rig_write_layers(rig->layers, root) &&
+             (!rig->pin_count ||
+              ffd_sess_add_item(root, "pins", ffd_rig_pins_json(rig->pins, rig->pin_count)));
     char *printed = ok ? cJSON_Print(root) : NULL;
     cJSON_Delete(root);
     *text = printed ? ffd_strdup(printed) : NULL;

@@ -125,6 +125,13 @@ ffd_status ffd_rig_read_layers(const ffd_rig_parser *p, const cJSON *root, ffd_r
  * out of memory (1 for NULL layers). */
 int ffd_rig_write_layers(const ffd_rig_layers *layers, cJSON *root);
 
+/* "pins" (rig_pins.c): [{"vertex": id, "target": [x,y,z]}, ...], each
+ * vertex once, into rig->pins. The vertex ids are checked against a mesh
+ * by ffd_rig_check_pins (rig.h), when the rig is applied or loaded. */
+ffd_status ffd_rig_read_pins(const ffd_rig_parser *p, const cJSON *item, ffd_rig *rig);
+/* The pins as ffd_rig_read_pins reads them (NULL: out of memory). */
+cJSON *ffd_rig_pins_json(const ffd_rig_pin *pins, size_t count);
+
 /* The section reader of each method (ffd_method.parse, one file each): the
  * whole root object of a rig of that method, into rig (which it tags with
  * the method); what it read stays in rig for ffd_rig_destroy, on error too. */

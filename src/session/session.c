@@ -2,6 +2,7 @@
  * one method (session.h), pins, the drag in progress, undo/redo, and the
  * frame / state / rig / export views of it. docs/editor.md lists the ops. */
 #include "session/session.h"
+#include "session/session_persist.h"
 #include "deformer/method.h"
 
 #include "mesh/mesh.h"
@@ -14,10 +15,7 @@
 
 enum { UNDO_STATE = 1, UNDO_REBUILD, UNDO_SWAP };
 
-typedef struct pin {
-    uint32_t vertex;
-    double target[3];
-} pin;
+typedef ffd_rig_pin pin; /* the rig's pins are the session's (docs/rig.md "pins") */
 
 typedef struct undo_entry {
     int kind;
@@ -27,7 +25,9 @@ typedef struct undo_entry {
     const sess_vtable *blob_vt;
     pin *pins;            /* the pins (always) */
     size_t pin_count;
-    char label[32];
+    char label[SESS_STEP_NAME]; /* the history step's name: the change made from this state */
+    char *state_rig;      /* this state as rig text with its pins (NULL: no deformer): the
+                             history's record (session_persist.c) */
 } undo_entry;
 
 typedef struct undo_stack {
@@ -77,6 +77,8 @@ struct ffd_session {
     double weights_stroke; /* the last "weights" op's stroke id and the revision it made */
     uint32_t weights_revision;
     sess_frames *frames;   /* delta frames for drag steps (session_frame.c) */
+    char first_step[SESS_STEP_NAME]; /* the name of the history's first step */
+    char *autosave_note;   /* JSON object for the state's "autosave" (session_persist.c) */
 };
 
 /* ---------- small utilities ---------- */
@@ -106,6 +108,7 @@ static void entry_free(undo_entry *e)
     if (e->method)
         e->method->vt->destroy(e->method);
     ffd_free(e->pins);
+    ffd_free(e->state_rig);
     memset(e, 0, sizeof *e);
 }
 
@@ -119,6 +122,8 @@ static void stack_clear(undo_stack *st)
 static ffd_status stack_push(ffd_session *s, undo_stack *st, undo_entry *e, ffd_error *err)
 {
     if (st->count == s->options.max_undo) {
+        if (st == &s->undo) /* the oldest step goes: the next one is the first */
+            snprintf(s->first_step, sizeof s->first_step, "%s", st->items[0].label);
         entry_free(&st->items[0]);
         memmove(st->items, st->items + 1, (st->count - 1) * sizeof *st->items);
         st->count--;
@@ -190,8 +195,12 @@ static ffd_status capture(ffd_session *s, int kind, const char *label, undo_entr
     e->kind = kind;
     snprintf(e->label, sizeof e->label, "%s", label);
     ffd_status st = copy_pins(s, &e->pins, &e->pin_count, err);
-    if (st)
+    if (!st)
+        st = sess_state_rig(s, &e->state_rig, err);
+    if (st) {
+        entry_free(e);
         return st;
+    }
     if (kind == UNDO_STATE && s->method) {
         e->blob_vt = s->method->vt;
         st = s->method->vt->snapshot(s->method, &e->blob, err);
@@ -212,8 +221,11 @@ static ffd_status apply_entry(ffd_session *s, undo_entry *e, undo_entry *inverse
         memset(inverse, 0, sizeof *inverse);
         inverse->kind = UNDO_SWAP;
         snprintf(inverse->label, sizeof inverse->label, "%s", e->label);
-        if ((st = copy_pins(s, &inverse->pins, &inverse->pin_count, err)))
+        if ((st = copy_pins(s, &inverse->pins, &inverse->pin_count, err)) ||
+            (st = sess_state_rig(s, &inverse->state_rig, err))) {
+            entry_free(inverse);
             return st;
+        }
         inverse->method = s->method;
         s->method = e->method;
         e->method = NULL;
@@ -225,9 +237,10 @@ static ffd_status apply_entry(ffd_session *s, undo_entry *e, undo_entry *inverse
                 st = ffd_fail(err, FFD_ERR_INVALID, "undo: the history does not match the deformer");
             else
                 st = s->method->vt->restore(s->method, e->blob, err);
-        } else if (e->kind == UNDO_REBUILD && e->rig) {
+        } else if (e->kind == UNDO_REBUILD) { /* no rig: no deformer (a resumed history) */
             sess_method *m = NULL;
-            st = method_from_text(&s->ctx, e->rig, strlen(e->rig), "undo", NULL, &m, err);
+            if (e->rig)
+                st = method_from_text(&s->ctx, e->rig, strlen(e->rig), "undo", NULL, &m, err);
             if (!st) {
                 if (s->method)
                     s->method->vt->destroy(s->method);
@@ -329,7 +342,9 @@ static ffd_status op_create(ffd_session *s, const ffd_rig_parser *p, const cJSON
     st = ffd_method_create(method, &s->ctx, body, &m, err);
     if (st)
         return st;
-    return install(s, m, "create", err);
+    char label[SESS_STEP_NAME];
+    sess_name_create(label, sizeof label, method->name, body);
+    return install(s, m, label, err);
 }
 
 ffd_status ffd_session_load_rig(ffd_session *s, const char *text, size_t size, const char *name,
@@ -344,10 +359,35 @@ ffd_status ffd_session_load_rig(ffd_session *s, const char *text, size_t size, c
      * server's directory only files under it */
     const ffd_rig_files files = {root};
     sess_method *m = NULL;
-    ffd_status st = method_from_text(&s->ctx, text, size, name, &files, &m, err);
-    if (st)
+    ffd_rig *rig = NULL;
+    pin *pins = NULL;
+    size_t pin_count = 0;
+    /* the rig's pins come back with it (docs/rig.md "pins") */
+    ffd_status st = ffd_rig_parse_json_files(text, size, name, &files, &rig, err);
+    if (!st)
+        st = ffd_rig_check_pins(rig, s->ctx.n, err);
+    if (!st && rig->pin_count) {
+        pins = ffd_malloc_array(rig->pin_count, sizeof *pins);
+        if (!pins)
+            st = ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory for pins", name);
+        else
+            memcpy(pins, rig->pins, rig->pin_count * sizeof *pins);
+        pin_count = rig->pin_count;
+    }
+    if (!st)
+        st = method_from_rig(&s->ctx, rig, &m, err);
+    ffd_rig_destroy(rig);
+    char label[SESS_STEP_NAME];
+    sess_name_file(label, sizeof label, "Load rig", name);
+    if (!st)
+        st = install(s, m, label, err);
+    if (st) {
+        ffd_free(pins);
         return st;
-    return install(s, m, "load rig", err);
+    }
+    s->pins = pins;
+    s->pin_count = pin_count;
+    return FFD_OK;
 }
 
 /* ---------- direct manipulation ---------- */
@@ -497,6 +537,7 @@ static ffd_status drag_begin_controls(ffd_session *s, const ffd_rig_parser *p, c
         return st;
     memcpy(d->center, c, sizeof c);
     d->kind = DRAG_CONTROLS;
+    sess_name_drag(d->before.label, sizeof d->before.label, d->mode, d->ids, d->k);
     return m->vt->begin(m, d->ids, d->k, arap ? cJSON_IsTrue(arap) : 1, err);
 }
 
@@ -522,6 +563,7 @@ static ffd_status op_drag_begin(ffd_session *s, const ffd_rig_parser *p, const c
                           v, s->ctx.n);
         if (!st && !(st = s->method->vt->begin(s->method, NULL, 0, 0, err))) {
             d->kind = DRAG_VERTEX;
+            snprintf(d->before.label, sizeof d->before.label, "Drag vertex %u", v);
             if ((st = dm_setup(s, v, "drag_begin", err)))
                 s->method->vt->end(s->method, 0);
         }
@@ -691,11 +733,14 @@ static ffd_status op_pin(ffd_session *s, const ffd_rig_parser *p, const cJSON *b
     if (!ffd_sess_caps(s->method)->linear_map)
         return conflict(err, "this method has no direct manipulation of mesh points", "pin");
     undo_entry before;
-    if ((st = capture(s, UNDO_STATE, "pin", &before, err)))
-        return st;
+    char label[SESS_STEP_NAME];
     size_t i = 0;
     while (i < s->pin_count && s->pins[i].vertex != v)
         i++;
+    snprintf(label, sizeof label, i < s->pin_count ? "Move the pin of vertex %u" : "Pin vertex %u",
+             v);
+    if ((st = capture(s, UNDO_STATE, label, &before, err)))
+        return st;
     if (i == s->pin_count) {
         pin *grown = ffd_realloc_array(s->pins, s->pin_count + 1, sizeof *grown);
         if (!grown) {
@@ -750,7 +795,13 @@ static ffd_status op_unpin(ffd_session *s, const ffd_rig_parser *p, const cJSON 
     if (s->pin_count == 0)
         return conflict(err, "there are no pins", "unpin");
     undo_entry before;
-    if ((st = capture(s, UNDO_STATE, "unpin", &before, err)))
+    char label[SESS_STEP_NAME];
+    if (all)
+        snprintf(label, sizeof label, "Unpin all (%zu pin%s)", s->pin_count,
+                 s->pin_count == 1 ? "" : "s");
+    else
+        snprintf(label, sizeof label, "Unpin vertex %u", v);
+    if ((st = capture(s, UNDO_STATE, label, &before, err)))
         return st;
     if (all) {
         s->pin_count = 0;
@@ -769,7 +820,7 @@ static ffd_status op_reset(ffd_session *s, ffd_error *err)
 {
     ffd_status st = need_method(s, "reset", err);
     undo_entry before;
-    if (st || (st = capture(s, UNDO_STATE, "reset", &before, err)))
+    if (st || (st = capture(s, UNDO_STATE, "Reset to rest", &before, err)))
         return st;
     if ((st = s->method->vt->reset(s->method, err)) || (st = refresh(s, err)))
         return roll_back(s, &before, st);
@@ -822,9 +873,11 @@ static ffd_status op_method(ffd_session *s, const char *op, const cJSON *body, f
     if (st)
         return st;
     undo_entry state, rebuild;
-    if ((st = capture(s, UNDO_STATE, op, &state, err)))
+    char label[SESS_STEP_NAME];
+    sess_name_op(label, sizeof label, ffd_sess_caps(s->method)->name, op, body);
+    if ((st = capture(s, UNDO_STATE, label, &state, err)))
         return st;
-    if ((st = capture(s, UNDO_REBUILD, op, &rebuild, err))) {
+    if ((st = capture(s, UNDO_REBUILD, label, &rebuild, err))) {
         entry_free(&state);
         return st;
     }
@@ -1015,6 +1068,8 @@ ffd_status ffd_session_command(ffd_session *s, const char *op, const char *body,
         st = empty ? undo_redo(s, &s->undo, &s->redo, op, err) : ffd_rig_expected(&p, "body", "{}");
     else if (!strcmp(op, "redo"))
         st = empty ? undo_redo(s, &s->redo, &s->undo, op, err) : ffd_rig_expected(&p, "body", "{}");
+    else if (!strcmp(op, "history_goto"))
+        st = sess_op_history_goto(s, &p, doc, err);
     else if (!strcmp(op, "influence")) {
         st = op_influence(s, &p, doc, reply, reply_size, err);
         cJSON_Delete(doc);
@@ -1046,7 +1101,7 @@ ffd_status ffd_session_command(ffd_session *s, const char *op, const char *body,
 static const char *const session_ops[] = {"create", "drag_begin", "drag",  "drag_end", "drag_cancel",
                                           "move",   "pin",        "unpin", "influence", "reset",
                                           "undo",   "redo",       "weights", "weights_values",
-                                          "remove_mesh"};
+                                          "remove_mesh", "history_goto"};
 
 const char *ffd_session_op_name(size_t i)
 {
@@ -1228,6 +1283,7 @@ ffd_status ffd_session_state(const ffd_session *s, char **json, size_t *size, ff
         ok = cJSON_AddStringToObject(root, "undo_label", s->undo.items[s->undo.count - 1].label) != NULL;
     if (ok && s->redo.count)
         ok = cJSON_AddStringToObject(root, "redo_label", s->redo.items[s->redo.count - 1].label) != NULL;
+    ok = ok && sess_persist_state(s, root); /* "history", "autosave" (session_persist.c) */
     char *printed = ok ? cJSON_PrintUnformatted(root) : NULL;
     cJSON_Delete(root);
     if (!printed)
@@ -1244,7 +1300,7 @@ ffd_status ffd_session_rig(const ffd_session *s, char **json, size_t *size, ffd_
 {
     if (!s->method)
         return conflict(err, "no deformer: create one first", "rig");
-    ffd_status st = ffd_sess_rig_text(s->method, json, err);
+    ffd_status st = sess_state_rig(s, json, err); /* with the pins */
     if (!st)
         *size = strlen(*json);
     return st;
@@ -1324,6 +1380,7 @@ ffd_status ffd_session_create(ffd_mesh *mesh, const char *name, const ffd_sessio
         return ffd_fail(err, FFD_ERR_NOMEM, "out of memory for %zu vertices", n);
     }
     s->mesh = mesh;
+    sess_name_file(s->first_step, sizeof s->first_step, "Open", s->name);
     ffd_sess_ctx_init(&s->ctx, mesh, s->options.max_controls, &s->options.limits);
     memcpy(s->positions, s->ctx.rest, n * 3 * sizeof *s->positions);
     *out = s;
@@ -1350,6 +1407,7 @@ void ffd_session_destroy(ffd_session *s)
     ffd_free(s->pins);
     ffd_free(s->residuals);
     ffd_sess_frames_free(s->frames);
+    ffd_free(s->autosave_note);
     ffd_free(s);
 }
 
@@ -1597,5 +1655,286 @@ ffd_status ffd_session_export_mesh(const ffd_session *s, size_t index,
     st = ffd_mesh_write_memory(mesh, &o, &bytes, size, err);
     ffd_mesh_destroy(mesh);
     *data = bytes;
+    return st;
+}
+
+/* ---------- the history and its record (session_persist.h) ---------- */
+
+ffd_status sess_state_rig(const ffd_session *s, char **text, ffd_error *err)
+{
+    *text = NULL;
+    if (!s->method)
+        return FFD_OK;
+    cJSON *root = cJSON_CreateObject();
+    if (!root || !cJSON_AddNumberToObject(root, "version", 1) ||
+        !cJSON_AddStringToObject(root, "deformer", ffd_sess_caps(s->method)->name)) {
+        cJSON_Delete(root);
+        return ffd_fail(err, FFD_ERR_NOMEM, "rig: out of memory");
+    }
+    ffd_status st = s->method->vt->rig(s->method, root, err);
+    if (!st && s->pin_count &&
+        !ffd_sess_add_item(root, "pins", ffd_rig_pins_json(s->pins, s->pin_count)))
+        st = ffd_fail(err, FFD_ERR_NOMEM, "rig: out of memory");
+    if (!st) {
+        char *printed = cJSON_Print(root);
+        *text = printed ? ffd_strdup(printed) : NULL;
+        cJSON_free(printed);
+        if (!*text)
+            st = ffd_fail(err, FFD_ERR_NOMEM, "rig: out of memory");
+    }
+    cJSON_Delete(root);
+    return st;
+}
+
+size_t sess_history_count(const ffd_session *s)
+{
+    return s->undo.count + 1 + s->redo.count;
+}
+
+size_t sess_history_current(const ffd_session *s)
+{
+    return s->undo.count;
+}
+
+/* Step i is the state undo.items[i] restores (i < current), the present
+ * (i == current) or the state redo.items[redo.count - 1 - (i - current - 1)]
+ * restores; its name is the change that led to it. */
+const char *sess_history_name(const ffd_session *s, size_t i)
+{
+    if (i == 0)
+        return s->first_step;
+    if (i <= s->undo.count)
+        return s->undo.items[i - 1].label;
+    size_t j = i - s->undo.count - 1;
+    return j < s->redo.count ? s->redo.items[s->redo.count - 1 - j].label : NULL;
+}
+
+ffd_status sess_history_rig(const ffd_session *s, size_t i, char **text, ffd_error *err)
+{
+    *text = NULL;
+    const undo_entry *e = NULL;
+    if (i < s->undo.count)
+        e = &s->undo.items[i];
+    else if (i > s->undo.count && i - s->undo.count - 1 < s->redo.count)
+        e = &s->redo.items[s->redo.count - 1 - (i - s->undo.count - 1)];
+    else if (i != s->undo.count)
+        return ffd_fail(err, FFD_ERR_RANGE, "history: step %zu out of range", i);
+    if (!e)
+        return sess_state_rig(s, text, err);
+    if (e->state_rig && !(*text = ffd_strdup(e->state_rig)))
+        return ffd_fail(err, FFD_ERR_NOMEM, "history: out of memory");
+    return FFD_OK;
+}
+
+size_t sess_autosave_max_bytes(const ffd_session *s)
+{
+    return s->options.autosave_max_bytes ? s->options.autosave_max_bytes : FFD_AUTOSAVE_MAX_BYTES;
+}
+
+int sess_dragging(const ffd_session *s)
+{
+    return s->drag.kind != DRAG_NONE;
+}
+
+const char *sess_autosave_note(const ffd_session *s)
+{
+    return s->autosave_note;
+}
+
+void sess_set_autosave_note(ffd_session *s, char *json)
+{
+    ffd_free(s->autosave_note);
+    s->autosave_note = json;
+}
+
+/* A jump of n >= 2 steps over entries that all rebuild from rig text (a
+ * resumed history, structural steps): only the target is built. The top n
+ * entries E_1 (top) .. E_n of from go to to as the states they leave:
+ * the present (named E_1's label), then E_i's state named E_{i+1}'s label;
+ * E_n's state becomes the present. 1: not such a jump (nothing changed). */
+static int jump_rebuilding(ffd_session *s, undo_stack *from, undo_stack *to, size_t n,
+                           ffd_status *status, ffd_error *err)
+{
+    if (n < 2 || n > from->count)
+        return 1;
+    undo_entry *top = from->items + from->count - 1, *deep = from->items + from->count - n;
+    for (undo_entry *e = deep; e <= top; e++)
+        if (e->kind != UNDO_REBUILD)
+            return 1;
+    /* all that can fail first: the target, the present's entry, room on to */
+    sess_method *m = NULL;
+    undo_entry present;
+    ffd_status st = deep->rig ? method_from_text(&s->ctx, deep->rig, strlen(deep->rig),
+                                                 "history_goto", NULL, &m, err)
+                              : FFD_OK;
+    if (!st && (st = capture(s, UNDO_REBUILD, top->label, &present, err))) {
+        if (m)
+            m->vt->destroy(m);
+    }
+    if (!st && !ffd_grow((void **)&to->items, &to->cap, to->count + n, sizeof *to->items)) {
+        entry_free(&present);
+        if (m)
+            m->vt->destroy(m);
+        st = ffd_fail(err, FFD_ERR_NOMEM, "history_goto: out of memory");
+    }
+    *status = st;
+    if (st)
+        return 0;
+    stack_push(s, to, &present, NULL); /* cannot fail: room made */
+    for (undo_entry *e = top; e > deep; e--) {
+        undo_entry moved = *e; /* E_i's state, named after E_{i+1} */
+        snprintf(moved.label, sizeof moved.label, "%s", (e - 1)->label);
+        memset(e, 0, sizeof *e);
+        stack_push(s, to, &moved, NULL);
+    }
+    if (s->method)
+        s->method->vt->destroy(s->method);
+    s->method = m;
+    ffd_free(s->pins);
+    s->pins = deep->pins;
+    s->pin_count = deep->pin_count;
+    deep->pins = NULL;
+    entry_free(deep);
+    from->count -= n;
+    s->residual_count = 0;
+    *status = refresh(s, err);
+    return 0;
+}
+
+ffd_status sess_op_history_goto(ffd_session *s, const ffd_rig_parser *p, const cJSON *body,
+                                ffd_error *err)
+{
+    static const char *const keys[] = {"index", NULL};
+    ffd_status st = ffd_rig_check_keys(p, body, "body", keys, "index");
+    const cJSON *item = cJSON_GetObjectItemCaseSensitive(body, "index");
+    uint32_t index = 0;
+    if (st)
+        return st;
+    if (!item)
+        return ffd_rig_expected(p, "index", "a step of the history, 0 for the first (missing)");
+    if ((st = ffd_rig_read_index(p, item, "index", "a step of the history, 0 for the first",
+                                 &index)))
+        return st;
+    size_t count = sess_history_count(s), start = s->undo.count;
+    if (index >= count)
+        return ffd_fail(err, FFD_ERR_RANGE,
+                        "history_goto: index: %u out of range (the history has %zu steps, 0 to %zu)",
+                        index, count, count - 1);
+    if (s->undo.count > index &&
+        !jump_rebuilding(s, &s->undo, &s->redo, s->undo.count - index, &st, err))
+        return st;
+    if (s->undo.count < index &&
+        !jump_rebuilding(s, &s->redo, &s->undo, index - s->undo.count, &st, err))
+        return st;
+    while (!st && s->undo.count > index)
+        st = undo_redo(s, &s->undo, &s->redo, "history_goto", err);
+    while (!st && s->undo.count < index)
+        st = undo_redo(s, &s->redo, &s->undo, "history_goto", err);
+    if (st) { /* back to where it started, as far as it goes */
+        while (s->undo.count > start && !undo_redo(s, &s->undo, &s->redo, "history_goto", NULL))
+            ;
+        while (s->undo.count < start && !undo_redo(s, &s->redo, &s->undo, "history_goto", NULL))
+            ;
+    }
+    return st;
+}
+
+/* A stored step of a resumed history: an undo entry rebuilding from rig
+ * (NULL: no deformer) with the rig's pins. */
+static ffd_status restored_entry(const ffd_session *s, const char *name, const char *rig,
+                                 undo_entry *e, ffd_error *err)
+{
+    memset(e, 0, sizeof *e);
+    e->kind = UNDO_REBUILD;
+    snprintf(e->label, sizeof e->label, "%s", name);
+    if (!rig)
+        return FFD_OK;
+    ffd_rig *parsed = NULL;
+    ffd_status st = ffd_rig_parse_json(rig, strlen(rig), "history", &parsed, err);
+    if (!st)
+        st = ffd_rig_check_pins(parsed, s->ctx.n, err);
+    if (!st && parsed->pin_count) {
+        e->pins = ffd_malloc_array(parsed->pin_count, sizeof *e->pins);
+        if (e->pins) {
+            memcpy(e->pins, parsed->pins, parsed->pin_count * sizeof *e->pins);
+            e->pin_count = parsed->pin_count;
+        }
+    }
+    ffd_rig_destroy(parsed);
+    if (!st && (!(e->rig = ffd_strdup(rig)) || !(e->state_rig = ffd_strdup(rig)) ||
+                (e->pin_count == 0) != (e->pins == NULL)))
+        st = ffd_fail(err, FFD_ERR_NOMEM, "history: out of memory");
+    if (st)
+        entry_free(e);
+    return st;
+}
+
+ffd_status sess_history_restore(ffd_session *s, const char *const *names, const char *const *rigs,
+                                size_t count, size_t current, ffd_error *err)
+{
+    if (s->method || s->undo.count || s->redo.count || s->drag.kind)
+        return conflict(err, "the session has changes already", "resume");
+    if (current >= count)
+        return ffd_fail(err, FFD_ERR_RANGE, "resume: current step %zu of %zu", current, count);
+    size_t first = current > s->options.max_undo ? current - s->options.max_undo : 0;
+    size_t last = count - 1;
+    if (last - current > s->options.max_undo)
+        last = current + s->options.max_undo;
+    size_t n_undo = current - first, n_redo = last - current;
+    undo_entry *undo = ffd_calloc(n_undo + 1, sizeof *undo);
+    undo_entry *redo = ffd_calloc(n_redo + 1, sizeof *redo);
+    undo_entry present;
+    memset(&present, 0, sizeof present);
+    ffd_status st = undo && redo ? FFD_OK : ffd_fail(err, FFD_ERR_NOMEM, "resume: out of memory");
+    size_t made_undo = 0, made_redo = 0;
+    /* undo.items[i] restores step first + i and is named after the next step */
+    for (; !st && made_undo < n_undo; made_undo++)
+        st = restored_entry(s, names[first + made_undo + 1], rigs[first + made_undo],
+                            &undo[made_undo], err);
+    /* redo.items[n_redo - 1 - j] restores step current + 1 + j, named after it */
+    for (; !st && made_redo < n_redo; made_redo++)
+        st = restored_entry(s, names[last - made_redo], rigs[last - made_redo], &redo[made_redo],
+                            err);
+    if (!st)
+        st = restored_entry(s, names[current], rigs[current], &present, err);
+    sess_method *m = NULL;
+    if (!st && present.rig)
+        st = method_from_text(&s->ctx, present.rig, strlen(present.rig), "resume", NULL, &m, err);
+    if (st) {
+        for (size_t i = 0; i < made_undo; i++)
+            entry_free(&undo[i]);
+        for (size_t i = 0; i < made_redo; i++)
+            entry_free(&redo[i]);
+        entry_free(&present);
+        ffd_free(undo);
+        ffd_free(redo);
+        return st;
+    }
+    s->method = m;
+    s->pins = present.pins;
+    s->pin_count = present.pin_count;
+    present.pins = NULL;
+    entry_free(&present);
+    ffd_free(s->undo.items);
+    ffd_free(s->redo.items);
+    s->undo.items = undo;
+    s->undo.count = n_undo;
+    s->undo.cap = n_undo + 1;
+    s->redo.items = redo;
+    s->redo.count = n_redo;
+    s->redo.cap = n_redo + 1;
+    snprintf(s->first_step, sizeof s->first_step, "%s", names[first]);
+    if ((st = refresh(s, err))) { /* the rig did not evaluate: back to the bare session */
+        stack_clear(&s->undo);
+        stack_clear(&s->redo);
+        if (s->method)
+            s->method->vt->destroy(s->method);
+        s->method = NULL;
+        ffd_free(s->pins);
+        s->pins = NULL;
+        s->pin_count = 0;
+        sess_name_file(s->first_step, sizeof s->first_step, "Open", s->name);
+        refresh(s, NULL);
+    }
     return st;
 }

@@ -11,6 +11,11 @@
 # idle ones), silent connections close after --idle-timeout, an ambiguous
 # body length (two Content-Length headers) is a 400 that closes the
 # connection; GET /api/state answers while a long request holds the session.
+# Work is never lost: GET /api/history, POST /api/history/goto, the autosave
+# under ROOT/.ffd resumed by a server started again (after SIGKILL), written
+# on SIGTERM, kept aside when the mesh changed; a mesh opened again from the
+# page starts anew, its earlier session kept aside and resumed by POST
+# /api/autosave/resume; --no-autosave writes nothing.
 # Raw connections use bash's /dev/tcp and curl --interface 127.0.0.2 (a
 # second loopback client address); nothing leaves 127.0.0.0/8.
 # The "session" part (a lattice, a drag, undo, rig and mesh round trips) needs
@@ -152,7 +157,9 @@ BUNNY_SUM=$(cksum <"$ROOT/bunny.obj")
 OUT_SUM=$(cd "$OUT" && cat secret.obj secret.json secret.html | cksum)
 
 # 64 connections per client: "concurrent requests" below opens 60 at once
-start main "$ROOT/bunny.obj" --port 0 --root "$ROOT" --web "$T/web" --client-connections 64 || exit 1
+# --no-autosave here and below: the servers on this root start from a bare
+# session (the autosave has its own part at the end)
+start main "$ROOT/bunny.obj" --port 0 --root "$ROOT" --web "$T/web" --client-connections 64 --no-autosave || exit 1
 MAIN_PID=$PID
 MAIN_URL=$URL
 PORT=${URL##*:}
@@ -379,7 +386,7 @@ expect_ok POST /api/open --data-binary '{"path": "bunny.obj"}'
 has_body '"bunny.obj"'
 
 # ---- a second server: --max-upload 1 ----
-start small "$ROOT/bunny.obj" --port 0 --root "$ROOT" --max-upload 1 --web "$T/no-page" || exit 1
+start small "$ROOT/bunny.obj" --port 0 --no-autosave --root "$ROOT" --max-upload 1 --web "$T/no-page" || exit 1
 head -c $((1024 * 1024 + 1)) /dev/zero >"$T/big.stl"
 expect 413 too_large POST '/api/upload?name=big.stl' --data-binary @"$T/big.stl"
 expect 413 too_large POST '/api/upload?name=big.stl' -H 'Transfer-Encoding: chunked' \
@@ -415,7 +422,7 @@ close_idle() {
 state_from() {
     [ "$(curl -s --max-time 5 --interface "$1" -o /dev/null -w '%{http_code}' "$URL/api/state")" = 200 ]
 }
-start limits "$ROOT/bunny.obj" --port 0 --root "$ROOT" --web "$T/no-page" --client-connections 4 \
+start limits "$ROOT/bunny.obj" --port 0 --no-autosave --root "$ROOT" --web "$T/no-page" --client-connections 4 \
     --idle-timeout 2 || exit 1
 PORT=${URL##*:}
 IDLE=()
@@ -443,7 +450,7 @@ fi
 stop limits
 
 # ---- more idle clients than the server's 256 connections, at the defaults ----
-start crowd "$ROOT/bunny.obj" --port 0 --root "$ROOT" --web "$T/no-page" || exit 1
+start crowd "$ROOT/bunny.obj" --port 0 --no-autosave --root "$ROOT" --web "$T/no-page" || exit 1
 PORT=${URL##*:}
 idle 260
 closed "${IDLE[40]}" 2 || fail "defaults: the 41st idle connection of 127.0.0.1 was not closed at once"
@@ -465,12 +472,12 @@ PORT=${MAIN_URL##*:}
 # ---- a taken port; a non-loopback host ----
 bad 1 serve "$ROOT/bunny.obj" --port "$PORT" --root "$ROOT"
 has stderr "ffd: serve: cannot listen on 127.0.0.1:$PORT: Address already in use"
-start any "$ROOT/bunny.obj" --port 0 --host 0.0.0.0 --root "$ROOT" || exit 1
+start any "$ROOT/bunny.obj" --port 0 --no-autosave --host 0.0.0.0 --root "$ROOT" || exit 1
 grep -qF "ffd: warning: listening on 0.0.0.0: the editor has no authentication; anyone who can reach this port can read and write files under $(cd "$ROOT" && pwd -P)" "$T/any.err" ||
     fail "--host 0.0.0.0: no warning: $(cat "$T/any.err")"
 grep -qE '^ffd serve: http://0\.0\.0\.0:[0-9]+/$' "$T/any.out" || fail "--host 0.0.0.0: $(cat "$T/any.out")"
 stop any
-start local "$ROOT/bunny.obj" --port 0 --host localhost --root "$ROOT" --verbose || exit 1
+start local "$ROOT/bunny.obj" --port 0 --no-autosave --host localhost --root "$ROOT" --verbose || exit 1
 grep -q warning "$T/local.err" && fail "--host localhost warned: $(cat "$T/local.err")"
 req GET /api/state
 grep -qF 'GET /api/state 200' "$T/local.err" || fail "--verbose: no request line: $(cat "$T/local.err")"
@@ -673,6 +680,100 @@ stop main
 [ "$(cksum <"$ROOT/bunny.obj")" = "$BUNNY_SUM" ] || fail "the opened mesh was modified"
 [ "$(cd "$OUT" && cat secret.obj secret.json secret.html | cksum)" = "$OUT_SUM" ] ||
     fail "files outside the root were modified"
+
+# ---- work is never lost: history, autosave and resume (docs/editor.md) ----
+if [ -z "${FFD_SERVE_STUB:-}" ]; then
+    AR=$T/autosave
+    mkdir -p "$AR"
+    cp "$SRC/examples/lattice/bunny.obj" "$AR/bunny.obj"
+    start a1 "$AR/bunny.obj" --port 0 --root "$AR" --web "$T/no-page" || exit 1
+    req POST /api/create -d '{"deformer":"lattice","resolution":[4,4,4]}'
+    req POST /api/move -d '{"points":[21,22],"delta":[0,0.3,0]}'
+    req POST /api/pin -d '{"vertex":893}'
+    [ "$CODE" = 200 ] || fail "autosave: the edits: HTTP $CODE: $(show)"
+    req GET /api/history
+    has_body '{"steps":["Open bunny.obj","Create lattice 4×4×4","Drag 2 controls","Pin vertex 893"],"current":3}'
+    req GET /api/rig
+    tr -d '[:space:]' <"$T/body" | grep -qF '"pins":[{"vertex":893,' || fail "GET /api/rig lacks the pin: $(show)"
+    post_json 400 range /api/history/goto '{"index":9}'
+    has_body 'history_goto: index: 9 out of range (the history has 4 steps, 0 to 3)'
+    post_json 400 parse /api/history/goto '{"step":1}'
+    req POST /api/history/goto -d '{"index":1}'
+    [ "$CODE" = 200 ] || fail "POST /api/history/goto: HTTP $CODE: $(show)"
+    has_key current 1
+    req POST /api/history/goto -d '{"index":3}'
+    sleep 1 # the autosave's quiet time
+    [ -f "$AR/.ffd/autosave-bunny.obj.json" ] || fail "no autosave under ROOT/.ffd after the edits"
+    grep -q '"Pin vertex 893"' "$AR/.ffd/autosave-bunny.obj.json" || fail "the autosave lacks the steps"
+    ls "$AR/.ffd" | grep -v '^autosave-bunny.obj.json$' && fail "a temporary file left in ROOT/.ffd"
+    kill -KILL "$PID"
+    wait "$PID" 2>/dev/null
+    start a2 "$AR/bunny.obj" --port 0 --root "$AR" --web "$T/no-page" || exit 1
+    grep -q "ffd serve: resumed your session of bunny.obj from .* (4 history steps; .ffd/autosave-bunny.obj.json)" "$T/a2.err" ||
+        fail "a restarted server does not say it resumed: $(cat "$T/a2.err")"
+    req GET /api/state
+    has_body '"steps":["Open bunny.obj","Create lattice 4×4×4","Drag 2 controls","Pin vertex 893"],"current":3}'
+    has_body '"resumed":true'
+    has_key vertex 893
+    req POST /api/undo
+    has_key undo 2
+    stop a2 # SIGTERM writes the pending change
+    grep -qE '"current":[[:space:]]*2,' "$AR/.ffd/autosave-bunny.obj.json" || fail "the stop did not write the last change"
+    # the mesh changed since: not applied, kept aside, the state says why
+    sed -i '0,/^v /s/^v .*/v 0 0 0/' "$AR/bunny.obj"
+    start a3 "$AR/bunny.obj" --port 0 --root "$AR" --web "$T/no-page" || exit 1
+    grep -q "your autosaved session was not applied: .*saved for another version of bunny.obj" "$T/a3.err" ||
+        fail "a changed mesh: no word of the autosave not applied: $(cat "$T/a3.err")"
+    [ -f "$AR/.ffd/autosave-bunny.obj.not-applied.json" ] || fail "the autosave not applied is not kept"
+    req GET /api/state
+    has_body '"resumed":false'
+    has_body 'kept as .ffd/autosave-bunny.obj.not-applied.json'
+    has_key method null
+    stop a3
+    # opened again from the page: a new session; the earlier one kept aside and offered
+    AO=$T/reopen
+    mkdir -p "$AO"
+    cp "$SRC/examples/lattice/bunny.obj" "$AO/bunny.obj"
+    cp "$SRC/examples/tspline/cow.off" "$AO/cow.off"
+    start a5 "$AO/bunny.obj" --port 0 --root "$AO" --web "$T/no-page" || exit 1
+    req POST /api/create -d '{"deformer":"lattice","resolution":[3,3,3]}'
+    req POST /api/move -d '{"points":[13],"delta":[0,0.3,0]}'
+    req POST /api/open -d '{"path":"cow.off"}'
+    [ -f "$AO/.ffd/autosave-bunny.obj.json" ] || fail "opening another mesh did not write the session it replaced"
+    req POST /api/open -d '{"path":"bunny.obj"}'
+    has_key method null
+    has_key undo 0
+    has_body '"previous":{"file":".ffd/autosave-bunny.obj.previous.json"'
+    [ -f "$AO/.ffd/autosave-bunny.obj.previous.json" ] || fail "the earlier session of bunny.obj is not kept aside"
+    req POST /api/autosave/resume -d '{}'
+    [ "$CODE" = 200 ] || fail "POST /api/autosave/resume: HTTP $CODE: $(show)"
+    has_body '"steps":["Open bunny.obj","Create lattice 3×3×3","Drag control 13"],"current":2}'
+    [ -e "$AO/.ffd/autosave-bunny.obj.previous.json" ] && fail "the resumed earlier session is still kept aside"
+    post_json 409 conflict /api/autosave/resume '{}'
+    has_body 'no earlier session of bunny.obj is kept'
+    stop a5
+    # a root where the record cannot be written: stderr and the state say so
+    AE=$T/unwritable
+    mkdir -p "$AE"
+    cp "$SRC/examples/lattice/bunny.obj" "$AE/bunny.obj"
+    printf 'not a directory\n' >"$AE/.ffd"
+    start a6 "$AE/bunny.obj" --port 0 --root "$AE" --web "$T/no-page" || exit 1
+    req POST /api/create -d '{"deformer":"lattice"}'
+    sleep 1
+    req POST /api/reset -d '{}'
+    has_body '"error":"'
+    grep -q "ffd: warning: autosave: .*autosave-bunny.obj.json" "$T/a6.err" || fail "a failed autosave: no warning: $(cat "$T/a6.err")"
+    stop a6
+    # --no-autosave: nothing written, nothing resumed
+    AN=$T/noauto
+    mkdir -p "$AN"
+    cp "$SRC/examples/lattice/bunny.obj" "$AN/bunny.obj"
+    start a4 "$AN/bunny.obj" --port 0 --root "$AN" --web "$T/no-page" --no-autosave || exit 1
+    req POST /api/create -d '{"deformer":"lattice"}'
+    sleep 1
+    stop a4
+    [ -e "$AN/.ffd" ] && fail "--no-autosave wrote $AN/.ffd"
+fi
 
 if [ "$failures" -ne 0 ]; then
     echo "$failures failure(s)"

@@ -41,6 +41,9 @@ static const char usage[] =
     "                    a browser opens about 6); more are closed at once\n"
     "  --idle-timeout S  seconds a connection may stay silent before it is closed\n"
     "                    (default 30)\n"
+    "  --no-autosave     do not save the session under ROOT/.ffd after each change,\n"
+    "                    nor resume a saved one (by default a restarted server resumes\n"
+    "                    where you were: state, pins and undo history)\n"
     "  --verbose         one line per request on stderr\n"
     "  -h, --help        this help\n";
 
@@ -93,7 +96,7 @@ int cmd_serve(int argc, char **argv)
 {
     const char *mesh_path = NULL, *port_text = NULL, *host = NULL, *root = NULL, *web = NULL,
                *upload_text = NULL, *clients_text = NULL, *timeout_text = NULL;
-    int verbose = 0;
+    int verbose = 0, autosave = 1;
     for (int i = 1; i < argc; i++) {
         const char *arg = argv[i];
         int e;
@@ -114,6 +117,8 @@ int cmd_serve(int argc, char **argv)
                 return cli_option_error("serve", arg, e);
         } else if (strcmp(arg, "--verbose") == 0) {
             verbose = 1;
+        } else if (strcmp(arg, "--no-autosave") == 0) {
+            autosave = 0;
         } else if (arg[0] == '-' && arg[1] != 0) {
             return cli_usage_error("serve", "unknown option '%s'", arg);
         } else if (!mesh_path) {
@@ -194,7 +199,7 @@ int cmd_serve(int argc, char **argv)
 
     serve_options options = {host, (unsigned)port, root, web, mesh_path,
                              (size_t)upload_mb << 20, verbose, (unsigned)clients,
-                             (unsigned)timeout};
+                             (unsigned)timeout, autosave};
     serve_server *server = NULL;
     char msg[1024];
     if (serve_start(session, &options, &server, msg, sizeof msg) != 0) {

@@ -7,6 +7,7 @@
 #define _XOPEN_SOURCE 700 /* realpath */
 #endif
 #include "serve_http.h"
+#include "serve_autosave.h"
 
 #include "cli.h"
 #include "core/core.h"
@@ -65,6 +66,7 @@ struct serve_server {
     char web[PATH_LEN];   /* resolved, "" when the page is missing */
     char host[INET_ADDRSTRLEN];
     size_t max_upload;
+    serve_autosave *autosave; /* NULL: off (serve_autosave.h) */
     unsigned port;
     int verbose;
 };
@@ -86,6 +88,8 @@ typedef enum route {
     ROUTE_RIG_SAVE,
     ROUTE_EXPORT_SAVE,
     ROUTE_WEIGHTS_LOAD,
+    ROUTE_HISTORY,
+    ROUTE_AUTOSAVE_RESUME,
     ROUTE_OP
 } route;
 
@@ -123,6 +127,9 @@ static const struct api_route {
     {"/api/rig/save", ROUTE_NONE, ROUTE_RIG_SAVE, "POST"},
     {"/api/export/save", ROUTE_NONE, ROUTE_EXPORT_SAVE, "POST"},
     {"/api/weights/load", ROUTE_NONE, ROUTE_WEIGHTS_LOAD, "POST"},
+    {"/api/history", ROUTE_HISTORY, ROUTE_NONE, "GET, HEAD"},
+    {"/api/history/goto", ROUTE_NONE, ROUTE_OP, "POST"}, /* the "history_goto" op */
+    {"/api/autosave/resume", ROUTE_NONE, ROUTE_AUTOSAVE_RESUME, "POST"},
 };
 
 /* ======================================================================
@@ -839,6 +846,8 @@ static enum MHD_Result post_op(serve_server *srv, struct MHD_Connection *c, requ
         publish(srv, NULL, 0);
     else
         publish_copy(srv, reply, size);
+    if (!binary) /* a drag step is not a change to save: its drag_end is */
+        serve_autosave_changed(srv->autosave);
     return answer_data(srv, c, r, reply, size,
                        binary ? "application/octet-stream" : "application/json", NULL);
 }
@@ -882,10 +891,12 @@ static enum MHD_Result replace_session(serve_server *srv, struct MHD_Connection 
         ffd_free(copy);
         return answer_status(srv, c, r, st, err.message);
     }
+    serve_autosave_flush(srv->autosave); /* the old session's last change */
     ffd_session_destroy(srv->session);
     srv->session = s;
     ffd_free(srv->mesh_path);
     srv->mesh_path = copy;
+    serve_autosave_opened(srv->autosave, s, copy, 0); /* keeps an earlier record aside */
     return reply_state(srv, c, r);
 }
 
@@ -960,6 +971,8 @@ static enum MHD_Result post_rig_load(serve_server *srv, struct MHD_Connection *c
         if (s == FFD_OK)
             s = ffd_session_load_rig(srv->session, (const char *)text, size, abs, srv->root, &err);
         ffd_free(text);
+        if (s == FFD_OK)
+            serve_autosave_changed(srv->autosave);
         ret = s == FFD_OK ? reply_state(srv, c, r) : answer_status(srv, c, r, s, err.message);
     }
     cJSON_Delete(doc);
@@ -1006,6 +1019,31 @@ static enum MHD_Result post_rig_upload(serve_server *srv, struct MHD_Connection 
     ffd_error err = {{0}};
     ffd_status st = ffd_session_load_rig(srv->session, r->body ? r->body : "", r->size, name,
                                          NULL, &err);
+    if (st != FFD_OK)
+        return answer_status(srv, c, r, st, err.message);
+    serve_autosave_changed(srv->autosave);
+    return reply_state(srv, c, r);
+}
+
+/* GET /api/history: the named steps and the present one (ffd_session_history). */
+static enum MHD_Result get_history(const serve_server *srv, struct MHD_Connection *c, request *r)
+{
+    ffd_error err = {{0}};
+    char *json = NULL;
+    size_t size = 0;
+    ffd_status st = ffd_session_history(srv->session, &json, &size, &err);
+    if (st != FFD_OK)
+        return answer_status(srv, c, r, st, err.message);
+    return answer_data(srv, c, r, json, size, "application/json", NULL);
+}
+
+/* POST /api/autosave/resume: the earlier session of this mesh kept at open. */
+static enum MHD_Result post_autosave_resume(serve_server *srv, struct MHD_Connection *c,
+                                            request *r)
+{
+    ffd_error err = {{0}};
+    ffd_status st = serve_autosave_resume_previous(srv->autosave, &srv->session, srv->mesh_path,
+                                                   &err);
     if (st != FFD_OK)
         return answer_status(srv, c, r, st, err.message);
     return reply_state(srv, c, r);
@@ -1113,6 +1151,8 @@ static enum MHD_Result api(serve_server *srv, struct MHD_Connection *c, request 
     case ROUTE_RIG_SAVE: return post_rig_save(srv, c, r);
     case ROUTE_EXPORT_SAVE: return post_export_save(srv, c, r);
     case ROUTE_WEIGHTS_LOAD: return post_weights_load(srv, c, r);
+    case ROUTE_HISTORY: return get_history(srv, c, r);
+    case ROUTE_AUTOSAVE_RESUME: return post_autosave_resume(srv, c, r);
     default: break;
     }
     return answer_error(srv, c, r, MHD_HTTP_INTERNAL_SERVER_ERROR, "error", "unrouted request");
@@ -1346,6 +1386,8 @@ static unsigned classify(request *r, int get, int post, const char **allow)
         r->route = get ? a->get : post ? a->post : ROUTE_NONE;
         if (r->route == ROUTE_OP)
             snprintf(r->op, sizeof r->op, "%s", url + 5);
+        for (char *q = r->op; *q; q++) /* history/goto: the "history_goto" op */
+            *q = *q == '/' ? '_' : *q;
         return r->route == ROUTE_NONE ? MHD_HTTP_METHOD_NOT_ALLOWED : 0;
     }
     const char *op = url + 5;
@@ -1664,6 +1706,14 @@ int serve_start(ffd_session *session, const serve_options *o, serve_server **out
         goto fail;
     }
     srv->session = session;
+    if (o->autosave && !(srv->autosave = serve_autosave_start(srv->root, &srv->lock,
+                                                              &srv->session, msg, msg_size))) {
+        srv->session = NULL;
+        pthread_mutex_destroy(&srv->published_lock);
+        pthread_mutex_destroy(&srv->lock);
+        goto fail;
+    }
+    serve_autosave_opened(srv->autosave, session, srv->mesh_path, 1); /* resumes its autosave */
     ensure_published(srv);
     /* no MHD_USE_ERROR_LOG: MHD never prints on its own. Of the 256
      * connections, one client address holds at most client_connections (MHD
@@ -1681,6 +1731,7 @@ int serve_start(ffd_session *session, const serve_options *o, serve_server **out
                                    MHD_OPTION_CONNECTION_LIMIT, (unsigned)CONNECTION_LIMIT,
                                    MHD_OPTION_END);
     if (!srv->daemon) {
+        serve_autosave_stop(srv->autosave);
         srv->session = NULL;
         publish(srv, NULL, 0);
         pthread_mutex_destroy(&srv->published_lock);
@@ -1720,6 +1771,7 @@ void serve_stop(serve_server *srv)
         return;
     MHD_stop_daemon(srv->daemon); /* waits for the connections' threads, closes the socket */
     ffd_set_progress(NULL, NULL);
+    serve_autosave_stop(srv->autosave); /* writes a pending change */
     ffd_session_destroy(srv->session);
     publish(srv, NULL, 0);
     pthread_mutex_destroy(&srv->published_lock);

@@ -19,6 +19,8 @@ typedef struct serve_options {
     int verbose;           /* one line per request on stderr */
     unsigned client_connections; /* connections from one client address at a time; 0: 32 */
     unsigned idle_timeout;       /* seconds a silent connection is kept; 0: 30 */
+    int autosave;                /* 1: autosave the session under root/.ffd and resume it
+                                    (serve_autosave.h) */
 } serve_options;
 
 #define SERVE_CLIENT_CONNECTIONS 32 /* a browser opens about 6 per server */

@@ -12,6 +12,7 @@ import { MeshList } from './meshes.js';
 import { DragSession } from './drag.js';
 import { ViewNav } from './view.js';
 import { Panel, fmtInt, h } from './panel.js';
+import { History } from './history.js';
 import { methodOf, PICK_TOOLS, BUSY } from './methods/index.js';
 import { Toasts, OfflineBanner } from './toasts.js';
 import { WeightPaint } from './weights.js';
@@ -50,6 +51,7 @@ class Editor {
     this.offline = new OfflineBanner($('offline'), async () => { this.meshKey = ''; await this.refresh(); this.panel.loadFiles(); this.info('Reconnected to the server'); });
     this.weights = new WeightPaint(this);
     this.meshList = new MeshList(this); // several meshes in one session
+    this.history = new History(this); // the History section, Undo/Redo counts, autosave notes
     this.panel = new Panel(this, $('panel'));
     this.viewNav = new ViewNav(this); // up axis, view presets, ortho, grid, X-ray, rows / layers (view.js)
     firstRunCard(this);
@@ -187,11 +189,13 @@ class Editor {
   redo() { return this.run('redo'); }
 
   async openPath(path) {
+    if (!this.history.confirmReplace(path)) return;
     this.setSelection([]);
     await this.run('open', { path });
   }
 
   async openUpload(file) {
+    if (!this.history.confirmReplace(file.name)) return;
     try {
       this.setSelection([]);
       const state = await api.upload(file.name, await file.arrayBuffer());

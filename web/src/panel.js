@@ -109,6 +109,7 @@ export class Panel {
       this.dmSection(s),
       this.weightsSection(s),
       this.editSection(s),
+      this.ed.history.section(s),
       this.viewSection(s),
       this.rigSection(s),
     );
@@ -142,10 +143,10 @@ export class Panel {
       h('div', { class: 'row' }, h('b', {}, m.name || '—'),
         h('span', { class: 'hint-text' }, m.vertices !== undefined ? `${fmtInt(m.vertices)} vertices · ${fmtInt(m.faces)} faces` : '')),
       h('div', { class: 'row' }, sel,
-        h('button', { onclick: () => this.form.meshFile && this.ed.openPath(this.form.meshFile), title: 'Open the chosen mesh (a new session)' }, 'Open'),
+        h('button', { onclick: () => this.form.meshFile && this.ed.openPath(this.form.meshFile), title: 'Open the chosen mesh: a new session (this one is autosaved: open its mesh again and History ▸ Resume it brings it back)' }, 'Open'),
         h('button', { onclick: () => this.loadFiles(), title: 'Refresh the file list' }, '⟲')),
       h('div', { class: 'row buttons' },
-        h('button', { onclick: () => fileInput.click(), title: 'Upload a mesh from this computer (OBJ, PLY, OFF, STL, glTF): a new session' }, '⇪ Upload mesh…'), fileInput),
+        h('button', { onclick: () => fileInput.click(), title: 'Upload a mesh from this computer: a new session (an uploaded mesh is not autosaved)' }, '⇪ Upload mesh…'), fileInput),
     );
   }
 
@@ -159,7 +160,7 @@ export class Panel {
           METHODS.map((m) => h('option', { value: m.name, selected: m.name === f.method }, m.label)))),
       method.createFields(f[f.method]),
       h('div', { class: 'row buttons' },
-        h('button', { class: 'primary', onclick: () => this.create(), title: s.method ? 'Replace the deformer by a new one with these settings (Ctrl+Z brings the old one back)' : 'Create the deformer with these settings (undoable)' }, s.method ? '↻ Re-create' : '＋ Create')),
+        h('button', { class: 'primary', onclick: () => this.create(), title: s.method ? 'Re-create puts the mesh back at rest — undo with Ctrl+Z' : 'Create the deformer (undo with Ctrl+Z)' }, s.method ? '↻ Re-create' : '＋ Create')),
     );
   }
 
@@ -213,7 +214,7 @@ export class Panel {
       pins.length ? details(pins.map((p) => [`Pin ${p.vertex} residual`, (+p.residual).toExponential(2),
         'The distance (in model units) between where the pinned point is and where it was pinned: 0 when held exactly'])) : null,
       h('div', { class: 'row buttons' },
-        h('button', { disabled: !pins.length, title: 'Remove every pin (undoable)', onclick: () => ed.run('unpin', { all: true }) }, 'Unpin all')),
+        h('button', { disabled: !pins.length, onclick: () => ed.run('unpin', { all: true }), title: 'Remove every pin — undo with Ctrl+Z' }, 'Unpin all')),
     );
   }
 
@@ -275,9 +276,9 @@ export class Panel {
     const ed = this.ed;
     return h('section', {}, h('h3', {}, 'Edit'),
       h('div', { class: 'row buttons' },
-        h('button', { disabled: !s.undo, onclick: () => ed.undo(), title: `Undo${s.undo_label ? ` “${s.undo_label}”` : ''} (Ctrl+Z)` }, `↶ Undo${s.undo ? ` (${s.undo})` : ''}`),
-        h('button', { disabled: !s.redo, onclick: () => ed.redo(), title: `Redo${s.redo_label ? ` “${s.redo_label}”` : ''} (Ctrl+Shift+Z / Ctrl+Y)` }, `↷ Redo${s.redo ? ` (${s.redo})` : ''}`),
-        h('button', { 'data-need-method': true, onclick: () => ed.run('reset', {}), title: 'Every control back at rest (undoable)' }, '⟲ Reset')),
+        h('button', { disabled: !s.undo, 'data-history': 'undo', onclick: () => ed.undo(), title: ed.history.undoTitle(s) }, `↶ Undo${s.undo ? ` (${s.undo})` : ''}`),
+        h('button', { disabled: !s.redo, 'data-history': 'redo', onclick: () => ed.redo(), title: ed.history.redoTitle(s) }, `↷ Redo${s.redo ? ` (${s.redo})` : ''}`),
+        h('button', { 'data-need-method': true, onclick: () => ed.run('reset', {}), title: 'Every control back at rest — undo with Ctrl+Z' }, '⟲ Reset')),
     );
   }
 
@@ -348,8 +349,8 @@ export class Panel {
           },
         }, '💾 Save on server…')),
       h('div', { class: 'row' }, rigSel,
-        h('button', { title: 'Load the chosen rig: its deformer replaces the current one (undoable)', onclick: () => f.rigFile && ed.loadRigPath(f.rigFile) }, 'Load')),
-      h('div', { class: 'row buttons' }, h('button', { title: 'Load a rig (JSON or PyGeM .prm) from this computer (undoable)', onclick: () => rigInput.click() }, '⇪ Upload rig…'), rigInput),
+        h('button', { onclick: () => f.rigFile && ed.loadRigPath(f.rigFile), title: 'Load the chosen rig: it replaces the deformer (with its pins) — undo with Ctrl+Z' }, 'Load')),
+      h('div', { class: 'row buttons' }, h('button', { onclick: () => rigInput.click(), title: 'Upload a rig from this computer: it replaces the deformer (with its pins) — undo with Ctrl+Z' }, '⇪ Upload rig…'), rigInput),
       h('h3', { style: 'margin-top:12px' }, 'Export'),
       h('div', { class: 'row' }, fmtSel, encSel),
       h('div', { class: 'row buttons' },

@@ -16,6 +16,7 @@ const STAGES = [
   ['panel', 'panel.mjs'],
   ['dm', 'dm.mjs'],
   ['perf', 'perf.mjs'],
+  ['persist', 'persist.mjs'],
 ];
 
 const only = (() => { const i = argv.indexOf('--stages'); return i >= 0 ? argv[i + 1].split(',') : null; })();

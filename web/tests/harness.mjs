@@ -392,3 +392,34 @@ export function startServerAgain(meshName = 'bunny.obj') {
     p.on('exit', (code, sig) => { clearTimeout(timer); reject(new Error(`ffd serve (again) exited (${code ?? sig}): ${serverErr.slice(-300)}`)); });
   });
 }
+
+/**
+ * Kills the server (SIGKILL by default: no chance to write anything more)
+ * and starts `ffd serve` again on the same root and port with TMP/meshName
+ * (extra: more arguments). Resolves with what the new server printed on
+ * stderr while starting (its resume line, for one).
+ */
+export async function restartServer(meshName = 'bunny.obj', { signal = 'SIGKILL', extra = [] } = {}) {
+  const port = new URL(BASE).port;
+  if (server && server.exitCode === null && server.signalCode === null) {
+    const gone = new Promise((r) => server.once('exit', r));
+    server.kill(signal);
+    await gone;
+  }
+  const errStart = serverErr.length;
+  await new Promise((resolve, reject) => {
+    const p = spawn(FFD, ['serve', path.join(TMP, meshName), '--port', port, '--root', TMP, '--web', WEB, ...extra], { stdio: ['ignore', 'pipe', 'pipe'] });
+    server = p;
+    let out = '';
+    const timer = setTimeout(() => reject(new Error(`ffd serve (restarted) printed no URL in 20 s: ${out} ${serverErr.slice(errStart)}`)), 20000);
+    p.stderr.on('data', (d) => { serverErr += d; });
+    p.stdout.on('data', (d) => {
+      out += d;
+      if (out.includes('\n')) { clearTimeout(timer); resolve(); }
+    });
+    p.on('exit', (code, sig) => { clearTimeout(timer); reject(new Error(`ffd serve (restarted) exited (${code ?? sig}): ${serverErr.slice(errStart)}`)); });
+    p.on('error', (e) => { clearTimeout(timer); reject(e); });
+  });
+  await new Promise((r) => setTimeout(r, 150)); // stderr's lines may follow stdout's
+  return serverErr.slice(errStart);
+}
