@@ -37,6 +37,14 @@ async function openBunny() {
 }
 
 async function firstRun() {
+  // a first visit: a session without a deformer (earlier stages made some; a
+  // session with one means the user has started, and the card closes itself)
+  if ((await state()).method) {
+    await page.selectOption('select[name=mesh-file]', 'elephant.off');
+    await clickOn('#panel button:text-is("Open")');
+    await page.waitForFunction(() => window.ffdEditor.state && window.ffdEditor.state.mesh.name === 'elephant.off', null, { timeout: 20000 });
+    await settle();
+  }
   await ed(() => localStorage.removeItem('ffd-editor.first-run-done'));
   await reload();
   const card = await page.locator('#first-run').isVisible();
@@ -349,6 +357,7 @@ async function offline() {
 export async function stage() {
   await openBunny();
   await firstRun();
+  await openBunny();
   await exportAndPrefs();
   await toasts();
   await helpAndTooltips();

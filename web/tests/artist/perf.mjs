@@ -68,6 +68,8 @@ export async function stage() {
   // an upper control the mouse can pick alone
   const cands = [];
   for (const j of [5, 4]) for (const i of [3, 2, 4, 1, 5]) for (const k of [3, 2, 4]) cands.push((i * 7 + j) * 7 + k);
+  // then any other: with X-ray off only the handles in front of the mesh pick (the view's up axis decides which are 'upper')
+  for (let c = 0; c < 343; c++) if (!cands.includes(c)) cands.push(c);
   const pickable = await pickableControls(cands);
   must(pickable.length > 0, `perf: a pickable control among ${cands.length} candidates (${pickable.length})`);
   const ctl = pickable[0];
@@ -131,7 +133,7 @@ export async function stage() {
     body: JSON.stringify({ op: 'export', seconds: 1, stage: 'writing', fraction: 0.42, stage_seconds: 0.5 }) }));
   const download = page.waitForEvent('download', { timeout: 30000 });
   await page.selectOption('select[name=export-encoding]', 'ascii');
-  await page.click('#panel button[title="Download the deformed mesh"]');
+  await page.click('#panel button[name=export-download]');
   await page.waitForFunction(() => !document.getElementById('busy').hidden, null, { timeout: 5000 });
   await page.waitForTimeout(900);
   const busy = await ed(() => ({ label: document.getElementById('busy-label').textContent, time: document.getElementById('busy-time').textContent }));
