@@ -16,6 +16,7 @@
 enum { UNDO_STATE = 1, UNDO_REBUILD, UNDO_SWAP };
 
 typedef ffd_rig_pin pin; /* the rig's pins are the session's (docs/rig.md "pins") */
+static ffd_status state_rig(const ffd_session *s, int with_pins, char **text, ffd_error *err);
 
 typedef struct undo_entry {
     int kind;
@@ -1300,7 +1301,9 @@ ffd_status ffd_session_rig(const ffd_session *s, char **json, size_t *size, ffd_
 {
     if (!s->method)
         return conflict(err, "no deformer: create one first", "rig");
-    ffd_status st = sess_state_rig(s, json, err); /* with the pins */
+    /* with the pins, but for several meshes: their vertex ids name the
+     * concatenation, which no single mesh file has (docs/editor.md) */
+    ffd_status st = state_rig(s, s->meshes.count < 2, json, err);
     if (!st)
         *size = strlen(*json);
     return st;
@@ -1660,7 +1663,8 @@ ffd_status ffd_session_export_mesh(const ffd_session *s, size_t index,
 
 /* ---------- the history and its record (session_persist.h) ---------- */
 
-ffd_status sess_state_rig(const ffd_session *s, char **text, ffd_error *err)
+/* The state's rig as text; with_pins: the pins too (docs/rig.md "pins"). */
+static ffd_status state_rig(const ffd_session *s, int with_pins, char **text, ffd_error *err)
 {
     *text = NULL;
     if (!s->method)
@@ -1672,7 +1676,7 @@ ffd_status sess_state_rig(const ffd_session *s, char **text, ffd_error *err)
         return ffd_fail(err, FFD_ERR_NOMEM, "rig: out of memory");
     }
     ffd_status st = s->method->vt->rig(s->method, root, err);
-    if (!st && s->pin_count &&
+    if (!st && with_pins && s->pin_count &&
         !ffd_sess_add_item(root, "pins", ffd_rig_pins_json(s->pins, s->pin_count)))
         st = ffd_fail(err, FFD_ERR_NOMEM, "rig: out of memory");
     if (!st) {
@@ -1684,6 +1688,11 @@ ffd_status sess_state_rig(const ffd_session *s, char **text, ffd_error *err)
     }
     cJSON_Delete(root);
     return st;
+}
+
+ffd_status sess_state_rig(const ffd_session *s, char **text, ffd_error *err)
+{
+    return state_rig(s, 1, text, err);
 }
 
 size_t sess_history_count(const ffd_session *s)
