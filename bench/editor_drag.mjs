@@ -67,7 +67,7 @@ const fmt = (x, d = 1) => (x === undefined || Number.isNaN(x) ? '—' : x.toFixe
 /** One server on mesh; resolves to {base, post, stop}. */
 function startServer(mesh) {
   return new Promise((resolve, reject) => {
-    const server = spawn(FFD, ['serve', mesh, '--port', '0', '--web', WEB], { stdio: ['ignore', 'pipe', 'inherit'] });
+    const server = spawn(FFD, ['serve', mesh, '--port', '0', '--web', WEB, '--no-autosave'], { stdio: ['ignore', 'pipe', 'inherit'] });
     let out = '', base = '';
     server.stdout.on('data', (d) => {
       out += d;
