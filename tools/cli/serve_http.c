@@ -946,7 +946,29 @@ static enum MHD_Result post_upload(serve_server *srv, struct MHD_Connection *c, 
     return replace_session(srv, c, r, mesh, name, NULL);
 }
 
-static enum MHD_Result post_rig_load(serve_server *srv, struct MHD_Connection *c, request *r)
+/* What a file under the root is loaded into the session as (a rig, a
+ * weights file): text of size bytes read from abs, named path in messages. */
+typedef ffd_status (*root_file_loader)(serve_server *srv, const char *path, const char *abs,
+                                       const char *text, size_t size, ffd_error *err);
+
+static ffd_status load_rig_file(serve_server *srv, const char *path, const char *abs,
+                                const char *text, size_t size, ffd_error *err)
+{
+    (void)path;
+    return ffd_session_load_rig(srv->session, text, size, abs, srv->root, err);
+}
+
+static ffd_status load_weights_file(serve_server *srv, const char *path, const char *abs,
+                                    const char *text, size_t size, ffd_error *err)
+{
+    (void)abs;
+    return ffd_session_load_weights(srv->session, text, size, path, err);
+}
+
+/* POST {"path": ...}: a file under the root (at most 16 MiB) loaded by load,
+ * one undo step; the state, or the error and nothing changed. */
+static enum MHD_Result post_root_file(serve_server *srv, struct MHD_Connection *c, request *r,
+                                      const char *what, root_file_loader load)
 {
     static const char *const keys[] = {"path"};
     const char *path;
@@ -962,51 +984,17 @@ static enum MHD_Result post_rig_load(serve_server *srv, struct MHD_Connection *c
         ret = answer_error(srv, c, r, code, word, "%s", msg);
     } else if (stat(abs, &st) == 0 && (uintmax_t)st.st_size > RIG_FILE_LIMIT) {
         ret = answer_error(srv, c, r, MHD_HTTP_CONTENT_TOO_LARGE, "too_large",
-                           "%s: a rig larger than 16 MiB", path);
+                           "%s: a %s larger than 16 MiB", path, what);
     } else {
         ffd_error err = {{0}};
         unsigned char *text = NULL;
         size_t size = 0;
         ffd_status s = ffd_read_file(abs, &text, &size, &err);
         if (s == FFD_OK)
-            s = ffd_session_load_rig(srv->session, (const char *)text, size, abs, srv->root, &err);
+            s = load(srv, path, abs, (const char *)text, size, &err);
         ffd_free(text);
         if (s == FFD_OK)
             serve_autosave_changed(srv->autosave);
-        ret = s == FFD_OK ? reply_state(srv, c, r) : answer_status(srv, c, r, s, err.message);
-    }
-    cJSON_Delete(doc);
-    return ret;
-}
-
-/* A weights file under the root (one weight per vertex, docs/editor.md):
- * the session's deformer gets them, one undo step. */
-static enum MHD_Result post_weights_load(serve_server *srv, struct MHD_Connection *c, request *r)
-{
-    static const char *const keys[] = {"path"};
-    const char *path;
-    cJSON *doc;
-    char msg[MSG_LEN], abs[PATH_LEN];
-    const char *word;
-    unsigned code = parse_body(r, keys, 1, &path, &doc, msg, sizeof msg);
-    if (code)
-        return answer_error(srv, c, r, code, "parse", "%s", msg);
-    enum MHD_Result ret;
-    struct stat st;
-    if ((code = resolve(srv, path, 0, abs, &word, msg, sizeof msg)) != 0) {
-        ret = answer_error(srv, c, r, code, word, "%s", msg);
-    } else if (stat(abs, &st) == 0 && (uintmax_t)st.st_size > RIG_FILE_LIMIT) {
-        ret = answer_error(srv, c, r, MHD_HTTP_CONTENT_TOO_LARGE, "too_large",
-                           "%s: a weights file larger than 16 MiB", path);
-    } else {
-        ffd_error err = {{0}};
-        unsigned char *text = NULL;
-        size_t size = 0;
-        ffd_status s = ffd_read_file(abs, &text, &size, &err);
-        if (s == FFD_OK)
-            s = ffd_session_load_weights(srv->session, (const char *)text, size, path,
-                                         &err);
-        ffd_free(text);
         ret = s == FFD_OK ? reply_state(srv, c, r) : answer_status(srv, c, r, s, err.message);
     }
     cJSON_Delete(doc);
@@ -1146,11 +1134,11 @@ static enum MHD_Result api(serve_server *srv, struct MHD_Connection *c, request 
     case ROUTE_OP: return post_op(srv, c, r);
     case ROUTE_OPEN: return post_open(srv, c, r);
     case ROUTE_UPLOAD: return post_upload(srv, c, r);
-    case ROUTE_RIG_LOAD: return post_rig_load(srv, c, r);
+    case ROUTE_RIG_LOAD: return post_root_file(srv, c, r, "rig", load_rig_file);
     case ROUTE_RIG_UPLOAD: return post_rig_upload(srv, c, r);
     case ROUTE_RIG_SAVE: return post_rig_save(srv, c, r);
     case ROUTE_EXPORT_SAVE: return post_export_save(srv, c, r);
-    case ROUTE_WEIGHTS_LOAD: return post_weights_load(srv, c, r);
+    case ROUTE_WEIGHTS_LOAD: return post_root_file(srv, c, r, "weights file", load_weights_file);
     case ROUTE_HISTORY: return get_history(srv, c, r);
     case ROUTE_AUTOSAVE_RESUME: return post_autosave_resume(srv, c, r);
     default: break;
