@@ -699,8 +699,8 @@ static ffd_status op_drag_end(ffd_session *s, int keep, ffd_error *err)
     if (keep) {
         move_dragged_pin(s);
         st = commit(s, &d->before, err);
-    } else {
-        s->residual_count = 0;
+    } else if (d->kind == DRAG_VERTEX) {
+        s->residual_count = 0; /* its steps' solves replaced the shown residuals */
     }
     drag_free(d);
     if (!st)
