@@ -15,10 +15,7 @@ extern const ffd_method ffd_method_cage;
 extern const char *const ffd_rig_keys_cage[];
 
 /* A cage vertex moved by delta. */
-typedef struct ffd_rig_cage_move {
-    uint32_t index;
-    double delta[3];
-} ffd_rig_cage_move;
+typedef ffd_rig_point_move ffd_rig_cage_move; /* rig_json.h */
 
 /* The rig section (docs/cage.md "Rigs"). */
 typedef struct ffd_rig_cage {

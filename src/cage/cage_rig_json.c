@@ -261,32 +261,6 @@ static ffd_status read_cage(const ffd_rig_parser *p, const cJSON *item, ffd_rig 
     return read_faces(p, faces, c->vertex_count, c);
 }
 
-static ffd_status read_move(const ffd_rig_parser *p, const cJSON *m, const char *path,
-                            void *element, void *ctx)
-{
-    static const char *const keys[] = {"index", "delta", NULL};
-    ffd_rig_cage_move *move = element;
-    char sub[RIG_PATH_MAX + 80];
-    (void)ctx;
-    if (!cJSON_IsObject(m))
-        return ffd_rig_expected(p, path, "an object {\"index\": i, \"delta\": [dx,dy,dz]}");
-    ffd_status s = ffd_rig_check_keys(p, m, path, keys, "\"index\", \"delta\"");
-    if (s)
-        return s;
-    const cJSON *index = cJSON_GetObjectItemCaseSensitive(m, "index");
-    const cJSON *delta = cJSON_GetObjectItemCaseSensitive(m, "delta");
-    snprintf(sub, sizeof sub, "%s.index", path);
-    if (!index)
-        return ffd_rig_expected(p, sub, "a cage vertex index (missing)");
-    if ((s = ffd_rig_read_index(p, index, sub, "a cage vertex index (an integer >= 0)",
-                                &move->index)))
-        return s;
-    snprintf(sub, sizeof sub, "%s.delta", path);
-    if (!delta)
-        return ffd_rig_expected(p, sub, "an array of 3 finite numbers (missing)");
-    return ffd_rig_read_vec3(p, delta, sub, move->delta);
-}
-
 /* "deformed": the cage file moved: same vertices and faces, read as moves. */
 static ffd_status read_deformed(const ffd_rig_parser *p, const cJSON *item, ffd_rig *rig,
                                 ffd_rig_cage *c)
@@ -389,7 +363,8 @@ ffd_status ffd_rig_parse_cage(const ffd_rig_parser *p, const cJSON *root, ffd_ri
     if (moves) {
         void *out;
         s = ffd_rig_read_array(p, moves, "moves", "an array of {\"index\": i, \"delta\": "
-                               "[dx,dy,dz]}", sizeof *c->moves, read_move, NULL, NULL, &out,
+                               "[dx,dy,dz]}", sizeof *c->moves, ffd_rig_read_point_move, NULL,
+                               (void *)"a cage vertex index", &out,
                                &c->move_count);
         c->moves = out;
         if (s)

@@ -387,6 +387,34 @@ static ffd_status read_point(const ffd_rig_parser *p, const cJSON *item, const c
     return ffd_rig_read_vec3(p, item, path, element);
 }
 
+ffd_status ffd_rig_read_point_move(const ffd_rig_parser *p, const cJSON *m, const char *path,
+                                   void *element, void *ctx)
+{
+    static const char *const keys[] = {"index", "delta", NULL};
+    ffd_rig_point_move *move = element;
+    const char *what = ctx;
+    char sub[RIG_PATH_MAX + 80], expected[96];
+    if (!cJSON_IsObject(m))
+        return ffd_rig_expected(p, path, "an object {\"index\": i, \"delta\": [dx,dy,dz]}");
+    ffd_status s = ffd_rig_check_keys(p, m, path, keys, "\"index\", \"delta\"");
+    if (s)
+        return s;
+    const cJSON *index = cJSON_GetObjectItemCaseSensitive(m, "index");
+    const cJSON *delta = cJSON_GetObjectItemCaseSensitive(m, "delta");
+    snprintf(sub, sizeof sub, "%s.index", path);
+    if (!index) {
+        snprintf(expected, sizeof expected, "%s (missing)", what);
+        return ffd_rig_expected(p, sub, expected);
+    }
+    snprintf(expected, sizeof expected, "%s (an integer >= 0)", what);
+    if ((s = ffd_rig_read_index(p, index, sub, expected, &move->index)))
+        return s;
+    snprintf(sub, sizeof sub, "%s.delta", path);
+    if (!delta)
+        return ffd_rig_expected(p, sub, "an array of 3 finite numbers (missing)");
+    return ffd_rig_read_vec3(p, delta, sub, move->delta);
+}
+
 ffd_status ffd_rig_read_points(const ffd_rig_parser *p, const cJSON *item, const char *path,
                                size_t min, double **out, size_t *count)
 {

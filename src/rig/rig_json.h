@@ -87,6 +87,10 @@ typedef struct ffd_rig_point_move {
     uint32_t index;
     double delta[3];
 } ffd_rig_point_move;
+/* ffd_rig_read_array's reader of one move; ctx: what the index names, e.g.
+ * "a control point index" (in the messages). */
+ffd_status ffd_rig_read_point_move(const ffd_rig_parser *p, const cJSON *m, const char *path,
+                                   void *element, void *ctx);
 /* An array of at least min points [x,y,z] (*count by 3). */
 ffd_status ffd_rig_read_points(const ffd_rig_parser *p, const cJSON *item, const char *path,
                                size_t min, double **out, size_t *count);

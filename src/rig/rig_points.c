@@ -7,32 +7,6 @@
 #include <stdio.h>
 #include <string.h>
 
-static ffd_status read_point_move(const ffd_rig_parser *p, const cJSON *m, const char *path,
-                                  void *element, void *ctx)
-{
-    static const char *const keys[] = {"index", "delta", NULL};
-    ffd_rig_point_move *move = element;
-    char sub[RIG_PATH_MAX + 80];
-    (void)ctx;
-    if (!cJSON_IsObject(m))
-        return ffd_rig_expected(p, path, "an object {\"index\": i, \"delta\": [dx,dy,dz]}");
-    ffd_status s = ffd_rig_check_keys(p, m, path, keys, "\"index\", \"delta\"");
-    if (s)
-        return s;
-    const cJSON *index = cJSON_GetObjectItemCaseSensitive(m, "index");
-    const cJSON *delta = cJSON_GetObjectItemCaseSensitive(m, "delta");
-    snprintf(sub, sizeof sub, "%s.index", path);
-    if (!index)
-        return ffd_rig_expected(p, sub, "a control point index (missing)");
-    if ((s = ffd_rig_read_index(p, index, sub, "a control point index (an integer >= 0)",
-                                &move->index)))
-        return s;
-    snprintf(sub, sizeof sub, "%s.delta", path);
-    if (!delta)
-        return ffd_rig_expected(p, sub, "an array of 3 finite numbers (missing)");
-    return ffd_rig_read_vec3(p, delta, sub, move->delta);
-}
-
 /* The control points of a scattered-point method (RBF, IDW; docs/rbf-idw.md):
  * "control_points" (required), "deformed_control_points" (one per control
  * point) and "moves" (indices in range). */
@@ -62,7 +36,8 @@ ffd_status ffd_rig_read_control_points(const ffd_rig_parser *p, const cJSON *roo
     if ((item = cJSON_GetObjectItemCaseSensitive(root, "moves"))) {
         void *read;
         s = ffd_rig_read_array(p, item, "moves", "an array of {\"index\": i, \"delta\": [dx,dy,dz]}",
-                               sizeof **moves, read_point_move, NULL, NULL, &read, move_count);
+                               sizeof **moves, ffd_rig_read_point_move, NULL,
+                               (void *)"a control point index", &read, move_count);
         *moves = read;
         if (s)
             return s;
