@@ -116,14 +116,20 @@ ffd_status ffd_prm_read(const char *text, size_t size, const char *name, ffd_prm
                 e->key_size == key_size) {
                 char k[128];
                 snprintf(k, sizeof k, "%.*s", (int)key_size, key);
-                if (same_key(e->key, e->key_size, k))
-                    return ffd_fail(err, FFD_ERR_PARSE,
-                                    "%s:%zu: duplicate key '%s' in [%.*s] (first at line %zu)",
-                                    name, line, k, (int)section_size, section, e->line);
+                if (same_key(e->key, e->key_size, k)) {
+                    s = ffd_fail(err, FFD_ERR_PARSE,
+                                 "%s:%zu: duplicate key '%s' in [%.*s] (first at line %zu)", name,
+                                 line, k, (int)section_size, section, e->line);
+                    break;
+                }
             }
         }
-        if (!ffd_grow((void **)&d->entries, &d->entry_cap, d->entry_count + 1, sizeof *d->entries))
-            return ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory", name);
+        if (s)
+            break;
+        if (!ffd_grow((void **)&d->entries, &d->entry_cap, d->entry_count + 1, sizeof *d->entries)) {
+            s = ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory", name);
+            break;
+        }
         d->entries[d->entry_count++] = (ffd_prm_entry){section, key, section_size, key_size, line,
                                                        d->line_count, 0};
         in_value = 1;
