@@ -910,6 +910,94 @@ FFD_API void ffd_session_set_autosave_file(ffd_session *s, const char *file);
  * the server's notes to the page ("previous": an earlier record kept). */
 FFD_API void ffd_session_note_autosave(ffd_session *s, const char *key, const char *json);
 
+/* ======================================================================
+ * Distributed runs: one mesh partitioned over processes (docs/mpi.md)
+ * ====================================================================== */
+
+/* The library knows no MPI. A caller that runs one mesh as pieces on
+ * several processes (ranks) gives it a communicator of two callbacks; the
+ * few global steps of a deformation go through them: the extent of the
+ * whole mesh (min/max), the vertices the rig names by id (gathered from the
+ * ranks that hold them), the boundary surface where a method reads one
+ * (PB-FFD placement, the T-spline's occupancy, GFFD's fields; gathered),
+ * counts (sums), and agreeing on failure, so that an error on one rank is
+ * every rank's error and no rank waits forever. */
+typedef enum ffd_reduce_op {
+    FFD_REDUCE_SUM = 0,
+    FFD_REDUCE_MIN,
+    FFD_REDUCE_MAX,
+    FFD_REDUCE_OR /* bitwise, FFD_REDUCE_UINT64 only */
+} ffd_reduce_op;
+typedef enum ffd_reduce_type { FFD_REDUCE_DOUBLE = 0, FFD_REDUCE_UINT64 } ffd_reduce_type;
+
+typedef struct ffd_comm {
+    int rank; /* this process, 0 .. size-1 */
+    int size; /* the processes of the run */
+    /* Reduces count values of type (double or uint64_t) in data, in place,
+     * over every rank (MPI_Allreduce with MPI_IN_PLACE): every rank calls it
+     * with the same count, type and op. Returns 0 on success. */
+    int (*allreduce)(void *user, void *data, size_t count, ffd_reduce_type type,
+                     ffd_reduce_op op);
+    /* Every rank's bytes to every rank (MPI_Allgatherv of MPI_BYTE): rank r
+     * gives mine (bytes long; bytes == sizes[r]); all (sum of sizes bytes)
+     * receives them in rank order. sizes (size entries) is the same on every
+     * rank, found beforehand by the library with allreduce. Returns 0 on
+     * success. */
+    int (*allgatherv)(void *user, const void *mine, size_t bytes, void *all,
+                      const size_t *sizes);
+    void *user;
+} ffd_comm;
+
+/* One rank's piece of a distributed mesh. */
+typedef struct ffd_partition {
+    const ffd_comm *comm;       /* NULL: one process (the piece is the whole mesh) */
+    const uint64_t *global_ids; /* each of the piece's vertices' id in the whole mesh (the
+                                   numbering a rig's vertex ids use: a VTU's GlobalNodeID, Gmsh's
+                                   node tags); a vertex on several pieces has one id and the same
+                                   position on each. NULL: rank-major (rank r's vertices follow
+                                   those of ranks 0 .. r-1, in order) */
+    const ffd_limits *limits;   /* NULL: the defaults */
+} ffd_partition;
+
+/* Every rank learns whether any failed: local is this rank's status (err
+ * its message). All ranks call it. Returns FFD_OK when every rank's status
+ * was FFD_OK; otherwise the status of the lowest failing rank, with err set
+ * on every rank to "rank R: <its message>". A failing callback is FFD_ERR_IO. */
+FFD_API ffd_status ffd_comm_agree(const ffd_comm *comm, ffd_status local, ffd_error *err);
+
+/* The rig's deformer over a distributed mesh, bound to this rank's piece:
+ * the global steps read the whole mesh through part->comm, so every rank
+ * gets the same controls (rank 0's bits) and each point deforms exactly as
+ * it would as a vertex of the whole mesh with ffd_deformer_create (bitwise,
+ * for every method but GFFD). Collective: every rank calls it, with its
+ * piece (which may have no vertices). Vertex ids in the rig are global ids.
+ * Refused (FFD_ERR_UNSUPPORTED, the same on every rank, the reason named):
+ * what changes the partition (GFFD resampling) and the generic layers that
+ * read per-vertex data of the whole mesh (weights, "preserve", linear
+ * constraints over points). Errors as ffd_deformer_create, and
+ * FFD_ERR_RANGE for a vertex id no rank holds. */
+FFD_API ffd_status ffd_deformer_create_distributed(const ffd_rig *rig, const ffd_mesh *piece,
+                                                   const ffd_partition *part,
+                                                   ffd_deformer **out, ffd_error *err);
+
+/* ffd_rig_apply on a distributed mesh: every rank deforms its piece as
+ * ffd_rig_apply deforms those vertices of the whole mesh (bitwise; normals
+ * through the Jacobian). Collective. The report is the same on every rank:
+ * the constraints' residuals and the deformed controls, its details the
+ * deformer's report with "distributed" (ranks, points, the points and
+ * surface faces the global steps gathered). On error no piece changed. */
+FFD_API ffd_status ffd_rig_apply_distributed(const ffd_rig *rig, ffd_mesh *piece,
+                                             const ffd_partition *part, ffd_rig_report *report,
+                                             ffd_error *err);
+
+/* The inversion check (ffd_mesh_check_inversions) of every rank's piece,
+ * summed: counts added, worst values the minimum, the id lists kept only on
+ * the rank whose cells they are (ids are local to each piece). A face on a
+ * partition interface is a boundary face of both its pieces and is checked
+ * on both. Collective. */
+FFD_API ffd_status ffd_inversion_report_reduce(const ffd_comm *comm, ffd_inversion_report *report,
+                                               ffd_error *err);
+
 #ifdef __cplusplus
 }
 #endif
