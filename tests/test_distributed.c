@@ -360,6 +360,11 @@ static void test_volume(void)
                      " {\"vertex\": 600, \"target\": [4, 5, 6]}]}");
     check_text(mesh, "{\"deformer\": \"tspline\", \"resolution\": [4, 4, 4], \"steps\": ["
                      "{\"constraints\": {\"targets\": [{\"vertex\": 5, \"target\": [1, 2, 3]}]}}]}");
+    /* PB-FFD's placement on the boundary the ranks gather (its coverage
+     * grows radii for the boundary's vertices, not the interface nodes) */
+    check_text(FFD_DATA_DIR "/volume/box_tet_binary.vtk",
+               "{\"deformer\": \"pbffd\", \"controls\": {\"interior\": 12, \"exterior\": 12},"
+               " \"moves\": [{\"near\": [2, 1, 1], \"delta\": [0.1, 0.05, 0]}]}");
     /* PB-FFD's placement on the boundary the ranks gather */
     check_text(mesh, "{\"deformer\": \"pbffd\", \"controls\": {\"interior\": 20, \"exterior\": 20},"
                      " \"constraints\": [{\"vertex\": 12, \"target\": [1, 2, 3]}]}");

@@ -304,11 +304,14 @@ static void set_radius(ffd_ebf *c, double r)
     }
 }
 
-/* Grows ROIs until every vertex lies in at least need of them: for each
- * vertex under fewer (in vertex order), its nearest controls that miss it
- * grow to reach it with a small margin. Returns the number of grown
- * controls, or SIZE_MAX when out of memory. */
-static size_t cover(ffd_ebf *c, size_t m, const double *x, size_t nv)
+/* Grows ROIs until every surface vertex (the ns vertices of surface: those
+ * with a normal, in vertex order) lies in at least need of them: for each
+ * under fewer, its nearest controls that miss it grow to reach it with a
+ * small margin. Only the boundary counts, as for every step of the
+ * placement: a volume mesh's interior nodes do not, so the placement is a
+ * function of the boundary surface alone (what a distributed run gathers).
+ * Returns the number of grown controls, or SIZE_MAX when out of memory. */
+static size_t cover(ffd_ebf *c, size_t m, const double *x, const size_t *surface, size_t nv)
 {
     size_t need = m < 2 ? m : 2;
     if (need == 0)
@@ -327,11 +330,11 @@ static size_t cover(ffd_ebf *c, size_t m, const double *x, size_t nv)
     long long n = (long long)nv;
 #pragma omp parallel for schedule(static)
     for (long long ii = 0; ii < n; ii++)
-        low[ii] = support(c, m, x + 3 * ii, need) < need;
+        low[ii] = support(c, m, x + 3 * surface[ii], need) < need;
     for (size_t i = 0; i < nv; i++) {
         if (!low[i])
             continue;
-        const double *v = x + 3 * i;
+        const double *v = x + 3 * surface[i];
         size_t have = support(c, m, v, need);
         size_t near[2];
         double d2[2];
@@ -626,7 +629,7 @@ ffd_status ffd_pbffd_place(const ffd_mesh *mesh, const ffd_placement_options *op
         set_radius(ebf + j, r);
     }
     if (!opt.no_cover) {
-        size_t grown = cover(ebf, m, x, nv);
+        size_t grown = cover(ebf, m, x, surface, ns);
         if (grown == SIZE_MAX)
             goto nomem;
         rep.grown_radii = grown;
