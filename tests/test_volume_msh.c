@@ -127,6 +127,35 @@ static void test_mixed_details(void)
     ffd_mesh_destroy(m);
 }
 
+/* ffd_mesh_node_tags: each vertex's tag as the file gives it (sparse in
+ * mixed_22.msh, in 4.1 entity blocks in prism_41.msh: tags 1..n), kept after
+ * a deformation; NULL for a mesh of another format. */
+static void test_node_tags(void)
+{
+    ffd_mesh *m = read_mesh(VOL "mixed_22.msh");
+    if (m) {
+        const uint64_t *tags = ffd_mesh_node_tags(m);
+        CHECK(tags != NULL);
+        for (size_t i = 0; tags && i < ffd_mesh_vertex_count(m); i++)
+            CHECK(tags[i] == 10 * (i + 1));
+        ffd_mesh_destroy(m);
+    }
+    m = read_mesh(VOL "prism_41_bin.msh");
+    if (m) {
+        const uint64_t *tags = ffd_mesh_node_tags(m);
+        CHECK(tags != NULL);
+        for (size_t i = 0; tags && i < ffd_mesh_vertex_count(m); i++)
+            CHECK(tags[i] == i + 1);
+        ffd_mesh_destroy(m);
+    }
+    m = read_mesh(VOL "mixed_ascii.vtu");
+    if (m) {
+        CHECK(ffd_mesh_node_tags(m) == NULL);
+        ffd_mesh_destroy(m);
+    }
+    CHECK(ffd_mesh_node_tags(NULL) == NULL);
+}
+
 /* tet10: Gmsh's nodes 8 and 9 swap into VTK's order: VTK's node 8 is the
  * middle of corners 1 and 3. */
 static void test_quadratic_order(void)
@@ -596,6 +625,7 @@ int main(int argc, char **argv)
         {"read_samples", test_read_samples},
         {"mixed_details", test_mixed_details},
         {"quadratic_order", test_quadratic_order},
+        {"node_tags", test_node_tags},
         {"untouched_identical", test_untouched_identical},
         {"deformed_changes_only_nodes", test_deformed_changes_only_nodes},
         {"transcode", test_transcode},

@@ -983,6 +983,11 @@ static ffd_status read_msh(ffd_mesh *m, const char *name, ffd_error *err)
         cell_where w = {name, r.s, r.cell_at, r.binary};
         s = ffd_mesh_finish_cells(m, name, locate_cell, &w, err);
     }
+    if (s == FFD_OK) { /* the mesh keeps them (ffd_mesh_node_tags) */
+        ffd_free(m->node_tags);
+        m->node_tags = r.node_tags;
+        r.node_tags = NULL;
+    }
     ffd_free(r.node_tags);
     ffd_free(r.by_tag);
     ffd_free(r.entities);
