@@ -14,6 +14,8 @@
 set -u
 mpi=$1 ffd=$2 cmp=$3 src=$4 mpiexec=${5:-mpirun} group=${6:-all}
 command -v python3 >/dev/null || { echo "test_mpi: no python3: skipped"; exit 77; }
+abs() { case $1 in /*) echo "$1" ;; *) echo "$PWD/$1" ;; esac; }
+mpi=$(abs "$mpi") ffd=$(abs "$ffd") cmp=$(abs "$cmp") src=$(abs "$src")
 data=$src/data/volume/mpi
 box=$data/mpi_box.msh
 work=$PWD/mpi_test_$group
@@ -123,7 +125,7 @@ EOF
 python3 - <<'EOF' || fail "PB-FFD controls file"
 import json
 rig = json.load(open("placed.json"))
-rig["moves"] = [{"index": 2, "delta": [0.1, 0.05, 0]}, {"index": 7, "delta": [0, 0, 0.08]}]
+rig["moves"] = [{"control": 2, "delta": [0.1, 0.05, 0]}, {"control": 7, "delta": [0, 0, 0.08]}]
 rig["constraints"] = [{"vertex": 6, "target": [2.05, 1.0, 1.0]}]
 json.dump(rig, open("pbffd_controls.json", "w"))
 EOF
@@ -133,7 +135,7 @@ cat >pbffd_place.json <<'EOF'
  "moves": [{"near": [2, 1, 1], "delta": [0.1, 0.1, 0]}]}
 EOF
 cat >tspline.json <<'EOF'
-{"version": 1, "deformer": "tspline", "resolution": [4, 3, 3],
+{"version": 1, "deformer": "tspline", "resolution": [5, 4, 4],
  "steps": [{"deform": {"freeze": [{"box": {"min": [-9, -9, -9], "max": [0.5, 9, 9]}}],
                        "handles": [{"box": {"min": [1.6, -9, -9], "max": [9, 9, 9]},
                                     "delta": [0.2, 0.1, 0]}]}}]}

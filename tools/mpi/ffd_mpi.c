@@ -5,6 +5,7 @@
  * deformed piece. Every failure is agreed on (ffd_comm_agree), so that all
  * ranks exit with it and none waits in a collective call. */
 #include "cli.h"       /* cli_print_report, shared with `ffd deform --report` */
+#include "core/core.h" /* ffd_fail */
 #include "partition.h" /* the partition formats */
 
 #include <mpi.h>
@@ -70,7 +71,7 @@ static int mpi_failed(mpi_user *u, int code, const char *call)
     int len = 0;
     if (MPI_Error_string(code, text, &len) != MPI_SUCCESS)
         snprintf(text, sizeof text, "error %d", code);
-    snprintf(u->message, sizeof u->message, "%s: %s", call, text);
+    snprintf(u->message, sizeof u->message, "%s: %.200s", call, text);
     return 1;
 }
 
@@ -295,7 +296,7 @@ static int option_value(int argc, char **argv, int *i, const char *name, const c
  * deform
  * ====================================================================== */
 
-static int cmd_deform(const ffd_comm *comm, int argc, char **argv)
+static int mpi_deform(const ffd_comm *comm, int argc, char **argv)
 {
     const char *parts = NULL, *out = NULL, *rig_path = NULL, *max_memory = NULL;
     int want_report = 0, fail_on_inversion = 0;
@@ -441,7 +442,7 @@ static int cmd_deform(const ffd_comm *comm, int argc, char **argv)
         char message[sizeof err.message];
         snprintf(message, sizeof message, "%s", err.message);
         if (strncmp(message, plan.out_piece, strlen(plan.out_piece)) != 0)
-            snprintf(err.message, sizeof err.message, "%s: %s", plan.out_piece, message);
+            ffd_fail(&err, st, "%s: %s", plan.out_piece, message);
     }
     if (st == FFD_OK)
         st = write_temp(plan.out_piece, bytes, nbytes, &tmp_piece, &err);
@@ -542,7 +543,7 @@ int main(int argc, char **argv)
             fputs(usage, stdout);
         code = CLI_EXIT_OK;
     } else if (strcmp(argv[1], "deform") == 0) {
-        code = cmd_deform(&comm, argc - 1, argv + 1);
+        code = mpi_deform(&comm, argc - 1, argv + 1);
     } else {
         code = usage_error("unknown command '%s' (ffd-mpi has: deform)", argv[1]);
     }
