@@ -382,7 +382,8 @@ static ffd_status select_points(dist_build *b, wire_point **out, size_t *count, 
         ffd_free(refs.ids);
         return st;
     }
-    qsort(refs.ids, refs.count, sizeof *refs.ids, compare_u64);
+    if (refs.count)
+        qsort(refs.ids, refs.count, sizeof *refs.ids, compare_u64);
     /* the first point at each end of the extent on each axis */
     for (int a = 0; a < 3; a++) {
         int got_lo = 0, got_hi = 0;
