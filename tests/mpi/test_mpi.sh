@@ -223,6 +223,17 @@ if [ "$group" = all ] || [ "$group" = formats ]; then
         fail "empty piece failed"
         cat run.err
     fi
+    # Gmsh's default split pieces: MSH 4.1 with $PartitionedEntities, ascii and binary
+    for set in 41_p3:3 41bin_p2:2; do
+        name=${set%%:*} np=${set##*:}
+        if run "$np" "$data/mpi_box_$name.msh" -o "out_$name.msh" --rig lattice.json; then
+            # shellcheck disable=SC2046
+            compare "Gmsh MSH 4.1 pieces ($name)" ref_lattice.msh $(out_pieces msh "$np" "out_$name")
+        else
+            fail "Gmsh MSH 4.1 pieces ($name) failed"
+            cat run.err
+        fi
+    done
     # the bunny as OBJ pieces with "#GlobalNodeID" lines; constraints on vertices of different pieces
     bunny=$src/examples/lattice/bunny.obj
     python3 "$src/tests/mpi/make_partitions.py" obj "$bunny" bunny3 3 || exit 1

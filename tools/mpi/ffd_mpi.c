@@ -31,7 +31,7 @@ static const char usage[] =
     "  mesh.pvtu         a ParaView index of .vtu pieces (<Piece Source=\"...\"/>);\n"
     "                    OUT is a .pvtu: rank 0 writes it, rank r writes OUT_r.vtu\n"
     "  mesh.msh          Gmsh's split pieces mesh_1.msh .. mesh_N.msh next to it\n"
-    "                    (`gmsh -part N -part_split -format msh22`); OUT.msh names\n"
+    "                    (`gmsh -part N -part_split`, MSH 4.1 or 2.2); OUT.msh names\n"
     "                    the outputs OUT_1.msh .. OUT_N.msh (OUT.msh itself is not written)\n"
     "  piece_%d.vtu      one file per rank, any format ffd reads (%d, %Nd or %0Nd is\n"
     "                    the rank 0 .. N-1); OUT holds a %d too\n"
