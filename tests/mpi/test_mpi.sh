@@ -329,6 +329,21 @@ if [ "$group" = all ] || [ "$group" = errors ]; then
     sed "s/head.off/${src//\//\\/}\/examples\/gffd\/head.off/" "$src/examples/gffd/twist.json" >twist.json
     python3 "$src/tests/mpi/make_partitions.py" obj "$src/examples/gffd/bunny.obj" gbunny 2 || exit 1
     error_case "GFFD resampling" "resampl" 2 'gbunny/piece_%d.obj' -o 'errout/o_%d.obj' --rig twist.json
+    # rank 1 cannot write (its directory is missing): rank 0's finished piece goes too
+    rm -rf wr && mkdir -p wr/d0
+    python3 "$src/tests/mpi/make_partitions.py" xyz "$src/data/volume/bunny_points.xyz" pts2 2 || exit 1
+    run 2 'pts2/points_%d.xyz' -o 'wr/d%d/o.xyz' --rig "$src/examples/idw/bunny-ears.json"
+    code=$?
+    if [ $code = 0 ] || [ $code = 124 ] || [ $code = 137 ]; then
+        fail "a rank that cannot write: exit $code"
+    elif ! grep -q "rank 1: wr/d1/o.xyz: No such file or directory" run.err; then
+        fail "a rank that cannot write: stderr"
+        cat run.err
+    elif [ -n "$(ls -A wr/d0)" ]; then
+        fail "a rank that cannot write: rank 0 left $(ls -A wr/d0)"
+    else
+        pass "a rank that cannot write: $(grep 'rank 1:' run.err)"
+    fi
     cat >invert.json <<'EOF'
 {"version": 1, "deformer": "lattice", "basis": "bernstein", "resolution": [2, 2, 2], "box": "auto",
  "moves": [{"index": [1, 1, 1], "delta": [-4, -4, -4]}]}

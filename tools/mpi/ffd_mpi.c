@@ -221,7 +221,8 @@ static ffd_status write_temp(const char *path, const void *data, size_t size, ch
     snprintf(tmp, n, "%s.tmp%ld", path, (long)getpid());
     int fd = open(tmp, O_WRONLY | O_CREAT | O_TRUNC, 0666);
     if (fd < 0) {
-        ffd_status st = ffd_fail(err, FFD_ERR_IO, "%s: %s", tmp, strerror(errno));
+        ffd_status st = ffd_fail(err, FFD_ERR_IO, "%s: %s (its temporary file %s)", path,
+                                 strerror(errno), tmp);
         free(tmp);
         return st;
     }
