@@ -1,7 +1,8 @@
 # What `cmake --install` and `cpack -G DEB` install (docs/api.md "Linking",
 # README "Install"): libffd.so.0 and libffd.a, include/ffd*.h, ffd.pc, the
 # CMake package ffd (ffdConfig.cmake: ffd::ffd, the shared library, and
-# ffd::ffd_static), the ffd command, the editor's page (web/dist, when built)
+# ffd::ffd_static), the ffd command (and ffd-mpi, built with FFD_MPI: the root
+# CMakeLists.txt installs both), the editor's page (web/dist, when built)
 # under share/ffd/web and the example meshes under share/ffd/examples.
 include(CMakePackageConfigHelpers)
 
@@ -53,7 +54,8 @@ set(CPACK_DEBIAN_PACKAGE_DESCRIPTION "${CPACK_PACKAGE_DESCRIPTION_SUMMARY}
  FFD (GFFD) and T-spline proxy FFD of OBJ, PLY, OFF, STL and glTF meshes,
  written back losslessly. The package holds the library (shared and static),
  its header ffd.h, ffd.pc and the CMake package ffd, the ffd command with its
- man pages, the editor's page for `ffd serve` and the example meshes.")
+ man pages (and ffd-mpi, which deforms a partitioned mesh over MPI, when built
+ with Open MPI), the editor's page for `ffd serve` and the example meshes.")
 set(CPACK_STRIP_FILES ON) # the executable and the shared library, as Debian ships them
 find_program(FFD_DPKG_SHLIBDEPS dpkg-shlibdeps)
 if(FFD_DPKG_SHLIBDEPS)
@@ -61,6 +63,9 @@ if(FFD_DPKG_SHLIBDEPS)
 else()
   # Debian 12's runtime packages of the libraries libffd and ffd link
   set(CPACK_DEBIAN_PACKAGE_DEPENDS "libc6, libgomp1, liblapacke, libopenblas0, libcjson1, libqhull-r8.0, libcholmod3, libsuitesparseconfig5, libmicrohttpd12, zlib1g")
+  if(FFD_MPI)
+    string(APPEND CPACK_DEBIAN_PACKAGE_DEPENDS ", libopenmpi3") # ffd-mpi (docs/mpi.md)
+  endif()
 endif()
 # gzip the man pages; copyright and changelog.gz in /usr/share/doc/ffdkit
 set(CPACK_PRE_BUILD_SCRIPTS ${CMAKE_SOURCE_DIR}/cmake/deb_fixups.cmake)

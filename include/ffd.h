@@ -290,6 +290,11 @@ typedef struct ffd_field_info {
 FFD_API size_t ffd_mesh_field_count(const ffd_mesh *mesh);
 FFD_API ffd_status ffd_mesh_field_get(const ffd_mesh *mesh, size_t i, ffd_field_info *info,
                                       ffd_error *err);
+/* Per vertex its Gmsh node tag (#V values, each >= 1, distinct), for a mesh
+ * read from MSH; NULL for any other mesh. The tags of a piece of a
+ * partitioned mesh (`gmsh -part N -part_split`) are its nodes' numbers in the
+ * whole mesh (docs/mpi.md). Valid until the mesh is destroyed. */
+FFD_API const uint64_t *ffd_mesh_node_tags(const ffd_mesh *mesh);
 
 typedef struct ffd_mesh_info {
     size_t vertex_count;

@@ -2,6 +2,7 @@
 # Installs every Debian package ffdkit needs. Idempotent: re-running installs nothing new.
 # The Python package (python/, docs/python.md) is built with the rest: its
 # headers, NumPy, and pip/setuptools/venv for `pip install ./python`.
+# Open MPI builds ffd-mpi and runs its tests (docs/mpi.md); mpi4py is ffdkit.mpi's.
 # With --test also the packages only the tests use: Blender (a real glTF client
 # that imports what ffd writes), pytest, and SciPy and meshio (the Python
 # package's optional sparse matrices and meshio interop).
@@ -12,7 +13,8 @@ PKGS=(build-essential cmake pkg-config
       libqhull-dev libsuitesparse-dev zlib1g-dev
       libmicrohttpd-dev chromium curl libomp-dev valgrind
       groff-base dpkg-dev file binutils
-      python3-dev python3-numpy python3-pip python3-setuptools python3-venv)
+      python3-dev python3-numpy python3-pip python3-setuptools python3-venv
+      libopenmpi-dev openmpi-bin python3-mpi4py)
 if [ "${1:-}" = "--test" ]; then
   PKGS+=(blender python3-pytest python3-scipy python3-meshio)
 fi

@@ -127,6 +127,83 @@ static void test_mixed_details(void)
     ffd_mesh_destroy(m);
 }
 
+/* ffd_mesh_node_tags: each vertex's tag as the file gives it (sparse in
+ * mixed_22.msh, in 4.1 entity blocks in prism_41.msh: tags 1..n), kept after
+ * a deformation; NULL for a mesh of another format. */
+static void test_node_tags(void)
+{
+    ffd_mesh *m = read_mesh(VOL "mixed_22.msh");
+    if (m) {
+        const uint64_t *tags = ffd_mesh_node_tags(m);
+        CHECK(tags != NULL);
+        for (size_t i = 0; tags && i < ffd_mesh_vertex_count(m); i++)
+            CHECK(tags[i] == 10 * (i + 1));
+        ffd_mesh_destroy(m);
+    }
+    m = read_mesh(VOL "prism_41_bin.msh");
+    if (m) {
+        const uint64_t *tags = ffd_mesh_node_tags(m);
+        CHECK(tags != NULL);
+        for (size_t i = 0; tags && i < ffd_mesh_vertex_count(m); i++)
+            CHECK(tags[i] == i + 1);
+        ffd_mesh_destroy(m);
+    }
+    m = read_mesh(VOL "mixed_ascii.vtu");
+    if (m) {
+        CHECK(ffd_mesh_node_tags(m) == NULL);
+        ffd_mesh_destroy(m);
+    }
+    CHECK(ffd_mesh_node_tags(NULL) == NULL);
+}
+
+/* The pieces of a partitioned mesh as Gmsh 4.8 splits them (`-part N
+ * -part_split`, MSH 4.1 with $PartitionedEntities, ascii and binary): each
+ * node has the coordinates and tag it has in the whole mesh, every node of
+ * the whole mesh is on a piece, and the cells' elementary tags are the
+ * piece's partitioned entities. */
+static void test_partitioned_pieces(void)
+{
+    ffd_mesh *whole = read_mesh(VOL "mpi/mpi_box.msh");
+    if (!whole)
+        return;
+    static const char *const pieces[] = {
+        VOL "mpi/mpi_box_41_p3_1.msh", VOL "mpi/mpi_box_41_p3_2.msh", VOL "mpi/mpi_box_41_p3_3.msh",
+        NULL, VOL "mpi/mpi_box_41bin_p2_1.msh", VOL "mpi/mpi_box_41bin_p2_2.msh", NULL};
+    size_t n = ffd_mesh_vertex_count(whole);
+    unsigned char *seen = calloc(n, 1);
+    for (size_t k = 0; k < sizeof pieces / sizeof *pieces; k++) {
+        if (!pieces[k]) { /* the end of a partition: every node was on a piece */
+            for (size_t i = 0; i < n; i++)
+                CHECK(seen[i]);
+            memset(seen, 0, n);
+            continue;
+        }
+        ffd_mesh *m = read_mesh(pieces[k]);
+        if (!m)
+            continue;
+        const uint64_t *tags = ffd_mesh_node_tags(m);
+        CHECK(tags != NULL);
+        for (size_t i = 0; tags && i < ffd_mesh_vertex_count(m); i++) {
+            CHECK(tags[i] >= 1 && tags[i] <= n);
+            if (tags[i] < 1 || tags[i] > n)
+                continue;
+            seen[tags[i] - 1] = 1;
+            CHECK(memcmp(ffd_mesh_positions(m) + 3 * i,
+                         ffd_mesh_positions(whole) + 3 * (tags[i] - 1), 3 * sizeof(double)) == 0);
+        }
+        CHECK(ffd_mesh_is_volume(m));
+        /* each block's entity is a partitioned one: its elementary tag */
+        const double *el = field(m, "gmsh:geometrical");
+        CHECK(el != NULL);
+        for (size_t c = 0; el && c < ffd_mesh_cell_count(m); c++)
+            if (el[c] < 1 && check_failures < 5)
+                CHECK(el[c] >= 1);
+        ffd_mesh_destroy(m);
+    }
+    free(seen);
+    ffd_mesh_destroy(whole);
+}
+
 /* tet10: Gmsh's nodes 8 and 9 swap into VTK's order: VTK's node 8 is the
  * middle of corners 1 and 3. */
 static void test_quadratic_order(void)
@@ -416,8 +493,14 @@ static const bad_case bad_cases[] = {
     {HEAD22 "$Elements\n0\n$EndElements\n", FFD_ERR_PARSE, "bad.msh:4: $Elements before $Nodes"},
     {HEAD22 "$ParametricNodes\n", FFD_ERR_UNSUPPORTED, "bad.msh:4: $ParametricNodes is not"},
     {HEAD22 "$Comments\nno end\n", FFD_ERR_PARSE, "bad.msh:4: section $Comments has no $EndComments"},
-    {HEAD41 "$PartitionedEntities\n", FFD_ERR_UNSUPPORTED,
-     "bad.msh:4: $PartitionedEntities is not supported"},
+    {HEAD41 "$PartitionedEntities\n2\n0\n$EndPartitionedEntities\n", FFD_ERR_PARSE,
+     "bad.msh:7: expected an entity count"},
+    {HEAD41 "$PartitionedEntities\n2\n1\n", FFD_ERR_RANGE,
+     "bad.msh:6: ghost entity count 1 is more than the 1 bytes left can hold"},
+    {HEAD41 "$PartitionedEntities\n2\n0\n0 1 0 0\n5 0 1 99 1 0 0 0 0\n$EndPartitionedEntities\n",
+     FFD_ERR_RANGE, "bad.msh:8: partition count 99 is more than"},
+    {HEAD22 "$PartitionedEntities\n$EndPartitionedEntities\n", FFD_ERR_PARSE,
+     "bad.msh:4: $PartitionedEntities in an MSH 2 file"},
     {HEAD41 "$Nodes\n1 1 1 1\n2 1 1 1\n1\n0 0 0 0.5\n$EndNodes\n", FFD_ERR_UNSUPPORTED,
      "bad.msh:6: parametric nodes (entity 1 of dimension 2) are not supported"},
     {HEAD41 "$Nodes\n1 2 1 2\n0 1 0 3\n1\n2\n3\n0 0 0\n0 0 0\n0 0 0\n$EndNodes\n", FFD_ERR_RANGE,
@@ -455,11 +538,14 @@ static void test_bad_inputs(void)
  * that end after the last section). */
 static void test_truncated_prefixes(void)
 {
-    for (size_t i = 0; i < SAMPLE_COUNT; i++) {
-        if (strstr(samples[i].file, "box_tet10"))
+    /* the samples, then pieces of a partitioned mesh ($PartitionedEntities) */
+    static const char *const pieces[] = {"mpi/mpi_box_41_p3_1.msh", "mpi/mpi_box_41bin_p2_1.msh"};
+    for (size_t i = 0; i < SAMPLE_COUNT + 2; i++) {
+        const char *file = i < SAMPLE_COUNT ? samples[i].file : pieces[i - SAMPLE_COUNT];
+        if (strstr(file, "box_tet10"))
             continue; /* large: the small samples cover every section */
         char path[512];
-        snprintf(path, sizeof path, VOL "%s", samples[i].file);
+        snprintf(path, sizeof path, VOL "%s", file);
         size_t n = 0;
         unsigned char *src = read_file(path, &n);
         if (!src)
@@ -596,6 +682,8 @@ int main(int argc, char **argv)
         {"read_samples", test_read_samples},
         {"mixed_details", test_mixed_details},
         {"quadratic_order", test_quadratic_order},
+        {"node_tags", test_node_tags},
+        {"partitioned_pieces", test_partitioned_pieces},
         {"untouched_identical", test_untouched_identical},
         {"deformed_changes_only_nodes", test_deformed_changes_only_nodes},
         {"transcode", test_transcode},

@@ -441,6 +441,40 @@ static const bad_case bad_cases[] = {
     {HEAD "text" TAIL, FFD_ERR_PARSE, "mem.vtu:4: unexpected text 'text' outside a DataArray"},
 };
 
+/* A piece of a partitioned mesh may hold no points and no cells (docs/mpi.md):
+ * it reads as an empty mesh and writes back byte for byte. */
+static void test_empty_piece(void)
+{
+    static const char text[] =
+        "<?xml version=\"1.0\"?>\n<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" "
+        "byte_order=\"LittleEndian\" header_type=\"UInt64\">\n  <UnstructuredGrid>\n"
+        "    <Piece NumberOfPoints=\"0\" NumberOfCells=\"0\">\n"
+        "      <Points>\n        <DataArray type=\"Float64\" NumberOfComponents=\"3\" "
+        "format=\"ascii\">\n        </DataArray>\n      </Points>\n      <Cells>\n"
+        "        <DataArray type=\"Int64\" Name=\"connectivity\" format=\"ascii\">\n"
+        "        </DataArray>\n        <DataArray type=\"Int64\" Name=\"offsets\" "
+        "format=\"ascii\">\n        </DataArray>\n        <DataArray type=\"UInt8\" "
+        "Name=\"types\" format=\"ascii\">\n        </DataArray>\n      </Cells>\n"
+        "    </Piece>\n  </UnstructuredGrid>\n</VTKFile>\n";
+    ffd_mesh *m = NULL;
+    ffd_error e = {{0}};
+    CHECK(ffd_mesh_read_memory(text, sizeof text - 1, FFD_FORMAT_VTU, "empty.vtu", &m, &e) ==
+          FFD_OK);
+    if (!m) {
+        fprintf(stderr, "%s\n", e.message);
+        return;
+    }
+    CHECK(ffd_mesh_vertex_count(m) == 0);
+    CHECK(ffd_mesh_cell_count(m) == 0);
+    ffd_write_options o = {FFD_FORMAT_VTU, FFD_ENCODING_SAME, 0};
+    unsigned char *bytes = NULL;
+    size_t n = 0;
+    CHECK(ffd_mesh_write_memory(m, &o, &bytes, &n, &e) == FFD_OK);
+    CHECK(bytes && n == sizeof text - 1 && memcmp(bytes, text, n) == 0);
+    ffd_free(bytes);
+    ffd_mesh_destroy(m);
+}
+
 static void test_bad_inputs(void)
 {
     for (size_t i = 0; i < sizeof bad_cases / sizeof bad_cases[0]; i++) {
@@ -519,6 +553,7 @@ static const check_test tests[] = {
     {"compressed_appended_offsets_follow", test_compressed_appended_offsets_follow},
     {"from_surface_mesh", test_from_surface_mesh},
     {"from_created_cells", test_from_created_cells},
+    {"empty_piece", test_empty_piece},
     {"bad_inputs", test_bad_inputs},
     {"zip_bomb_refused", test_zip_bomb_refused},
     {"truncated_prefixes", test_truncated_prefixes},

@@ -89,6 +89,9 @@ struct ffd_mesh {
     /* Point and cell data of the volume formats (struct ffd_mesh_field, mesh_cells.h). */
     size_t field_count, field_cap;
     struct ffd_mesh_field *fields;
+    /* Gmsh node tags, one per vertex (mesh_msh.c; NULL for other formats):
+     * a partitioned mesh's global numbering (ffd_mesh_node_tags). */
+    uint64_t *node_tags;
 
     bool source_is_path; /* read by ffd_mesh_read: the codec may read files beside it */
     void *codec_state; /* a codec's own record of the source (glTF), freed with the mesh */

@@ -141,6 +141,8 @@ void ffd_mesh_free_cells(ffd_mesh *m)
         ffd_free(m->fields[i].values);
     }
     ffd_free(m->fields);
+    ffd_free(m->node_tags);
+    m->node_tags = NULL;
     m->cell_types = NULL;
     m->cell_offsets = NULL;
     m->cell_indices = NULL;
@@ -495,6 +497,8 @@ const uint32_t *ffd_mesh_face_cells(const ffd_mesh *mesh)
 }
 
 size_t ffd_mesh_field_count(const ffd_mesh *mesh) { return mesh ? mesh->field_count : 0; }
+
+const uint64_t *ffd_mesh_node_tags(const ffd_mesh *mesh) { return mesh ? mesh->node_tags : NULL; }
 
 ffd_status ffd_mesh_field_get(const ffd_mesh *mesh, size_t i, ffd_field_info *info, ffd_error *err)
 {

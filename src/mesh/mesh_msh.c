@@ -112,7 +112,8 @@ typedef struct reader {
 
     entity *entities;
     size_t entity_count, entity_cap;
-    bool have_entities;
+    bool have_entities, have_partitioned;
+    size_t partitioned_from; /* the first entity of $PartitionedEntities (0: none) */
 
     /* per cell: where its record starts, its physical and elementary tag */
     uint64_t *cell_at;
@@ -411,11 +412,34 @@ static ffd_status add_entity(reader *r, int dim, long long tag, long long physic
     return FFD_OK;
 }
 
-/* 4.1 $Entities: the physical tags of each entity (the section stays as bytes). */
-static ffd_status read_entities(reader *r)
+/* 4.1 $Entities: the physical tags of each entity (the section stays as
+ * bytes). partitioned: $PartitionedEntities, the entities of a piece of a
+ * partitioned mesh (`gmsh -part N -part_split`), which its $Nodes and
+ * $Elements blocks name: after a partition count and the ghost entities,
+ * each entity has its parent's dimension and tag and its partitions after
+ * its tag; the rest is as in $Entities. */
+static ffd_status read_entities(reader *r, bool partitioned)
 {
     long long n[4];
     ffd_status s;
+    if (partitioned) {
+        long long parts, ghosts;
+        r->partitioned_from = r->entity_count;
+        const char *at = (skip_space(r), r->p);
+        if ((s = read_num(r, true, "the partition count", &parts)) ||
+            (s = check_count(r, at, parts, 1, "partition count")))
+            return s;
+        at = (skip_space(r), r->p);
+        if ((s = read_num(r, true, "the ghost entity count", &ghosts)) ||
+            (s = check_count(r, at, ghosts, r->binary ? 8 : 4, "ghost entity count")))
+            return s;
+        for (long long g = 0; g < ghosts; g++) {
+            long long t;
+            if ((s = read_num(r, false, "a ghost entity tag", &t)) ||
+                (s = read_num(r, false, "a ghost entity's partition", &t)))
+                return s;
+        }
+    }
     for (int d = 0; d < 4; d++)
         if ((s = read_num(r, true, "an entity count", &n[d])))
             return s;
@@ -427,6 +451,19 @@ static ffd_status read_entities(reader *r)
             long long tag, nphys, physical = 0;
             if ((s = read_num(r, false, "an entity tag", &tag)))
                 return s;
+            if (partitioned) {
+                long long parent, nparts, t;
+                if ((s = read_num(r, false, "the parent entity's dimension", &parent)) ||
+                    (s = read_num(r, false, "the parent entity's tag", &parent)))
+                    return s;
+                at = (skip_space(r), r->p);
+                if ((s = read_num(r, true, "an entity's partition count", &nparts)) ||
+                    (s = check_count(r, at, nparts, r->binary ? 4 : 2, "partition count")))
+                    return s;
+                for (long long k = 0; k < nparts; k++)
+                    if ((s = read_num(r, false, "a partition tag", &t)))
+                        return s;
+            }
             int reals = d == 0 ? 3 : 6;
             for (int k = 0; k < reals; k++) {
                 double v;
@@ -463,6 +500,10 @@ static ffd_status read_entities(reader *r)
             if ((s = add_entity(r, d, tag, physical)))
                 return s;
         }
+    }
+    if (partitioned) {
+        r->have_partitioned = true;
+        return expect_end(r, "PartitionedEntities");
     }
     r->have_entities = true;
     return expect_end(r, "Entities");
@@ -714,9 +755,12 @@ static ffd_status element_type(reader *r, const char *at, long long id, const gm
 /* The first physical tag of entity (dim, tag) in $Entities, 0 when none. */
 static double physical_of_entity(const reader *r, long long dim, long long tag)
 {
-    for (size_t i = 0; i < r->entity_count; i++)
+    /* a piece's $PartitionedEntities first: its blocks name them */
+    for (size_t k = 0; k < r->entity_count; k++) {
+        size_t i = (r->partitioned_from + k) % r->entity_count;
         if (r->entities[i].dim == dim && r->entities[i].tag == tag)
             return (double)r->entities[i].physical;
+    }
     return 0;
 }
 
@@ -855,7 +899,7 @@ static ffd_status read_elements(reader *r)
                                count, bytes_left(r));
             double physical = physical_of_entity(r, dim, tag);
             r->any_geometrical = true;
-            r->any_physical = r->any_physical || r->have_entities;
+            r->any_physical = r->any_physical || r->have_entities || r->have_partitioned;
             for (long long e = 0; e < count; e++) {
                 long long number;
                 const char *rec = (skip_space(r), r->p);
@@ -939,11 +983,13 @@ static ffd_status read_sections(reader *r)
             s = read_elements(r);
         else if (section_is(name, len, "Entities") && r->major == 4)
             s = r->have_entities ? fail_at(r, at, FFD_ERR_PARSE, "a second $Entities")
-                                 : read_entities(r);
+                                 : read_entities(r, false);
+        else if (section_is(name, len, "PartitionedEntities") && r->major == 4)
+            s = r->have_partitioned ? fail_at(r, at, FFD_ERR_PARSE, "a second $PartitionedEntities")
+                                    : read_entities(r, true);
         else if (section_is(name, len, "PartitionedEntities"))
-            s = fail_at(r, at, FFD_ERR_UNSUPPORTED,
-                        "$PartitionedEntities is not supported (a partitioned mesh: "
-                        "save it unpartitioned)");
+            s = fail_at(r, at, FFD_ERR_PARSE, "$PartitionedEntities in an MSH 2 file (MSH 4 "
+                        "only; MSH 2 keeps partitions as element tags)");
         else if (section_is(name, len, "ParametricNodes"))
             s = fail_at(r, at, FFD_ERR_UNSUPPORTED,
                         "$ParametricNodes is not supported: their parametric coordinates "
@@ -982,6 +1028,11 @@ static ffd_status read_msh(ffd_mesh *m, const char *name, ffd_error *err)
     if (s == FFD_OK) {
         cell_where w = {name, r.s, r.cell_at, r.binary};
         s = ffd_mesh_finish_cells(m, name, locate_cell, &w, err);
+    }
+    if (s == FFD_OK) { /* the mesh keeps them (ffd_mesh_node_tags) */
+        ffd_free(m->node_tags);
+        m->node_tags = r.node_tags;
+        r.node_tags = NULL;
     }
     ffd_free(r.node_tags);
     ffd_free(r.by_tag);

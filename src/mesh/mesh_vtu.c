@@ -1277,7 +1277,8 @@ static ffd_status read_vtu(ffd_mesh *m, const char *name, ffd_error *err)
     }
     if ((s = decode_array(&r, pa, pc.points, &pts, NULL, m->position_spans)))
         goto done;
-    memcpy(m->positions, pts, 3 * n * sizeof(double));
+    if (n) /* a piece of a partitioned mesh may have no points (docs/mpi.md) */
+        memcpy(m->positions, pts, 3 * n * sizeof(double));
     m->vertex_count = n;
     r.st->orig = pts;
     pts = NULL;

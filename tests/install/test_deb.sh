@@ -70,8 +70,9 @@ grep -qE '\./usr/lib/(.*/)?libffd\.so\.0 -> libffd\.so\.0\.' "$T/deb.list" || fa
 grep -qE '\./usr/lib/(.*/)?libffd\.so -> libffd\.so\.0' "$T/deb.list" || fail "the .deb lacks the link libffd.so"
 grep -v '^d' "$T/deb.list" | grep -vE '^-rw-r--r-- |^-rwxr-xr-x |^lrwxrwxrwx ' |
     while read -r line; do fail "unusual mode or owner: $line"; done
-grep -E '^-rwxr-xr-x ' "$T/deb.list" | grep -vq '/bin/ffd$' &&
-    fail "executable files besides ffd: $(grep -E '^-rwxr-xr-x ' "$T/deb.list" | grep -v '/bin/ffd$')"
+# ffd, and ffd-mpi when the build has MPI (FFD_MPI, docs/mpi.md)
+grep -E '^-rwxr-xr-x ' "$T/deb.list" | grep -vqE '/bin/ffd(-mpi)?$' &&
+    fail "executable files besides ffd and ffd-mpi: $(grep -E '^-rwxr-xr-x ' "$T/deb.list" | grep -vE '/bin/ffd(-mpi)?$')"
 PAGE=0
 with=" without its page"
 if [ -f "$SRC/web/dist/index.html" ]; then

@@ -133,6 +133,11 @@ double cli_now(void);
 /* JSON output: a quoted, escaped string; a number (null when not finite). */
 void cli_json_string(FILE *f, const char *s);
 void cli_json_number(FILE *f, double v);
+/* The report on stdout, one line of JSON: residuals, then the method's
+ * details, the inversions and the fold check when not NULL (`ffd deform
+ * --report`; cli_report.c). */
+void cli_print_report(const ffd_rig_report *report, const ffd_inversion_report *inv,
+                      const ffd_fold_report *folds);
 
 /* Subcommands: argv[0] is the command name. Each returns the exit code. */
 int cmd_info(int argc, char **argv);
