@@ -34,7 +34,7 @@ from ._deformer import METHOD_CLASSES
 from ._mesh import Mesh
 from ._rig import _decode_report
 
-__all__ = ["Deformer", "Reducer", "apply", "deform", "reducer"]
+__all__ = ["Deformer", "Reducer", "agree", "apply", "deform", "reducer"]
 
 _MPI = None
 
@@ -104,6 +104,25 @@ def reducer(comm: Any):
     if all(hasattr(comm, a) for a in _PROTOCOL) and callable(getattr(comm, "allgatherv")):
         return comm
     return Reducer(comm)
+
+
+def agree(comm: Any, error: Optional[BaseException] = None) -> None:
+    """Every rank learns whether any failed (ffd_comm_agree; collective): error
+    is this rank's exception, or None. Returns None when no rank had one; else
+    raises on every rank the lowest failing rank's error as an ffdkit.Error
+    with the message "rank R: <message>" (an ffdkit.Error keeps its class;
+    any other exception becomes InvalidError naming its type; on the failing
+    rank the exception itself is the ``__cause__``). For a solver's own local
+    steps before a collective one, e.g. reading its piece::
+
+        try:
+            piece = ffdkit.read_mesh(f"part_{rank}.vtu")
+            error = None
+        except Exception as e:
+            error = e
+        ffdkit.mpi.agree(comm, error)   # raises on every rank, or on none
+    """
+    _ffd.agree(reducer(comm), error)
 
 
 def deform(comm: Any, points: Any, rig: _ffd.Rig, global_ids: Any = None, faces: Any = None,
