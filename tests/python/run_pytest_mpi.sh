@@ -30,11 +30,10 @@ envs=(-x PYTHONPATH -x PYTHONDONTWRITEBYTECODE -x FFDKIT_SOURCE_DIR -x OMP_NUM_T
 if [ -n "$SAN" ]; then
     asan=$(${CC:-cc} -print-file-name=libasan.so)
     [ -e "$asan" ] || { echo "FAIL: no libasan.so for the sanitizer build ($asan)"; exit 1; }
-    # the ranks only (-x), not mpirun itself
-    export LD_PRELOAD=$asan ASAN_OPTIONS=detect_leaks=0:abort_on_error=1
+    # preloaded into the ranks only (-x NAME=VALUE), not into mpirun itself
+    export ASAN_OPTIONS=detect_leaks=0:abort_on_error=1
     export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 FFDKIT_TEST_SANITIZED=1
-    envs+=(-x LD_PRELOAD -x ASAN_OPTIONS -x UBSAN_OPTIONS -x FFDKIT_TEST_SANITIZED)
-    unset LD_PRELOAD
+    envs+=(-x "LD_PRELOAD=$asan" -x ASAN_OPTIONS -x UBSAN_OPTIONS -x FFDKIT_TEST_SANITIZED)
 fi
 cd "$SRC"
 status=0
