@@ -8,6 +8,9 @@
 # (copy each into fuzz/corpus/<target>/ once fixed: every build replays it).
 # Prints one line per target: executions, coverage, corpus size.
 # Exit status: 1 when a target found a crash, a leak or a timeout.
+# FFD_FUZZ_SEED=N fixes libFuzzer's seed (CI's run: the same mutations in
+# the same order on every run, so a CI result can be reproduced here with a
+# fresh corpus directory: FFD_FUZZ_CORPUS=DIR); unset, each run explores anew.
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 seconds=${1:-30}
@@ -24,7 +27,7 @@ cmake --build "$build" -j"$(nproc)" --target "${targets[@]}" >/dev/null
 data="$root/data"
 status=0
 for t in "${targets[@]}"; do
-  corpus="$build/corpus/$t"
+  corpus="${FFD_FUZZ_CORPUS:-$build/corpus}/$t"
   crashes="$build/crashes/$t"
   mkdir -p "$corpus" "$crashes"
   seeds=("$root/fuzz/corpus/$t")
@@ -40,7 +43,7 @@ for t in "${targets[@]}"; do
   fi
   log="$build/$t.log"
   if ASAN_OPTIONS=detect_leaks=1 "$build/$t" -max_total_time="$seconds" -timeout=20 \
-        -rss_limit_mb=2560 -max_len=1048576 -print_final_stats=1 \
+        -rss_limit_mb=2560 -max_len=1048576 -print_final_stats=1 ${FFD_FUZZ_SEED:+-seed="$FFD_FUZZ_SEED"} \
         -artifact_prefix="$crashes/" "$corpus" "${seeds[@]}" >"$log" 2>&1; then
     result=ok
   else

@@ -16,5 +16,5 @@ bash "$root/scripts/build.sh" "$root/build-asan" -DCMAKE_BUILD_TYPE=Debug -DFFD_
 (cd "$root/build-asan" && ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
     ctest --output-on-failure -j"$jobs")
 echo "== fuzzing: every libFuzzer target for 30 seconds (scripts/fuzz.sh)"
-bash "$root/scripts/fuzz.sh" 30
+FFD_FUZZ_SEED=${FFD_FUZZ_SEED:-1} bash "$root/scripts/fuzz.sh" 30
 echo "all tests passed (release and sanitizer builds, fuzzing)"

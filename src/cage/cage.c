@@ -376,7 +376,8 @@ ffd_status ffd_cage_bind(const ffd_cage *cage, const double *points, size_t n,
         return ffd_fail(err, FFD_ERR_NOMEM, "cage: out of memory for the coordinates of %zu "
                         "points over %zu cage vertices", n, nv);
     }
-    memcpy(b->points, points, n * 3 * sizeof(double));
+    if (n)
+        memcpy(b->points, points, n * 3 * sizeof(double));
     int nomem = 0;
 #pragma omp parallel
     {

@@ -10,6 +10,10 @@
 #include "rig/rig.h"
 #include "session/session.h"
 
+/* A visitor of the mesh vertex ids a rig holds (ffd_method.vertex_ids):
+ * path names the key ("constraints[2].vertex"). */
+typedef ffd_status (*ffd_vertex_visit)(void *user, uint32_t *id, const char *path);
+
 typedef struct ffd_method {
     const char *name;               /* the rig's "deformer" and the editor's "method" */
     /* The method's own top-level rig keys besides "version" and "deformer"
@@ -56,7 +60,23 @@ typedef struct ffd_method {
     ffd_status (*parse_prm)(const char *text, size_t size, const char *name, ffd_rig **out,
                             ffd_error *err);
     ffd_status (*write_prm)(const ffd_rig *rig, char **text, ffd_error *err);
+    /* Distributed runs (distributed.c, docs/mpi.md): what the method's
+     * deformer reads of the whole mesh besides its extent and the vertices
+     * the rig names. global_reads: FFD_GLOBAL_SURFACE (its boundary surface:
+     * placement, occupancy, distance fields), or FFD_GLOBAL_REFUSED with the
+     * reason written to why (size bytes); NULL: nothing more. */
+    unsigned (*global_reads)(const ffd_rig *rig, char *why, size_t size);
+    /* Marks in keep the points of this rank (n by 3) that a fit of the
+     * method reads besides the whole mesh's extent lo..hi; NULL: none. */
+    void (*global_points)(const ffd_rig *rig, const double lo[3], const double hi[3],
+                          const double *points, size_t n, unsigned char *keep);
+    /* Calls visit on every mesh vertex id the method's section holds, with
+     * its key path; visit may rewrite the id. Returns the first failing
+     * visit's status. NULL: the section holds none. */
+    ffd_status (*vertex_ids)(ffd_rig *rig, ffd_vertex_visit visit, void *user);
 } ffd_method;
+
+enum { FFD_GLOBAL_SURFACE = 1u, FFD_GLOBAL_REFUSED = 2u };
 
 /* The method a "create" body names by "deformer" or by "method" (the old
  * name of the key; both given must agree): FFD_ERR_PARSE naming the key. */

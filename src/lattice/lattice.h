@@ -202,6 +202,12 @@ ffd_status ffd_lattice_general_create(ffd_basis basis, const ffd_box *box, const
                                       ffd_error *err);
 void ffd_lattice_general_free(struct ffd_lattice_general *gen);
 void ffd_lattice_general_sync(ffd_lattice *lat);
+/* The point (of n) farthest from the axis (cylindrical) or centre
+ * (spherical) of the frame ffd_lattice_frame_fit fits to points whose
+ * extent is lo..hi: the one point its radius reads (distributed runs).
+ * SIZE_MAX when none or the extent is not a lattice box. */
+size_t ffd_lattice_frame_farthest(ffd_coordinates coordinates, const double lo[3],
+                                  const double hi[3], const double *points, size_t n);
 void ffd_lattice_general_rest_point(const ffd_lattice *lat, uint32_t i, uint32_t j, uint32_t k,
                                     double out[3]);
 /* Axis a (0..2) of a general lattice. */

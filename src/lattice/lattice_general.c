@@ -395,6 +395,32 @@ fail:
     return st;
 }
 
+/* A point's distance from the fitted frame's axis (cylindrical) or centre. */
+static double frame_radius(ffd_coordinates coordinates, const double centre[3], const double *p)
+{
+    double dx = p[0] - centre[0], dy = p[1] - centre[1], dz = p[2] - centre[2];
+    return coordinates == FFD_COORDINATES_CYLINDRICAL ? hypot(dx, dy)
+                                                      : sqrt(dx * dx + dy * dy + dz * dz);
+}
+
+size_t ffd_lattice_frame_farthest(ffd_coordinates coordinates, const double lo[3],
+                                  const double hi[3], const double *points, size_t n)
+{
+    double corners[6] = {lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]}, centre[3], rmax = -1;
+    ffd_box box;
+    if (ffd_box_fit(corners, 2, 0, &box, NULL))
+        return SIZE_MAX;
+    for (int c = 0; c < 3; c++)
+        centre[c] = box.origin[c] + 0.5 * box.axes[c][c];
+    size_t best = SIZE_MAX;
+    for (size_t i = 0; i < n; i++) {
+        double r = frame_radius(coordinates, centre, points + 3 * i);
+        if (r > rmax)
+            rmax = r, best = i;
+    }
+    return best;
+}
+
 ffd_status ffd_lattice_frame_fit(ffd_coordinates coordinates, const double *points, size_t n,
                                  double margin, ffd_lattice_frame *frame, ffd_error *err)
 {
@@ -410,12 +436,8 @@ ffd_status ffd_lattice_frame_fit(ffd_coordinates coordinates, const double *poin
     for (int c = 0; c < 3; c++)
         frame->centre[c] = box.origin[c] + 0.5 * box.axes[c][c];
     for (size_t i = 0; i < n; i++) {
-        const double *p = points + 3 * i;
-        double dx = p[0] - frame->centre[0], dy = p[1] - frame->centre[1],
-               dz = p[2] - frame->centre[2];
-        double r = coordinates == FFD_COORDINATES_CYLINDRICAL ? hypot(dx, dy)
-                                                              : sqrt(dx * dx + dy * dy + dz * dz);
-        rmax = fmax(rmax, r);
+        double dz = points[3 * i + 2] - frame->centre[2];
+        rmax = fmax(rmax, frame_radius(coordinates, frame->centre, points + 3 * i));
         zlo = fmin(zlo, dz);
         zhi = fmax(zhi, dz);
     }

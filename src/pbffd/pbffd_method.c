@@ -8,6 +8,13 @@ static const char *const pbffd_ops[] = {"level", "frame", "curve", NULL};
 /* The rig keys of the editor's "create" body (docs/editor.md). */
 static const char *const pbffd_create_keys[] = {"controls", "sigma", "master", "levels", NULL};
 
+/* Distributed runs: automatic placement reads the boundary surface. */
+static unsigned pbffd_global_reads(const ffd_rig *rig, char *why, size_t size)
+{
+    (void)why, (void)size;
+    return ffd_rig_pbffd_of(rig) && ffd_rig_pbffd_of(rig)->controls_auto ? FFD_GLOBAL_SURFACE : 0;
+}
+
 const ffd_method ffd_method_pbffd = {
     .name = "pbffd",
     .rig_keys = ffd_rig_keys_pbffd,
@@ -20,4 +27,5 @@ const ffd_method ffd_method_pbffd = {
     .release = ffd_rig_release_pbffd,
     .write = ffd_rig_write_pbffd,
     .ops = pbffd_ops,
+    .global_reads = pbffd_global_reads,
 };

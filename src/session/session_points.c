@@ -199,7 +199,8 @@ ffd_status ffd_sess_points_bind(sess_method *m, const double *points, size_t n, 
         ffd_free(copy);
         return ffd_fail(err, FFD_ERR_NOMEM, "bind: out of memory for %zu points", n);
     }
-    memcpy(copy, points, n * 3 * sizeof *copy);
+    if (n)
+        memcpy(copy, points, n * 3 * sizeof *copy);
     b->points = copy;
     b->n = n;
     b->rows.morph = as_points(m)->morph;
