@@ -3,7 +3,7 @@
  * mesh grows with the ranks, and each phase is timed on its own.
  *
  *   mpirun -np P bench_mpi [--points N] [--reps R] [--case lattice|pbffd] [--surface K]
- *                          [--dir DIR] [--calls]
+ *                          [--dir DIR]
  *
  * Rank r's piece: N points uniform in the slab [r, r+1] x [0, 1] x [0, 1]
  * (global ids r*N .. r*N+N-1, a point's position a hash of its id, so any
@@ -20,7 +20,7 @@
  * step's message: what it carries and its time, waits for slower ranks
  * included), then ffd_deformer_create_distributed once and R evaluations of
  * the bound points after a control move (the design loop's step: median),
- * and writing the deformed piece (write). --calls lists every callback.
+ * and writing the deformed piece (write).
  * Prints one table (rank 0). bench/mpi_weak.sh runs it for 1..4 ranks. */
 #include <mpi.h>
 
@@ -36,8 +36,9 @@
 
 typedef struct {
     char kind[48]; /* "allreduce 6 f64 max", "allgatherv" */
-    double seconds;
-    size_t bytes; /* this rank's bytes in (allreduce: count*8; allgatherv: all ranks' sum) */
+    double begin, end; /* MPI_Wtime() - the origin */
+    size_t count; /* allreduce: values; allgatherv: every rank's bytes */
+    size_t bytes; /* allreduce: count*8; allgatherv: every rank's bytes */
 } call_log;
 
 typedef struct {
@@ -45,9 +46,10 @@ typedef struct {
     call_log *log;
     size_t count, cap;
     int logging;
+    double origin;
 } timed_comm;
 
-static void log_call(timed_comm *c, const char *kind, double seconds, size_t bytes)
+static void log_call(timed_comm *c, const char *kind, double t0, size_t count, size_t bytes)
 {
     if (!c->logging)
         return;
@@ -61,7 +63,9 @@ static void log_call(timed_comm *c, const char *kind, double seconds, size_t byt
     }
     call_log *e = &c->log[c->count++];
     snprintf(e->kind, sizeof e->kind, "%s", kind);
-    e->seconds = seconds;
+    e->begin = t0 - c->origin;
+    e->end = MPI_Wtime() - c->origin;
+    e->count = count;
     e->bytes = bytes;
 }
 
@@ -81,7 +85,7 @@ static int mpi_allreduce(void *user, void *data, size_t count, ffd_reduce_type t
     char kind[48];
     snprintf(kind, sizeof kind, "allreduce %zu %s %s", count, type == FFD_REDUCE_DOUBLE ? "f64" : "u64",
              ops[op]);
-    log_call(c, kind, MPI_Wtime() - t0, count * 8);
+    log_call(c, kind, t0, count, count * 8);
     return rc != MPI_SUCCESS;
 }
 
@@ -106,7 +110,7 @@ static int mpi_allgatherv(void *user, const void *mine, size_t bytes, void *all,
     if (ok && total <= 0x7fffffff) {
         double t0 = MPI_Wtime();
         rc = MPI_Allgatherv(mine, (int)bytes, MPI_BYTE, all, counts, displs, MPI_BYTE, c->comm) != MPI_SUCCESS;
-        log_call(c, "allgatherv", MPI_Wtime() - t0, total);
+        log_call(c, "allgatherv", t0, total, total);
     }
     free(counts);
     free(displs);
@@ -153,7 +157,7 @@ int main(int argc, char **argv)
     MPI_Comm_rank(MPI_COMM_WORLD, &rank);
     MPI_Comm_size(MPI_COMM_WORLD, &size);
     size_t n = 1000000, k = 0;
-    int reps = 5, pbffd = 0, list_calls = 0;
+    int reps = 5, pbffd = 0;
     const char *dir = "/tmp";
     for (int i = 1; i < argc; i++) {
         if (!strcmp(argv[i], "--points") && i + 1 < argc)
@@ -166,12 +170,10 @@ int main(int argc, char **argv)
             k = strtoull(argv[++i], NULL, 10);
         else if (!strcmp(argv[i], "--dir") && i + 1 < argc)
             dir = argv[++i];
-        else if (!strcmp(argv[i], "--calls"))
-            list_calls = 1;
         else {
             if (!rank)
                 fprintf(stderr, "usage: mpirun -np P bench_mpi [--points N] [--reps R] "
-                                "[--case lattice|pbffd] [--surface K] [--dir DIR] [--calls]\n");
+                                "[--case lattice|pbffd] [--surface K] [--dir DIR]\n");
             MPI_Finalize();
             return 2;
         }
@@ -252,7 +254,7 @@ int main(int argc, char **argv)
     if (ffd_rig_parse_json(rig_text, at, "bench_mpi rig", &rig, &err))
         return fail(rank, "the rig", &err);
 
-    timed_comm tc = {MPI_COMM_WORLD, NULL, 0, 0, 0};
+    timed_comm tc = {MPI_COMM_WORLD, NULL, 0, 0, 0, 0.0};
     ffd_comm comm = {rank, size, mpi_allreduce, mpi_allgatherv, &tc};
     ffd_limits unlimited = {0};
     unlimited.unlimited = 1;
@@ -271,7 +273,7 @@ int main(int argc, char **argv)
     memset(&rep, 0, sizeof rep);
     MPI_Barrier(MPI_COMM_WORLD);
     tc.logging = 1;
-    t0 = MPI_Wtime();
+    t0 = tc.origin = MPI_Wtime();
     if (ffd_rig_apply_distributed(rig, piece, &part, &rep, &err))
         return fail(rank, "ffd_rig_apply_distributed", &err);
     double t_apply = MPI_Wtime() - t0;
@@ -318,15 +320,27 @@ int main(int argc, char **argv)
     /* every rank's numbers: the slowest rank's */
     double read_max = max_over_ranks(t_read), apply_max = max_over_ranks(t_apply);
     double write_max = max_over_ranks(t_write), create_max = max_over_ranks(t_create);
-    double bind_max = max_over_ranks(rep.timings.bind), solve_max = max_over_ranks(rep.timings.solve);
-    double evalrep_max = max_over_ranks(rep.timings.evaluate);
-    /* the callbacks: the same sequence on every rank */
+    /* the callbacks: the same sequence on every rank. Per step: the local
+     * work before it (the slowest rank's), and its time in the callback: the
+     * least over the ranks is the message itself (the last rank to arrive
+     * waits for nobody), the most adds waiting for slower ranks. */
     size_t calls = tc.count;
-    double comm_total = 0.0;
-    for (size_t i = 0; i < calls; i++) {
-        tc.log[i].seconds = max_over_ranks(tc.log[i].seconds);
-        comm_total += tc.log[i].seconds;
+    double *work = malloc((calls + 1) * sizeof *work), *in_min = malloc((calls + 1) * sizeof *in_min);
+    double *in_max = malloc((calls + 1) * sizeof *in_max);
+    if (!work || !in_min || !in_max)
+        return fail(rank, "allocation", NULL);
+    double comm_min = 0.0, comm_max = 0.0;
+    for (size_t i = 0; i <= calls; i++) {
+        double before = i ? tc.log[i - 1].end : 0.0;
+        double begin = i < calls ? tc.log[i].begin : t_apply;
+        work[i] = max_over_ranks(begin - before);
+        double in = i < calls ? tc.log[i].end - tc.log[i].begin : 0.0;
+        in_max[i] = max_over_ranks(in);
+        in_min[i] = -max_over_ranks(-in);
+        comm_min += in_min[i];
+        comm_max += in_max[i];
     }
+    size_t C0 = rep.control_count;
     if (!rank) {
         printf("bench_mpi: %d rank%s, %zu points per rank (%llu in all), %s\n", size, size > 1 ? "s" : "",
                n, (unsigned long long)total,
@@ -334,43 +348,40 @@ int main(int argc, char **argv)
                      : "B-spline 8x8x8 auto box, 16 vertex constraints");
         if (k)
             printf("  + a %zux%zu sheet per rank: %zu faces per rank, %zu in all\n", k, k, nf, nf * (size_t)size);
-        printf("  %-44s %10s\n", "phase (slowest rank)", "seconds");
-        printf("  %-44s %10.4f\n", "read piece (ffd_mesh_read)", read_max);
-        printf("  %-44s %10.4f\n", "apply_distributed, total", apply_max);
-        printf("  %-44s %10.4f\n", "  of which bind (report)", bind_max);
-        printf("  %-44s %10.4f\n", "  of which solve (report)", solve_max);
-        printf("  %-44s %10.4f\n", "  of which evaluate (report)", evalrep_max);
-        printf("  %-44s %10.4f\n", "  of which in the callbacks (sum)", comm_total);
-        printf("  %-44s %10.4f\n", "write piece (ffd_mesh_write)", write_max);
-        printf("  %-44s %10.4f\n", "deformer_create_distributed", create_max);
-        printf("  %-44s %10.4f\n", "evaluate after a move (median)", eval_median);
-        printf("  %-44s %10.2f\n", "  ns per point per rank", 1e9 * eval_median / (double)nv);
-        printf("  callbacks of apply: %zu\n", calls);
-        /* group identical kinds */
-        for (size_t i = 0; i < calls; i++) {
-            if (!list_calls) {
-                int seen = 0;
-                for (size_t j = 0; j < i && !seen; j++)
-                    seen = !strcmp(tc.log[j].kind, tc.log[i].kind) &&
-                           (strcmp(tc.log[i].kind, "allgatherv") || tc.log[j].bytes == tc.log[i].bytes);
-                if (seen)
-                    continue;
-                size_t times = 0;
-                double s = 0;
-                for (size_t j = i; j < calls; j++)
-                    if (!strcmp(tc.log[j].kind, tc.log[i].kind) &&
-                        (strcmp(tc.log[i].kind, "allgatherv") || tc.log[j].bytes == tc.log[i].bytes)) {
-                        times++;
-                        s += tc.log[j].seconds;
-                    }
-                printf("    %-28s x%-3zu %12zu B  %10.6f s\n", tc.log[i].kind, times, tc.log[i].bytes, s);
-            } else {
-                printf("    #%-3zu %-28s %12zu B  %10.6f s\n", i, tc.log[i].kind, tc.log[i].bytes,
-                       tc.log[i].seconds);
-            }
+        printf("  %-46s %10s\n", "phase (slowest rank; OMP_NUM_THREADS per rank)", "seconds");
+        printf("  %-46s %10.4f\n", "read piece (ffd_mesh_read)", read_max);
+        printf("  %-46s %10.4f\n", "ffd_rig_apply_distributed", apply_max);
+        printf("  %-46s %10.4f\n", "  in the callbacks: messages (least rank)", comm_min);
+        printf("  %-46s %10.4f\n", "  in the callbacks: with waiting (slowest)", comm_max);
+        printf("  %-46s %10.4f\n", "write piece (ffd_mesh_write)", write_max);
+        printf("  %-46s %10.4f\n", "ffd_deformer_create_distributed", create_max);
+        printf("  %-46s %10.4f\n", "evaluate after a move (median)", eval_median);
+        printf("  %-46s %10.2f\n", "  ns per point per rank", 1e9 * eval_median / (double)nv);
+        printf("  the steps of ffd_rig_apply_distributed: %zu callbacks (%zu controls)\n", calls, C0);
+        printf("    %-3s %-34s %12s %10s %10s %10s\n", "#", "message", "bytes", "work", "msg", "wait");
+        for (size_t i = 0; i <= calls; i++) {
+            char what[64];
+            if (i == calls)
+                snprintf(what, sizeof what, "(after the last: positions)");
+            else if (!strncmp(tc.log[i].kind, "allreduce", 9) && tc.log[i].count == (size_t)size &&
+                     strstr(tc.log[i].kind, "u64 sum"))
+                snprintf(what, sizeof what, "agree (%s)", tc.log[i].kind);
+            else if (!strncmp(tc.log[i].kind, "allreduce", 9) && tc.log[i].count == (size_t)size + 1)
+                snprintf(what, sizeof what, "counts (%s)", tc.log[i].kind);
+            else if (strstr(tc.log[i].kind, "6 f64 max"))
+                snprintf(what, sizeof what, "extent (%s)", tc.log[i].kind);
+            else if (!strcmp(tc.log[i].kind, "allgatherv") && C0 && tc.log[i].count == 24 * C0)
+                snprintf(what, sizeof what, "rank 0's controls (allgatherv)");
+            else
+                snprintf(what, sizeof what, "%s", tc.log[i].kind);
+            printf("    %-3zu %-34s %12zu %10.6f %10.6f %10.6f\n", i, what, i < calls ? tc.log[i].bytes : 0,
+                   work[i], in_min[i], in_max[i]);
         }
         fflush(stdout);
     }
+    free(work);
+    free(in_min);
+    free(in_max);
     unlink(in_path);
     unlink(out_path);
     free(t_eval);

@@ -309,6 +309,8 @@ def test_example_mpi_morph(tmp_path):
     history = example.main(comm, steps=4, out=out)
     agreed(len(history) == 4 and history[-1] < history[0], f"objective {history}")
     agreed(comm.allgather(history) == [history] * size, "objective differs between ranks")
+    alone = example.main(MPI.COMM_SELF, steps=4)  # one process, the whole mesh
+    agreed(np.allclose(history, alone, rtol=1e-10, atol=0), f"{history} != one process's {alone}")
     if rank == 0:
         agreed(out.exists(), "the morphed mesh was written")
     else:
