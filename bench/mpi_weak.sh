@@ -15,7 +15,7 @@ bin=$build/bench_mpi
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 # one OpenMP thread per rank: ranks are the parallelism measured here
 export OMP_NUM_THREADS=${OMP_NUM_THREADS:-1}
-echo "# $(date -u +%FT%TZ) $(uname -m), $(nproc) cores: $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ //')"
+echo "# $(date -u +%FT%TZ) $(uname -m), $(nproc --all) cores: $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ //')"
 echo "# load before: $(cut -d' ' -f1-3 /proc/loadavg); OMP_NUM_THREADS=$OMP_NUM_THREADS"
 for np in ${RANKS:-1 2 3 4}; do
     timeout 900 mpirun --oversubscribe -np "$np" -x OMP_NUM_THREADS "$bin" "$@"
