@@ -162,6 +162,69 @@ def test_pbffd_placement_surface():
     agreed(err <= 1e-12 * diag, f"pbffd placement vs rig.apply: {err:g} > 1e-12 * {diag:g}")
 
 
+BOX = REPO / "data" / "volume" / "box_tet_binary.vtk"  # 354 nodes, 1151 tets, 580 boundary faces
+
+SURFACE_RIGS = {
+    "pbffd": {"version": 1, "deformer": "pbffd", "controls": {"interior": 12, "exterior": 12},
+              "moves": [{"near": [2, 1, 1], "delta": [0.1, 0.05, 0]}]},
+    "tspline": {"version": 1, "deformer": "tspline", "resolution": [4, 4, 4],
+                "steps": [{"deform": {"handles": [{"box": {"min": [-9, -9, 0.6], "max": [9, 9, 9]},
+                                                   "delta": [0.1, 0, 0.05]}]}}]},
+}
+
+
+def volume_piece(mesh):
+    """This rank's cells (cut by their centroids' x into one block per rank), their
+    nodes' global ids and the cells over the piece's own nodes."""
+    (kind, tets), = mesh.cells
+    tets = np.asarray(tets, dtype=np.int64)
+    order = np.argsort(np.asarray(mesh.points)[tets].mean(axis=1)[:, 0], kind="stable")
+    mine = tets[np.array_split(order, size)[rank]]
+    ids = np.unique(mine)
+    return ids, [(kind, np.searchsorted(ids, mine))]
+
+
+# PB-FFD placement takes every vertex of the mesh it is given as a site: in one process a
+# volume's interior nodes, in a distributed run the construction mesh's gathered points
+# (each rank's points at the extent, interior nodes among them with 3 or more ranks) besides
+# the surface's. So its controls depend on the partition: on this box 5.4e-3 apart (the
+# move is 0.11) with 3 or 4 ranks. Reported to the library's maintainer; XPASS once fixed.
+PLACEMENT_SITES = pytest.mark.xfail(strict=False, reason="PB-FFD placement uses non-surface "
+                                    "vertices as sites: the result depends on the partition")
+
+
+@pytest.mark.parametrize("method", [pytest.param("pbffd", marks=PLACEMENT_SITES), "tspline"])
+def test_volume_pieces_surface_methods(method):
+    """A tetrahedral volume cut between the ranks: each piece's boundary includes the
+    partition's interface, whose faces cancel in the gathered surface. PB-FFD placement
+    and the T-spline (which read the surface) equal one process running the same call
+    on the whole volume (MPI.COMM_SELF), bitwise."""
+    mesh = ffdkit.read_mesh(BOX)
+    points = np.array(mesh.points)
+    rig = ffdkit.Rig.load(SURFACE_RIGS[method])
+    ids, cells = volume_piece(mesh)
+    got = ffdkit.mpi.deform(comm, points[ids], rig, global_ids=ids, cells=cells)
+    one = ffdkit.mpi.deform(MPI.COMM_SELF, points, rig, cells=mesh.cells)
+    agreed(np.max(np.abs(one - points)) > 0.01, f"{method}: the rig moves the volume")
+    check_union(ids, got, one, f"{method} volume pieces vs one process")
+    if method == "tspline":
+        whole = ffdkit.read_mesh(BOX)
+        rig.apply(whole)
+        check_union(ids, got, np.array(whole.points), "tspline volume pieces vs rig.apply")
+
+
+@PLACEMENT_SITES
+def test_volume_pbffd_placement_equals_rig_apply():
+    mesh = ffdkit.read_mesh(BOX)
+    points = np.array(mesh.points)
+    rig = ffdkit.Rig.load(SURFACE_RIGS["pbffd"])
+    one = ffdkit.mpi.deform(MPI.COMM_SELF, points, rig, cells=mesh.cells)
+    rig.apply(mesh)
+    ref = np.array(mesh.points)
+    agreed(np.max(np.abs(one - ref)) <= 1e-12 * np.linalg.norm(np.ptp(points, axis=0)),
+           f"pbffd volume: {np.max(np.abs(one - ref)):g} from rig.apply")
+
+
 # ---- the deformer a solver keeps ----
 
 def test_deformer_design_loop(bunny):
