@@ -105,6 +105,18 @@ def test_deform_points_bitwise(bunny, rig_of, split):
     check_union(ids, got, ref, f"{rig.method} {split}")
 
 
+@pytest.mark.parametrize("name", ["idw/bunny-pins.json", "kelvinlet/bunny-pins.json",
+                                  "cage/bunny-drag.json"])
+def test_deform_points_other_methods(bunny, name):
+    """The examples' bunny rigs with vertex constraints of IDW, Kelvinlet and the cage."""
+    points, _ = bunny
+    rig = ffdkit.Rig.load(REPO / "examples" / name)
+    ref = rig.apply(points)
+    ids = scattered(len(points))
+    got = ffdkit.mpi.deform(comm, points[ids], rig, global_ids=ids)
+    check_union(ids, got, ref, name)
+
+
 def test_deform_rank_major(bunny):
     """global_ids=None: rank r's points follow those of ranks 0 .. r-1."""
     points, _ = bunny
