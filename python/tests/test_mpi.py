@@ -197,10 +197,11 @@ def volume_piece(mesh):
 
 
 # PB-FFD placement takes every vertex of the mesh it is given as a site: in one process a
-# volume's interior nodes, in a distributed run the construction mesh's gathered points
-# (each rank's points at the extent, interior nodes among them with 3 or more ranks) besides
-# the surface's. So its controls depend on the partition: on this box 5.4e-3 apart (the
-# move is 0.11) with 3 or 4 ranks. Reported to the library's maintainer; XPASS once fixed.
+# volume's interior nodes, in a distributed run every point of the construction mesh, which
+# besides the boundary surface's vertices keeps those of the pieces' interface faces (interior
+# nodes; the faces cancel, their vertices stay: the report's gathered_points grows 292, 305,
+# 313, 327 for 1-4 ranks on this box). So its controls depend on the partition: 5.4e-3 apart
+# (the move is 0.11) with 3 or 4 ranks. Reported to the library's maintainer; XPASS once fixed.
 PLACEMENT_SITES = pytest.mark.xfail(strict=False, reason="PB-FFD placement uses non-surface "
                                     "vertices as sites: the result depends on the partition")
 
