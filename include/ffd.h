@@ -968,9 +968,8 @@ FFD_API ffd_status ffd_comm_agree(const ffd_comm *comm, ffd_status local, ffd_er
 /* The rig's deformer over a distributed mesh, bound to this rank's piece:
  * the global steps read the whole mesh through part->comm, so every rank
  * gets the same controls (rank 0's bits) and each point deforms exactly as
- * it would as a vertex of the whole mesh with ffd_deformer_create (bitwise;
- * PB-FFD's automatic placement sees the boundary surface in a canonical
- * order: the same bits for any number of ranks, one process's to rounding). Collective: every rank calls it, with its
+ * it would as a vertex of the whole mesh with ffd_deformer_create (bitwise,
+ * for every method). Collective: every rank calls it, with its
  * piece (which may have no vertices). Vertex ids in the rig are global ids.
  * Refused (FFD_ERR_UNSUPPORTED, the same on every rank, the reason named):
  * what changes the partition (GFFD resampling) and the generic layers that

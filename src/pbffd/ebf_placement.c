@@ -23,6 +23,7 @@
 #include <math.h>
 #include <stdint.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #define DEFAULT_INTERIOR 60
@@ -56,14 +57,74 @@ static double dist2(const double *a, const double *b)
  * triangle's cross product (twice its area times its normal) is added to
  * the face's corners. *volume receives the signed volume the faces enclose.
  * weight is #V scratch. */
-static void vertex_normals(const ffd_mesh *mesh, double *normals, double *weight, double *volume)
+/* A face in the canonical order: by corner count, its corners sorted, then
+ * its corners as given. The sums over faces below run in this order, so the
+ * placement depends on the set of faces, not on their order in the file:
+ * a distributed run, which gathers the surface from the ranks in another
+ * order (deformer/distributed.c), places the same bits. */
+typedef struct face_key {
+    const uint32_t *sorted, *corner;
+    uint32_t count, face;
+} face_key;
+
+static int compare_face_keys(const void *a, const void *b)
+{
+    const face_key *f = a, *g = b;
+    if (f->count != g->count)
+        return f->count < g->count ? -1 : 1;
+    for (uint32_t k = 0; k < f->count; k++)
+        if (f->sorted[k] != g->sorted[k])
+            return f->sorted[k] < g->sorted[k] ? -1 : 1;
+    for (uint32_t k = 0; k < f->count; k++)
+        if (f->corner[k] != g->corner[k])
+            return f->corner[k] < g->corner[k] ? -1 : 1;
+    return (f->face > g->face) - (f->face < g->face);
+}
+
+static int compare_u32(const void *a, const void *b)
+{
+    uint32_t x = *(const uint32_t *)a, y = *(const uint32_t *)b;
+    return (x > y) - (x < y);
+}
+
+/* The faces' ids in the canonical order (ffd_free; NULL when out of memory). */
+static uint32_t *canonical_faces(const ffd_mesh *mesh)
+{
+    size_t nf = mesh->face_count, corners = nf ? mesh->face_offsets[nf] : 0;
+    uint32_t *sorted = ffd_malloc_array(corners ? corners : 1, sizeof *sorted);
+    face_key *keys = ffd_malloc_array(nf ? nf : 1, sizeof *keys);
+    uint32_t *order = ffd_malloc_array(nf ? nf : 1, sizeof *order);
+    if (sorted && keys && order) {
+        if (corners)
+            memcpy(sorted, mesh->face_indices, corners * sizeof *sorted);
+        for (size_t f = 0; f < nf; f++) {
+            uint32_t b = mesh->face_offsets[f], e = mesh->face_offsets[f + 1];
+            qsort(sorted + b, e - b, sizeof *sorted, compare_u32);
+            keys[f] = (face_key){sorted + b, mesh->face_indices + b, e - b, (uint32_t)f};
+        }
+        if (nf)
+            qsort(keys, nf, sizeof *keys, compare_face_keys);
+        for (size_t f = 0; f < nf; f++)
+            order[f] = keys[f].face;
+    } else {
+        ffd_free(order);
+        order = NULL;
+    }
+    ffd_free(sorted);
+    ffd_free(keys);
+    return order;
+}
+
+static void vertex_normals(const ffd_mesh *mesh, const uint32_t *order, double *normals,
+                           double *weight, double *volume)
 {
     const double *x = mesh->positions;
     size_t nv = mesh->vertex_count;
     memset(normals, 0, 3 * nv * sizeof *normals);
     memset(weight, 0, nv * sizeof *weight);
     double vol6 = 0;
-    for (size_t f = 0; f < mesh->face_count; f++) {
+    for (size_t i = 0; i < mesh->face_count; i++) {
+        size_t f = order[i];
         uint32_t b = mesh->face_offsets[f], e = mesh->face_offsets[f + 1];
         if (e - b < 3)
             continue;
@@ -138,7 +199,7 @@ static size_t keep_inside(double *q, size_t count, const ffd_kdtree *tree, const
 }
 
 /* The faces fanned into triangles (3 indices each); *nt receives the count. */
-static uint32_t *fan_triangles(const ffd_mesh *mesh, size_t *nt)
+static uint32_t *fan_triangles(const ffd_mesh *mesh, const uint32_t *order, size_t *nt)
 {
     size_t n = 0;
     for (size_t f = 0; f < mesh->face_count; f++) {
@@ -149,8 +210,8 @@ static uint32_t *fan_triangles(const ffd_mesh *mesh, size_t *nt)
     if (!t)
         return NULL;
     size_t at = 0;
-    for (size_t f = 0; f < mesh->face_count; f++) {
-        uint32_t b = mesh->face_offsets[f], e = mesh->face_offsets[f + 1];
+    for (size_t i = 0; i < mesh->face_count; i++) {
+        uint32_t b = mesh->face_offsets[order[i]], e = mesh->face_offsets[order[i] + 1];
         for (uint32_t k = b + 1; k + 1 < e; k++) {
             t[at++] = mesh->face_indices[b];
             t[at++] = mesh->face_indices[k];
@@ -198,7 +259,7 @@ static ffd_status snap_inside(double *points, size_t m, const double *cand, size
     return FFD_OK;
 }
 
-/* A fixed value in [-1, 1) for (vertex index, axis): splitmix64 of the pair. */
+/* A fixed value in [-1, 1) for (index, axis): splitmix64 of the pair. */
 static double site_hash(size_t index, int axis)
 {
     uint64_t z = (uint64_t)index * 3u + (uint64_t)axis + 0x9E3779B97F4A7C15ull;
@@ -394,16 +455,16 @@ ffd_status ffd_pbffd_place(const ffd_mesh *mesh, const ffd_placement_options *op
     unsigned char *keep = NULL;
     ffd_kdtree *tree = NULL;
     ffd_inside_index *solid = NULL;
-    uint32_t *tris = NULL;
+    uint32_t *tris = NULL, *order = canonical_faces(mesh);
     ffd_ebf *ebf = NULL;
     size_t interior = 0, exterior = 0;
     double *weight = ffd_malloc_array(nv ? nv : 1, sizeof *weight);
-    if (!normals || !surface || !weight) {
+    if (!normals || !surface || !weight || !order) {
         ffd_free(weight);
         goto nomem;
     }
     double volume = 0;
-    vertex_normals(mesh, normals, weight, &volume);
+    vertex_normals(mesh, order, normals, weight, &volume);
     ffd_free(weight);
     if (!rep.open && volume < 0)
         for (size_t i = 0; i < 3 * nv; i++)
@@ -463,10 +524,13 @@ ffd_status ffd_pbffd_place(const ffd_mesh *mesh, const ffd_placement_options *op
             /* jittered: cospherical and cocircular vertices (spheres, cylinders,
              * boxes) merge into Delaunay regions with one centre otherwise; and
              * about the box's centre: the lifting of Qhull's Delaunay squares the
-             * coordinates, so a small mesh far from the origin loses precision */
+             * coordinates, so a small mesh far from the origin loses precision;
+             * keyed by the place among the surface vertices, not the vertex id:
+             * a volume mesh's surface numbered alone (a distributed run's
+             * gathered surface) gets the same jitter */
             for (int a = 0; a < 3; a++)
                 spos[3 * k + a] = (x[3 * surface[s] + a] - mid[a]) +
-                                  FFD_TOL_SITE_JITTER * diag * site_hash(surface[s], a);
+                                  FFD_TOL_SITE_JITTER * diag * site_hash(s, a);
         }
         rep.voronoi_sites = nsites;
         size_t nvor = 0;
@@ -492,7 +556,7 @@ ffd_status ffd_pbffd_place(const ffd_mesh *mesh, const ffd_placement_options *op
         if (status != FFD_OK)
             goto fail;
         size_t ntri = 0;
-        tris = fan_triangles(mesh, &ntri);
+        tris = fan_triangles(mesh, order, &ntri);
         if (!tris)
             goto nomem;
         status = ffd_inside_index_create(x, nv, tris, ntri, &solid, err);
@@ -593,6 +657,7 @@ done:
     ffd_kdtree_destroy(tree);
     ffd_inside_index_destroy(solid);
     ffd_free(tris);
+    ffd_free(order);
     ffd_free(normals);
     ffd_free(surface);
     ffd_free(candidates);
