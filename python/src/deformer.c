@@ -21,6 +21,20 @@ static void enter(ffdpy_Deformer *d)
 
 static void leave(ffdpy_Deformer *d) { PyThread_release_lock(d->lock); }
 
+ffdpy_Deformer *ffdpy_deformer_alloc(PyTypeObject *cls)
+{
+    ffdpy_Deformer *self = (ffdpy_Deformer *)cls->tp_alloc(cls, 0);
+    if (!self)
+        return NULL;
+    self->lock = PyThread_allocate_lock();
+    if (!self->lock) {
+        Py_DECREF(self);
+        PyErr_NoMemory();
+        return NULL;
+    }
+    return self;
+}
+
 static PyObject *Deformer_new(PyTypeObject *cls, PyObject *args, PyObject *kwds)
 {
     static char *kw[] = {"rig", "target", "limits", NULL};
@@ -37,18 +51,11 @@ static PyObject *Deformer_new(PyTypeObject *cls, PyObject *args, PyObject *kwds)
     PyObject *keep;
     if (ffdpy_mesh_or_points(target, "points", &mesh, &owned, &keep) < 0)
         return NULL;
-    ffdpy_Deformer *self = (ffdpy_Deformer *)cls->tp_alloc(cls, 0);
+    ffdpy_Deformer *self = ffdpy_deformer_alloc(cls);
     if (!self) {
         ffd_mesh_destroy(owned);
         Py_XDECREF(keep);
         return NULL;
-    }
-    self->lock = PyThread_allocate_lock();
-    if (!self->lock) {
-        ffd_mesh_destroy(owned);
-        Py_XDECREF(keep);
-        Py_DECREF(self);
-        return PyErr_NoMemory();
     }
     ffd_rig *rig = ((ffdpy_Rig *)rig_obj)->rig;
     Py_INCREF(rig_obj);

@@ -1,6 +1,8 @@
 /* ffdkit._ffd: the CPython + NumPy C API layer over libffd (docs/python.md).
- * One file per Python type (mesh.c, rig.c, deformer.c); module.c holds the
- * module, the exception classes and the array conversions they share. */
+ * One file per Python type (mesh.c, rig.c, deformer.c), distributed.c the
+ * distributed runs (an ffd_comm over a Python object: no MPI here); module.c
+ * holds the module, the exception classes and the array conversions they
+ * share. */
 #ifndef FFDPY_H
 #define FFDPY_H
 
@@ -19,6 +21,10 @@
 /* Raises the ffdkit.Error subclass of st with err's message (or what when
  * err has none); returns NULL for `return ffdpy_raise(...)`. */
 PyObject *ffdpy_raise(ffd_status st, const ffd_error *err, const char *what);
+
+/* The status whose ffdkit.Error subclass exc is an instance of; FFD_OK for
+ * any other exception (ffdkit.Error itself included). */
+ffd_status ffdpy_status_of(PyObject *exc);
 
 /* An (N, 3) float64 C-contiguous array for obj: obj itself (a new
  * reference, no copy) when it already is one, else converted once.
@@ -81,8 +87,17 @@ int ffdpy_mesh_or_points(PyObject *obj, const char *name, const ffd_mesh **mesh,
 ffd_mesh *ffdpy_mesh_for_change(ffdpy_Mesh *m);
 void ffdpy_mesh_end_change(ffdpy_Mesh *m);
 
+/* A Deformer of cls (ffdpy_DeformerType or a subclass) with its lock and
+ * no ffd_deformer yet (d NULL, to be set by the caller); NULL with the
+ * exception set. */
+ffdpy_Deformer *ffdpy_deformer_alloc(PyTypeObject *cls);
+/* A rig report as a dict ("details" is the method's JSON text, which the
+ * Python layer decodes); NULL with the exception set. */
+PyObject *ffdpy_report_dict(const ffd_rig_report *rep);
+
 int ffdpy_init_mesh(PyObject *module);
 int ffdpy_init_rig(PyObject *module);
 int ffdpy_init_deformer(PyObject *module);
+int ffdpy_init_distributed(PyObject *module);
 
 #endif

@@ -35,6 +35,14 @@ PyObject *ffdpy_raise(ffd_status st, const ffd_error *err, const char *what)
     return NULL;
 }
 
+ffd_status ffdpy_status_of(PyObject *exc)
+{
+    for (int st = FFD_ERR_UNSUPPORTED; st > FFD_OK; st--)
+        if (error_classes[st] && PyObject_TypeCheck(exc, (PyTypeObject *)error_classes[st]))
+            return (ffd_status)st;
+    return FFD_OK;
+}
+
 /* ---------- arrays ---------- */
 
 static int numeric_kind(PyArray_Descr *d)
@@ -331,7 +339,7 @@ PyMODINIT_FUNC PyInit__ffd(void)
     if (!m)
         return NULL;
     if (add_errors(m) < 0 || ffdpy_init_mesh(m) < 0 || ffdpy_init_rig(m) < 0 ||
-        ffdpy_init_deformer(m) < 0 ||
+        ffdpy_init_deformer(m) < 0 || ffdpy_init_distributed(m) < 0 ||
         PyModule_AddIntConstant(m, "VERSION_MAJOR", FFD_VERSION_MAJOR) < 0 ||
         PyModule_AddIntConstant(m, "VERSION_MINOR", FFD_VERSION_MINOR) < 0 ||
         PyModule_AddIntConstant(m, "VERSION_PATCH", FFD_VERSION_PATCH) < 0) {

@@ -88,9 +88,7 @@ static PyObject *doubles_array(const double *v, size_t rows, int cols)
     return a;
 }
 
-/* The report as a dict ("details" is the method's JSON text, which the
- * Python layer decodes). */
-static PyObject *report_dict(const ffd_rig_report *rep)
+PyObject *ffdpy_report_dict(const ffd_rig_report *rep)
 {
     PyObject *residuals = doubles_array(rep->residuals, rep->constraint_count, 0);
     PyObject *reached = doubles_array(rep->reached, rep->constraint_count, 3);
@@ -148,7 +146,7 @@ static PyObject *Rig_apply(ffdpy_Rig *r, PyObject *args, PyObject *kwds)
         ffdpy_mesh_end_change(m);
         Py_DECREF(m);
         Py_DECREF(r);
-        PyObject *res = st ? ffdpy_raise(st, &err, NULL) : report_dict(&rep);
+        PyObject *res = st ? ffdpy_raise(st, &err, NULL) : ffdpy_report_dict(&rep);
         ffd_rig_report_free(&rep);
         return res;
     }
