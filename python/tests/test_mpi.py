@@ -196,22 +196,12 @@ def volume_piece(mesh):
     return ids, [(kind, np.searchsorted(ids, mine))]
 
 
-# PB-FFD placement takes every vertex of the mesh it is given as a site: in one process a
-# volume's interior nodes, in a distributed run every point of the construction mesh, which
-# besides the boundary surface's vertices keeps those of the pieces' interface faces (interior
-# nodes; the faces cancel, their vertices stay: the report's gathered_points grows 292, 305,
-# 313, 327 for 1-4 ranks on this box). So its controls depend on the partition: 5.4e-3 apart
-# (the move is 0.11) with 3 or 4 ranks. Reported to the library's maintainer; XPASS once fixed.
-PLACEMENT_SITES = pytest.mark.xfail(strict=False, reason="PB-FFD placement uses non-surface "
-                                    "vertices as sites: the result depends on the partition")
-
-
-@pytest.mark.parametrize("method", [pytest.param("pbffd", marks=PLACEMENT_SITES), "tspline"])
+@pytest.mark.parametrize("method", ["pbffd", "tspline"])
 def test_volume_pieces_surface_methods(method):
     """A tetrahedral volume cut between the ranks: each piece's boundary includes the
     partition's interface, whose faces cancel in the gathered surface. PB-FFD placement
     and the T-spline (which read the surface) equal one process running the same call
-    on the whole volume (MPI.COMM_SELF), bitwise."""
+    on the whole volume (MPI.COMM_SELF) and rig.apply, bitwise."""
     mesh = ffdkit.read_mesh(BOX)
     points = np.array(mesh.points)
     rig = ffdkit.Rig.load(SURFACE_RIGS[method])
@@ -220,22 +210,9 @@ def test_volume_pieces_surface_methods(method):
     one = ffdkit.mpi.deform(MPI.COMM_SELF, points, rig, cells=mesh.cells)
     agreed(np.max(np.abs(one - points)) > 0.01, f"{method}: the rig moves the volume")
     check_union(ids, got, one, f"{method} volume pieces vs one process")
-    if method == "tspline":
-        whole = ffdkit.read_mesh(BOX)
-        rig.apply(whole)
-        check_union(ids, got, np.array(whole.points), "tspline volume pieces vs rig.apply")
-
-
-@PLACEMENT_SITES
-def test_volume_pbffd_placement_equals_rig_apply():
-    mesh = ffdkit.read_mesh(BOX)
-    points = np.array(mesh.points)
-    rig = ffdkit.Rig.load(SURFACE_RIGS["pbffd"])
-    one = ffdkit.mpi.deform(MPI.COMM_SELF, points, rig, cells=mesh.cells)
-    rig.apply(mesh)
-    ref = np.array(mesh.points)
-    agreed(np.max(np.abs(one - ref)) <= 1e-12 * np.linalg.norm(np.ptp(points, axis=0)),
-           f"pbffd volume: {np.max(np.abs(one - ref)):g} from rig.apply")
+    whole = ffdkit.read_mesh(BOX)
+    rig.apply(whole)
+    check_union(ids, got, np.array(whole.points), f"{method} volume pieces vs rig.apply")
 
 
 # ---- the deformer a solver keeps ----
