@@ -987,10 +987,13 @@ FFD_API ffd_status ffd_deformer_create_distributed(const ffd_rig *rig, const ffd
 
 /* ffd_rig_apply on a distributed mesh: every rank deforms its piece as
  * ffd_rig_apply deforms those vertices of the whole mesh (bitwise; normals
- * through the Jacobian). Collective. The report is the same on every rank:
- * the constraints' residuals and the deformed controls, its details the
- * deformer's report with "distributed" (ranks, points, the points and
- * surface faces the global steps gathered). On error no piece changed. */
+ * through the Jacobian where the piece has normals). Collective. The report
+ * is the same on every rank and is one process's (the method's report of
+ * the rig applied to the gathered points: constraints' residuals and rank,
+ * controls, details), with outside_count 0 (not counted over the pieces),
+ * the details' "distributed" (ranks, piece_vertices, gathered_points,
+ * gathered_faces), a note, and this rank's timings (solve: the global steps
+ * and the rig's replay). On error no piece changed. */
 FFD_API ffd_status ffd_rig_apply_distributed(const ffd_rig *rig, ffd_mesh *piece,
                                              const ffd_partition *part, ffd_rig_report *report,
                                              ffd_error *err);

@@ -203,6 +203,7 @@ typedef struct run_result {
     ffd_status status[MAX_RANKS];
     char message[MAX_RANKS][512];
     double max_residual[MAX_RANKS];
+    size_t rank[MAX_RANKS];
     size_t controls[MAX_RANKS];
 } run_result;
 
@@ -235,6 +236,7 @@ static void run(const ffd_rig *rig, const ffd_mesh *whole, int k, int empty_last
         res->status[r] = runs[r].status;
         snprintf(res->message[r], sizeof res->message[r], "%s", runs[r].err.message);
         res->max_residual[r] = runs[r].report.max_residual;
+        res->rank[r] = runs[r].report.rank;
         res->controls[r] = runs[r].report.control_count;
         const double *x = ffd_mesh_positions(pieces[r].mesh);
         for (size_t i = 0; out && !runs[r].status && i < pieces[r].n; i++)
@@ -265,7 +267,8 @@ static void check_case(const char *mesh_path, const char *rig_path, int canonica
         ffd_mesh_destroy(applied);
         return;
     }
-    CHECK_OK(ffd_rig_apply(rig, applied, NULL, &err));
+    ffd_rig_report one;
+    CHECK_OK(ffd_rig_apply(rig, applied, &one, &err));
     size_t nv = ffd_mesh_vertex_count(whole);
     const double *want = ffd_mesh_positions(applied);
     double *got = malloc(3 * nv * sizeof *got), *first = malloc(3 * nv * sizeof *first);
@@ -280,6 +283,12 @@ static void check_case(const char *mesh_path, const char *rig_path, int canonica
             CHECK(res.controls[r] == res.controls[0]);
             CHECK(res.max_residual[r] == res.max_residual[0]);
         }
+        /* the report's constraints as one process reports them */
+        if (res.max_residual[0] != one.max_residual || res.rank[0] != one.rank)
+            fprintf(stderr, "%s on %d ranks: residual %.17g rank %zu, one process %.17g rank %zu\n",
+                    rig_path, k, res.max_residual[0], res.rank[0], one.max_residual, one.rank);
+        CHECK(res.max_residual[0] == one.max_residual);
+        CHECK(res.rank[0] == one.rank);
         if (k == 1)
             memcpy(first, got, 3 * nv * sizeof *got);
         if (canonical_surface) {
@@ -297,6 +306,7 @@ static void check_case(const char *mesh_path, const char *rig_path, int canonica
     }
     free(got);
     free(first);
+    ffd_rig_report_free(&one);
     ffd_rig_destroy(rig);
     ffd_mesh_destroy(whole);
     ffd_mesh_destroy(applied);

@@ -753,89 +753,47 @@ ffd_status ffd_deformer_create_distributed(const ffd_rig *rig, const ffd_mesh *p
  * Applying a rig
  * ====================================================================== */
 
-/* The constraints' points deformed (reached; k by 3) and their residuals,
- * on the construction deformer, before it binds the piece. */
-static ffd_status constraint_outcome(const dist_build *b, ffd_deformer *d,
-                                     ffd_rig_report *report, ffd_error *err)
+/* The report: the method's own, from the rig applied to a copy of the
+ * construction mesh (it holds every point a report reads: the constrained
+ * vertices, the extent, the surface), so the constraints' residuals and
+ * rank, the controls and the method's details are one process's; then what
+ * the run gathered. outside_count would need every rank's points: 0. */
+static ffd_status fill_report(const dist_build *b, const ffd_limits *limits,
+                              ffd_rig_report *report, ffd_error *err)
 {
-    const ffd_rig *rig = b->copy;
-    size_t k = rig->constraint_count;
-    report->constraint_count = k;
-    if (!k)
-        return FFD_OK;
-    double *rest = ffd_malloc_array(k, 3 * sizeof *rest);
-    double *targets = ffd_malloc_array(k, 3 * sizeof *targets);
-    report->reached = ffd_malloc_array(k, 3 * sizeof *report->reached);
-    report->residuals = ffd_malloc_array(k, sizeof *report->residuals);
-    ffd_status st = rest && targets && report->reached && report->residuals
-                        ? FFD_OK
-                        : ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory", b->name);
+    ffd_mesh *copy = NULL;
+    ffd_status st = ffd_sess_clone_mesh(b->mesh, &copy, err);
     if (!st)
-        st = ffd_rig_constraint_points(rig, ffd_mesh_positions(b->mesh), b->point_count, rest,
-                                       err);
-    for (size_t c = 0; !st && c < k; c++)
-        memcpy(targets + 3 * c, rig->constraints[c].target, sizeof rig->constraints[c].target);
-    if (!st)
-        st = ffd_deformer_bind(d, rest, k, err);
-    if (!st)
-        st = ffd_deformer_eval(d, report->reached, err);
-    if (!st)
-        report->max_residual = ffd_rig_residuals(k, report->reached, targets, report->residuals);
-    ffd_free(rest);
-    ffd_free(targets);
-    return st;
-}
-
-/* The report's details: the deformer's report and what the run gathered. */
-static ffd_status distributed_details(const dist_build *b, ffd_deformer *d,
-                                      ffd_rig_report *report, ffd_error *err)
-{
-    char *text = NULL;
-    size_t size = 0;
-    ffd_status st = ffd_deformer_report(d, &text, &size, err);
+        st = ffd_rig_apply_limited(b->copy, copy, limits, report, err);
+    ffd_mesh_destroy(copy);
     if (st)
         return st;
-    unsigned long mark;
-    cJSON *details = ffd_rig_details_create(&mark);
-    cJSON *method = cJSON_ParseWithLength(text, size);
-    ffd_free(text);
+    report->outside_count = 0;
+    unsigned long mark = ffd_json_alloc_failures();
+    cJSON *details = report->details ? cJSON_Parse(report->details) : cJSON_CreateObject();
     cJSON *dist = cJSON_CreateObject();
-    int ok = details && method && dist && cJSON_AddItemToObject(details, "deformer", method);
-    if (!ok)
-        cJSON_Delete(method);
-    ok = ok && cJSON_AddNumberToObject(dist, "ranks", b->c->size) &&
-         cJSON_AddNumberToObject(dist, "piece_vertices", (double)b->total) &&
-         cJSON_AddNumberToObject(dist, "gathered_points", (double)b->point_count) &&
-         cJSON_AddNumberToObject(dist, "gathered_faces", (double)b->face_count) &&
-         cJSON_AddItemToObject(details, "distributed", dist);
-    if (!ok && details && dist && !cJSON_GetObjectItemCaseSensitive(details, "distributed"))
-        cJSON_Delete(dist);
+    int ok = details && dist && cJSON_AddNumberToObject(dist, "ranks", b->c->size) &&
+             cJSON_AddNumberToObject(dist, "piece_vertices", (double)b->total) &&
+             cJSON_AddNumberToObject(dist, "gathered_points", (double)b->point_count) &&
+             cJSON_AddNumberToObject(dist, "gathered_faces", (double)b->face_count);
+    if (ok && cJSON_AddItemToObject(details, "distributed", dist))
+        dist = NULL;
+    else
+        ok = 0;
+    cJSON_Delete(dist);
     if (!ok) {
         cJSON_Delete(details);
         return ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory for the report", b->name);
     }
-    return ffd_rig_report_set_details(report, details, mark, b->name, err);
-}
-
-static ffd_status fill_report(const dist_build *b, ffd_deformer *d, ffd_rig_report *report,
-                              ffd_error *err)
-{
-    report->method = b->rig->method->name;
-    report->control_count = ffd_deformer_control_count(d);
-    report->control_points = ffd_malloc_array(report->control_count ? report->control_count : 1,
-                                              3 * sizeof *report->control_points);
-    if (!report->control_points)
-        return ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory for the report", b->name);
-    ffd_deformer_controls(d, report->control_points);
-    ffd_status st = distributed_details(b, d, report, err);
+    st = ffd_rig_report_set_details(report, details, mark, b->name, err);
     if (!st)
         st = ffd_rig_report_note(report, b->name, err,
-                                 "note: distributed over %d ranks: %llu vertices in the pieces "
+                                 "note: distributed over %d rank%s: %llu vertices in the pieces "
                                  "(shared ones once per piece); the global steps gathered %zu "
                                  "points and %zu surface faces",
-                                 b->c->size, (unsigned long long)b->total, b->point_count,
-                                 b->face_count);
-    return st ? st : constraint_outcome(b, d, report, err);
+                                 b->c->size, b->c->size == 1 ? "" : "s",
+                                 (unsigned long long)b->total, b->point_count, b->face_count);
+    return st;
 }
 
 ffd_status ffd_rig_apply_distributed(const ffd_rig *rig, ffd_mesh *piece,
@@ -848,21 +806,29 @@ ffd_status ffd_rig_apply_distributed(const ffd_rig *rig, ffd_mesh *piece,
     ffd_deformer *d = NULL;
     ffd_rig_report local;
     memset(&local, 0, sizeof local);
+    double t0 = ffd_now();
     ffd_status st = build_deformer(&b, rig, piece, part, &d, err);
     if (st) {
         build_free(&b);
         return st;
     }
     double *x = NULL, *jac = NULL;
+    double solve = ffd_now() - t0; /* the global steps and the deformer's replay */
     if (report)
-        st = fill_report(&b, d, &local, err);
+        st = fill_report(&b, part ? part->limits : NULL, &local, err);
+    double t1 = ffd_now();
     if (!st)
         st = ffd_deformer_bind(d, b.x, b.n, err);
+    double t2 = ffd_now();
+    local.timings.solve = solve;
+    local.timings.bind = t2 - t1;
     if (!st && !(x = ffd_malloc_array(b.n ? b.n : 1, 3 * sizeof *x)))
         st = ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory", b.name);
     if (!st)
         st = ffd_deformer_eval(d, x, err);
-    if (!st) {
+    local.timings.evaluate = ffd_now() - t2;
+    /* normals follow the Jacobian; a piece without them needs none */
+    if (!st && ffd_mesh_normal_count(piece)) {
         jac = ffd_malloc_array(b.n ? b.n : 1, 9 * sizeof *jac);
         ffd_error inner = {{0}};
         ffd_status js = jac ? ffd_deformer_jacobian(d, jac, &inner) : FFD_ERR_NOMEM;
