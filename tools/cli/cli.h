@@ -138,6 +138,9 @@ void cli_json_number(FILE *f, double v);
  * --report`; cli_report.c). */
 void cli_print_report(const ffd_rig_report *report, const ffd_inversion_report *inv,
                       const ffd_fold_report *folds);
+/* "8G", "512M", "3000000000": bytes (--max-memory); 0 on a malformed or zero
+ * size (cli_report.c). */
+size_t cli_parse_size(const char *text);
 
 /* Subcommands: argv[0] is the command name. Each returns the exit code. */
 int cmd_info(int argc, char **argv);

@@ -1,11 +1,14 @@
-/* The report of a rig's application as JSON (`ffd deform --report`, and
- * ffd-mpi's, tools/mpi/ffd_mpi.c), and the JSON values it is made of. */
+/* What `ffd deform` and ffd-mpi (tools/mpi/ffd_mpi.c) share: the report of
+ * a rig's application as JSON (`--report`), the JSON values it is made of,
+ * and the size `--max-memory` takes. */
 #include "cli.h"
 
 #include <cjson/cJSON.h>
 
 #include <math.h>
 #include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
 
 void cli_json_string(FILE *f, const char *s)
 {
@@ -120,3 +123,24 @@ void cli_print_report(const ffd_rig_report *report, const ffd_inversion_report *
     printf("}\n");
 }
 
+/* "8G", "512M", "3000000000": bytes; 0 on a malformed or zero size. */
+size_t cli_parse_size(const char *text)
+{
+    char *end = NULL;
+    double v = strtod(text, &end);
+    if (end == text || !(v > 0))
+        return 0;
+    double unit = 1;
+    switch (*end) {
+    case 'k': case 'K': unit = 1024.0; end++; break;
+    case 'm': case 'M': unit = 1048576.0; end++; break;
+    case 'g': case 'G': unit = 1073741824.0; end++; break;
+    case 't': case 'T': unit = 1099511627776.0; end++; break;
+    default: break;
+    }
+    if (unit > 1 && (strcmp(end, "iB") == 0 || strcmp(end, "B") == 0))
+        end += strlen(end);
+    if (*end || !(v * unit < 1e18))
+        return 0;
+    return (size_t)(v * unit);
+}

@@ -49,28 +49,6 @@ static const char usage[] =
     "  --compress        VTU: zlib-compressed data arrays (with --base64 or --raw)\n"
     "  -h, --help        this help\n";
 
-/* "8G", "512M", "3000000000": bytes; 0 on a malformed or zero size. */
-static size_t parse_size(const char *text)
-{
-    char *end = NULL;
-    double v = strtod(text, &end);
-    if (end == text || !(v > 0))
-        return 0;
-    double unit = 1;
-    switch (*end) {
-    case 'k': case 'K': unit = 1024.0; end++; break;
-    case 'm': case 'M': unit = 1048576.0; end++; break;
-    case 'g': case 'G': unit = 1073741824.0; end++; break;
-    case 't': case 'T': unit = 1099511627776.0; end++; break;
-    default: break;
-    }
-    if (unit > 1 && (strcmp(end, "iB") == 0 || strcmp(end, "B") == 0))
-        end += strlen(end);
-    if (*end || !(v * unit < 1e18))
-        return 0;
-    return (size_t)(v * unit);
-}
-
 static void print_timings(double read, const ffd_timings *t, double write)
 {
     fprintf(stderr, "{\"read\": %.6f, \"bind\": %.6f, \"solve\": %.6f, \"evaluate\": %.6f,"
@@ -108,7 +86,7 @@ int cmd_deform(int argc, char **argv)
                    0) {
             if (e < 0)
                 return cli_option_error("deform", arg, e);
-            if (!(limits.max_memory = parse_size(max_memory)))
+            if (!(limits.max_memory = cli_parse_size(max_memory)))
                 return cli_usage_error("deform",
                                        "--max-memory '%s': expected a size such as 8G, 512M or "
                                        "a number of bytes",

@@ -253,28 +253,6 @@ static ffd_status write_temp(const char *path, const void *data, size_t size, ch
     return FFD_OK;
 }
 
-/* "8G", "512M", "3000000000": bytes; 0 on a malformed or zero size (as `ffd deform`). */
-static size_t parse_size(const char *text)
-{
-    char *end = NULL;
-    double v = strtod(text, &end);
-    if (end == text || !(v > 0))
-        return 0;
-    double unit = 1;
-    switch (*end) {
-    case 'k': case 'K': unit = 1024.0; end++; break;
-    case 'm': case 'M': unit = 1048576.0; end++; break;
-    case 'g': case 'G': unit = 1073741824.0; end++; break;
-    case 't': case 'T': unit = 1099511627776.0; end++; break;
-    default: break;
-    }
-    if (unit > 1 && (strcmp(end, "iB") == 0 || strcmp(end, "B") == 0))
-        end += strlen(end);
-    if (*end || !(v * unit < 1e18))
-        return 0;
-    return (size_t)(v * unit);
-}
-
 /* "--name VALUE" or "--name=VALUE" (short: "-o VALUE"). 1 matched, 0 not, -1 value missing. */
 static int option_value(int argc, char **argv, int *i, const char *name, const char *short_name,
                         const char **value)
@@ -318,7 +296,7 @@ static int mpi_deform(const ffd_comm *comm, int argc, char **argv)
         } else if ((e = option_value(argc, argv, &i, "--max-memory", NULL, &max_memory)) != 0) {
             if (e < 0)
                 return usage_error("deform: %s needs a value", arg);
-            if (!(limits.max_memory = parse_size(max_memory)))
+            if (!(limits.max_memory = cli_parse_size(max_memory)))
                 return usage_error("deform: --max-memory '%s': expected a size such as 8G, "
                                    "512M or a number of bytes", max_memory);
             double scale = (double)limits.max_memory / 2147483648.0;
