@@ -32,6 +32,8 @@ class Editor {
     this.sketch = []; // points clicked on the mesh by a sketching pick tool (methods/*.js tools)
     this.meshKey = '';
     this.lastFrameRevision = -1;
+    this.opSeq = 0; // ops sent, and the newest whose reply was applied (run)
+    this.appliedOpSeq = 0;
     this.frameSeq = 0;
     this.listeners = {};
     this.hover = null;       // last pointer event over the canvas
@@ -162,12 +164,18 @@ class Editor {
     this.updateStatus();
   }
 
-  /** Runs an op replying with a state; errors become a toast. Returns the state or null. */
+  /** Runs an op replying with a state; errors become a toast. Returns the state or null.
+   * Ops may overlap (Ctrl+Z pressed twice quickly) and their replies arrive in any order:
+   * a reply older than one already applied is not applied (it would put an older state
+   * over the newer one, with the newer frame drawn). */
   async run(op, body = {}, { label } = {}) {
     if (this.activeDrag) return null;
+    const seq = ++this.opSeq;
     try {
       const state = await api.op(op, body);
       if (label) void label;
+      if (seq < this.appliedOpSeq) return state;
+      this.appliedOpSeq = seq;
       await this.applyState(state);
       return state;
     } catch (e) {
