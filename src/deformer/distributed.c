@@ -15,6 +15,7 @@
  * Each collective phase ends with ffd_comm_agree, so an error on one rank
  * is every rank's error and no rank waits in a collective the others left. */
 #include "deformer/method.h"
+#include "mesh/mesh_cells.h"
 #include "rig/rig.h"
 #include "rig/rig_json.h"
 
@@ -233,12 +234,6 @@ typedef struct wire_point {
     uint64_t id;
     double x[3];
 } wire_point;
-
-/* A gathered face: its corners' global ids (ids[first .. first+count)), the rank it came from. */
-typedef struct gathered_face {
-    size_t first, count;
-    int rank;
-} gathered_face;
 
 typedef struct dist_build {
     const ffd_comm *c;
@@ -501,44 +496,28 @@ static ffd_status merge_points(dist_build *b, unsigned char *all, size_t bytes, 
     return FFD_OK;
 }
 
-/* A face in the canonical order: by its sorted corner ids, then its
- * corners as given, then the rank it came from. */
-typedef struct face_ref {
-    const uint64_t *key;    /* its corners sorted */
-    const uint64_t *corner; /* its corners as given */
-    size_t count;
-    int rank;
-} face_ref;
-
-static int compare_faces(const void *a, const void *b)
-{
-    const face_ref *f = a, *g = b;
-    if (f->count != g->count)
-        return f->count < g->count ? -1 : 1;
-    for (size_t k = 0; k < f->count; k++)
-        if (f->key[k] != g->key[k])
-            return f->key[k] < g->key[k] ? -1 : 1;
-    for (size_t k = 0; k < f->count; k++)
-        if (f->corner[k] != g->corner[k])
-            return f->corner[k] < g->corner[k] ? -1 : 1;
-    return (f->rank > g->rank) - (f->rank < g->rank);
-}
-
-static int same_corners(const face_ref *f, const face_ref *g)
-{
-    return f->count == g->count && !memcmp(f->key, g->key, f->count * sizeof *f->key);
-}
-
-/* The boundary surface from every rank's faces (count, ids...): a face two
- * pieces of a volume mesh share is inside and cancelled; the rest in the
- * canonical order, as construction indices. */
+/* The boundary surface from every rank's faces (count, ids...), as
+ * construction indices in the canonical order (ffd_faces_canonical_order),
+ * where faces on the same corners are neighbours: such a pair from two
+ * pieces of a volume mesh is their interface, inside, and cancelled. */
 static ffd_status merge_faces(dist_build *b, const uint64_t *words, size_t nwords,
                               const size_t *sizes, ffd_error *err)
 {
-    size_t nf = 0;
-    gathered_face *faces = NULL;
-    size_t cap = 0, w = 0;
-    ffd_status st = FFD_OK;
+    /* every gathered face, and the rank it came from: a face is >= 4 words */
+    size_t most = nwords / 4 + 1, nf = 0, corners = 0, w = 0;
+    uint32_t *offsets = ffd_malloc_array(most + 1, sizeof *offsets);
+    uint32_t *indices = ffd_malloc_array(nwords ? nwords : 1, sizeof *indices);
+    int *rank = ffd_malloc_array(most, sizeof *rank);
+    uint32_t *order = NULL, *sorted = NULL;
+    unsigned char *drop = NULL;
+    ffd_status st = offsets && indices && rank
+                        ? FFD_OK
+                        : ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory for the surface", b->name);
+    if (!st && nwords > UINT32_MAX)
+        st = ffd_fail(err, FFD_ERR_INVALID, "%s: the ranks' faces hold %zu corners (at most %u)",
+                      b->name, nwords, UINT32_MAX);
+    if (!st)
+        offsets[0] = 0;
     for (int r = 0; r < b->c->size && !st; r++) {
         size_t end = w + sizes[r] / sizeof *words;
         while (w < end && !st) {
@@ -548,74 +527,63 @@ static ffd_status merge_faces(dist_build *b, const uint64_t *words, size_t nword
                               b->name, r);
                 break;
             }
-            if (!ffd_grow((void **)&faces, &cap, nf + 1, sizeof *faces)) {
-                st = ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory for the surface", b->name);
-                break;
-            }
-            faces[nf++] = (gathered_face){w + 1, k, r};
-            w += k + 1;
-        }
-    }
-    uint64_t *keys = st ? NULL : ffd_malloc_array(nwords ? nwords : 1, sizeof *keys);
-    face_ref *order = st ? NULL : ffd_malloc_array(nf ? nf : 1, sizeof *order);
-    if (!st && (!keys || !order))
-        st = ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory for the surface", b->name);
-    if (!st) {
-        memcpy(keys, words, nwords * sizeof *keys);
-        for (size_t f = 0; f < nf; f++) {
-            qsort(keys + faces[f].first, faces[f].count, sizeof *keys, compare_u64);
-            order[f] = (face_ref){keys + faces[f].first, words + faces[f].first, faces[f].count,
-                                  faces[f].rank};
-        }
-        qsort(order, nf, sizeof *order, compare_faces);
-        size_t kept = 0, corners = 0;
-        unsigned char *drop = ffd_calloc(nf ? nf : 1, 1);
-        if (!drop)
-            st = ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory for the surface", b->name);
-        for (size_t i = 0; !st && i < nf;) {
-            size_t j = i + 1;
-            while (j < nf && same_corners(&order[i], &order[j]))
-                j++;
-            /* two pieces' faces on the same corners: their interface */
-            if (b->volume && j - i == 2 && order[i].rank != order[i + 1].rank)
-                drop[i] = drop[i + 1] = 1;
-            i = j;
-        }
-        for (size_t i = 0; !st && i < nf; i++)
-            if (!drop[i])
-                kept++, corners += order[i].count;
-        if (!st && corners > UINT32_MAX)
-            st = ffd_fail(err, FFD_ERR_INVALID, "%s: the gathered surface has %zu corners (at "
-                                                "most %u)",
-                          b->name, corners, UINT32_MAX);
-        if (!st) {
-            b->face_offsets = ffd_malloc_array(kept + 1, sizeof *b->face_offsets);
-            b->face_indices = ffd_malloc_array(corners ? corners : 1, sizeof *b->face_indices);
-            if (!b->face_offsets || !b->face_indices)
-                st = ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory for the surface", b->name);
-        }
-        size_t f = 0, c = 0;
-        if (!st)
-            b->face_offsets[0] = 0;
-        for (size_t i = 0; !st && i < nf; i++) {
-            if (drop[i])
-                continue;
-            const face_ref *g = &order[i];
-            for (size_t k = 0; k < g->count && !st; k++) {
-                size_t v = index_of(b, g->corner[k]);
+            for (size_t q = 1; q <= k && !st; q++) {
+                size_t v = index_of(b, words[w + q]);
                 if (v == SIZE_MAX)
                     st = ffd_fail(err, FFD_ERR_INVALID, "%s: a face's vertex was not gathered",
                                   b->name);
-                b->face_indices[c++] = (uint32_t)v;
+                indices[corners++] = (uint32_t)v;
             }
-            b->face_offsets[++f] = (uint32_t)c;
+            rank[nf] = r;
+            offsets[++nf] = (uint32_t)corners;
+            w += k + 1;
         }
-        b->face_count = f;
-        ffd_free(drop);
     }
-    ffd_free(keys);
+    if (!st && !ffd_faces_canonical_order(offsets, indices, nf, &order, &sorted))
+        st = ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory for the surface", b->name);
+    if (!st && !(drop = ffd_calloc(nf ? nf : 1, 1)))
+        st = ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory for the surface", b->name);
+    size_t kept = 0, kept_corners = 0;
+    for (size_t i = 0; !st && i < nf;) {
+        uint32_t f = order[i], n = offsets[f + 1] - offsets[f];
+        size_t j = i + 1;
+        while (j < nf && offsets[order[j] + 1] - offsets[order[j]] == n &&
+               !memcmp(sorted + offsets[order[j]], sorted + offsets[f], n * sizeof *sorted))
+            j++;
+        /* two pieces' faces on the same corners: their interface */
+        if (b->volume && j - i == 2 && rank[f] != rank[order[i + 1]])
+            drop[i] = drop[i + 1] = 1;
+        for (size_t q = i; q < j; q++)
+            if (!drop[q])
+                kept++, kept_corners += n;
+        i = j;
+    }
+    if (!st) {
+        b->face_offsets = ffd_malloc_array(kept + 1, sizeof *b->face_offsets);
+        b->face_indices = ffd_malloc_array(kept_corners ? kept_corners : 1,
+                                           sizeof *b->face_indices);
+        if (!b->face_offsets || !b->face_indices)
+            st = ffd_fail(err, FFD_ERR_NOMEM, "%s: out of memory for the surface", b->name);
+    }
+    if (!st) {
+        size_t c = 0;
+        b->face_offsets[0] = 0;
+        for (size_t i = 0; i < nf; i++) {
+            if (drop[i])
+                continue;
+            uint32_t f = order[i];
+            memcpy(b->face_indices + c, indices + offsets[f],
+                   (offsets[f + 1] - offsets[f]) * sizeof *indices);
+            c += offsets[f + 1] - offsets[f];
+            b->face_offsets[++b->face_count] = (uint32_t)c;
+        }
+    }
+    ffd_free(offsets);
+    ffd_free(indices);
+    ffd_free(rank);
     ffd_free(order);
-    ffd_free(faces);
+    ffd_free(sorted);
+    ffd_free(drop);
     return st;
 }
 
@@ -753,19 +721,16 @@ ffd_status ffd_deformer_create_distributed(const ffd_rig *rig, const ffd_mesh *p
  * Applying a rig
  * ====================================================================== */
 
-/* The report: the method's own, from the rig applied to a copy of the
- * construction mesh (it holds every point a report reads: the constrained
- * vertices, the extent, the surface), so the constraints' residuals and
- * rank, the controls and the method's details are one process's; then what
- * the run gathered. outside_count would need every rank's points: 0. */
+/* The report: the method's own, from the rig applied to the construction
+ * mesh (it holds every point a report reads: the constrained vertices, the
+ * extent, the surface; the deformer, built, needs it no more), so the
+ * constraints' residuals and rank, the controls and the method's details
+ * are one process's; then what the run gathered. outside_count would need
+ * every rank's points: 0. */
 static ffd_status fill_report(const dist_build *b, const ffd_limits *limits,
                               ffd_rig_report *report, ffd_error *err)
 {
-    ffd_mesh *copy = NULL;
-    ffd_status st = ffd_sess_clone_mesh(b->mesh, &copy, err);
-    if (!st)
-        st = ffd_rig_apply_limited(b->copy, copy, limits, report, err);
-    ffd_mesh_destroy(copy);
+    ffd_status st = ffd_rig_apply_limited(b->copy, b->mesh, limits, report, err);
     if (st)
         return st;
     report->outside_count = 0;

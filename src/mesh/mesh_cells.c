@@ -4,6 +4,7 @@
 #include "mesh_cells.h"
 
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 /* ======================================================================
@@ -553,4 +554,64 @@ ffd_status ffd_mesh_create_cells(const double *positions, size_t vertex_count,
     }
     *out = m;
     return FFD_OK;
+}
+
+/* ---- the canonical order of faces ---- */
+
+typedef struct face_key {
+    const uint32_t *sorted, *corner;
+    uint32_t count, face;
+} face_key;
+
+static int compare_face_keys(const void *a, const void *b)
+{
+    const face_key *f = a, *g = b;
+    if (f->count != g->count)
+        return f->count < g->count ? -1 : 1;
+    for (uint32_t k = 0; k < f->count; k++)
+        if (f->sorted[k] != g->sorted[k])
+            return f->sorted[k] < g->sorted[k] ? -1 : 1;
+    for (uint32_t k = 0; k < f->count; k++)
+        if (f->corner[k] != g->corner[k])
+            return f->corner[k] < g->corner[k] ? -1 : 1;
+    return (f->face > g->face) - (f->face < g->face);
+}
+
+static int compare_u32(const void *a, const void *b)
+{
+    uint32_t x = *(const uint32_t *)a, y = *(const uint32_t *)b;
+    return (x > y) - (x < y);
+}
+
+bool ffd_faces_canonical_order(const uint32_t *offsets, const uint32_t *indices, size_t count,
+                               uint32_t **order_out, uint32_t **sorted_out)
+{
+    size_t corners = count ? offsets[count] : 0;
+    uint32_t *sorted = ffd_malloc_array(corners ? corners : 1, sizeof *sorted);
+    face_key *keys = ffd_malloc_array(count ? count : 1, sizeof *keys);
+    uint32_t *order = ffd_malloc_array(count ? count : 1, sizeof *order);
+    bool ok = sorted && keys && order;
+    if (ok) {
+        if (corners)
+            memcpy(sorted, indices, corners * sizeof *sorted);
+        for (size_t f = 0; f < count; f++) {
+            uint32_t b = offsets[f], e = offsets[f + 1];
+            qsort(sorted + b, e - b, sizeof *sorted, compare_u32);
+            keys[f] = (face_key){sorted + b, indices + b, e - b, (uint32_t)f};
+        }
+        if (count)
+            qsort(keys, count, sizeof *keys, compare_face_keys);
+        for (size_t f = 0; f < count; f++)
+            order[f] = keys[f].face;
+    }
+    ffd_free(keys);
+    if (ok && sorted_out)
+        *sorted_out = sorted;
+    else
+        ffd_free(sorted);
+    if (ok)
+        *order_out = order;
+    else
+        ffd_free(order);
+    return ok;
 }

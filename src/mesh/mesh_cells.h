@@ -35,6 +35,18 @@ typedef struct ffd_cell_type {
     uint8_t face_nodes[6][4];
 } ffd_cell_type;
 
+/* The canonical order of count faces (offsets/indices as a mesh's): by
+ * corner count, then the corners sorted, then the corners as given, then
+ * the face's id. A sum over the faces in this order depends on the set of
+ * faces, not on their order in a file (PB-FFD placement), and two faces on
+ * the same corners are neighbours in it (the surface a distributed run
+ * gathers, deformer/distributed.c). *order receives the face ids in that
+ * order; with sorted not NULL, *sorted receives each face's corners sorted,
+ * at the face's offsets (both ffd_free'd by the caller). false when out of
+ * memory (nothing to free). */
+bool ffd_faces_canonical_order(const uint32_t *offsets, const uint32_t *indices, size_t count,
+                               uint32_t **order, uint32_t **sorted);
+
 /* The type of a VTK id, or NULL for one the library does not read
  * (polyhedron 42, higher-order Lagrange cells, ...). */
 const ffd_cell_type *ffd_cell_type_of(unsigned vtk_id);

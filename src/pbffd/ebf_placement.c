@@ -18,12 +18,12 @@
 #include "math/tolerance.h"
 #include "math/voronoi.h"
 #include "mesh/mesh.h"
+#include "mesh/mesh_cells.h"
 #include "pbffd/placement.h"
 
 #include <math.h>
 #include <stdint.h>
 #include <stdio.h>
-#include <stdlib.h>
 #include <string.h>
 
 #define DEFAULT_INTERIOR 60
@@ -57,62 +57,18 @@ static double dist2(const double *a, const double *b)
  * triangle's cross product (twice its area times its normal) is added to
  * the face's corners. *volume receives the signed volume the faces enclose.
  * weight is #V scratch. */
-/* A face in the canonical order: by corner count, its corners sorted, then
- * its corners as given. The sums over faces below run in this order, so the
- * placement depends on the set of faces, not on their order in the file:
- * a distributed run, which gathers the surface from the ranks in another
- * order (deformer/distributed.c), places the same bits. */
-typedef struct face_key {
-    const uint32_t *sorted, *corner;
-    uint32_t count, face;
-} face_key;
-
-static int compare_face_keys(const void *a, const void *b)
-{
-    const face_key *f = a, *g = b;
-    if (f->count != g->count)
-        return f->count < g->count ? -1 : 1;
-    for (uint32_t k = 0; k < f->count; k++)
-        if (f->sorted[k] != g->sorted[k])
-            return f->sorted[k] < g->sorted[k] ? -1 : 1;
-    for (uint32_t k = 0; k < f->count; k++)
-        if (f->corner[k] != g->corner[k])
-            return f->corner[k] < g->corner[k] ? -1 : 1;
-    return (f->face > g->face) - (f->face < g->face);
-}
-
-static int compare_u32(const void *a, const void *b)
-{
-    uint32_t x = *(const uint32_t *)a, y = *(const uint32_t *)b;
-    return (x > y) - (x < y);
-}
-
-/* The faces' ids in the canonical order (ffd_free; NULL when out of memory). */
+/* The faces in their canonical order (mesh/mesh_cells.h): the sums over
+ * faces below run in it, so the placement depends on the set of faces, not
+ * on their order in the file: a distributed run, which gathers the surface
+ * from the ranks in another order (deformer/distributed.c), places the same
+ * bits. NULL when out of memory. */
 static uint32_t *canonical_faces(const ffd_mesh *mesh)
 {
-    size_t nf = mesh->face_count, corners = nf ? mesh->face_offsets[nf] : 0;
-    uint32_t *sorted = ffd_malloc_array(corners ? corners : 1, sizeof *sorted);
-    face_key *keys = ffd_malloc_array(nf ? nf : 1, sizeof *keys);
-    uint32_t *order = ffd_malloc_array(nf ? nf : 1, sizeof *order);
-    if (sorted && keys && order) {
-        if (corners)
-            memcpy(sorted, mesh->face_indices, corners * sizeof *sorted);
-        for (size_t f = 0; f < nf; f++) {
-            uint32_t b = mesh->face_offsets[f], e = mesh->face_offsets[f + 1];
-            qsort(sorted + b, e - b, sizeof *sorted, compare_u32);
-            keys[f] = (face_key){sorted + b, mesh->face_indices + b, e - b, (uint32_t)f};
-        }
-        if (nf)
-            qsort(keys, nf, sizeof *keys, compare_face_keys);
-        for (size_t f = 0; f < nf; f++)
-            order[f] = keys[f].face;
-    } else {
-        ffd_free(order);
-        order = NULL;
-    }
-    ffd_free(sorted);
-    ffd_free(keys);
-    return order;
+    uint32_t *order = NULL;
+    return ffd_faces_canonical_order(mesh->face_offsets, mesh->face_indices, mesh->face_count,
+                                     &order, NULL)
+               ? order
+               : NULL;
 }
 
 static void vertex_normals(const ffd_mesh *mesh, const uint32_t *order, double *normals,
