@@ -343,12 +343,18 @@ static ffd_status reduce_extent(dist_build *b, const uint64_t *given_ids, ffd_er
     return FFD_OK;
 }
 
-/* The piece's faces as (count, ids...) records of uint64. In a volume run a
- * piece without 3D cells gives none: the whole mesh's faces are the
- * boundary of its 3D cells, not its 2D cells (a file's surface triangles). */
+/* How many of the piece's faces are the whole mesh's surface: in a volume
+ * run none of a piece without 3D cells (the whole mesh's faces are the
+ * boundary of its 3D cells, not its 2D cells: a file's surface triangles). */
+static size_t surface_faces(const dist_build *b)
+{
+    return b->volume && !ffd_mesh_is_volume(b->piece) ? 0 : ffd_mesh_face_count(b->piece);
+}
+
+/* The piece's surface faces as (count, ids...) records of uint64. */
 static ffd_status local_faces(const dist_build *b, uint64_t **out, size_t *words, ffd_error *err)
 {
-    size_t nf = b->volume && !ffd_mesh_is_volume(b->piece) ? 0 : ffd_mesh_face_count(b->piece);
+    size_t nf = surface_faces(b);
     const uint32_t *off = ffd_mesh_face_offsets(b->piece), *idx = ffd_mesh_face_indices(b->piece);
     size_t corners = nf ? off[nf] : 0;
     *words = nf + corners;
@@ -397,8 +403,8 @@ static ffd_status select_points(dist_build *b, wire_point **out, size_t *count, 
         if (!keep[i] && refs.count &&
             bsearch(&b->ids[i], refs.ids, refs.count, sizeof *refs.ids, compare_u64))
             keep[i] = 1;
-    if ((b->reads & FFD_GLOBAL_SURFACE) && !(b->volume && !ffd_mesh_is_volume(b->piece))) {
-        size_t nf = ffd_mesh_face_count(b->piece);
+    if (b->reads & FFD_GLOBAL_SURFACE) {
+        size_t nf = surface_faces(b);
         const uint32_t *off = ffd_mesh_face_offsets(b->piece);
         const uint32_t *idx = ffd_mesh_face_indices(b->piece);
         for (size_t k = 0; nf && k < off[nf]; k++)
